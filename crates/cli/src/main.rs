@@ -1,0 +1,2 @@
+//! The `sightline` command-line tool.
+fn main() {}

@@ -1,0 +1,167 @@
+//! Incremental scene construction shared by every loader and generator.
+
+use glam::Vec3;
+
+use super::{Object, Scene, UpAxis};
+
+/// Builds a [`Scene`] object by object. Triangles get ids in the order they are added.
+#[derive(Debug)]
+pub struct SceneBuilder {
+    scene: Scene,
+    current_object: Option<u32>,
+}
+
+impl SceneBuilder {
+    /// An empty builder; `source` names the file or spec for reports.
+    pub fn new(source: impl Into<String>) -> Self {
+        Self {
+            scene: Scene {
+                source: source.into(),
+                ..Scene::default()
+            },
+            current_object: None,
+        }
+    }
+
+    /// Sets the scene's up axis.
+    pub fn set_up(&mut self, up: UpAxis) {
+        self.scene.up = up;
+    }
+
+    /// Reserves room for more vertices and triangles.
+    pub fn reserve(&mut self, vertices: usize, triangles: usize) {
+        self.scene.positions.reserve(vertices);
+        self.scene.triangles.reserve(triangles);
+        self.scene.object_of_triangle.reserve(triangles);
+    }
+
+    /// Starts a new object; following triangles belong to it. Returns its index.
+    pub fn begin_object(&mut self, name: impl Into<String>) -> u32 {
+        let id = self.scene.objects.len() as u32;
+        self.scene.objects.push(Object { name: name.into() });
+        self.current_object = Some(id);
+        id
+    }
+
+    /// Number of vertices so far (the index the next vertex will get).
+    pub fn vertex_count(&self) -> u32 {
+        self.scene.positions.len() as u32
+    }
+
+    /// Number of triangles so far (the id the next triangle will get).
+    pub fn triangle_count(&self) -> usize {
+        self.scene.triangles.len()
+    }
+
+    /// Adds a vertex and returns its index.
+    pub fn add_vertex(&mut self, p: Vec3) -> u32 {
+        self.scene.positions.push(p);
+        self.scene.positions.len() as u32 - 1
+    }
+
+    /// Adds a triangle to the current object (an object named "default" is started if none
+    /// is). Indices are not checked here; [`crate::validate::validate`] reports bad ones.
+    pub fn add_triangle(&mut self, t: [u32; 3]) {
+        let object = match self.current_object {
+            Some(o) => o,
+            None => self.begin_object("default"),
+        };
+        self.scene.triangles.push(t);
+        self.scene.object_of_triangle.push(object);
+    }
+
+    /// Adds an axis-aligned box as 8 vertices and 12 outward-facing triangles.
+    pub fn add_box(&mut self, min: Vec3, max: Vec3) {
+        let base = self.vertex_count();
+        for i in 0..8u32 {
+            let pick = |bit: u32, lo: f32, hi: f32| if i & bit != 0 { hi } else { lo };
+            self.add_vertex(Vec3::new(
+                pick(1, min.x, max.x),
+                pick(2, min.y, max.y),
+                pick(4, min.z, max.z),
+            ));
+        }
+        // Corner index bits: x = 1, y = 2, z = 4. Counter-clockwise seen from outside.
+        const FACES: [[u32; 4]; 6] = [
+            [0, 4, 6, 2], // -x
+            [1, 3, 7, 5], // +x
+            [0, 1, 5, 4], // -y
+            [2, 6, 7, 3], // +y
+            [0, 2, 3, 1], // -z
+            [4, 5, 7, 6], // +z
+        ];
+        for [a, b, c, d] in FACES {
+            self.add_triangle([base + a, base + b, base + c]);
+            self.add_triangle([base + a, base + c, base + d]);
+        }
+    }
+
+    /// Drops objects that received no triangle (renumbering the rest) and returns the scene.
+    pub fn finish(mut self) -> Scene {
+        let n = self.scene.objects.len();
+        let mut used = vec![false; n];
+        for &o in &self.scene.object_of_triangle {
+            used[o as usize] = true;
+        }
+        if used.iter().all(|&u| u) {
+            return self.scene;
+        }
+        let mut remap = vec![u32::MAX; n];
+        let mut kept = Vec::new();
+        for (i, obj) in std::mem::take(&mut self.scene.objects)
+            .into_iter()
+            .enumerate()
+        {
+            if used[i] {
+                remap[i] = kept.len() as u32;
+                kept.push(obj);
+            }
+        }
+        for o in &mut self.scene.object_of_triangle {
+            *o = remap[*o as usize];
+        }
+        self.scene.objects = kept;
+        self.scene
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn empty_builder_gives_empty_scene() {
+        let s = SceneBuilder::new("x").finish();
+        assert!(s.is_empty() && s.objects.is_empty());
+    }
+
+    #[test]
+    fn unused_objects_are_dropped() {
+        let mut b = SceneBuilder::new("x");
+        b.begin_object("empty");
+        b.begin_object("full");
+        let v = b.add_vertex(Vec3::ZERO);
+        b.add_triangle([v, v, v]);
+        let s = b.finish();
+        assert_eq!(s.objects.len(), 1);
+        assert_eq!(s.objects[0].name, "full");
+        assert_eq!(s.object_of_triangle, vec![0]);
+    }
+
+    #[test]
+    fn box_faces_point_outwards() {
+        let mut b = SceneBuilder::new("box");
+        b.add_box(Vec3::ZERO, Vec3::ONE);
+        let s = b.finish();
+        assert_eq!(s.triangle_count(), 12);
+        for id in 0..12 {
+            let [a, b, c] = s.triangle(id);
+            let n = (b - a).cross(c - a);
+            let centroid = (a + b + c) / 3.0;
+            assert!(
+                n.dot(centroid - Vec3::splat(0.5)) > 0.0,
+                "triangle {id} faces inwards"
+            );
+        }
+    }
+}

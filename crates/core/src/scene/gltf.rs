@@ -1,0 +1,13 @@
+//! GLTF loader (being written).
+
+use std::path::Path;
+
+use super::{LoadError, Scene};
+
+/// Loads a GLTF file from its (decompressed) bytes; `path` is for error messages.
+pub fn load(path: &Path, _bytes: &[u8]) -> Result<Scene, LoadError> {
+    Err(LoadError::Invalid {
+        path: path.to_path_buf(),
+        message: "GLTF loader not yet written".into(),
+    })
+}

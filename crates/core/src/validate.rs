@@ -1,0 +1,1 @@
+//! Scene validation (being written).
