@@ -3,12 +3,15 @@
 //! Hits are closest hits over `[ray.t_min, ray.t_max]`. Degenerate (zero-area) triangles are
 //! never hit. Triangles are double-sided.
 
+pub mod brute;
 pub mod bvh;
 #[cfg(feature = "embree")]
 pub mod embree;
+pub mod triangle;
 
 use crate::geometry::{Hit, Ray};
 
+pub use brute::BruteForce;
 pub use bvh::Bvh;
 
 /// Batched, thread-safe ray queries against one scene.
