@@ -7,6 +7,7 @@
 
 pub mod camera;
 pub mod geometry;
+pub mod random;
 pub mod raster;
 pub mod scene;
 pub mod trace;
