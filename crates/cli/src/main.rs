@@ -1,2 +1,51 @@
-//! The `sightline` command-line tool.
-fn main() {}
+//! `sightline`: which triangles of a 3D scene can be seen — from a view cell, from a point, per
+//! frame. This binary only parses arguments, shows progress and prints results; the algorithms
+//! live in the library crates.
+
+mod args;
+mod commands;
+mod output;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// sightline — 3D visibility toolkit: potentially visible sets, exact and conservative
+/// from-point visibility, and run-time occlusion culling.
+///
+/// SCENE arguments are a file (.obj, .ply, .gltf, .glb, .stl, .bsp, optionally .gz) or a
+/// procedural spec `procedural:NAME[?seed=S&size=N]` with NAME one of city, rooms, canyon,
+/// boxes, spheres (size = approximate triangle count). Without SCENE, commands use the embedded
+/// default scene `procedural:city`.
+#[derive(Parser, Debug)]
+#[command(name = "sightline", version, about, long_about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Print triangle/vertex/object counts, bounds and the validation report of a scene.
+    Info(commands::info::Args),
+    /// Render a scene with the reference rasterizer to a PNG (shaded or triangle-id colours).
+    Render(commands::render::Args),
+    /// Run the main job on the embedded default scene and write `sightline-report/`.
+    Demo(commands::demo::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Info(a) => commands::info::run(a),
+        Command::Render(a) => commands::render::run(a),
+        Command::Demo(a) => commands::demo::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

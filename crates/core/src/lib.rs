@@ -5,6 +5,7 @@
 //! [`TriangleSet`] over those ids. See [`scene`] for how each loader orders its triangles.
 #![deny(missing_docs)]
 
+pub mod atomic_file;
 pub mod camera;
 pub mod geometry;
 pub mod random;

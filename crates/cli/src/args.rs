@@ -1,0 +1,161 @@
+//! Argument groups shared by every command: the scene and the camera.
+
+use anyhow::{bail, Context, Result};
+use glam::Vec3;
+use sightline_core::scene::{self, LoadOptions};
+use sightline_core::validate::validate;
+use sightline_core::{Camera, Scene};
+
+/// The embedded default scene of every command.
+pub(crate) const DEFAULT_SCENE: &str = "procedural:city";
+
+/// Which scene to load, and how.
+#[derive(clap::Args, Debug, Clone)]
+pub(crate) struct SceneArgs {
+    /// Scene file or `procedural:NAME[?seed=S&size=N]` (default: the embedded procedural city).
+    #[arg(value_name = "SCENE", default_value = DEFAULT_SCENE)]
+    pub scene: String,
+    /// Quake 3 maps: tessellate each bezier sub-patch into N x N quads (0 = leave patches out).
+    #[arg(long, value_name = "N", default_value_t = LoadOptions::default().patch_subdivisions)]
+    pub patch_subdivisions: u32,
+}
+
+impl SceneArgs {
+    /// Loads the scene and rejects unusable ones (empty, bad indices, NaN coordinates).
+    pub fn load(&self) -> Result<Scene> {
+        let scene = self.load_unchecked()?;
+        let report = validate(&scene);
+        if let Err(e) = report.check() {
+            bail!("{}: {e}", self.scene);
+        }
+        Ok(scene)
+    }
+
+    /// Loads the scene without rejecting it (for `info`, which reports the problems).
+    pub fn load_unchecked(&self) -> Result<Scene> {
+        let options = LoadOptions {
+            patch_subdivisions: self.patch_subdivisions,
+        };
+        if self.patch_subdivisions > 64 {
+            bail!(
+                "--patch-subdivisions {} is above the maximum of 64",
+                self.patch_subdivisions
+            );
+        }
+        Ok(scene::open(&self.scene, &options)?)
+    }
+}
+
+/// The camera options, the same in every command.
+#[derive(clap::Args, Debug, Clone)]
+pub(crate) struct CameraArgs {
+    /// Eye position `x,y,z` (default: outside the scene bounds, looking at the centre).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub eye: Option<Vec3>,
+    /// Look-at point `x,y,z` (default: the centre of the scene bounds).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub look: Option<Vec3>,
+    /// Up vector `x,y,z` (default: the scene's up axis).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub up: Option<Vec3>,
+    /// Vertical field of view in degrees.
+    #[arg(long, default_value_t = 60.0)]
+    pub fov: f32,
+    /// Image size `WxH` in pixels.
+    #[arg(long, value_name = "WxH", default_value = "1024x768", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Near-plane distance (default: 1e-4 of the scene's bounding-box diagonal).
+    #[arg(long)]
+    pub near: Option<f32>,
+}
+
+impl CameraArgs {
+    /// The camera for `scene`, filling defaults from its bounds and up axis.
+    pub fn camera(&self, scene: &Scene) -> Result<Camera> {
+        let bounds = scene.bounds();
+        let diagonal = bounds.diagonal().max(1e-6);
+        let up = self.up.unwrap_or(scene.up.vector());
+        let look = self.look.unwrap_or(bounds.center());
+        let eye = match self.eye {
+            Some(e) => e,
+            None => default_eye(scene, look, diagonal),
+        };
+        let near = self.near.unwrap_or(diagonal * 1e-4);
+        let (w, h) = self.size;
+        Camera::look_at(eye, look, up, self.fov, w, h, near).context("invalid camera")
+    }
+}
+
+/// A three-quarter view from outside the bounds, above the scene on its up axis.
+pub(crate) fn default_eye(scene: &Scene, look: Vec3, diagonal: f32) -> Vec3 {
+    let up = scene.up.vector();
+    let side = if up == Vec3::Z {
+        Vec3::new(-0.55, -0.75, 0.0)
+    } else {
+        Vec3::new(-0.55, 0.0, 0.75)
+    };
+    look + (side + up * 0.45) * diagonal * 0.75
+}
+
+/// Parses `x,y,z`.
+pub(crate) fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        return Err(format!(
+            "'{s}' is not x,y,z (three comma-separated numbers)"
+        ));
+    }
+    let mut v = [0.0f32; 3];
+    for (slot, part) in v.iter_mut().zip(&parts) {
+        let x: f32 = part
+            .parse()
+            .map_err(|_| format!("'{part}' in '{s}' is not a number"))?;
+        if !x.is_finite() {
+            return Err(format!("'{part}' in '{s}' is not finite"));
+        }
+        *slot = x;
+    }
+    Ok(Vec3::from_array(v))
+}
+
+/// Parses `WxH` with both in 1..=16384.
+pub(crate) fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("'{s}' is not WxH (e.g. 1024x768)"))?;
+    let parse = |p: &str| -> Result<u32, String> {
+        let n: u32 = p
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{p}' in '{s}' is not a whole number"))?;
+        if n == 0 || n > 16384 {
+            return Err(format!("{n} in '{s}' is outside 1..=16384"));
+        }
+        Ok(n)
+    };
+    Ok((parse(w)?, parse(h)?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vec3_parses_negative_numbers() {
+        assert_eq!(parse_vec3("-1, 2.5,3").unwrap(), Vec3::new(-1.0, 2.5, 3.0));
+    }
+
+    #[test]
+    fn vec3_rejects_nan_and_wrong_arity() {
+        assert!(parse_vec3("nan,0,0").unwrap_err().contains("not finite"));
+        assert!(parse_vec3("1,2").unwrap_err().contains("three"));
+        assert!(parse_vec3("1,a,2").unwrap_err().contains("'a'"));
+    }
+
+    #[test]
+    fn size_parses_and_rejects_zero() {
+        assert_eq!(parse_size("640x480").unwrap(), (640, 480));
+        assert!(parse_size("0x480").unwrap_err().contains("outside"));
+        assert!(parse_size("640").unwrap_err().contains("WxH"));
+    }
+}

@@ -1,0 +1,1 @@
+//! `sightline bench`: whole-algorithm throughput, measured side by side in one run.

@@ -1,0 +1,43 @@
+//! `sightline convert`: write the scene as loaded, so other tools can use sightline's ids.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use sightline_core::atomic_file::write_atomic;
+use sightline_core::scene::{gltf, obj, ply};
+
+use crate::args::SceneArgs;
+
+/// Arguments of `sightline convert`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct Args {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Output file: .ply (binary, no objects), .obj (objects as `o` groups) or .glb (objects as
+    /// meshes). Triangle order is kept, so triangle ids stay the same.
+    #[arg(short, long)]
+    output: PathBuf,
+}
+
+pub(crate) fn run(args: Args) -> Result<()> {
+    let scene = args.scene.load()?;
+    let ext = args
+        .output
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let result = match ext.as_str() {
+        "ply" => write_atomic(&args.output, |w| ply::write(&scene, w)),
+        "obj" => write_atomic(&args.output, |w| obj::write(&scene, w)),
+        "glb" => write_atomic(&args.output, |w| gltf::write_glb(&scene, w)),
+        _ => bail!("{}: unknown output format (use .ply, .obj or .glb)", args.output.display()),
+    };
+    result.with_context(|| format!("writing {}", args.output.display()))?;
+    println!(
+        "wrote {} ({} triangles, {} objects)",
+        args.output.display(),
+        scene.triangle_count(),
+        scene.objects.len()
+    );
+    Ok(())
+}

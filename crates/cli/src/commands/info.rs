@@ -1,0 +1,117 @@
+//! `sightline info`: counts, bounds, objects and the validation report of a scene.
+
+use std::time::Instant;
+
+use anyhow::Result;
+use serde::Serialize;
+use sightline_core::validate::{validate, Report};
+
+use crate::args::SceneArgs;
+use crate::output::print_json;
+
+/// Arguments of `sightline info`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct Args {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    json: bool,
+    /// List every object with its triangle count (text output lists the first 20).
+    #[arg(long)]
+    objects: bool,
+}
+
+#[derive(Serialize)]
+struct Info {
+    source: String,
+    up: sightline_core::UpAxis,
+    load_seconds: f64,
+    geometry_bytes: usize,
+    geometry_hash: String,
+    validation: Report,
+    errors: Vec<String>,
+    warnings: Vec<String>,
+    objects: Vec<ObjectInfo>,
+}
+
+#[derive(Serialize)]
+struct ObjectInfo {
+    name: String,
+    triangles: usize,
+}
+
+pub(crate) fn run(args: Args) -> Result<()> {
+    let start = Instant::now();
+    let scene = args.scene.load_unchecked()?;
+    let load_seconds = start.elapsed().as_secs_f64();
+    let validation = validate(&scene);
+    let mut counts = vec![0usize; scene.objects.len()];
+    for &o in &scene.object_of_triangle {
+        if let Some(c) = counts.get_mut(o as usize) {
+            *c += 1;
+        }
+    }
+    let info = Info {
+        source: scene.source.clone(),
+        up: scene.up,
+        load_seconds,
+        geometry_bytes: scene.geometry_bytes(),
+        geometry_hash: format!("{:016x}", scene.geometry_hash()),
+        errors: validation
+            .errors()
+            .iter()
+            .map(ToString::to_string)
+            .collect(),
+        warnings: validation.warnings(),
+        objects: scene
+            .objects
+            .iter()
+            .zip(&counts)
+            .map(|(o, &triangles)| ObjectInfo {
+                name: o.name.clone(),
+                triangles,
+            })
+            .collect(),
+        validation,
+    };
+    if args.json {
+        return print_json(&info);
+    }
+    let v = &info.validation;
+    println!("scene      {}", info.source);
+    println!("triangles  {}", v.triangles);
+    println!("vertices   {}", v.vertices);
+    println!("objects    {}", v.objects);
+    match v.bounds {
+        Some([min, max]) => println!("bounds     {min:?} .. {max:?}"),
+        None => println!("bounds     (none)"),
+    }
+    println!("up axis    {:?}", info.up);
+    println!(
+        "memory     {:.1} MiB geometry",
+        info.geometry_bytes as f64 / (1 << 20) as f64
+    );
+    println!("hash       {}", info.geometry_hash);
+    println!("loaded in  {:.3} s", info.load_seconds);
+    if info.errors.is_empty() && info.warnings.is_empty() {
+        println!("validation ok");
+    }
+    for e in &info.errors {
+        println!("error      {e}");
+    }
+    for w in &info.warnings {
+        println!("warning    {w}");
+    }
+    let shown = if args.objects { info.objects.len() } else { 20 };
+    for o in info.objects.iter().take(shown) {
+        println!("  object {:<40} {:>9} triangles", o.name, o.triangles);
+    }
+    if info.objects.len() > shown {
+        println!(
+            "  ... {} more objects (--objects lists all)",
+            info.objects.len() - shown
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,98 @@
+//! `sightline render`: an image of the scene from the reference rasterizer.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{bail, Result};
+use sightline_core::raster;
+use sightline_core::Camera;
+
+use crate::args::{CameraArgs, SceneArgs};
+use crate::output::{id_image, print_json, save_png, shaded_image};
+
+/// Arguments of `sightline render`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct Args {
+    #[command(flatten)]
+    scene: SceneArgs,
+    #[command(flatten)]
+    camera: CameraArgs,
+    /// Output PNG. With --cube, six files NAME_px.png, NAME_nx.png, ... are written.
+    #[arg(short, long, default_value = "render.png")]
+    output: PathBuf,
+    /// Colour each triangle by its id instead of shading.
+    #[arg(long)]
+    ids: bool,
+    /// Render the six 90-degree faces of a cube map at the eye (square, --size width).
+    #[arg(long)]
+    cube: bool,
+    /// Print a JSON summary.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(serde::Serialize)]
+struct Summary {
+    outputs: Vec<PathBuf>,
+    visible_triangles: usize,
+    milliseconds: f64,
+}
+
+pub(crate) fn run(args: Args) -> Result<()> {
+    let scene = args.scene.load()?;
+    let main_camera = args.camera.camera(&scene)?;
+    let cameras: Vec<(Camera, PathBuf)> = if args.cube {
+        const SUFFIX: [&str; 6] = ["px", "nx", "py", "ny", "pz", "nz"];
+        let stem = args
+            .output
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned());
+        let Some(stem) = stem else {
+            bail!("--output {} has no file name", args.output.display())
+        };
+        let faces = Camera::cube_faces(main_camera.eye, main_camera.width, main_camera.near)?;
+        faces
+            .into_iter()
+            .zip(SUFFIX)
+            .map(|(c, s)| (c, args.output.with_file_name(format!("{stem}_{s}.png"))))
+            .collect()
+    } else {
+        vec![(main_camera, args.output.clone())]
+    };
+    let start = Instant::now();
+    let mut visible = sightline_core::TriangleSet::with_capacity(scene.triangle_count());
+    let mut outputs = Vec::new();
+    for (camera, path) in &cameras {
+        let frame = raster::render(&scene, camera);
+        for &id in &frame.ids {
+            if (id as usize) < scene.triangle_count() {
+                visible.insert(id as usize);
+            }
+        }
+        let image = if args.ids {
+            id_image(&frame)
+        } else {
+            shaded_image(&frame, &scene, camera)
+        };
+        save_png(&image, path)?;
+        outputs.push(path.clone());
+    }
+    let summary = Summary {
+        outputs,
+        visible_triangles: visible.count_ones(..),
+        milliseconds: start.elapsed().as_secs_f64() * 1e3,
+    };
+    if args.json {
+        return print_json(&summary);
+    }
+    for p in &summary.outputs {
+        println!("wrote {}", p.display());
+    }
+    println!(
+        "{} of {} triangles visible, {:.1} ms",
+        summary.visible_triangles,
+        scene.triangle_count(),
+        summary.milliseconds
+    );
+    Ok(())
+}
