@@ -6,10 +6,12 @@
 #![deny(missing_docs)]
 
 pub mod atomic_file;
+pub mod atomic_set;
 pub mod camera;
 pub mod geometry;
 pub mod random;
 pub mod raster;
+pub mod sampling;
 pub mod scene;
 pub mod trace;
 pub mod validate;
