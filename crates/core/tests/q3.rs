@@ -600,3 +600,65 @@ fn q3_fuzzed_fan_never_panics() {
     eprintln!("fuzz: {loaded} loaded, {failed} rejected");
     assert!(loaded > 0 && failed > 0);
 }
+
+#[test]
+fn q3_fuzzed_czest3ctf_patches_never_panic() {
+    // fan has no patches; here the mutations hit the patch fields (firstVert, numVerts,
+    // patchWidth, patchHeight, type) of czest3ctf's patch surfaces.
+    let orig = map_bytes("czest3ctf");
+    let n = lump(&orig, 13).1 / 104;
+    let read = |at: usize| i32::from_le_bytes([orig[at], orig[at + 1], orig[at + 2], orig[at + 3]]);
+    let patches: Vec<usize> = (0..n)
+        .filter(|&s| read(surface_field(&orig, s, 2)) == 2)
+        .collect();
+    assert_eq!(patches.len(), 424);
+    let mut buf = orig.clone();
+    let mut rng = XorShift(0xC2E5_7C7F);
+    let values = [0, 1, 2, 3, 4, 5, 9, -1, -3, 31, 1 << 15, i32::MAX, i32::MIN];
+    let (mut loaded, mut failed) = (0, 0);
+    for round in 0..300 {
+        let s = patches[rng.below(patches.len())];
+        let field = [2, 3, 4, 24, 25][rng.below(5)];
+        let at = surface_field(&orig, s, field);
+        put_i32(&mut buf, at, values[rng.below(values.len())]);
+        let options = LoadOptions {
+            patch_subdivisions: rng.below(4) as u32,
+        };
+        let input = &buf[..];
+        let result = std::panic::catch_unwind(|| q3::load(Path::new("fuzz.bsp"), input, &options));
+        match result {
+            Err(_) => panic!("round {round}: load panicked"),
+            Ok(Err(_)) => failed += 1,
+            Ok(Ok(scene)) => {
+                loaded += 1;
+                let n = scene.positions.len() as u32;
+                assert!(
+                    scene.triangles.iter().flatten().all(|&i| i < n),
+                    "round {round}"
+                );
+            }
+        }
+        buf[at..at + 4].copy_from_slice(&orig[at..at + 4]);
+    }
+    eprintln!("patch fuzz: {loaded} loaded, {failed} rejected");
+    assert!(loaded > 0 && failed > 0);
+}
+
+#[test]
+fn q3_czest3ctf_load_time_is_reported() {
+    // Timings are reported, never asserted (DESIGN.md).
+    let bytes = map_bytes("czest3ctf");
+    for n in [0, 4] {
+        let options = LoadOptions {
+            patch_subdivisions: n,
+        };
+        let start = std::time::Instant::now();
+        let scene = q3::load(&map_path("czest3ctf"), &bytes, &options).expect("loads");
+        eprintln!(
+            "czest3ctf, patch_subdivisions {n}: {} triangles, {} objects in {:?}",
+            scene.triangle_count(),
+            scene.objects.len(),
+            start.elapsed()
+        );
+    }
+}

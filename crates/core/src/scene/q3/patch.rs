@@ -10,7 +10,7 @@
 //! their border vertices exactly and a patch is watertight within itself. Triangles are emitted
 //! sub-patch by sub-patch (row-major over sub-patches), quads row-major within a sub-patch, and
 //! wound clockwise seen from the side the control-point normals face: the same convention as
-//! the map's polygon triangles (measured: 99.4 % of czest3ctf's polygon triangles are clockwise
+//! the map's polygon triangles (measured: 99.5 % of czest3ctf's polygon triangles are clockwise
 //! about their surface normal, and its patch grids run counter-clockwise in (column, row)).
 
 use glam::Vec3;
