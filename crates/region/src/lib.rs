@@ -6,4 +6,4 @@ pub mod pvs_file;
 pub mod viewcell;
 
 pub use pvs_file::{CellPvs, PvsError, PvsFile};
-pub use viewcell::{ViewCell, ViewCellError};
+pub use viewcell::{CellSurface, Rect, ViewCell, ViewCellError};

@@ -72,6 +72,45 @@ impl Rect {
     }
 }
 
+/// Precomputed faces and area weights of a cell, for drawing many surface samples without
+/// allocating.
+#[derive(Clone, Debug)]
+pub struct CellSurface {
+    faces: Vec<Rect>,
+    cumulative_area: Vec<f32>,
+}
+
+impl CellSurface {
+    /// The surface of `cell`.
+    pub fn new(cell: &ViewCell) -> Self {
+        let faces = cell.faces();
+        let mut total = 0.0;
+        let cumulative_area = faces
+            .iter()
+            .map(|f| {
+                total += f.area();
+                total
+            })
+            .collect();
+        Self { faces, cumulative_area }
+    }
+
+    /// The faces.
+    pub fn faces(&self) -> &[Rect] {
+        &self.faces
+    }
+
+    /// The point for sample `s` of the unit cube (`s[0]` picks the face by area, `s[1..]` the
+    /// position on it) and the face it lies on.
+    pub fn sample(&self, s: [f32; 3]) -> (Vec3, &Rect) {
+        let total = self.cumulative_area.last().copied().unwrap_or(0.0);
+        let pick = s[0] * total;
+        let i = self.cumulative_area.partition_point(|&c| c <= pick).min(self.faces.len() - 1);
+        let face = &self.faces[i];
+        (face.point(s[1], s[2]), face)
+    }
+}
+
 impl ViewCell {
     /// An axis-aligned box from its corners (a flat one when two corners share a coordinate).
     pub fn aabb(min: Vec3, max: Vec3) -> Result<Self, ViewCellError> {
@@ -234,17 +273,43 @@ impl ViewCell {
     /// The point on the cell's surface for a sample `s` of the unit cube: `s[0]` picks a face
     /// (area-weighted), `s[1], s[2]` the position on it.
     pub fn surface_point(&self, s: [f32; 3]) -> Vec3 {
-        let faces = self.faces();
-        let total: f32 = faces.iter().map(Rect::area).sum();
-        let mut pick = s[0] * total;
-        for f in &faces {
-            let a = f.area();
-            if pick < a || std::ptr::eq(f, faces.last().unwrap_or(f)) {
-                return f.point(s[1], s[2]);
-            }
-            pick -= a;
+        CellSurface::new(self).sample(s).0
+    }
+
+    /// The cell's edges as point pairs (4 for a rectangle, 12 for a box).
+    pub fn edges(&self) -> Vec<(Vec3, Vec3)> {
+        let c = self.corners();
+        if self.is_flat() {
+            // The four distinct corners of the flat cell, in order around it.
+            let flat = self.half_extents.to_array().iter().position(|&e| e == 0.0).unwrap_or(2);
+            let (a, b) = match flat {
+                0 => (2, 4),
+                1 => (1, 4),
+                _ => (1, 2),
+            };
+            let quad = [c[0], c[a], c[a | b], c[b]];
+            return (0..4).map(|i| (quad[i], quad[(i + 1) % 4])).collect();
         }
-        self.center
+        let mut edges = Vec::with_capacity(12);
+        for i in 0..8usize {
+            for bit in [1usize, 2, 4] {
+                if i & bit == 0 {
+                    edges.push((c[i], c[i | bit]));
+                }
+            }
+        }
+        edges
+    }
+
+    /// The distinct corners: 4 for a rectangle, 8 for a box.
+    pub fn distinct_corners(&self) -> Vec<Vec3> {
+        let mut out: Vec<Vec3> = Vec::with_capacity(8);
+        for p in self.corners() {
+            if !out.contains(&p) {
+                out.push(p);
+            }
+        }
+        out
     }
 
     /// The point inside the cell for a sample `s` of the unit cube.
@@ -317,6 +382,18 @@ mod tests {
                 .any(|(&c, m)| c.abs() < 1e-5 || (c - m).abs() < 1e-5);
             assert!(on_face, "{p} not on the surface");
         }
+    }
+
+    #[test]
+    fn edges_and_corners_of_box_and_rect() {
+        assert_eq!(unit_box().edges().len(), 12);
+        assert_eq!(unit_box().distinct_corners().len(), 8);
+        let r = ViewCell::aabb(Vec3::ZERO, Vec3::new(2.0, 0.0, 3.0)).unwrap();
+        assert_eq!(r.distinct_corners().len(), 4);
+        let edges = r.edges();
+        assert_eq!(edges.len(), 4);
+        let perimeter: f32 = edges.iter().map(|(a, b)| a.distance(*b)).sum();
+        assert!((perimeter - 10.0).abs() < 1e-5);
     }
 
     #[test]
