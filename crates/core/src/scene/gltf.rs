@@ -2,12 +2,14 @@
 //!
 //! Follows the Khronos glTF 2.0 specification (sections 3.5 scenes and nodes, 3.6 buffers and
 //! accessors, 3.7 meshes, 4.4 GLB file format). The JSON is parsed and validated by the `gltf`
-//! crate (`Gltf::from_slice`); everything that touches binary data is done here with checked
+//! crate (`json::Root::from_slice` + `Document::from_json`, which is what `Gltf::from_slice`
+//! does, split so that one reference its validator trusts can be checked first; see
+//! `check_position_indices`); everything that touches binary data is done here with checked
 //! arithmetic, so a malformed accessor or index is a [`LoadError`] naming the mesh and
 //! primitive, never a panic:
 //!
 //! - GLB container: header and chunks are read here (errors name the byte offset), then the
-//!   JSON chunk goes to `Gltf::from_slice`.
+//!   JSON chunk goes to the `gltf` crate.
 //! - Buffers: the GLB `BIN` chunk, `data:...;base64,` URIs, or files relative to the directory
 //!   of the `.gltf` file (URIs are taken as plain relative paths: no percent-decoding).
 //! - Scene walk: the default scene, else scene 0, else every root node (a node that is no
@@ -53,9 +55,36 @@ pub fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
     } else {
         (bytes, None)
     };
-    let gltf = gltf::Gltf::from_slice(json).map_err(|e| json_error(path, e))?;
-    let buffers = load_buffers(path, &gltf.document, blob)?;
-    build_scene(path, &gltf.document, &buffers)
+    let root = gltf::json::Root::from_slice(json)
+        .map_err(|e| json_error(path, gltf::Error::Deserialize(e)))?;
+    check_position_indices(path, &root)?;
+    let document = gltf::Document::from_json(root).map_err(|e| json_error(path, e))?;
+    let buffers = load_buffers(path, &document, blob)?;
+    build_scene(path, &document, &buffers)
+}
+
+/// gltf-json 1.4 validation indexes `accessors[POSITION]` without a bounds check (a panic on
+/// a bad index, found by our fuzz test), so that one reference is checked here first.
+fn check_position_indices(path: &Path, root: &gltf::json::Root) -> Result<(), LoadError> {
+    let position = gltf::json::validation::Checked::Valid(Semantic::Positions);
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if let Some(index) = primitive.attributes.get(&position) {
+                if index.value() >= root.accessors.len() {
+                    return Err(LoadError::parse(
+                        path,
+                        Location::Element(format!("mesh {m}, primitive {p}")),
+                        format!(
+                            "POSITION accessor {} does not exist ({} accessors)",
+                            index.value(),
+                            root.accessors.len()
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 fn is_glb_name(path: &Path) -> bool {
