@@ -1,13 +1,727 @@
-//! GLTF loader (being written).
+//! glTF 2.0 reader (`.gltf` and `.glb`) and GLB writer.
+//!
+//! Follows the Khronos glTF 2.0 specification (sections 3.5 scenes and nodes, 3.6 buffers and
+//! accessors, 3.7 meshes, 4.4 GLB file format). The JSON is parsed and validated by the `gltf`
+//! crate (`json::Root::from_slice` + `Document::from_json`, which is what `Gltf::from_slice`
+//! does, split so that one reference its validator trusts can be checked first; see
+//! `check_position_indices`); everything that touches binary data is done here with checked
+//! arithmetic, so a malformed accessor or index is a [`LoadError`] naming the mesh and
+//! primitive, never a panic:
+//!
+//! - GLB container: header and chunks are read here (errors name the byte offset), then the
+//!   JSON chunk goes to the `gltf` crate.
+//! - Buffers: the GLB `BIN` chunk, `data:...;base64,` URIs, or files relative to the directory
+//!   of the `.gltf` file (URIs are taken as plain relative paths: no percent-decoding).
+//! - Scene walk: the default scene, else scene 0, else every root node (a node that is no
+//!   node's child), depth-first in node order. World transforms compose each node's matrix or
+//!   TRS with its parents' (`world_from_node = world_from_parent * parent_from_node`). A node
+//!   reached twice (the node graph must be a forest) is an error, so cycles cannot recurse.
+//! - Each (node, mesh) pair is one object, named after the node, else the mesh, else
+//!   `node N`. Its primitives' positions are transformed to world space and appended
+//!   (instanced meshes are duplicated, each with its node's transform).
+//! - Primitives: `Triangles`, `TriangleStrip` (alternate winding kept) and `TriangleFan`;
+//!   `Points` and `Lines*` are skipped without error. Non-indexed primitives use sequential
+//!   indices. Positions must be `VEC3` `FLOAT`; indices `SCALAR` `UNSIGNED_BYTE/SHORT/INT`.
+//!   Sparse accessors and accessors without a buffer view are rejected (an error, not silently
+//!   wrong geometry).
+//!
+//! Triangle ids follow walk order, then primitive order, then index order.
 
-use std::path::Path;
+use std::io::{self, Write};
+use std::path::{Path, PathBuf};
 
-use super::{LoadError, Scene};
+use glam::{Mat4, Vec3};
+use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::{Mode, Semantic};
 
-/// Loads a GLTF file from its (decompressed) bytes; `path` is for error messages.
-pub fn load(path: &Path, _bytes: &[u8]) -> Result<Scene, LoadError> {
-    Err(LoadError::Invalid {
-        path: path.to_path_buf(),
-        message: "GLTF loader not yet written".into(),
+use super::{LoadError, Location, Scene, SceneBuilder};
+
+const GLB_MAGIC: &[u8; 4] = b"glTF";
+const CHUNK_JSON: u32 = 0x4E4F_534A;
+const CHUNK_BIN: u32 = 0x004E_4942;
+
+/// Loads a glTF 2.0 file (`.gltf` JSON or `.glb` binary) from its (decompressed) bytes. `path`
+/// is used for error messages and to find external buffer files next to it.
+pub fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
+    let (json, blob) = if bytes.starts_with(GLB_MAGIC) {
+        let (json, blob) = split_glb(path, bytes)?;
+        (json, blob)
+    } else if is_glb_name(path) {
+        return Err(LoadError::parse(
+            path,
+            Location::Byte(0),
+            "not a GLB file (does not start with 'glTF')",
+        ));
+    } else {
+        (bytes, None)
+    };
+    let root = gltf::json::Root::from_slice(json)
+        .map_err(|e| json_error(path, gltf::Error::Deserialize(e)))?;
+    check_position_indices(path, &root)?;
+    let document = gltf::Document::from_json(root).map_err(|e| json_error(path, e))?;
+    let buffers = load_buffers(path, &document, blob)?;
+    build_scene(path, &document, &buffers)
+}
+
+/// gltf-json 1.4 validation indexes `accessors[POSITION]` without a bounds check (a panic on
+/// a bad index, found by our fuzz test), so that one reference is checked here first.
+fn check_position_indices(path: &Path, root: &gltf::json::Root) -> Result<(), LoadError> {
+    let position = gltf::json::validation::Checked::Valid(Semantic::Positions);
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if let Some(index) = primitive.attributes.get(&position) {
+                if index.value() >= root.accessors.len() {
+                    return Err(LoadError::parse(
+                        path,
+                        Location::Element(format!("mesh {m}, primitive {p}")),
+                        format!(
+                            "POSITION accessor {} does not exist ({} accessors)",
+                            index.value(),
+                            root.accessors.len()
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+fn is_glb_name(path: &Path) -> bool {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    name.ends_with(".glb") || name.ends_with(".glb.gz")
+}
+
+fn json_error(path: &Path, e: gltf::Error) -> LoadError {
+    match e {
+        gltf::Error::Deserialize(e) => {
+            LoadError::parse(path, Location::Line(e.line()), format!("glTF JSON: {e}"))
+        }
+        gltf::Error::Validation(list) => match list.first() {
+            Some((where_, what)) => LoadError::parse(
+                path,
+                Location::Element(where_.to_string()),
+                format!("invalid glTF: {what}"),
+            ),
+            None => LoadError::Invalid {
+                path: path.to_path_buf(),
+                message: "invalid glTF".into(),
+            },
+        },
+        other => LoadError::Invalid {
+            path: path.to_path_buf(),
+            message: format!("glTF: {other}"),
+        },
+    }
+}
+
+fn read_u32(bytes: &[u8], at: usize) -> Option<u32> {
+    let b = bytes.get(at..at.checked_add(4)?)?;
+    Some(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+}
+
+/// Splits a GLB file into its JSON chunk and optional BIN chunk (GLB spec 4.4).
+fn split_glb<'a>(path: &Path, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [u8]>), LoadError> {
+    let err =
+        |at: usize, message: String| LoadError::parse(path, Location::Byte(at as u64), message);
+    let version = read_u32(bytes, 4).ok_or_else(|| err(4, "GLB header is cut short".into()))?;
+    if version != 2 {
+        return Err(err(
+            4,
+            format!("GLB version {version}, only 2 is supported"),
+        ));
+    }
+    let total =
+        read_u32(bytes, 8).ok_or_else(|| err(8, "GLB header is cut short".into()))? as usize;
+    if total > bytes.len() {
+        return Err(err(
+            8,
+            format!(
+                "GLB header declares {total} bytes, the file has {}",
+                bytes.len()
+            ),
+        ));
+    }
+    let bytes = &bytes[..total];
+    let mut chunks = Vec::new();
+    let mut at = 12usize;
+    while at < bytes.len() {
+        let (Some(len), Some(kind)) = (read_u32(bytes, at), read_u32(bytes, at + 4)) else {
+            return Err(err(at, "chunk header is cut short".into()));
+        };
+        let start = at + 8;
+        let Some(data) = start
+            .checked_add(len as usize)
+            .and_then(|end| bytes.get(start..end))
+        else {
+            return Err(err(
+                at,
+                format!("chunk of {len} bytes runs past the end of the file"),
+            ));
+        };
+        chunks.push((at, kind, data));
+        // Chunks are 4-byte aligned; tolerate a missing final pad.
+        at = start + (len as usize).next_multiple_of(4);
+    }
+    let Some(&(_, CHUNK_JSON, json)) = chunks.first() else {
+        return Err(err(12, "first chunk is not JSON".into()));
+    };
+    let blob = chunks
+        .iter()
+        .skip(1)
+        .find(|c| c.1 == CHUNK_BIN)
+        .map(|c| c.2);
+    Ok((json, blob))
+}
+
+/// Fetches every buffer's bytes (GLB blob, data URI or external file).
+fn load_buffers<'a>(
+    path: &Path,
+    doc: &gltf::Document,
+    blob: Option<&'a [u8]>,
+) -> Result<Vec<std::borrow::Cow<'a, [u8]>>, LoadError> {
+    let mut out = Vec::new();
+    for buffer in doc.buffers() {
+        let err = |message: String| {
+            LoadError::parse(
+                path,
+                Location::Element(format!("buffer {}", buffer.index())),
+                message,
+            )
+        };
+        let data: std::borrow::Cow<'a, [u8]> = match buffer.source() {
+            gltf::buffer::Source::Bin => blob
+                .ok_or_else(|| err("refers to the GLB BIN chunk, which is missing".into()))?
+                .into(),
+            gltf::buffer::Source::Uri(uri) => {
+                if let Some(rest) = uri.strip_prefix("data:") {
+                    let (meta, payload) = rest
+                        .split_once(',')
+                        .ok_or_else(|| err("data URI without ','".into()))?;
+                    if !meta.ends_with(";base64") {
+                        return Err(err("data URI is not base64".into()));
+                    }
+                    base64::decode(payload)
+                        .map_err(|e| err(format!("bad base64 in data URI: {e}")))?
+                        .into()
+                } else {
+                    let file: PathBuf = path.parent().unwrap_or(Path::new("")).join(uri);
+                    std::fs::read(&file)
+                        .map_err(|source| LoadError::Io { path: file, source })?
+                        .into()
+                }
+            }
+        };
+        if data.len() < buffer.length() {
+            return Err(err(format!(
+                "byteLength is {} but only {} bytes are available",
+                buffer.length(),
+                data.len()
+            )));
+        }
+        out.push(data);
+    }
+    Ok(out)
+}
+
+/// The bytes of each element of `accessor`: `(data, first element offset, stride)`, with every
+/// element checked to lie inside its buffer view and buffer.
+fn accessor_bytes<'b>(
+    accessor: &gltf::Accessor,
+    buffers: &'b [std::borrow::Cow<'_, [u8]>],
+) -> Result<(&'b [u8], usize, usize), String> {
+    let what = || format!("accessor {}", accessor.index());
+    if accessor.sparse().is_some() {
+        return Err(format!("{}: sparse accessors are not supported", what()));
+    }
+    let view = accessor
+        .view()
+        .ok_or_else(|| format!("{}: no buffer view (not supported)", what()))?;
+    let buffer = buffers
+        .get(view.buffer().index())
+        .ok_or_else(|| format!("{}: missing buffer", what()))?;
+    let view_end = view
+        .offset()
+        .checked_add(view.length())
+        .filter(|&end| end <= buffer.len())
+        .ok_or_else(|| {
+            format!(
+                "{}: buffer view {} exceeds its buffer",
+                what(),
+                view.index()
+            )
+        })?;
+    let data = &buffer[view.offset()..view_end];
+    let element = accessor.size();
+    let stride = view.stride().unwrap_or(element);
+    if stride < element {
+        return Err(format!(
+            "{}: byteStride {stride} < element size {element}",
+            what()
+        ));
+    }
+    if accessor.count() > 0 {
+        let end = (accessor.count() - 1)
+            .checked_mul(stride)
+            .and_then(|x| x.checked_add(accessor.offset()))
+            .and_then(|x| x.checked_add(element));
+        if !matches!(end, Some(end) if end <= data.len()) {
+            return Err(format!(
+                "{}: {} elements at offset {} do not fit in buffer view {} ({} bytes)",
+                what(),
+                accessor.count(),
+                accessor.offset(),
+                view.index(),
+                data.len()
+            ));
+        }
+    }
+    Ok((data, accessor.offset(), stride))
+}
+
+fn read_positions(
+    accessor: &gltf::Accessor,
+    buffers: &[std::borrow::Cow<'_, [u8]>],
+) -> Result<Vec<Vec3>, String> {
+    if accessor.data_type() != DataType::F32 || accessor.dimensions() != Dimensions::Vec3 {
+        return Err(format!(
+            "accessor {}: POSITION must be VEC3 FLOAT",
+            accessor.index()
+        ));
+    }
+    let (data, offset, stride) = accessor_bytes(accessor, buffers)?;
+    let f = |o: usize| f32::from_le_bytes([data[o], data[o + 1], data[o + 2], data[o + 3]]);
+    Ok((0..accessor.count())
+        .map(|i| {
+            let o = offset + i * stride;
+            Vec3::new(f(o), f(o + 4), f(o + 8))
+        })
+        .collect())
+}
+
+fn read_indices(
+    accessor: &gltf::Accessor,
+    buffers: &[std::borrow::Cow<'_, [u8]>],
+) -> Result<Vec<u32>, String> {
+    if accessor.dimensions() != Dimensions::Scalar {
+        return Err(format!(
+            "accessor {}: indices must be SCALAR",
+            accessor.index()
+        ));
+    }
+    let (data, offset, stride) = accessor_bytes(accessor, buffers)?;
+    let at = |i: usize| offset + i * stride;
+    let n = accessor.count();
+    Ok(match accessor.data_type() {
+        DataType::U8 => (0..n).map(|i| u32::from(data[at(i)])).collect(),
+        DataType::U16 => (0..n)
+            .map(|i| u32::from(u16::from_le_bytes([data[at(i)], data[at(i) + 1]])))
+            .collect(),
+        DataType::U32 => (0..n)
+            .map(|i| {
+                let o = at(i);
+                u32::from_le_bytes([data[o], data[o + 1], data[o + 2], data[o + 3]])
+            })
+            .collect(),
+        other => {
+            return Err(format!(
+                "accessor {}: index type {other:?} is not an unsigned integer",
+                accessor.index()
+            ))
+        }
     })
+}
+
+/// Appends the triangles of one primitive, given its corner indices (relative to its own
+/// positions, `vertex_count` of them) and mode. Returns false for modes without triangles.
+fn triangulate(
+    mode: Mode,
+    indices: &[u32],
+    vertex_count: usize,
+    out: &mut Vec<[u32; 3]>,
+) -> Result<(), String> {
+    if let Some(bad) = indices.iter().find(|&&i| i as usize >= vertex_count) {
+        return Err(format!(
+            "index {bad} out of range ({vertex_count} positions)"
+        ));
+    }
+    match mode {
+        Mode::Triangles => {
+            if !indices.chunks_exact(3).remainder().is_empty() {
+                return Err(format!("{} indices is not a multiple of 3", indices.len()));
+            }
+            out.extend(indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]));
+        }
+        Mode::TriangleStrip => {
+            // Odd triangles swap their first two corners to keep a consistent winding
+            // (glTF spec 3.7.2.1, same as OpenGL).
+            for k in 0..indices.len().saturating_sub(2) {
+                let (a, b, c) = (indices[k], indices[k + 1], indices[k + 2]);
+                out.push(if k % 2 == 0 { [a, b, c] } else { [b, a, c] });
+            }
+        }
+        Mode::TriangleFan => {
+            for k in 1..indices.len().saturating_sub(1) {
+                out.push([indices[0], indices[k], indices[k + 1]]);
+            }
+        }
+        Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip => {}
+    }
+    Ok(())
+}
+
+fn build_scene(
+    path: &Path,
+    doc: &gltf::Document,
+    buffers: &[std::borrow::Cow<'_, [u8]>],
+) -> Result<Scene, LoadError> {
+    let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
+        Some(scene) => scene.nodes().collect(),
+        None => {
+            let mut is_child = vec![false; doc.nodes().len()];
+            for node in doc.nodes() {
+                for child in node.children() {
+                    if let Some(flag) = is_child.get_mut(child.index()) {
+                        *flag = true;
+                    }
+                }
+            }
+            doc.nodes().filter(|n| !is_child[n.index()]).collect()
+        }
+    };
+    let mut builder = SceneBuilder::new(path.display().to_string());
+    let mut visited = vec![false; doc.nodes().len()];
+    // Depth-first with an explicit stack (no recursion depth limit to hit); children are
+    // pushed in reverse so they pop in node order.
+    let mut stack: Vec<(gltf::Node, Mat4)> = roots
+        .into_iter()
+        .rev()
+        .map(|n| (n, Mat4::IDENTITY))
+        .collect();
+    let mut triangles = Vec::new();
+    while let Some((node, world_from_parent)) = stack.pop() {
+        let seen = visited
+            .get_mut(node.index())
+            .ok_or_else(|| LoadError::Invalid {
+                path: path.to_path_buf(),
+                message: format!("node {} does not exist", node.index()),
+            })?;
+        if *seen {
+            return Err(LoadError::parse(
+                path,
+                Location::Element(format!("node {}", node.index())),
+                "node is reached twice: the node hierarchy is not a tree",
+            ));
+        }
+        *seen = true;
+        let world_from_node =
+            world_from_parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        if let Some(mesh) = node.mesh() {
+            let name = node
+                .name()
+                .or(mesh.name())
+                .map_or_else(|| format!("node {}", node.index()), str::to_string);
+            builder.begin_object(name);
+            for primitive in mesh.primitives() {
+                let err = |message: String| {
+                    LoadError::parse(
+                        path,
+                        Location::Element(format!(
+                            "mesh {}, primitive {}",
+                            mesh.index(),
+                            primitive.index()
+                        )),
+                        message,
+                    )
+                };
+                if !matches!(
+                    primitive.mode(),
+                    Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+                ) {
+                    continue;
+                }
+                // A primitive without positions has nothing to draw (spec 3.7.2.1).
+                let Some(position_accessor) = primitive.get(&Semantic::Positions) else {
+                    continue;
+                };
+                let positions = read_positions(&position_accessor, buffers).map_err(&err)?;
+                let indices = match primitive.indices() {
+                    Some(a) => read_indices(&a, buffers).map_err(&err)?,
+                    None => (0..positions.len() as u32).collect(),
+                };
+                triangles.clear();
+                triangulate(primitive.mode(), &indices, positions.len(), &mut triangles)
+                    .map_err(&err)?;
+                let base = builder.vertex_count();
+                for p in positions {
+                    builder.add_vertex(world_from_node.transform_point3(p));
+                }
+                for t in &triangles {
+                    builder.add_triangle(t.map(|i| base + i));
+                }
+            }
+        }
+        let children: Vec<_> = node.children().collect();
+        for child in children.into_iter().rev() {
+            stack.push((child, world_from_node));
+        }
+    }
+    Ok(builder.finish())
+}
+
+/// Writes `scene` as a binary glTF 2.0 file (GLB): one mesh and one node per run of
+/// consecutive triangles of the same object (named after the object), each with its own
+/// `f32` VEC3 positions (only the vertices the run uses) and `u32` indices, in triangle-id
+/// order, so loading the result gives the same triangle ids and object names.
+pub fn write_glb(scene: &Scene, w: &mut impl Write) -> io::Result<()> {
+    let mut bin: Vec<u8> = Vec::new();
+    let mut meshes = Vec::new();
+    let mut nodes = Vec::new();
+    let mut accessors = Vec::new();
+    let mut views = Vec::new();
+    let n = scene.triangles.len();
+    let mut start = 0;
+    let mut remap = vec![u32::MAX; scene.positions.len()];
+    while start < n {
+        let object = scene.object_of_triangle.get(start).copied().unwrap_or(0);
+        let mut end = start + 1;
+        while end < n && scene.object_of_triangle.get(end).copied().unwrap_or(0) == object {
+            end += 1;
+        }
+        // Compact the vertices of this run, in first-use order.
+        let mut used: Vec<u32> = Vec::new();
+        let mut indices: Vec<u32> = Vec::with_capacity(3 * (end - start));
+        for t in &scene.triangles[start..end] {
+            for &i in t {
+                let slot = remap.get_mut(i as usize).ok_or_else(|| {
+                    io::Error::new(io::ErrorKind::InvalidInput, "triangle index out of range")
+                })?;
+                if *slot == u32::MAX {
+                    *slot = used.len() as u32;
+                    used.push(i);
+                }
+                indices.push(*slot);
+            }
+        }
+        let mut min = Vec3::splat(f32::MAX);
+        let mut max = Vec3::splat(f32::MIN);
+        let position_offset = bin.len();
+        for &i in &used {
+            let p = scene.positions[i as usize];
+            // min/max must be numbers in JSON; non-finite coordinates are left out of them.
+            if p.is_finite() {
+                min = min.min(p);
+                max = max.max(p);
+            }
+            for c in p.to_array() {
+                bin.extend_from_slice(&c.to_le_bytes());
+            }
+            remap[i as usize] = u32::MAX;
+        }
+        if min.x > max.x {
+            (min, max) = (Vec3::ZERO, Vec3::ZERO);
+        }
+        let index_offset = bin.len();
+        for i in &indices {
+            bin.extend_from_slice(&i.to_le_bytes());
+        }
+        let run = meshes.len();
+        views.push(serde_json::json!({
+            "buffer": 0, "byteOffset": position_offset,
+            "byteLength": index_offset - position_offset, "target": 34962
+        }));
+        views.push(serde_json::json!({
+            "buffer": 0, "byteOffset": index_offset,
+            "byteLength": bin.len() - index_offset, "target": 34963
+        }));
+        accessors.push(serde_json::json!({
+            "bufferView": 2 * run, "componentType": 5126, "count": used.len(), "type": "VEC3",
+            "min": min.to_array(), "max": max.to_array()
+        }));
+        accessors.push(serde_json::json!({
+            "bufferView": 2 * run + 1, "componentType": 5125, "count": indices.len(),
+            "type": "SCALAR"
+        }));
+        let name = scene
+            .objects
+            .get(object as usize)
+            .map_or("default", |o| o.name.as_str());
+        meshes.push(serde_json::json!({
+            "name": name,
+            "primitives": [{ "attributes": { "POSITION": 2 * run }, "indices": 2 * run + 1, "mode": 4 }]
+        }));
+        nodes.push(serde_json::json!({ "name": name, "mesh": run }));
+        start = end;
+    }
+    // glTF forbids other empty arrays, so an empty scene is `scenes[0]` with no nodes (the
+    // `gltf` crate insists on the `nodes` key) and nothing else.
+    let mut root = serde_json::json!({
+        "asset": { "version": "2.0", "generator": "sightline" },
+        "scene": 0,
+        "scenes": [{ "nodes": [] }],
+    });
+    if !meshes.is_empty() {
+        root["scenes"][0]["nodes"] = (0..meshes.len()).collect::<Vec<_>>().into();
+        root["nodes"] = nodes.into();
+        root["meshes"] = meshes.into();
+        root["accessors"] = accessors.into();
+        root["bufferViews"] = views.into();
+        root["buffers"] = serde_json::json!([{ "byteLength": bin.len() }]);
+    }
+    let mut json = serde_json::to_vec(&root).map_err(io::Error::other)?;
+    // Chunk data must be 4-byte aligned: JSON is padded with spaces, BIN with zeros.
+    json.resize(json.len().next_multiple_of(4), b' ');
+    bin.resize(bin.len().next_multiple_of(4), 0);
+    let mut total = 12 + 8 + json.len();
+    if !bin.is_empty() {
+        total += 8 + bin.len();
+    }
+    let total = u32::try_from(total)
+        .map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "GLB larger than 4 GiB"))?;
+    let mut w = io::BufWriter::new(w);
+    w.write_all(GLB_MAGIC)?;
+    w.write_all(&2u32.to_le_bytes())?;
+    w.write_all(&total.to_le_bytes())?;
+    w.write_all(&(json.len() as u32).to_le_bytes())?;
+    w.write_all(&CHUNK_JSON.to_le_bytes())?;
+    w.write_all(&json)?;
+    if !bin.is_empty() {
+        w.write_all(&(bin.len() as u32).to_le_bytes())?;
+        w.write_all(&CHUNK_BIN.to_le_bytes())?;
+        w.write_all(&bin)?;
+    }
+    w.flush()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn load_gltf(text: &str) -> Result<Scene, LoadError> {
+        load(Path::new("dir/model.gltf"), text.as_bytes())
+    }
+
+    /// base64 of 3 f32 VEC3 positions (0,0,0) (1,0,0) (0,1,0) followed by u16 indices 0 1 2
+    /// and 2 bytes of padding: 42 bytes.
+    fn triangle_buffer_uri() -> String {
+        let mut b = Vec::new();
+        for v in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        for i in [0u16, 1, 2] {
+            b.extend_from_slice(&i.to_le_bytes());
+        }
+        b.extend_from_slice(&[0, 0]);
+        format!("data:application/octet-stream;base64,{}", base64::encode(b))
+    }
+
+    /// A node hierarchy: parent translated by +10 x, child scaled by 2, both with the mesh.
+    fn two_node_gltf(mode: u32, index_count: usize) -> String {
+        format!(
+            r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
+            "nodes":[{{"name":"parent","mesh":0,"translation":[10,0,0],"children":[1]}},
+                     {{"mesh":0,"scale":[2,2,2]}}],
+            "meshes":[{{"name":"tri","primitives":[{{"attributes":{{"POSITION":0}},"indices":1,"mode":{mode}}}]}}],
+            "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+                         {{"bufferView":1,"componentType":5123,"count":{index_count},"type":"SCALAR"}}],
+            "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":6}}],
+            "buffers":[{{"byteLength":42,"uri":"{}"}}]}}"#,
+            triangle_buffer_uri()
+        )
+    }
+
+    fn two_objects() -> Scene {
+        let mut b = SceneBuilder::new("x");
+        let a = b.begin_object("a");
+        for p in [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(0.25, -3.0, 7.5)] {
+            b.add_vertex(p);
+        }
+        b.add_triangle([0, 1, 2]);
+        b.begin_object("b");
+        b.add_triangle([3, 2, 1]);
+        let mut s = b.finish();
+        s.triangles.push([0, 3, 1]);
+        s.object_of_triangle.push(a);
+        s
+    }
+
+    #[test]
+    fn node_transforms_compose() {
+        let s = load_gltf(&two_node_gltf(4, 3)).unwrap();
+        assert_eq!(s.triangle_count(), 2);
+        let names: Vec<_> = s.objects.iter().map(|o| o.name.as_str()).collect();
+        assert_eq!(names, ["parent", "tri"]);
+        assert_eq!(s.triangle(0)[1], Vec3::new(11.0, 0.0, 0.0));
+        assert_eq!(s.triangle(1)[1], Vec3::new(12.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn points_are_skipped() {
+        let s = load_gltf(&two_node_gltf(0, 3)).unwrap();
+        assert!(s.is_empty());
+    }
+
+    #[test]
+    fn accessor_past_view_names_mesh_and_primitive() {
+        let e = load_gltf(&two_node_gltf(4, 4)).unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains("mesh 0, primitive 0"), "{msg}");
+    }
+
+    #[test]
+    fn glb_round_trip_keeps_ids_and_names() {
+        let scene = two_objects();
+        let mut out = Vec::new();
+        write_glb(&scene, &mut out).unwrap();
+        assert_eq!(out.len() % 4, 0);
+        let back = load(Path::new("back.glb"), &out).unwrap();
+        assert_eq!(back.triangle_count(), 3);
+        for id in 0..3u32 {
+            assert_eq!(back.triangle(id), scene.triangle(id));
+            let name = |s: &Scene| {
+                s.objects[s.object_of_triangle[id as usize] as usize]
+                    .name
+                    .clone()
+            };
+            assert_eq!(name(&back), name(&scene));
+        }
+    }
+
+    #[test]
+    fn glb_of_empty_scene_loads_empty() {
+        let mut out = Vec::new();
+        write_glb(&Scene::default(), &mut out).unwrap();
+        assert!(load(Path::new("e.glb"), &out).unwrap().is_empty());
+    }
+
+    #[test]
+    fn empty_glb_is_error_at_offset_zero() {
+        let e = load(Path::new("x.glb"), b"").unwrap_err();
+        assert!(e.to_string().contains("byte offset 0"), "{e}");
+    }
+
+    #[test]
+    fn truncated_glb_names_offset() {
+        let mut out = Vec::new();
+        write_glb(&two_objects(), &mut out).unwrap();
+        out.truncate(out.len() - 8);
+        let e = load(Path::new("x.glb"), &out).unwrap_err();
+        assert!(e.to_string().contains("byte offset 8"), "{e}");
+    }
+
+    #[test]
+    fn bad_json_names_line() {
+        let e = load_gltf("{\n\"asset\": [\n").unwrap_err();
+        assert!(e.to_string().contains("line"), "{e}");
+    }
+
+    #[test]
+    fn node_cycle_is_error() {
+        let text = r#"{"asset":{"version":"2.0"},"scenes":[{"nodes":[0]}],
+            "nodes":[{"children":[1]},{"children":[0]}]}"#;
+        assert!(load_gltf(text).is_err());
+    }
 }

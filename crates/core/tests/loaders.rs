@@ -1,0 +1,592 @@
+//! Integration tests of the mesh loaders and writers (OBJ, PLY, STL, glTF):
+//! - `shared_*`: every shared scene of `../shared/scenes` loads with the triangle count and
+//!   bounding box of its `SOURCES.md` (override the folder with `SIGHTLINE_SHARED_SCENES`);
+//! - `empty_*`: empty input per format, through `scene::open`;
+//! - `round_trip_*`: writers then loaders keep triangle corners (and object names) in id order;
+//! - `fuzz_*`: seeded mutations of small valid files never panic a loader, and no loaded scene
+//!   has an out-of-range index.
+
+// Tests may unwrap (STYLE: no unwrap on input data in library code); helpers here are not
+// `#[test]` functions, so clippy's `allow-unwrap-in-tests` does not cover them.
+#![allow(clippy::unwrap_used)]
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+use sightline_core::scene::{self, open, LoadError, LoadOptions, Scene, SceneBuilder};
+
+// ---------------------------------------------------------------------------------------------
+// Shared scenes
+
+fn shared_scenes() -> PathBuf {
+    match std::env::var_os("SIGHTLINE_SHARED_SCENES") {
+        Some(dir) => PathBuf::from(dir),
+        None => Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes"),
+    }
+}
+
+fn open_shared(relative: &str) -> Scene {
+    let path = shared_scenes().join(relative);
+    assert!(
+        path.exists(),
+        "{} is missing (set SIGHTLINE_SHARED_SCENES to the shared scenes folder)",
+        path.display()
+    );
+    open(&path.to_string_lossy(), &LoadOptions::default()).unwrap()
+}
+
+/// Checks `value` against a bounding-box figure of SOURCES.md, printed with 3 to 4
+/// significant digits: the relative tolerance is half a unit in the 3rd digit, and figures
+/// near zero (like -0.003149 on a 10-unit model) get an absolute slack of 1e-4 of the extent.
+fn assert_close(value: f32, expected: f32, extent: f32, what: &str) {
+    let tolerance = (5e-3 * expected.abs()).max(1e-4 * extent);
+    assert!(
+        (value - expected).abs() <= tolerance,
+        "{what}: {value} is not {expected} to 3 significant digits"
+    );
+}
+
+fn check_shared(relative: &str, triangles: usize, min: [f32; 3], max: [f32; 3]) -> Scene {
+    let s = open_shared(relative);
+    assert_eq!(s.triangle_count(), triangles, "{relative}: triangle count");
+    assert_eq!(s.object_of_triangle.len(), triangles);
+    assert!(s
+        .triangles
+        .iter()
+        .flatten()
+        .all(|&i| (i as usize) < s.positions.len()));
+    let b = s.bounds();
+    let extent = (Vec3::from(max) - Vec3::from(min)).max_element();
+    for axis in 0..3 {
+        assert_close(
+            b.min[axis],
+            min[axis],
+            extent,
+            &format!("{relative} min[{axis}]"),
+        );
+        assert_close(
+            b.max[axis],
+            max[axis],
+            extent,
+            &format!("{relative} max[{axis}]"),
+        );
+    }
+    s
+}
+
+#[test]
+fn shared_bunny_obj() {
+    let s = check_shared(
+        "models/bunny.obj",
+        3674,
+        [-4.958, -0.003149, -3.73],
+        [4.949, 9.655, 3.811],
+    );
+    assert_eq!(s.positions.len(), 1839);
+    assert_eq!(s.objects.len(), 1);
+}
+
+#[test]
+fn shared_stanford_bunny_obj_gz() {
+    check_shared(
+        "models/stanford_bunny.obj.gz",
+        69451,
+        [-0.09469, 0.03299, -0.06187],
+        [0.06101, 0.1873, 0.0588],
+    );
+}
+
+#[test]
+fn shared_teapot_obj() {
+    check_shared(
+        "models/teapot.obj",
+        992,
+        [-16.07, -7.875, -10.0],
+        [16.07, 7.875, 10.0],
+    );
+}
+
+#[test]
+fn shared_dragon_ply_gz() {
+    let s = check_shared(
+        "models/dragon_res3.ply.gz",
+        47794,
+        [-0.1077, 0.05277, -0.05005],
+        [0.09598, 0.1966, 0.04083],
+    );
+    assert_eq!(s.positions.len(), 22998);
+    assert_eq!(s.objects[0].name, "dragon_res3");
+}
+
+#[test]
+fn shared_munich_ply_gz() {
+    check_shared(
+        "city/munich.ply.gz",
+        38936,
+        [-805.58, -688.60, 0.0],
+        [669.88, 517.04, 98.57],
+    );
+}
+
+#[test]
+fn shared_etoile_ply_gz() {
+    check_shared(
+        "city/etoile.ply.gz",
+        13098,
+        [-426.83, -338.06, 0.0],
+        [426.83, 338.06, 50.0],
+    );
+}
+
+#[test]
+fn shared_fzk_haus_obj_gz_objects_from_usemtl() {
+    let s = check_shared(
+        "buildings/fzk_haus.obj.gz",
+        35906,
+        [-3.0, -1.0, -13.0],
+        [15.0, 6.318, 3.0],
+    );
+    // One object per `usemtl` run that has faces (the file has 177 `usemtl` lines and no
+    // `o`/`g`), named after the material.
+    assert_eq!(s.objects.len(), 177);
+    let by_object = s.triangles_by_object();
+    let glass: usize = s
+        .objects
+        .iter()
+        .zip(&by_object)
+        .filter(|(o, _)| o.name == "Glas")
+        .map(|(_, t)| t.len())
+        .sum();
+    assert_eq!(
+        glass, 820,
+        "SOURCES.md: 820 triangles in `usemtl Glas` groups"
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Empty input through `open`
+
+fn open_bytes(name: &str, bytes: &[u8]) -> Result<Scene, LoadError> {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(name);
+    std::fs::write(&path, bytes).unwrap();
+    open(&path.to_string_lossy(), &LoadOptions::default())
+}
+
+#[test]
+fn empty_obj_is_empty_scene() {
+    assert!(open_bytes("empty.obj", b"").unwrap().is_empty());
+}
+
+#[test]
+fn empty_ply_is_error_with_location() {
+    let e = open_bytes("empty.ply", b"").unwrap_err();
+    assert!(matches!(e, LoadError::Parse { .. }), "{e}");
+}
+
+#[test]
+fn empty_stl_is_error_with_location() {
+    let e = open_bytes("empty.stl", b"").unwrap_err();
+    assert!(matches!(e, LoadError::Parse { .. }), "{e}");
+}
+
+#[test]
+fn empty_glb_is_error_with_location() {
+    let e = open_bytes("empty.glb", b"").unwrap_err();
+    assert!(matches!(e, LoadError::Parse { .. }), "{e}");
+}
+
+#[test]
+fn garbage_ply_stl_glb_are_errors_with_location() {
+    let garbage: Vec<u8> = (0..300u32).map(|i| (i * 7919 % 251) as u8).collect();
+    for name in ["g.ply", "g.stl", "g.glb"] {
+        let e = open_bytes(name, &garbage).unwrap_err();
+        assert!(matches!(e, LoadError::Parse { .. }), "{name}: {e}");
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Round trips
+
+fn assert_same_corners(a: &Scene, b: &Scene, with_objects: bool) {
+    assert_eq!(a.triangle_count(), b.triangle_count());
+    for id in 0..a.triangle_count() as u32 {
+        assert_eq!(a.triangle(id), b.triangle(id), "triangle {id}");
+        if with_objects {
+            let name = |s: &Scene| {
+                s.objects[s.object_of_triangle[id as usize] as usize]
+                    .name
+                    .clone()
+            };
+            assert_eq!(name(a), name(b), "object of triangle {id}");
+        }
+    }
+}
+
+/// fzk_haus has 177 objects whose materials repeat, a good test for object runs.
+fn fzk_haus() -> Scene {
+    open_shared("buildings/fzk_haus.obj.gz")
+}
+
+#[test]
+fn round_trip_obj_fzk_haus() {
+    let s = fzk_haus();
+    let mut out = Vec::new();
+    scene::obj::write(&s, &mut out).unwrap();
+    let back = scene::obj::load(Path::new("back.obj"), &out).unwrap();
+    assert_same_corners(&s, &back, true);
+    assert_eq!(back.objects.len(), s.objects.len());
+}
+
+#[test]
+fn round_trip_ply_fzk_haus() {
+    let s = fzk_haus();
+    let mut out = Vec::new();
+    scene::ply::write(&s, &mut out).unwrap();
+    let back = scene::ply::load(Path::new("back.ply"), &out).unwrap();
+    assert_same_corners(&s, &back, false);
+}
+
+#[test]
+fn round_trip_glb_fzk_haus() {
+    let s = fzk_haus();
+    let mut out = Vec::new();
+    scene::gltf::write_glb(&s, &mut out).unwrap();
+    let back = scene::gltf::load(Path::new("back.glb"), &out).unwrap();
+    assert_same_corners(&s, &back, true);
+    // The gltf crate itself (with its own buffer import) reads our file.
+    let (doc, buffers, _) = gltf::import_slice(&out).unwrap();
+    assert_eq!(doc.meshes().len(), s.objects.len());
+    assert_eq!(buffers.len(), 1);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Fuzzing
+
+/// Mutations per fixture; `SIGHTLINE_FUZZ_ITERATIONS` overrides it for longer local runs.
+const ITERATIONS: usize = 5000;
+
+/// Tiny xorshift64* generator: deterministic across platforms, no dependency.
+struct XorShift(u64);
+
+impl XorShift {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n.max(1) as u64) as usize
+    }
+}
+
+/// Replacement texts for numbers in text formats.
+const NUMBER_TEXTS: &[&str] = &[
+    "99999999999999999999",
+    "-1",
+    "-2147483649",
+    "4294967295",
+    "4294967296",
+    "NaN",
+    "inf",
+    "-inf",
+    "1e39",
+    "0",
+    "3",
+    "255",
+    "-0",
+    "0.5",
+];
+
+/// Replacement words for 4-byte fields of binary formats.
+const NUMBER_WORDS: &[u32] = &[
+    0,
+    1,
+    3,
+    255,
+    0xFFFF_FFFF,
+    0x7FFF_FFFF,
+    0x8000_0000,
+    0x7FC0_0000, // NaN
+    0x7F80_0000, // +inf
+    0x7149_F2CA, // 1e30
+];
+
+fn mutate(rng: &mut XorShift, original: &[u8]) -> Vec<u8> {
+    let mut b = original.to_vec();
+    for _ in 0..1 + rng.below(3) {
+        if b.is_empty() {
+            b.push(rng.next() as u8);
+            continue;
+        }
+        let at = rng.below(b.len());
+        match rng.below(7) {
+            0 => b[at] ^= 1 << rng.below(8),
+            1 => b.insert(at, rng.next() as u8),
+            2 => {
+                b.remove(at);
+            }
+            3 => b.truncate(at),
+            4 => {
+                // Replace the decimal number (if any) that starts at or after `at`.
+                if let Some(start) = (at..b.len()).find(|&i| b[i].is_ascii_digit()) {
+                    let end = (start..b.len())
+                        .find(|&i| !(b[i].is_ascii_digit() || b[i] == b'.'))
+                        .unwrap_or(b.len());
+                    let text = NUMBER_TEXTS[rng.below(NUMBER_TEXTS.len())];
+                    b.splice(start..end, text.bytes());
+                }
+            }
+            5 => {
+                let word = NUMBER_WORDS[rng.below(NUMBER_WORDS.len())].to_le_bytes();
+                let at = at & !3;
+                for (k, byte) in word.iter().enumerate() {
+                    if let Some(slot) = b.get_mut(at + k) {
+                        *slot = *byte;
+                    }
+                }
+            }
+            _ => {
+                // Duplicate a chunk: repeated lines/records.
+                let len = rng.below(16).min(b.len() - at);
+                let chunk = b[at..at + len].to_vec();
+                let to = rng.below(b.len());
+                b.splice(to..to, chunk);
+            }
+        }
+    }
+    b
+}
+
+type Loader = fn(&Path, &[u8]) -> Result<Scene, LoadError>;
+
+fn check_loaded(scene: &Scene, what: &str) {
+    let n = scene.positions.len();
+    for (id, t) in scene.triangles.iter().enumerate() {
+        assert!(
+            t.iter().all(|&i| (i as usize) < n),
+            "{what}: triangle {id} {t:?} has an index out of range ({n} positions)"
+        );
+    }
+    assert_eq!(
+        scene.object_of_triangle.len(),
+        scene.triangles.len(),
+        "{what}"
+    );
+    assert!(
+        scene
+            .object_of_triangle
+            .iter()
+            .all(|&o| (o as usize) < scene.objects.len()),
+        "{what}: bad object id"
+    );
+}
+
+fn fuzz(name: &str, original: &[u8], load: Loader, seed: u64) {
+    let iterations = std::env::var("SIGHTLINE_FUZZ_ITERATIONS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(ITERATIONS);
+    let path = PathBuf::from(name);
+    let (mut loaded, mut failed) = (0usize, 0usize);
+    let mut run = |bytes: &[u8], what: &str| {
+        let result = catch_unwind(AssertUnwindSafe(|| load(&path, bytes)));
+        match result {
+            Ok(Ok(scene)) => {
+                check_loaded(&scene, what);
+                loaded += 1;
+            }
+            Ok(Err(_)) => failed += 1,
+            Err(_) => panic!("{name}: loader panicked on {what}: {bytes:?}"),
+        }
+    };
+    // The original must load, else the fuzzing tests nothing.
+    let scene = load(&path, original).unwrap();
+    assert!(!scene.is_empty(), "{name}: fixture has no triangles");
+    // Small files: every truncation.
+    if original.len() <= 4096 {
+        for len in 0..original.len() {
+            run(&original[..len], &format!("truncation at {len}"));
+        }
+    }
+    let mut rng = XorShift(seed);
+    for i in 0..iterations {
+        let bytes = mutate(&mut rng, original);
+        run(&bytes, &format!("mutation {i}"));
+    }
+    // Both outcomes must occur, else the mutations do not reach the loader's inner paths.
+    assert!(
+        loaded > 0 && failed > 0,
+        "{name}: {loaded} loaded, {failed} failed"
+    );
+}
+
+/// A small mesh with two objects, a shared edge and a non-contiguous object.
+fn fixture_scene() -> Scene {
+    let mut b = SceneBuilder::new("fixture");
+    let a = b.begin_object("first");
+    for i in 0..6 {
+        b.add_vertex(Vec3::new(i as f32, (i * i) as f32 * 0.5, 1.0 - i as f32));
+    }
+    b.add_triangle([0, 1, 2]);
+    b.add_triangle([2, 1, 3]);
+    b.begin_object("second");
+    b.add_triangle([3, 4, 5]);
+    let mut s = b.finish();
+    s.triangles.push([5, 0, 2]);
+    s.object_of_triangle.push(a);
+    s
+}
+
+#[test]
+fn fuzz_obj() {
+    let text = "# fixture\nmtllib none.mtl\no first\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
+                vt 0 0\nvn 0 0 1\nf 1/1/1 2/1/1 3/1/1 4/1/1\ng second\nusemtl stone\n\
+                v 2 2 2\nf -1 -2 -3\nf 5//1 1//1 2//1\n";
+    fuzz("f.obj", text.as_bytes(), scene::obj::load, 1);
+}
+
+#[test]
+fn fuzz_obj_written() {
+    let mut out = Vec::new();
+    scene::obj::write(&fixture_scene(), &mut out).unwrap();
+    fuzz("w.obj", &out, scene::obj::load, 2);
+}
+
+#[test]
+fn fuzz_ply_binary() {
+    let mut out = Vec::new();
+    scene::ply::write(&fixture_scene(), &mut out).unwrap();
+    fuzz("f.ply", &out, scene::ply::load, 3);
+}
+
+#[test]
+fn fuzz_ply_binary_general_layout() {
+    // Big-endian, double coordinates, extra properties and an extra list element: the
+    // general (non fast-path) binary reader.
+    let mut b = b"ply\nformat binary_big_endian 1.0\nelement vertex 4\nproperty double x\n\
+        property uchar q\nproperty double y\nproperty double z\nelement face 2\n\
+        property list uint ushort vertex_indices\nproperty float w\nelement extra 1\n\
+        property list uchar int stuff\nend_header\n"
+        .to_vec();
+    for v in 0..4u8 {
+        for (k, c) in [f64::from(v), f64::from(v * v), -1.5]
+            .into_iter()
+            .enumerate()
+        {
+            b.extend_from_slice(&c.to_be_bytes());
+            if k == 0 {
+                b.push(v);
+            }
+        }
+    }
+    for face in [[0u16, 1, 2, 3].as_slice(), [3, 2, 1].as_slice()] {
+        b.extend_from_slice(&(face.len() as u32).to_be_bytes());
+        for i in face {
+            b.extend_from_slice(&i.to_be_bytes());
+        }
+        b.extend_from_slice(&1.0f32.to_be_bytes());
+    }
+    b.extend_from_slice(&[2, 0, 0, 0, 1, 0, 0, 0, 2]);
+    fuzz("g.ply", &b, scene::ply::load, 4);
+}
+
+#[test]
+fn fuzz_ply_ascii() {
+    let text = "ply\nformat ascii 1.0\ncomment fixture\nelement vertex 5\nproperty float x\n\
+                property float y\nproperty float z\nproperty uchar red\nelement face 3\n\
+                property list uchar int vertex_indices\nend_header\n\
+                0 0 0 255\n1 0 0 0\n1 1 0 3\n0 1 0 9\n2 2 2 1\n4 0 1 2 3\n3 4 3 2\n3 0 4 1\n";
+    fuzz("a.ply", text.as_bytes(), scene::ply::load, 5);
+}
+
+#[test]
+fn fuzz_stl_ascii() {
+    let text = "solid one\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n\
+                vertex 0 1 0\nendloop\nendfacet\nendsolid one\nsolid two\n\
+                facet normal 0 0 1\nouter loop\nvertex 0 0 1\nvertex 1 0 1\nvertex 0 1 1\n\
+                endloop\nendfacet\nendsolid two\n";
+    fuzz("a.stl", text.as_bytes(), scene::stl::load, 6);
+}
+
+#[test]
+fn fuzz_stl_binary() {
+    let mut b = b"solid but binary".to_vec();
+    b.resize(80, 0);
+    b.extend_from_slice(&3u32.to_le_bytes());
+    for t in 0..3 {
+        for c in 0..12 {
+            b.extend_from_slice(&((t * 12 + c) as f32 * 0.25).to_le_bytes());
+        }
+        b.extend_from_slice(&[0, 0]);
+    }
+    fuzz("b.stl", &b, scene::stl::load, 7);
+}
+
+#[test]
+fn fuzz_glb_written() {
+    let mut out = Vec::new();
+    scene::gltf::write_glb(&fixture_scene(), &mut out).unwrap();
+    fuzz("f.glb", &out, scene::gltf::load, 8);
+}
+
+#[test]
+fn fuzz_gltf_text() {
+    // Positions (4 x VEC3 f32 = 48 bytes) then u16 indices of a strip and of a fan
+    // (4 + 4 = 16 bytes), in a base64 data URI; two nodes in a hierarchy.
+    let mut bin = Vec::new();
+    for v in [
+        0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0,
+    ] {
+        bin.extend_from_slice(&v.to_le_bytes());
+    }
+    for i in [0u16, 1, 2, 3, 0, 1, 3, 2] {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        base64_encode(&bin)
+    );
+    let text = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
+"nodes":[{{"name":"a","mesh":0,"matrix":[1,0,0,0,0,1,0,0,0,0,1,0,5,6,7,1],"children":[1]}},
+{{"mesh":1,"rotation":[0,0.7071068,0,0.7071068],"scale":[2,2,2]}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1,"mode":5}}]}},
+{{"name":"m","primitives":[{{"attributes":{{"POSITION":0}},"indices":2,"mode":6}},{{"attributes":{{"POSITION":0}},"mode":6}}]}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+{{"bufferView":1,"byteOffset":0,"componentType":5123,"count":4,"type":"SCALAR"}},
+{{"bufferView":1,"byteOffset":8,"componentType":5123,"count":4,"type":"SCALAR"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":48,"byteStride":12}},{{"buffer":0,"byteOffset":48,"byteLength":16}}],
+"buffers":[{{"byteLength":64,"uri":"{uri}"}}]}}"#
+    );
+    let s = scene::gltf::load(Path::new("t.gltf"), text.as_bytes()).unwrap();
+    // 2 strip + 2 fan + 2 non-indexed fan.
+    assert_eq!(s.triangle_count(), 6);
+    assert_eq!(s.triangle(0)[1], Vec3::new(6.0, 6.0, 7.0));
+    fuzz("t.gltf", text.as_bytes(), scene::gltf::load, 9);
+}
+
+/// Standard base64 with padding (enough for the fixture; avoids a dev-dependency).
+fn base64_encode(bytes: &[u8]) -> String {
+    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for chunk in bytes.chunks(3) {
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
+        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
+        for k in 0..4 {
+            if k <= chunk.len() {
+                out.push(ALPHABET[(n >> (18 - 6 * k)) as usize & 63] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
