@@ -30,6 +30,8 @@ enum Command {
     Info(commands::info::Args),
     /// Render a scene with the reference rasterizer to a PNG (shaded or triangle-id colours).
     Render(commands::render::Args),
+    /// Write a scene as loaded (triangle order = ids) to .ply, .obj or .glb.
+    Convert(commands::convert::Args),
     /// Run the main job on the embedded default scene and write `sightline-report/`.
     Demo(commands::demo::Args),
 }
@@ -39,6 +41,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Info(a) => commands::info::run(a),
         Command::Render(a) => commands::render::run(a),
+        Command::Convert(a) => commands::convert::run(a),
         Command::Demo(a) => commands::demo::run(a),
     };
     match result {
