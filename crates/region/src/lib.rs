@@ -2,8 +2,16 @@
 //! potentially visible set (PVS) for a cell, and the `.pvs` file format.
 #![deny(missing_docs)]
 
+mod border;
+pub mod gvspp;
 pub mod pvs_file;
+pub mod rand;
+mod rays;
+pub mod sampler;
 pub mod viewcell;
 
+pub use gvspp::{GvsPlusPlus, GvsPlusPlusParams};
 pub use pvs_file::{CellPvs, PvsError, PvsFile};
+pub use rand::RandomSampler;
+pub use sampler::{Budget, CellContext, CellResult, ConvergencePoint, Sampler};
 pub use viewcell::{CellSurface, Rect, ViewCell, ViewCellError};

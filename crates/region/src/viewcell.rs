@@ -92,7 +92,10 @@ impl CellSurface {
                 total
             })
             .collect();
-        Self { faces, cumulative_area }
+        Self {
+            faces,
+            cumulative_area,
+        }
     }
 
     /// The faces.
@@ -105,7 +108,10 @@ impl CellSurface {
     pub fn sample(&self, s: [f32; 3]) -> (Vec3, &Rect) {
         let total = self.cumulative_area.last().copied().unwrap_or(0.0);
         let pick = s[0] * total;
-        let i = self.cumulative_area.partition_point(|&c| c <= pick).min(self.faces.len() - 1);
+        let i = self
+            .cumulative_area
+            .partition_point(|&c| c <= pick)
+            .min(self.faces.len() - 1);
         let face = &self.faces[i];
         (face.point(s[1], s[2]), face)
     }
@@ -281,7 +287,12 @@ impl ViewCell {
         let c = self.corners();
         if self.is_flat() {
             // The four distinct corners of the flat cell, in order around it.
-            let flat = self.half_extents.to_array().iter().position(|&e| e == 0.0).unwrap_or(2);
+            let flat = self
+                .half_extents
+                .to_array()
+                .iter()
+                .position(|&e| e == 0.0)
+                .unwrap_or(2);
             let (a, b) = match flat {
                 0 => (2, 4),
                 1 => (1, 4),

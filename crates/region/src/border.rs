@@ -1,0 +1,65 @@
+//! The enlarged border polygon of adaptive border sampling (Wonka et al. 2006; Koch & Wimmer
+//! 2021, section 4.2 and figure 2): the triangle grown by `delta` in its own plane, as nine
+//! vertices — at each corner, the ends of the two offset edges and a point on the corner's
+//! bisector.
+
+use glam::Vec3;
+
+/// The nine border vertices of triangle `p` grown by `delta`, in order around it: for corner
+/// `i`, `[p_i + δ m_(i-1), p_i + δ b_i, p_i + δ m_i]`, where `m_i` is the outward in-plane
+/// normal of edge `i` (from `p_i` to `p_(i+1)`) and `b_i` the corner's outward bisector. The
+/// long edges of the polygon (indices 2→3, 5→6, 8→0) run parallel to the triangle's edges.
+pub(crate) fn border_polygon(p: [Vec3; 3], delta: f32) -> [Vec3; 9] {
+    let normal = (p[1] - p[0]).cross(p[2] - p[0]);
+    let m: [Vec3; 3] =
+        std::array::from_fn(|i| (p[(i + 1) % 3] - p[i]).cross(normal).normalize_or_zero());
+    std::array::from_fn(|k| {
+        let corner = k / 3;
+        let previous_edge = m[(corner + 2) % 3];
+        let next_edge = m[corner];
+        let offset = match k % 3 {
+            0 => previous_edge,
+            1 => (previous_edge + next_edge).normalize_or_zero(),
+            _ => next_edge,
+        };
+        p[corner] + offset * delta
+    })
+}
+
+/// The long edges of the border polygon as (start, end) vertex indices.
+pub(crate) const LONG_EDGES: [(usize, usize); 3] = [(2, 3), (5, 6), (8, 0)];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TRI: [Vec3; 3] = [Vec3::ZERO, Vec3::X, Vec3::Y];
+
+    fn inside(p: Vec3) -> bool {
+        p.x >= 0.0 && p.y >= 0.0 && p.x + p.y <= 1.0
+    }
+
+    #[test]
+    fn border_vertices_lie_outside_at_distance_delta() {
+        for winding in [TRI, [TRI[0], TRI[2], TRI[1]]] {
+            let poly = border_polygon(winding, 0.01);
+            for (k, v) in poly.iter().enumerate() {
+                assert!(!inside(*v), "vertex {k} {v} is inside the triangle");
+                assert!(v.z.abs() < 1e-7, "vertex {k} left the plane");
+                let nearest = winding[k / 3];
+                assert!((v.distance(nearest) - 0.01).abs() < 1e-6);
+            }
+        }
+    }
+
+    #[test]
+    fn long_edges_are_parallel_to_triangle_edges() {
+        let poly = border_polygon(TRI, 0.01);
+        for (i, (a, b)) in LONG_EDGES.iter().enumerate() {
+            let edge = TRI[(i + 1) % 3] - TRI[i];
+            let long = poly[*b] - poly[*a];
+            assert!(edge.cross(long).length() < 1e-6);
+            assert!(edge.dot(long) > 0.0);
+        }
+    }
+}
