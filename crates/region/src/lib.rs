@@ -3,6 +3,7 @@
 #![deny(missing_docs)]
 
 mod border;
+pub mod gvs;
 pub mod gvspp;
 pub mod pvs_file;
 pub mod rand;
@@ -10,6 +11,7 @@ mod rays;
 pub mod sampler;
 pub mod viewcell;
 
+pub use gvs::{Gvs, GvsParams};
 pub use gvspp::{GvsPlusPlus, GvsPlusPlusParams};
 pub use pvs_file::{CellPvs, PvsError, PvsFile};
 pub use rand::RandomSampler;
