@@ -156,12 +156,12 @@ pub(crate) fn rasterize(t: &RasterTri, band: &mut Band<'_>, near: f32) {
     let mut e1 = Edge::new(t.v[1], t.v[2], x0, i64::from(y_first));
     let mut e2 = Edge::new(t.v[2], t.v[0], x0, i64::from(y_first));
     let [a, b, c] = t.inv_z;
+    let n = x1 - x0 + 1;
     for y in y_first..=y_last {
         let row_base = ((y - band.y_start) * band.width) as usize;
         let row_c = b * (f64::from(y) + 0.5) + c;
-        let (mut w0, mut w1, mut w2) = (e0.row, e1.row, e2.row);
-        for x in x0..=x1 {
-            if (w0 | w1 | w2) >= 0 {
+        if let Some((lo, hi)) = covered_span([&e0, &e1, &e2], n) {
+            for x in x0 + lo..=x0 + hi {
                 let inv = a * (x as f64 + 0.5) + row_c;
                 if inv > 0.0 {
                     let z = ((1.0 / inv) as f32).max(near);
@@ -173,14 +173,37 @@ pub(crate) fn rasterize(t: &RasterTri, band: &mut Band<'_>, near: f32) {
                     }
                 }
             }
-            w0 += e0.step_x;
-            w1 += e1.step_x;
-            w2 += e2.step_x;
         }
         e0.row += e0.step_y;
         e1.row += e1.step_y;
         e2.row += e2.step_y;
     }
+}
+
+/// The pixels `k` in `0..n` of the current row (counted from the row's first candidate pixel)
+/// where all three biased edge functions `row + k * step_x` are `>= 0`, as an inclusive range.
+/// Exact integer arithmetic: it selects the same pixels as testing every pixel.
+#[inline]
+fn covered_span(edges: [&Edge; 3], n: i64) -> Option<(i64, i64)> {
+    let (mut lo, mut hi) = (0i64, n - 1);
+    for e in edges {
+        let (r, s) = (e.row, e.step_x);
+        if s > 0 {
+            // Increasing along the row: k >= ceil(-r / s).
+            if r < 0 {
+                lo = lo.max((-r + s - 1) / s);
+            }
+        } else if s < 0 {
+            // Decreasing: k <= floor(r / -s).
+            if r < 0 {
+                return None;
+            }
+            hi = hi.min(r / -s);
+        } else if r < 0 {
+            return None;
+        }
+    }
+    (lo <= hi).then_some((lo, hi))
 }
 
 /// Coverage-count mode: adds 1 to `counts` for every pixel centre `t` covers (no depth test).
@@ -190,16 +213,22 @@ pub(crate) fn count_coverage(t: &RasterTri, width: u32, counts: &mut [u32]) {
     let mut e0 = Edge::new(t.v[0], t.v[1], x0, y0);
     let mut e1 = Edge::new(t.v[1], t.v[2], x0, y0);
     let mut e2 = Edge::new(t.v[2], t.v[0], x0, y0);
+    let n = x1 - x0 + 1;
     for y in t.y0..=t.y1 {
-        let (mut w0, mut w1, mut w2) = (e0.row, e1.row, e2.row);
-        for x in x0..=x1 {
-            if (w0 | w1 | w2) >= 0 {
-                counts[y as usize * width as usize + x as usize] += 1;
+        let row = y as usize * width as usize;
+        if let Some((lo, hi)) = covered_span([&e0, &e1, &e2], n) {
+            for x in x0 + lo..=x0 + hi {
+                counts[row + x as usize] += 1;
             }
-            w0 += e0.step_x;
-            w1 += e1.step_x;
-            w2 += e2.step_x;
         }
+        debug_assert!(
+            (0..n).all(|k| {
+                let inside = [&e0, &e1, &e2].iter().all(|e| e.row + k * e.step_x >= 0);
+                inside
+                    == covered_span([&e0, &e1, &e2], n).is_some_and(|(lo, hi)| lo <= k && k <= hi)
+            }),
+            "span differs from per-pixel edge tests"
+        );
         e0.row += e0.step_y;
         e1.row += e1.step_y;
         e2.row += e2.step_y;
