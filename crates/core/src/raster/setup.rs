@@ -97,6 +97,10 @@ pub(crate) fn setup(
     })
 }
 
+/// Bounding boxes at most this many pixels wide are scanned pixel by pixel; wider ones
+/// compute each row's covered span with integer divisions (same pixels either way).
+const NARROW: i64 = 16;
+
 /// One edge function `E(p) = cross(b - a, p - a) + bias` prepared for stepping over pixels.
 #[derive(Clone, Copy, Debug)]
 struct Edge {
@@ -160,18 +164,32 @@ pub(crate) fn rasterize(t: &RasterTri, band: &mut Band<'_>, near: f32) {
     for y in y_first..=y_last {
         let row_base = ((y - band.y_start) * band.width) as usize;
         let row_c = b * (f64::from(y) + 0.5) + c;
-        if let Some((lo, hi)) = covered_span([&e0, &e1, &e2], n) {
-            for x in x0 + lo..=x0 + hi {
-                let inv = a * (x as f64 + 0.5) + row_c;
-                if inv > 0.0 {
-                    let z = ((1.0 / inv) as f32).max(near);
-                    let i = row_base + x as usize;
-                    let (zd, id) = (band.depth[i], band.ids[i]);
-                    if z < zd || (z == zd && t.id < id) {
-                        band.depth[i] = z;
-                        band.ids[i] = t.id;
-                    }
+        let mut shade = |x: i64| {
+            let inv = a * (x as f64 + 0.5) + row_c;
+            if inv > 0.0 {
+                let z = ((1.0 / inv) as f32).max(near);
+                let i = row_base + x as usize;
+                let (zd, id) = (band.depth[i], band.ids[i]);
+                if z < zd || (z == zd && t.id < id) {
+                    band.depth[i] = z;
+                    band.ids[i] = t.id;
                 }
+            }
+        };
+        if n <= NARROW {
+            // Narrow rows: testing each pixel is cheaper than the span's integer divisions.
+            let (mut w0, mut w1, mut w2) = (e0.row, e1.row, e2.row);
+            for x in x0..=x1 {
+                if (w0 | w1 | w2) >= 0 {
+                    shade(x);
+                }
+                w0 += e0.step_x;
+                w1 += e1.step_x;
+                w2 += e2.step_x;
+            }
+        } else if let Some((lo, hi)) = covered_span([&e0, &e1, &e2], n) {
+            for x in x0 + lo..=x0 + hi {
+                shade(x);
             }
         }
         e0.row += e0.step_y;

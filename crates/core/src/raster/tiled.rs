@@ -103,10 +103,11 @@ impl Projection {
             return None;
         }
         let (tx, ty) = (self.tan_half_x, self.tan_half_y);
+        let rd = 1.0 / d;
         let plane = [
-            n.x * tx * 2.0 / self.width / d,
-            -n.y * ty * 2.0 / self.height / d,
-            (n.z - n.x * tx + n.y * ty) / d,
+            n.x * tx * 2.0 / self.width * rd,
+            -n.y * ty * 2.0 / self.height * rd,
+            (n.z - n.x * tx + n.y * ty) * rd,
         ];
         plane.iter().all(|k| k.is_finite()).then_some(plane)
     }
