@@ -1,0 +1,113 @@
+//! End-to-end tests of the `sightline` binary: exit codes, error messages that name the problem,
+//! outputs that are written (and never half-written).
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn sightline(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_sightline"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("the sightline binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A clean failure: exit code 1 (not a panic's 101) and a message containing `needle`.
+fn assert_fails_with(o: &Output, needle: &str) {
+    assert_eq!(o.status.code(), Some(1), "stderr: {}", stderr(o));
+    let err = stderr(o);
+    assert!(err.contains(needle), "expected '{needle}' in: {err}");
+    assert!(!err.contains("panicked"), "panic: {err}");
+}
+
+#[test]
+fn info_json_reports_counts_of_default_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(&["info", "--json"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let triangles = v["validation"]["triangles"].as_u64().unwrap();
+    assert!(triangles > 10_000, "default city has {triangles} triangles");
+    assert_eq!(v["errors"].as_array().unwrap().len(), 0);
+    assert_eq!(v["source"], "procedural:city?seed=1&size=20000");
+}
+
+#[test]
+fn missing_file_is_clean_error_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(&["info", "no-such-scene.obj"], dir.path());
+    assert_fails_with(&o, "no-such-scene.obj");
+}
+
+#[test]
+fn unknown_generator_is_clean_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(&["info", "procedural:village"], dir.path());
+    assert_fails_with(&o, "unknown generator 'village'");
+}
+
+#[test]
+fn nan_eye_is_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(&["render", "--eye", "nan,0,0", "-o", "x.png"], dir.path());
+    assert_eq!(o.status.code(), Some(2), "clap usage error: {}", stderr(&o));
+    assert!(stderr(&o).contains("not finite"));
+    assert!(!dir.path().join("x.png").exists());
+}
+
+#[test]
+fn eye_equal_to_look_is_clean_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(&["render", "--eye", "1,2,3", "--look", "1,2,3"], dir.path());
+    assert_fails_with(&o, "coincide");
+}
+
+#[test]
+fn render_writes_png_of_requested_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(
+        &[
+            "render",
+            "procedural:boxes?size=2000",
+            "--size",
+            "64x48",
+            "-o",
+            "out.png",
+            "--json",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = image::open(dir.path().join("out.png")).unwrap();
+    assert_eq!((img.width(), img.height()), (64, 48));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["visible_triangles"].as_u64().unwrap() > 0);
+}
+
+#[test]
+fn failed_render_keeps_existing_output() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("keep.png"), b"precious").unwrap();
+    // An output directory that does not exist: the write fails after rendering.
+    let o = sightline(
+        &["render", "--size", "8x8", "-o", "missing/keep.png"],
+        dir.path(),
+    );
+    assert_fails_with(&o, "missing/keep.png");
+    assert_eq!(
+        std::fs::read(dir.path().join("keep.png")).unwrap(),
+        b"precious"
+    );
+}
+
+#[test]
+fn empty_scene_file_is_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("empty.obj"), "# nothing here\n").unwrap();
+    let o = sightline(&["render", "empty.obj"], dir.path());
+    assert_fails_with(&o, "no triangles");
+}
