@@ -1,0 +1,8 @@
+//! sightline-eval: how good is a visible set? Ground truth from the reference rasterizer, and
+//! the error measures of the from-region visibility literature.
+#![deny(missing_docs)]
+
+pub mod error_regions;
+pub mod pixel_error;
+
+pub use pixel_error::{evaluate_cell, CellEvaluation, EvalParams, ViewMode};
