@@ -10,9 +10,15 @@ pub mod embree;
 pub mod triangle;
 
 use crate::geometry::{Hit, Ray};
+use crate::scene::Scene;
 
 pub use brute::BruteForce;
 pub use bvh::Bvh;
+
+/// The default ray caster for `scene`: our SAH [`Bvh`].
+pub fn build_default(scene: &Scene) -> Box<dyn RayCaster> {
+    Box::new(Bvh::build(scene))
+}
 
 /// Batched, thread-safe ray queries against one scene.
 pub trait RayCaster: Send + Sync {
