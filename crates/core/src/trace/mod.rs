@@ -14,6 +14,8 @@ use crate::scene::Scene;
 
 pub use brute::BruteForce;
 pub use bvh::Bvh;
+#[cfg(feature = "embree")]
+pub use embree::{EmbreeCaster, EmbreeError};
 
 /// The default ray caster for `scene`: our SAH [`Bvh`].
 pub fn build_default(scene: &Scene) -> Box<dyn RayCaster> {
