@@ -7,6 +7,7 @@ pub mod brute;
 pub mod bvh;
 #[cfg(feature = "embree")]
 pub mod embree;
+pub mod measure;
 pub mod triangle;
 
 use crate::geometry::{Hit, Ray};
