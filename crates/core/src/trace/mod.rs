@@ -7,12 +7,21 @@ pub mod brute;
 pub mod bvh;
 #[cfg(feature = "embree")]
 pub mod embree;
+pub mod measure;
 pub mod triangle;
 
 use crate::geometry::{Hit, Ray};
+use crate::scene::Scene;
 
 pub use brute::BruteForce;
 pub use bvh::Bvh;
+#[cfg(feature = "embree")]
+pub use embree::{EmbreeCaster, EmbreeError};
+
+/// The default ray caster for `scene`: our SAH [`Bvh`].
+pub fn build_default(scene: &Scene) -> Box<dyn RayCaster> {
+    Box::new(Bvh::build(scene))
+}
 
 /// Batched, thread-safe ray queries against one scene.
 pub trait RayCaster: Send + Sync {
