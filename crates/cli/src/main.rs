@@ -32,6 +32,8 @@ enum Command {
     Render(commands::render::Args),
     /// Write a scene as loaded (triangle order = ids) to .ply, .obj or .glb.
     Convert(commands::convert::Args),
+    /// Measure throughput (ray casting, rasterization) side by side with the baselines.
+    Bench(commands::bench::Args),
     /// Run the main job on the embedded default scene and write `sightline-report/`.
     Demo(commands::demo::Args),
 }
@@ -42,6 +44,7 @@ fn main() -> ExitCode {
         Command::Info(a) => commands::info::run(a),
         Command::Render(a) => commands::render::run(a),
         Command::Convert(a) => commands::convert::run(a),
+        Command::Bench(a) => commands::bench::run(a),
         Command::Demo(a) => commands::demo::run(a),
     };
     match result {

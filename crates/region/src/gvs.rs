@@ -113,7 +113,11 @@ impl Sampler for Gvs {
                     .iter()
                     .flat_map(|d| {
                         border_polygon(ctx.scene.triangle(d.triangle), delta_abs).map(|target| {
-                            BorderSample { origin: d.origin, target, hit: Hit::MISS }
+                            BorderSample {
+                                origin: d.origin,
+                                target,
+                                hit: Hit::MISS,
+                            }
                         })
                     })
                     .collect();
@@ -134,8 +138,10 @@ impl Sampler for Gvs {
                     .collect();
                 let mut all = samples;
                 for _ in 0..p.max_subdivision {
-                    let split: Vec<(BorderSample, BorderSample)> =
-                        edges.into_iter().filter(|(a, b)| a.hit.triangle != b.hit.triangle).collect();
+                    let split: Vec<(BorderSample, BorderSample)> = edges
+                        .into_iter()
+                        .filter(|(a, b)| a.hit.triangle != b.hit.triangle)
+                        .collect();
                     if split.is_empty() || tally.exhausted() {
                         break;
                     }
@@ -179,17 +185,23 @@ impl Sampler for Gvs {
                     tally.batch_done(rs.len(), progress);
                 }
             }
-            if tally.exhausted() || (budget.is_unlimited() && round_new < p.termination_threshold)
-            {
+            if tally.exhausted() || (budget.is_unlimited() && round_new < p.termination_threshold) {
                 break;
             }
         }
-        tally.finish(vec![("random", found[0]), ("abs", found[1]), ("rs", found[2])])
+        tally.finish(vec![
+            ("random", found[0]),
+            ("abs", found[1]),
+            ("rs", found[2]),
+        ])
     }
 }
 
 fn sample_rays(samples: &[BorderSample]) -> Vec<Ray> {
-    samples.iter().map(|s| Ray::new(s.origin, s.target - s.origin)).collect()
+    samples
+        .iter()
+        .map(|s| Ray::new(s.origin, s.target - s.origin))
+        .collect()
 }
 
 /// The GVS reverse-sampling ray for a border sample whose hit lies closer than its target, or
@@ -211,7 +223,9 @@ fn mutated_ray(
     }
     let hit_point = s.origin + to_target * s.hit.t;
     let corners = scene.triangle(s.hit.triangle);
-    let normal = (corners[1] - corners[0]).cross(corners[2] - corners[0]).normalize_or_zero();
+    let normal = (corners[1] - corners[0])
+        .cross(corners[2] - corners[0])
+        .normalize_or_zero();
     // The occluder edge nearest to the hit point, and a point just past it in its plane.
     let (edge_point, outward) = (0..3)
         .map(|i| {

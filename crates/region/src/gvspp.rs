@@ -79,7 +79,10 @@ impl GvsPlusPlusParams {
             return Err(format!("delta_abs {} must be in (0, 0.1)", self.delta_abs));
         }
         if !(self.delta_discontinuity >= 0.0 && self.delta_discontinuity < 0.1) {
-            return Err(format!("delta {} must be in [0, 0.1)", self.delta_discontinuity));
+            return Err(format!(
+                "delta {} must be in [0, 0.1)",
+                self.delta_discontinuity
+            ));
         }
         if self.n_abs_edge > 10_000 || self.n_rs_edge > 10_000 || self.n_rs_area > 100_000 {
             return Err("sample counts are implausibly large".into());
@@ -170,12 +173,15 @@ impl Sampler for GvsPlusPlus {
                 }
             }
             // Termination (4.4).
-            if tally.exhausted() || (budget.is_unlimited() && round_new < p.termination_threshold)
-            {
+            if tally.exhausted() || (budget.is_unlimited() && round_new < p.termination_threshold) {
                 break;
             }
         }
-        tally.finish(vec![("random", found[0]), ("abs", found[1]), ("rs", found[2])])
+        tally.finish(vec![
+            ("random", found[0]),
+            ("abs", found[1]),
+            ("rs", found[2]),
+        ])
     }
 }
 
@@ -223,11 +229,16 @@ fn find_discontinuities(
         .filter_map(|((ray, hit), target)| {
             let target = (*target)?;
             if !hit.is_hit() {
-                return Some(Discontinuity { target, occluder: None });
+                return Some(Discontinuity {
+                    target,
+                    occluder: None,
+                });
             }
             let length = ray.dir.length();
-            ((1.0 - hit.t) * length > delta)
-                .then_some(Discontinuity { target, occluder: Some(hit.triangle) })
+            ((1.0 - hit.t) * length > delta).then_some(Discontinuity {
+                target,
+                occluder: Some(hit.triangle),
+            })
         })
         .collect()
 }
@@ -269,7 +280,11 @@ impl ReverseOrigins {
 
     fn rays(&self, ctx: &CellContext<'_>, group: &[Discontinuity], round: u64) -> Vec<Ray> {
         let area: Vec<Vec3> = (0..u64::from(self.n_area))
-            .map(|j| self.surface.sample(self.halton.point(round * u64::from(self.n_area) + j)).0)
+            .map(|j| {
+                self.surface
+                    .sample(self.halton.point(round * u64::from(self.n_area) + j))
+                    .0
+            })
             .collect();
         group
             .par_iter()
@@ -280,7 +295,12 @@ impl ReverseOrigins {
                     if let Some([a, b, c]) = occluder {
                         // Skip origins from which the occluder hides the target (the paper's
                         // "inside the projected triangle" test).
-                        let segment = Ray { origin, dir: to_target, t_min: 0.0, t_max: 1.0 };
+                        let segment = Ray {
+                            origin,
+                            dir: to_target,
+                            t_min: 0.0,
+                            t_max: 1.0,
+                        };
                         if intersect(&ShearedRay::new(&segment), a, b, c).is_some() {
                             return None;
                         }

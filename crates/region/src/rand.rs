@@ -25,8 +25,11 @@ impl Sampler for RandomSampler {
         budget: &Budget,
         progress: &(dyn Fn(&ConvergencePoint) + Sync),
     ) -> CellResult {
-        let budget =
-            if budget.is_unlimited() { Budget::rays(DEFAULT_RAYS) } else { *budget };
+        let budget = if budget.is_unlimited() {
+            Budget::rays(DEFAULT_RAYS)
+        } else {
+            *budget
+        };
         let mut tally = Tally::new(ctx.scene.triangle_count(), budget);
         let generator = RandomRays::new(ctx.cell, ctx.scene, ctx.seed);
         while !tally.exhausted() {

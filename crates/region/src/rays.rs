@@ -81,7 +81,10 @@ impl RandomRays {
 
     /// Rays `first .. first + count`.
     pub fn batch(&self, first: u64, count: usize) -> Vec<Ray> {
-        (0..count as u64).into_par_iter().map(|i| self.ray(first + i)).collect()
+        (0..count as u64)
+            .into_par_iter()
+            .map(|i| self.ray(first + i))
+            .collect()
     }
 }
 
@@ -146,8 +149,8 @@ mod tests {
             // A step along the ray never enters the cell's interior (it may graze the
             // surface when the direction is nearly tangent).
             let q = r.at(1e-3);
-            let strictly_inside = q.cmpgt(Vec3::splat(1e-6)).all()
-                && q.cmplt(Vec3::splat(1.0 - 1e-6)).all();
+            let strictly_inside =
+                q.cmpgt(Vec3::splat(1e-6)).all() && q.cmplt(Vec3::splat(1.0 - 1e-6)).all();
             assert!(!strictly_inside, "ray {i} goes inward: {r:?}");
             assert!((r.dir.length() - 1.0).abs() < 1e-4);
         }
@@ -165,15 +168,29 @@ mod tests {
     #[test]
     fn discover_reports_each_triangle_once_in_ray_order() {
         let pvs = AtomicTriangleSet::new(10);
-        let rays: Vec<Ray> = (0..4).map(|i| Ray::new(Vec3::splat(i as f32), Vec3::X)).collect();
+        let rays: Vec<Ray> = (0..4)
+            .map(|i| Ray::new(Vec3::splat(i as f32), Vec3::X))
+            .collect();
         let hits = [
-            Hit { triangle: 3, t: 1.0 },
+            Hit {
+                triangle: 3,
+                t: 1.0,
+            },
             Hit::MISS,
-            Hit { triangle: 3, t: 2.0 },
-            Hit { triangle: 5, t: 1.0 },
+            Hit {
+                triangle: 3,
+                t: 2.0,
+            },
+            Hit {
+                triangle: 5,
+                t: 1.0,
+            },
         ];
         let found = discover(&pvs, &rays, &hits);
-        assert_eq!(found.iter().map(|d| d.triangle).collect::<Vec<_>>(), vec![3, 5]);
+        assert_eq!(
+            found.iter().map(|d| d.triangle).collect::<Vec<_>>(),
+            vec![3, 5]
+        );
         assert_eq!(found[0].hit_point, Vec3::new(1.0, 0.0, 0.0));
         assert!(discover(&pvs, &rays, &hits).is_empty());
     }

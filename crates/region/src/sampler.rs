@@ -35,7 +35,10 @@ pub struct Budget {
 impl Budget {
     /// A budget of `n` rays.
     pub fn rays(n: u64) -> Self {
-        Self { max_rays: Some(n), max_time: None }
+        Self {
+            max_rays: Some(n),
+            max_time: None,
+        }
     }
 
     /// True when no limit is set.
@@ -120,12 +123,18 @@ impl Tally {
 
     /// Rays still allowed (`u64::MAX` without a ray limit).
     pub fn rays_left(&self) -> u64 {
-        self.budget.max_rays.map_or(u64::MAX, |m| m.saturating_sub(self.rays))
+        self.budget
+            .max_rays
+            .map_or(u64::MAX, |m| m.saturating_sub(self.rays))
     }
 
     /// True when the budget is used up.
     pub fn exhausted(&self) -> bool {
-        self.rays_left() == 0 || self.budget.max_time.is_some_and(|t| self.start.elapsed() >= t)
+        self.rays_left() == 0
+            || self
+                .budget
+                .max_time
+                .is_some_and(|t| self.start.elapsed() >= t)
     }
 
     pub fn finish(self, found_by: Vec<(&'static str, usize)>) -> CellResult {

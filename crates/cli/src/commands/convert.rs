@@ -30,7 +30,10 @@ pub(crate) fn run(args: Args) -> Result<()> {
         "ply" => write_atomic(&args.output, |w| ply::write(&scene, w)),
         "obj" => write_atomic(&args.output, |w| obj::write(&scene, w)),
         "glb" => write_atomic(&args.output, |w| gltf::write_glb(&scene, w)),
-        _ => bail!("{}: unknown output format (use .ply, .obj or .glb)", args.output.display()),
+        _ => bail!(
+            "{}: unknown output format (use .ply, .obj or .glb)",
+            args.output.display()
+        ),
     };
     result.with_context(|| format!("writing {}", args.output.display()))?;
     println!(
