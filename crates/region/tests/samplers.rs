@@ -1,4 +1,7 @@
 //! Samplers on small scenes: GVS++ against reference views and against RAND at equal rays;
+
+// Test helpers panic on broken fixtures; that is the failure report we want.
+#![allow(clippy::unwrap_used)]
 //! determinism; budgets.
 
 use glam::Vec3;
