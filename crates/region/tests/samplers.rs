@@ -1,8 +1,8 @@
 //! Samplers on small scenes: GVS++ against reference views and against RAND at equal rays;
+//! determinism; budgets.
 
 // Test helpers panic on broken fixtures; that is the failure report we want.
 #![allow(clippy::unwrap_used)]
-//! determinism; budgets.
 
 use glam::Vec3;
 use sightline_core::raster::{Frame, Rasterizer};
