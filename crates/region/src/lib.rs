@@ -2,11 +2,15 @@
 //! potentially visible set (PVS) for a cell, and the `.pvs` file format.
 #![deny(missing_docs)]
 
+pub mod bake;
 mod border;
+pub mod cell_sources;
 pub mod gvs;
 pub mod gvspp;
+pub mod methods;
 pub mod pvs_file;
 pub mod rand;
+pub mod raster_sampler;
 mod rays;
 pub mod sampler;
 pub mod viewcell;
@@ -15,5 +19,6 @@ pub use gvs::{Gvs, GvsParams};
 pub use gvspp::{GvsPlusPlus, GvsPlusPlusParams};
 pub use pvs_file::{CellPvs, PvsError, PvsFile};
 pub use rand::RandomSampler;
+pub use raster_sampler::RasterSampler;
 pub use sampler::{Budget, CellContext, CellResult, ConvergencePoint, Sampler};
 pub use viewcell::{CellSurface, Rect, ViewCell, ViewCellError};

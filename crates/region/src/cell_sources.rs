@@ -1,0 +1,232 @@
+//! Where view cells come from: a JSON or TOML file, a regular grid (optionally only cells not
+//! inside solid geometry), or a Quake 3 map's BSP leaves.
+
+use std::path::Path;
+
+use glam::Vec3;
+use serde::Deserialize;
+use sightline_core::scene::q3::BspData;
+use sightline_core::trace::RayCaster;
+use sightline_core::{Ray, Scene};
+
+use crate::viewcell::{ViewCell, ViewCellError};
+
+/// Why cells could not be read.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CellsError {
+    /// The file could not be read.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The error.
+        source: std::io::Error,
+    },
+    /// The file is not valid JSON/TOML of the expected shape.
+    #[error("{path}: {message}")]
+    Syntax {
+        /// The file.
+        path: String,
+        /// Parser message (with line/column where the parser gives one).
+        message: String,
+    },
+    /// A cell in the file is not a usable cell.
+    #[error("{path}: cell {index}: {source}")]
+    BadCell {
+        /// The file.
+        path: String,
+        /// 0-based index of the cell in the file.
+        index: usize,
+        /// What is wrong.
+        source: ViewCellError,
+    },
+}
+
+/// One cell in a cells file: either `min`/`max` corners, or `center`, `axes`, `half_extents`.
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum CellEntry {
+    Corners {
+        min: [f32; 3],
+        max: [f32; 3],
+    },
+    Oriented {
+        center: [f32; 3],
+        axes: [[f32; 3]; 3],
+        half_extents: [f32; 3],
+    },
+}
+
+#[derive(Debug, Deserialize)]
+struct CellsDocument {
+    cells: Vec<CellEntry>,
+}
+
+/// Reads cells from a `.json` or `.toml` file of the form
+/// `{"cells": [{"min": [x,y,z], "max": [x,y,z]}, {"center": [..], "axes": [[..],[..],[..]],
+/// "half_extents": [..]}]}` (TOML: `[[cells]]` tables with the same keys).
+pub fn read_cells_file(path: &Path) -> Result<Vec<ViewCell>, CellsError> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|source| CellsError::Io {
+        path: name.clone(),
+        source,
+    })?;
+    let is_toml = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    let doc: CellsDocument = if is_toml {
+        toml::from_str(&text).map_err(|e| CellsError::Syntax {
+            path: name.clone(),
+            message: e.to_string(),
+        })?
+    } else {
+        serde_json::from_str(&text).map_err(|e| CellsError::Syntax {
+            path: name.clone(),
+            message: e.to_string(),
+        })?
+    };
+    doc.cells
+        .into_iter()
+        .enumerate()
+        .map(|(index, entry)| {
+            let cell = match entry {
+                CellEntry::Corners { min, max } => {
+                    let (min, max) = (Vec3::from(min), Vec3::from(max));
+                    if min.cmpgt(max).any() {
+                        Err(ViewCellError::Spec {
+                            spec: format!("min {min} max {max}"),
+                            message: "min must be <= max on every axis".into(),
+                        })
+                    } else {
+                        ViewCell::aabb(min, max)
+                    }
+                }
+                CellEntry::Oriented {
+                    center,
+                    axes,
+                    half_extents,
+                } => ViewCell::oriented(
+                    Vec3::from(center),
+                    axes.map(Vec3::from),
+                    Vec3::from(half_extents),
+                ),
+            };
+            cell.map_err(|source| CellsError::BadCell {
+                path: name.clone(),
+                index,
+                source,
+            })
+        })
+        .collect()
+}
+
+/// True when `point` is inside closed solid geometry: of six axis rays from it, at least four
+/// first hit the back side of a triangle (its normal pointing away from the ray's origin).
+/// Meshes are assumed to be consistently wound with outward normals (as generators and most
+/// game maps are); for open or inconsistently wound meshes this is a heuristic.
+pub fn inside_solid(scene: &Scene, caster: &dyn RayCaster, point: Vec3) -> bool {
+    let dirs = [
+        Vec3::X,
+        Vec3::NEG_X,
+        Vec3::Y,
+        Vec3::NEG_Y,
+        Vec3::Z,
+        Vec3::NEG_Z,
+    ];
+    let rays = dirs.map(|d| Ray::new(point, d));
+    let mut hits = [sightline_core::Hit::MISS; 6];
+    caster.cast(&rays, &mut hits);
+    let backs = hits
+        .iter()
+        .zip(&dirs)
+        .filter(|(h, d)| {
+            h.triangle().is_some_and(|t| {
+                let [a, b, c] = scene.triangle(t);
+                (b - a).cross(c - a).dot(**d) > 0.0
+            })
+        })
+        .count();
+    backs >= 4
+}
+
+/// A cell per BSP leaf that belongs to a cluster (solid leaves have cluster -1), with the
+/// cluster of each: a cluster's PVS is the union of its leaves' PVSs. Leaf boxes are the BSP's
+/// own integer bounds; `clusters` restricts the result to the given clusters.
+pub fn q3_leaf_cells(bsp: &BspData, clusters: Option<&[u32]>) -> Vec<(u32, ViewCell)> {
+    bsp.leaves
+        .iter()
+        .filter(|l| l.cluster >= 0)
+        .filter(|l| clusters.is_none_or(|c| c.contains(&(l.cluster as u32))))
+        .filter_map(|l| {
+            let b = l.bounds();
+            ViewCell::aabb(b.min, b.max)
+                .ok()
+                .map(|cell| (l.cluster as u32, cell))
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sightline_core::scene::SceneBuilder;
+    use sightline_core::trace::Bvh;
+
+    fn write(dir: &tempfile::TempDir, name: &str, text: &str) -> std::path::PathBuf {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    #[test]
+    fn json_and_toml_cells_read_alike() {
+        let dir = tempfile::tempdir().unwrap();
+        let j = write(
+            &dir,
+            "c.json",
+            r#"{"cells": [{"min": [0,0,0], "max": [1,2,3]},
+            {"center": [0,0,0], "axes": [[1,0,0],[0,1,0],[0,0,1]], "half_extents": [1,1,0]}]}"#,
+        );
+        let t = write(
+            &dir,
+            "c.toml",
+            "[[cells]]\nmin = [0,0,0]\nmax = [1,2,3]\n[[cells]]\ncenter = [0,0,0]\n\
+             axes = [[1,0,0],[0,1,0],[0,0,1]]\nhalf_extents = [1,1,0]\n",
+        );
+        let a = read_cells_file(&j).unwrap();
+        assert_eq!(a, read_cells_file(&t).unwrap());
+        assert_eq!(a.len(), 2);
+        assert!(a[1].is_flat());
+    }
+
+    #[test]
+    fn bad_cells_files_name_the_problem() {
+        let dir = tempfile::tempdir().unwrap();
+        let e = read_cells_file(&write(&dir, "a.json", "{\"cells\": [")).unwrap_err();
+        assert!(
+            e.to_string().contains("a.json") && e.to_string().contains("line"),
+            "{e}"
+        );
+        let e = read_cells_file(&write(
+            &dir,
+            "b.json",
+            r#"{"cells": [{"min": [0,0,0], "max": [1,1,1]}, {"min": [2,0,0], "max": [1,1,1]}]}"#,
+        ))
+        .unwrap_err();
+        assert!(e.to_string().contains("cell 1"), "{e}");
+        let e = read_cells_file(&dir.path().join("missing.json")).unwrap_err();
+        assert!(e.to_string().contains("missing.json"));
+    }
+
+    #[test]
+    fn point_inside_box_is_solid_outside_is_not() {
+        let mut b = SceneBuilder::new("box");
+        b.add_box(Vec3::ZERO, Vec3::ONE);
+        let scene = b.finish();
+        let bvh = Bvh::build(&scene);
+        assert!(inside_solid(&scene, &bvh, Vec3::splat(0.5)));
+        assert!(!inside_solid(&scene, &bvh, Vec3::splat(2.0)));
+        assert!(!inside_solid(&scene, &bvh, Vec3::new(0.5, 0.5, 3.0)));
+    }
+}
