@@ -34,6 +34,10 @@ enum Command {
     Convert(commands::convert::Args),
     /// Measure throughput (ray casting, rasterization) side by side with the baselines.
     Bench(commands::bench::Args),
+    /// Potentially visible sets from view cells: bake, show, diff, compare with Quake 3's.
+    Pvs(commands::pvs::Args),
+    /// Measure the pixel error of a .pvs file (the GVS++ paper's metric).
+    Eval(commands::eval::Args),
     /// Run the main job on the embedded default scene and write `sightline-report/`.
     Demo(commands::demo::Args),
 }
@@ -45,6 +49,8 @@ fn main() -> ExitCode {
         Command::Render(a) => commands::render::run(a),
         Command::Convert(a) => commands::convert::run(a),
         Command::Bench(a) => commands::bench::run(a),
+        Command::Pvs(a) => commands::pvs::run(a),
+        Command::Eval(a) => commands::eval::run(a),
         Command::Demo(a) => commands::demo::run(a),
     };
     match result {

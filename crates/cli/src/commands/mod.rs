@@ -3,5 +3,7 @@
 pub(crate) mod bench;
 pub(crate) mod convert;
 pub(crate) mod demo;
+pub(crate) mod eval;
 pub(crate) mod info;
+pub(crate) mod pvs;
 pub(crate) mod render;

@@ -1,0 +1,174 @@
+//! `sightline eval`: the pixel error of a .pvs file, as the GVS++ paper measures it.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use image::RgbImage;
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+use sightline_core::raster::render;
+use sightline_core::Hit;
+use sightline_eval::{evaluate_cell, CellEvaluation, EvalParams, ViewMode};
+use sightline_region::PvsFile;
+
+use crate::args::SceneArgs;
+use crate::output::{id_colour, print_json, save_png};
+
+/// Arguments of `sightline eval`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct Args {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// The .pvs file to evaluate (it must have been made for SCENE).
+    #[arg(long)]
+    pvs: PathBuf,
+    /// Viewpoints per cell (randomly shifted Halton points inside the cell).
+    #[arg(long, default_value_t = 2000)]
+    viewpoints: usize,
+    /// Image resolution (square).
+    #[arg(long, default_value_t = 1000)]
+    resolution: u32,
+    /// Views per viewpoint: `cube` (six faces, no direction unchecked) or `random` (one
+    /// 90-degree view in a random direction, closer to the paper).
+    #[arg(long, default_value = "cube", value_parser = ["cube", "random"])]
+    views: String,
+    /// Only these cells (comma-separated indices).
+    #[arg(long, value_delimiter = ',')]
+    cells: Vec<usize>,
+    /// Write each cell's worst view with the error pixels highlighted in red to DIR.
+    #[arg(long, value_name = "DIR")]
+    images: Option<PathBuf>,
+    /// Seed of the viewpoint sequence.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Serialize)]
+struct Row {
+    cell: usize,
+    #[serde(flatten)]
+    evaluation: CellEvaluation,
+    pvs_percent: f64,
+    seconds: f64,
+}
+
+pub(crate) fn run(args: Args) -> Result<()> {
+    let scene = args.scene.load()?;
+    let file =
+        PvsFile::load(&args.pvs).with_context(|| format!("reading {}", args.pvs.display()))?;
+    file.check_scene(&scene)
+        .with_context(|| format!("{}", args.pvs.display()))?;
+    if args.viewpoints == 0 || args.resolution == 0 || args.resolution > 8192 {
+        bail!("--viewpoints must be >= 1 and --resolution in 1..=8192");
+    }
+    let params = EvalParams {
+        viewpoints: args.viewpoints,
+        resolution: args.resolution,
+        views: if args.views == "random" {
+            ViewMode::Random
+        } else {
+            ViewMode::CubeFaces
+        },
+        seed: args.seed,
+    };
+    let indices: Vec<usize> = if args.cells.is_empty() {
+        (0..file.cells.len()).collect()
+    } else {
+        args.cells.clone()
+    };
+    if let Some(&bad) = indices.iter().find(|&&i| i >= file.cells.len()) {
+        bail!(
+            "cell {bad} does not exist ({} cells in {})",
+            file.cells.len(),
+            args.pvs.display()
+        );
+    }
+    if let Some(dir) = &args.images {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let bar = ProgressBar::new(indices.len() as u64).with_style(
+        ProgressStyle::with_template("cell {pos}/{len} {bar:30} {msg} [{elapsed_precise} < {eta}]")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let n = scene.triangle_count().max(1) as f64;
+    let mut rows = Vec::new();
+    for &i in &indices {
+        let start = Instant::now();
+        let cell = &file.cells[i];
+        let e = evaluate_cell(
+            &scene,
+            &cell.cell,
+            &[&cell.visible],
+            &params,
+            &|done, total| {
+                bar.set_message(format!("view {done}/{total}"));
+            },
+        )
+        .remove(0);
+        if let (Some(dir), Some(worst)) = (&args.images, e.worst_view) {
+            let near = scene.bounds().diagonal().max(1e-6) * 1e-5;
+            if let Some(camera) = worst.camera(args.resolution, near) {
+                let frame = render(&scene, &camera);
+                let img = RgbImage::from_fn(frame.width, frame.height, |x, y| {
+                    let id = frame.ids[(y * frame.width + x) as usize];
+                    image::Rgb(if id == Hit::NONE {
+                        [0, 0, 0]
+                    } else if !cell.visible.contains(id as usize) {
+                        [255, 0, 0]
+                    } else {
+                        id_colour(id).map(|c| c / 2)
+                    })
+                })
+                .clone();
+                save_png(&img, &dir.join(format!("cell{i}_worst.png")))?;
+            }
+        }
+        rows.push(Row {
+            cell: i,
+            pvs_percent: 100.0 * e.pvs_size as f64 / n,
+            evaluation: e,
+            seconds: start.elapsed().as_secs_f64(),
+        });
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    if args.json {
+        return print_json(&rows);
+    }
+    println!(
+        "| cell | avg err px | max err px | avg err regions | max region px | PVS | PVS % | seen | false neg | images | s |"
+    );
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for r in &rows {
+        let e = &r.evaluation;
+        println!(
+            "| {} | {:.2} | {} | {:.2} | {} | {} | {:.2} | {} | {} | {} | {:.1} |",
+            r.cell,
+            e.avg_error_pixels,
+            e.max_error_pixels,
+            e.avg_error_regions,
+            e.max_error_region_size,
+            e.pvs_size,
+            r.pvs_percent,
+            e.ground_truth_size,
+            e.false_negatives,
+            e.images,
+            r.seconds
+        );
+    }
+    let k = rows.len().max(1) as f64;
+    println!(
+        "mean over {} cells: {:.2} erroneous pixels per {}² image, max {}, {:.2} error regions, PVS {:.2}%",
+        rows.len(),
+        rows.iter().map(|r| r.evaluation.avg_error_pixels).sum::<f64>() / k,
+        args.resolution,
+        rows.iter().map(|r| r.evaluation.max_error_pixels).max().unwrap_or(0),
+        rows.iter().map(|r| r.evaluation.avg_error_regions).sum::<f64>() / k,
+        rows.iter().map(|r| r.pvs_percent).sum::<f64>() / k,
+    );
+    Ok(())
+}

@@ -1,0 +1,560 @@
+//! `sightline pvs`: bake, show, diff and compare potentially visible sets.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::{bail, Context, Result};
+use glam::Vec3;
+use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
+use serde::Serialize;
+use sightline_core::trace::Bvh;
+use sightline_region::bake::bake;
+use sightline_region::cell_sources::{inside_solid, q3_leaf_cells, read_cells_file};
+use sightline_region::methods::{sampler, MethodParams, METHODS};
+use sightline_region::{Budget, GvsPlusPlusParams, PvsFile, ViewCell};
+
+use crate::args::SceneArgs;
+use crate::output::print_json;
+
+/// Arguments of `sightline pvs`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct Args {
+    #[command(subcommand)]
+    what: What,
+}
+
+#[derive(clap::Subcommand, Debug)]
+enum What {
+    /// Compute the PVS of view cells and write a .pvs file.
+    Bake(Box<BakeArgs>),
+    /// Print a .pvs file's header, metadata and per-cell set sizes.
+    Show(ShowArgs),
+    /// Compare two .pvs files of the same scene cell by cell.
+    Diff(DiffArgs),
+    /// Compare a PVS baked on a Quake 3 map's leaves (--q3-leaves) with the map's own compiled
+    /// cluster PVS, cluster by cluster.
+    CompareQ3(CompareQ3Args),
+}
+
+/// Where the view cells come from (exactly one source).
+#[derive(clap::Args, Debug)]
+pub(crate) struct CellArgs {
+    /// JSON or TOML file with `cells`: `{"min": [..], "max": [..]}` or
+    /// `{"center", "axes", "half_extents"}` entries.
+    #[arg(long, value_name = "FILE")]
+    cells: Option<PathBuf>,
+    /// A cell on the command line: `box:MINX,MINY,MINZ,MAXX,MAXY,MAXZ` or `point:X,Y,Z,R`
+    /// (repeatable).
+    #[arg(long, value_name = "SPEC", allow_hyphen_values = true)]
+    cell: Vec<String>,
+    /// A regular grid of NX,NY,NZ cells over --bounds (default: the scene bounds).
+    #[arg(long, value_name = "NX,NY,NZ")]
+    grid: Option<String>,
+    /// Region of --grid: MINX,MINY,MINZ,MAXX,MAXY,MAXZ.
+    #[arg(
+        long,
+        value_name = "MINX,MINY,MINZ,MAXX,MAXY,MAXZ",
+        allow_hyphen_values = true
+    )]
+    bounds: Option<String>,
+    /// With --grid: drop cells whose centre is inside solid geometry.
+    #[arg(long)]
+    skip_solid: bool,
+    /// Quake 3 maps: one cell per BSP leaf box (cells of a cluster together form it).
+    #[arg(long)]
+    q3_leaves: bool,
+    /// With --q3-leaves: only these clusters (comma-separated).
+    #[arg(long, value_name = "C1,C2,..", value_delimiter = ',')]
+    clusters: Vec<u32>,
+}
+
+#[derive(clap::Args, Debug)]
+pub(crate) struct BakeArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    #[command(flatten)]
+    cells: CellArgs,
+    /// Sampling method.
+    #[arg(long, default_value = "gvs++", value_parser = clap::builder::PossibleValuesParser::new(METHODS))]
+    method: String,
+    /// Ray budget per cell (RASTER counts 6 R² per cube map). Without --rays and --time, GVS++
+    /// and GVS run until their own termination rule, RAND casts 10M rays, RASTER renders 64
+    /// cube maps.
+    #[arg(long)]
+    rays: Option<u64>,
+    /// Time budget per cell in milliseconds.
+    #[arg(long, value_name = "MS")]
+    time: Option<u64>,
+    /// Seed of every random choice (same seed, same result).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// GVS++/GVS: random rays per round (paper: 10,000,000).
+    #[arg(long)]
+    n_rand: Option<u64>,
+    /// GVS++: samples per border-polygon edge (paper: 20).
+    #[arg(long)]
+    n_abs_edge: Option<u32>,
+    /// GVS++/GVS: border offset as a fraction of the scene diagonal (default 1e-6).
+    #[arg(long)]
+    delta_abs: Option<f32>,
+    /// GVS++: reverse-sampling origins per cell edge (paper: 20).
+    #[arg(long)]
+    n_rs_edge: Option<u32>,
+    /// GVS++: reverse-sampling origins on the cell surface (paper: 20).
+    #[arg(long)]
+    n_rs_area: Option<u32>,
+    /// GVS++/GVS: discontinuity threshold as a fraction of the scene diagonal (default 1e-5).
+    #[arg(long)]
+    delta: Option<f32>,
+    /// GVS++/GVS: stop after a round finding fewer new triangles (paper: 10).
+    #[arg(long)]
+    termination: Option<usize>,
+    /// RASTER: cube-map face resolution (default 512).
+    #[arg(long)]
+    raster_resolution: Option<u32>,
+    /// Output .pvs file (written atomically).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Print a JSON summary.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub(crate) struct ShowArgs {
+    /// The .pvs file.
+    file: PathBuf,
+    /// Print JSON (with the triangle ids of every cell).
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub(crate) struct DiffArgs {
+    /// First .pvs file.
+    a: PathBuf,
+    /// Second .pvs file.
+    b: PathBuf,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub(crate) struct CompareQ3Args {
+    /// The Quake 3 map (.bsp) the PVS was baked for.
+    map: PathBuf,
+    /// A .pvs baked with --q3-leaves on that map.
+    pvs: PathBuf,
+    /// Quake 3 maps: patch tessellation used for the bake.
+    #[arg(long, default_value_t = 4)]
+    patch_subdivisions: u32,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+pub(crate) fn run(args: Args) -> Result<()> {
+    match args.what {
+        What::Bake(a) => run_bake(*a),
+        What::Show(a) => run_show(a),
+        What::Diff(a) => run_diff(a),
+        What::CompareQ3(a) => run_compare_q3(a),
+    }
+}
+
+fn parse_numbers(s: &str, n: usize, what: &str) -> Result<Vec<f32>> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("{what} '{s}': not a list of numbers"))?;
+    if v.len() != n || v.iter().any(|x| !x.is_finite()) {
+        bail!("{what} '{s}': expected {n} finite numbers");
+    }
+    Ok(v)
+}
+
+/// The cells and, for Q3 leaves, the cluster of each.
+fn collect_cells(
+    args: &CellArgs,
+    scene: &sightline_core::Scene,
+    caster: &Bvh,
+) -> Result<(Vec<ViewCell>, Option<Vec<u32>>)> {
+    let sources = usize::from(args.cells.is_some())
+        + usize::from(!args.cell.is_empty())
+        + usize::from(args.grid.is_some())
+        + usize::from(args.q3_leaves);
+    if sources != 1 {
+        bail!("give exactly one cell source: --cells FILE, --cell SPEC, --grid NX,NY,NZ or --q3-leaves");
+    }
+    if let Some(path) = &args.cells {
+        return Ok((read_cells_file(path)?, None));
+    }
+    if !args.cell.is_empty() {
+        let cells = args
+            .cell
+            .iter()
+            .map(|s| ViewCell::parse(s))
+            .collect::<Result<_, _>>()?;
+        return Ok((cells, None));
+    }
+    if let Some(grid) = &args.grid {
+        let n = parse_numbers(grid, 3, "--grid")?;
+        if n.iter().any(|&x| x < 1.0 || x.fract() != 0.0 || x > 4096.0) {
+            bail!("--grid '{grid}': counts must be whole numbers in 1..=4096");
+        }
+        let (min, max) = match &args.bounds {
+            Some(b) => {
+                let v = parse_numbers(b, 6, "--bounds")?;
+                (Vec3::new(v[0], v[1], v[2]), Vec3::new(v[3], v[4], v[5]))
+            }
+            None => {
+                let b = scene.bounds();
+                (b.min, b.max)
+            }
+        };
+        let mut cells = ViewCell::grid(min, max, [n[0] as u32, n[1] as u32, n[2] as u32])?;
+        if args.skip_solid {
+            cells.retain(|c| !inside_solid(scene, caster, c.center));
+        }
+        return Ok((cells, None));
+    }
+    let Some(bsp) = scene.bsp.as_deref() else {
+        bail!("--q3-leaves needs a Quake 3 map (.bsp) as the scene");
+    };
+    let filter = (!args.clusters.is_empty()).then_some(args.clusters.as_slice());
+    let leaves = q3_leaf_cells(bsp, filter);
+    let clusters = leaves.iter().map(|(c, _)| *c).collect();
+    Ok((
+        leaves.into_iter().map(|(_, cell)| cell).collect(),
+        Some(clusters),
+    ))
+}
+
+#[derive(Serialize)]
+struct BakeSummary {
+    output: PathBuf,
+    method: String,
+    cells: usize,
+    total_rays: u64,
+    seconds: f64,
+    mean_pvs_size: f64,
+    mean_pvs_percent: f64,
+}
+
+fn run_bake(args: BakeArgs) -> Result<()> {
+    let scene = args.scene.load()?;
+    let bvh = Bvh::build(&scene);
+    let (cells, clusters) = collect_cells(&args.cells, &scene, &bvh)?;
+    if cells.is_empty() {
+        bail!("no view cells to bake (all filtered out?)");
+    }
+    let mut params = MethodParams {
+        gvspp: GvsPlusPlusParams::default(),
+        raster_resolution: args.raster_resolution,
+        ..MethodParams::default()
+    };
+    if let Some(v) = args.n_rand {
+        params.gvspp.n_rand = v;
+        params.gvs.n_rand = v;
+    }
+    if let Some(v) = args.n_abs_edge {
+        params.gvspp.n_abs_edge = v;
+    }
+    if let Some(v) = args.delta_abs {
+        params.gvspp.delta_abs = v;
+        params.gvs.delta_abs = v;
+    }
+    if let Some(v) = args.n_rs_edge {
+        params.gvspp.n_rs_edge = v;
+    }
+    if let Some(v) = args.n_rs_area {
+        params.gvspp.n_rs_area = v;
+    }
+    if let Some(v) = args.delta {
+        params.gvspp.delta_discontinuity = v;
+        params.gvs.delta_discontinuity = v;
+    }
+    if let Some(v) = args.termination {
+        params.gvspp.termination_threshold = v;
+        params.gvs.termination_threshold = v;
+    }
+    let sampler = sampler(&args.method, &params).map_err(anyhow::Error::msg)?;
+    if args.rays == Some(0) || args.time == Some(0) {
+        bail!("--rays and --time must be positive");
+    }
+    let budget = Budget {
+        max_rays: args.rays,
+        max_time: args.time.map(Duration::from_millis),
+    };
+
+    let multi = MultiProgress::new();
+    let cells_bar = multi.add(
+        ProgressBar::new(cells.len() as u64).with_style(
+            ProgressStyle::with_template("cells {bar:30} {pos}/{len} [{elapsed_precise} < {eta}]")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        ),
+    );
+    let cell_bar = multi.add(ProgressBar::new_spinner());
+    let extra = serde_json::json!({
+        "parameters": format!("{params:?}"),
+        "clusters": clusters,
+    });
+    let n = scene.triangle_count().max(1) as f64;
+    let file = bake(
+        &scene,
+        &bvh,
+        &cells,
+        sampler.as_ref(),
+        &budget,
+        args.seed,
+        extra,
+        &|cell, p| {
+            cell_bar.set_message(format!(
+                "cell {cell}: {} rays, PVS {} ({:.2}%)",
+                p.rays,
+                p.pvs_size,
+                100.0 * p.pvs_size as f64 / n
+            ));
+            cell_bar.tick();
+        },
+        &mut |_, _| cells_bar.inc(1),
+    );
+    cell_bar.finish_and_clear();
+    cells_bar.finish_and_clear();
+    file.save(&args.output)?;
+    let sizes: Vec<usize> = file
+        .cells
+        .iter()
+        .map(|c| c.visible.count_ones(..))
+        .collect();
+    let mean = sizes.iter().sum::<usize>() as f64 / sizes.len() as f64;
+    let summary = BakeSummary {
+        output: args.output.clone(),
+        method: sampler.name().to_string(),
+        cells: cells.len(),
+        total_rays: file.metadata["total_rays"].as_u64().unwrap_or(0),
+        seconds: file.metadata["seconds"].as_f64().unwrap_or(0.0),
+        mean_pvs_size: mean,
+        mean_pvs_percent: 100.0 * mean / n,
+    };
+    if args.json {
+        return print_json(&summary);
+    }
+    println!(
+        "baked {} cells with {} in {:.2} s ({} rays): mean PVS {:.0} triangles ({:.2}% of {}), wrote {}",
+        summary.cells,
+        summary.method,
+        summary.seconds,
+        summary.total_rays,
+        summary.mean_pvs_size,
+        summary.mean_pvs_percent,
+        scene.triangle_count(),
+        summary.output.display()
+    );
+    Ok(())
+}
+
+#[derive(Serialize)]
+struct CellJson {
+    center: [f32; 3],
+    half_extents: [f32; 3],
+    axes: [[f32; 3]; 3],
+    pvs_size: usize,
+    triangles: Vec<usize>,
+}
+
+fn run_show(args: ShowArgs) -> Result<()> {
+    let file =
+        PvsFile::load(&args.file).with_context(|| format!("reading {}", args.file.display()))?;
+    if args.json {
+        #[derive(Serialize)]
+        struct Out {
+            scene_hash: String,
+            triangle_count: u32,
+            metadata: serde_json::Value,
+            cells: Vec<CellJson>,
+        }
+        let cells = file
+            .cells
+            .iter()
+            .map(|c| CellJson {
+                center: c.cell.center.to_array(),
+                half_extents: c.cell.half_extents.to_array(),
+                axes: c.cell.axes.map(|a| a.to_array()),
+                pvs_size: c.visible.count_ones(..),
+                triangles: c.visible.ones().collect(),
+            })
+            .collect();
+        return print_json(&Out {
+            scene_hash: format!("{:016x}", file.scene_hash),
+            triangle_count: file.triangle_count,
+            metadata: file.metadata,
+            cells,
+        });
+    }
+    let n = f64::from(file.triangle_count.max(1));
+    println!("file       {}", args.file.display());
+    println!(
+        "scene      {} ({} triangles, hash {:016x})",
+        file.metadata["scene"].as_str().unwrap_or("?"),
+        file.triangle_count,
+        file.scene_hash
+    );
+    println!(
+        "method     {}",
+        file.metadata["method"].as_str().unwrap_or("?")
+    );
+    println!("cells      {}", file.cells.len());
+    for (i, c) in file.cells.iter().enumerate() {
+        let size = c.visible.count_ones(..);
+        println!(
+            "  cell {i:>4}  centre {:>28}  half extents {:>24}  PVS {size:>8} ({:.2}%)",
+            format!("{:.2?}", c.cell.center.to_array()),
+            format!("{:.2?}", c.cell.half_extents.to_array()),
+            100.0 * size as f64 / n
+        );
+    }
+    Ok(())
+}
+
+#[derive(Serialize)]
+struct CellDiff {
+    cell: usize,
+    size_a: usize,
+    size_b: usize,
+    only_in_a: usize,
+    only_in_b: usize,
+    jaccard: f64,
+}
+
+fn run_diff(args: DiffArgs) -> Result<()> {
+    let a = PvsFile::load(&args.a).with_context(|| format!("reading {}", args.a.display()))?;
+    let b = PvsFile::load(&args.b).with_context(|| format!("reading {}", args.b.display()))?;
+    if a.scene_hash != b.scene_hash || a.triangle_count != b.triangle_count {
+        bail!(
+            "{} and {} were made for different scenes",
+            args.a.display(),
+            args.b.display()
+        );
+    }
+    if a.cells.len() != b.cells.len() {
+        bail!(
+            "{} has {} cells, {} has {}",
+            args.a.display(),
+            a.cells.len(),
+            args.b.display(),
+            b.cells.len()
+        );
+    }
+    let mut rows = Vec::new();
+    for (i, (ca, cb)) in a.cells.iter().zip(&b.cells).enumerate() {
+        if ca.cell != cb.cell {
+            bail!("cell {i} differs in geometry between the files");
+        }
+        let union = ca.visible.union(&cb.visible).count().max(1);
+        rows.push(CellDiff {
+            cell: i,
+            size_a: ca.visible.count_ones(..),
+            size_b: cb.visible.count_ones(..),
+            only_in_a: ca.visible.difference(&cb.visible).count(),
+            only_in_b: cb.visible.difference(&ca.visible).count(),
+            jaccard: ca.visible.intersection(&cb.visible).count() as f64 / union as f64,
+        });
+    }
+    if args.json {
+        return print_json(&rows);
+    }
+    println!("| cell | |A| | |B| | only in A | only in B | Jaccard |");
+    println!("|---:|---:|---:|---:|---:|---:|");
+    for r in &rows {
+        println!(
+            "| {} | {} | {} | {} | {} | {:.4} |",
+            r.cell, r.size_a, r.size_b, r.only_in_a, r.only_in_b, r.jaccard
+        );
+    }
+    Ok(())
+}
+
+#[derive(Serialize)]
+struct ClusterComparison {
+    cluster: u32,
+    leaves: usize,
+    ours: usize,
+    q3map2: usize,
+    ours_not_q3map2: usize,
+    q3map2_not_ours: usize,
+}
+
+fn run_compare_q3(args: CompareQ3Args) -> Result<()> {
+    let scene_args = SceneArgs {
+        scene: args.map.display().to_string(),
+        patch_subdivisions: args.patch_subdivisions,
+    };
+    let scene = scene_args.load()?;
+    let file =
+        PvsFile::load(&args.pvs).with_context(|| format!("reading {}", args.pvs.display()))?;
+    file.check_scene(&scene)?;
+    let Some(bsp) = scene.bsp.as_deref() else {
+        bail!("{} is not a Quake 3 map", args.map.display())
+    };
+    let Some(clusters) = file.metadata["clusters"].as_array() else {
+        bail!(
+            "{} was not baked with --q3-leaves (no cluster per cell)",
+            args.pvs.display()
+        );
+    };
+    if clusters.len() != file.cells.len() {
+        bail!(
+            "{}: cluster list does not match the cells",
+            args.pvs.display()
+        );
+    }
+    let mut by_cluster: std::collections::BTreeMap<u32, (usize, fixedbitset::FixedBitSet)> =
+        Default::default();
+    for (c, cell) in clusters.iter().zip(&file.cells) {
+        let c = c.as_u64().context("cluster ids must be numbers")? as u32;
+        let entry = by_cluster.entry(c).or_insert_with(|| {
+            (
+                0,
+                fixedbitset::FixedBitSet::with_capacity(scene.triangle_count()),
+            )
+        });
+        entry.0 += 1;
+        entry.1.union_with(&cell.visible);
+    }
+    let mut rows = Vec::new();
+    for (cluster, (leaves, ours)) in by_cluster {
+        let mut q3 = fixedbitset::FixedBitSet::with_capacity(scene.triangle_count());
+        for t in bsp.triangles_visible_from_cluster(cluster) {
+            q3.insert(t as usize);
+        }
+        rows.push(ClusterComparison {
+            cluster,
+            leaves,
+            ours: ours.count_ones(..),
+            q3map2: q3.count_ones(..),
+            ours_not_q3map2: ours.difference(&q3).count(),
+            q3map2_not_ours: q3.difference(&ours).count(),
+        });
+    }
+    if args.json {
+        return print_json(&rows);
+    }
+    println!("| cluster | leaves | ours | q3map2 | ours, culled by q3map2 | q3map2, not ours |");
+    println!("|---:|---:|---:|---:|---:|---:|");
+    for r in &rows {
+        println!(
+            "| {} | {} | {} | {} | {} | {} |",
+            r.cluster, r.leaves, r.ours, r.q3map2, r.ours_not_q3map2, r.q3map2_not_ours
+        );
+    }
+    let suspicious: usize = rows.iter().map(|r| r.ours_not_q3map2).sum();
+    println!(
+        "{} clusters; {suspicious} (cluster, triangle) pairs we see that q3map2's conservative PVS culls \
+         (each is a bug in one of the two, or geometry q3map2 does not treat as occluding)",
+        rows.len()
+    );
+    Ok(())
+}
