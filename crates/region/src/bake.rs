@@ -6,6 +6,8 @@
 
 use std::time::Instant;
 
+use glam::Vec3;
+
 use serde_json::json;
 use sightline_core::random::SplitMix64;
 use sightline_core::trace::RayCaster;
@@ -21,14 +23,17 @@ pub fn cell_seed(seed: u64, index: usize) -> u64 {
     r.next_u64()
 }
 
-/// Bakes `cells`. `on_progress(cell, point)` is called after every batch; `on_cell(cell,
-/// result)` after every cell. `extra_metadata` is merged into the file's metadata.
+/// Bakes `cells`. `free_space(cell, point)` tells whether a point of cell `cell` is empty space
+/// (see [`CellContext::free_space`]; pass `&|_, _| true` for plain cells). `on_progress(cell,
+/// point)` is called after every batch; `on_cell(cell, result)` after every cell.
+/// `extra_metadata` is merged into the file's metadata.
 #[allow(clippy::too_many_arguments)]
 pub fn bake(
     scene: &Scene,
     caster: &dyn RayCaster,
     cells: &[ViewCell],
     sampler: &dyn Sampler,
+    free_space: &(dyn Fn(usize, Vec3) -> bool + Sync),
     budget: &Budget,
     seed: u64,
     extra_metadata: serde_json::Value,
@@ -40,11 +45,13 @@ pub fn bake(
     let mut stats = Vec::with_capacity(cells.len());
     let mut total_rays = 0u64;
     for (i, cell) in cells.iter().enumerate() {
+        let inside = |p: Vec3| free_space(i, p);
         let ctx = CellContext {
             scene,
             caster,
             cell,
             seed: cell_seed(seed, i),
+            free_space: Some(&inside),
         };
         let result = sampler.sample(&ctx, budget, &|p| on_progress(i, p));
         total_rays += result.rays;
@@ -82,7 +89,6 @@ pub fn bake(
 mod tests {
     use super::*;
     use crate::rand::RandomSampler;
-    use glam::Vec3;
     use sightline_core::scene::SceneBuilder;
     use sightline_core::trace::Bvh;
 
@@ -103,6 +109,7 @@ mod tests {
             &bvh,
             &[],
             &RandomSampler,
+            &|_, _| true,
             &Budget::rays(10),
             1,
             serde_json::Value::Null,
@@ -127,6 +134,7 @@ mod tests {
                 &bvh,
                 &cells,
                 &RandomSampler,
+                &|_, _| true,
                 &Budget::rays(100_000),
                 9,
                 serde_json::json!({"note": "test"}),

@@ -150,9 +150,17 @@ pub fn inside_solid(scene: &Scene, caster: &dyn RayCaster, point: Vec3) -> bool 
     backs >= 4
 }
 
+/// How far (in Quake units, about an inch each) leaf boxes are shrunk: leaf boxes share their
+/// faces with the walls around them, and a ray starting exactly on a wall may round to the far
+/// side of it and see what the wall hides.
+pub const Q3_LEAF_MARGIN: f32 = 0.5;
+
 /// A cell per BSP leaf that belongs to a cluster (solid leaves have cluster -1), with the
 /// cluster of each: a cluster's PVS is the union of its leaves' PVSs. Leaf boxes are the BSP's
-/// own integer bounds; `clusters` restricts the result to the given clusters.
+/// own integer bounds shrunk by [`Q3_LEAF_MARGIN`]; since they are bounding boxes of convex
+/// leaves they can still reach into solid space, so bakes should only use origins whose
+/// cluster is the leaf's (`BspData::cluster_at`). `clusters` restricts the result to the given
+/// clusters.
 pub fn q3_leaf_cells(bsp: &BspData, clusters: Option<&[u32]>) -> Vec<(u32, ViewCell)> {
     bsp.leaves
         .iter()
@@ -160,9 +168,9 @@ pub fn q3_leaf_cells(bsp: &BspData, clusters: Option<&[u32]>) -> Vec<(u32, ViewC
         .filter(|l| clusters.is_none_or(|c| c.contains(&(l.cluster as u32))))
         .filter_map(|l| {
             let b = l.bounds();
-            ViewCell::aabb(b.min, b.max)
-                .ok()
-                .map(|cell| (l.cluster as u32, cell))
+            let margin = Vec3::splat(Q3_LEAF_MARGIN).min(b.extent() * 0.25);
+            let cell = ViewCell::aabb(b.min + margin, b.max - margin).ok()?;
+            Some((l.cluster as u32, cell))
         })
         .collect()
 }

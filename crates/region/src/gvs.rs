@@ -89,20 +89,26 @@ impl Sampler for Gvs {
         let random = RandomRays::new(ctx.cell, ctx.scene, ctx.seed);
         let mut found = [0usize; 3];
         let mut random_index = 0u64;
+        let mut no_free_space = false;
         loop {
             let mut round_new = 0usize;
             let mut queue: Vec<Discovery> = Vec::new();
             let mut remaining = p.n_rand;
             while remaining > 0 && !tally.exhausted() {
                 let n = remaining.min(BATCH as u64).min(tally.rays_left()) as usize;
-                let rays = random.batch(random_index, n);
+                let rays = random.batch(ctx, random_index, n);
                 random_index += n as u64;
                 remaining -= n as u64;
+                if rays.is_empty() {
+                    // No allowed origin in a whole batch: the cell has no free space.
+                    no_free_space = true;
+                    break;
+                }
                 let new = discover(&tally.pvs, &rays, &cast(ctx.caster, &rays));
                 found[0] += new.len();
                 round_new += new.len();
                 queue.extend(new);
-                tally.batch_done(n, progress);
+                tally.batch_done(rays.len(), progress);
             }
             let mut head = 0;
             while head < queue.len() && !tally.exhausted() {
@@ -176,6 +182,7 @@ impl Sampler for Gvs {
                 let rs: Vec<Ray> = all
                     .par_iter()
                     .filter_map(|s| mutated_ray(ctx.scene, ctx.cell, &faces, s, delta, delta_abs))
+                    .filter(|r| ctx.origin_allowed(r.origin))
                     .collect();
                 if !rs.is_empty() && !tally.exhausted() {
                     let new = discover(&tally.pvs, &rs, &cast(ctx.caster, &rs));
@@ -185,7 +192,10 @@ impl Sampler for Gvs {
                     tally.batch_done(rs.len(), progress);
                 }
             }
-            if tally.exhausted() || (budget.is_unlimited() && round_new < p.termination_threshold) {
+            if no_free_space
+                || tally.exhausted()
+                || (budget.is_unlimited() && round_new < p.termination_threshold)
+            {
                 break;
             }
         }

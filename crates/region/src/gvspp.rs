@@ -128,6 +128,7 @@ impl Sampler for GvsPlusPlus {
         let reverse = ReverseOrigins::new(ctx, p.n_rs_edge, p.n_rs_area);
         let mut found = [0usize; 3]; // random, ABS, RS
         let mut random_index = 0u64;
+        let mut no_free_space = false;
         let mut rs_round = 0u64;
         loop {
             let mut round_new = 0usize;
@@ -136,14 +137,19 @@ impl Sampler for GvsPlusPlus {
             let mut remaining = p.n_rand;
             while remaining > 0 && !tally.exhausted() {
                 let n = remaining.min(BATCH as u64).min(tally.rays_left()) as usize;
-                let rays = random.batch(random_index, n);
+                let rays = random.batch(ctx, random_index, n);
                 random_index += n as u64;
                 remaining -= n as u64;
+                if rays.is_empty() {
+                    // No allowed origin in a whole batch: the cell has no free space.
+                    no_free_space = true;
+                    break;
+                }
                 let new = discover(&tally.pvs, &rays, &cast(ctx.caster, &rays));
                 found[0] += new.len();
                 round_new += new.len();
                 queue.extend(new);
-                tally.batch_done(n, progress);
+                tally.batch_done(rays.len(), progress);
             }
             // Exploration (4.2, 4.3): drain the queue, FIFO.
             let mut head = 0;
@@ -173,7 +179,10 @@ impl Sampler for GvsPlusPlus {
                 }
             }
             // Termination (4.4).
-            if tally.exhausted() || (budget.is_unlimited() && round_new < p.termination_threshold) {
+            if no_free_space
+                || tally.exhausted()
+                || (budget.is_unlimited() && round_new < p.termination_threshold)
+            {
                 break;
             }
         }
@@ -291,6 +300,9 @@ impl ReverseOrigins {
             .flat_map_iter(|d| {
                 let occluder = d.occluder.map(|t| ctx.scene.triangle(t));
                 self.fixed.iter().chain(&area).filter_map(move |&origin| {
+                    if !ctx.origin_allowed(origin) {
+                        return None;
+                    }
                     let to_target = d.target - origin;
                     if let Some([a, b, c]) = occluder {
                         // Skip origins from which the occluder hides the target (the paper's

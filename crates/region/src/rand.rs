@@ -32,12 +32,18 @@ impl Sampler for RandomSampler {
         };
         let mut tally = Tally::new(ctx.scene.triangle_count(), budget);
         let generator = RandomRays::new(ctx.cell, ctx.scene, ctx.seed);
+        let mut next = 0u64;
         while !tally.exhausted() {
             let n = tally.rays_left().min(BATCH as u64) as usize;
-            let rays = generator.batch(tally.rays, n);
+            let rays = generator.batch(ctx, next, n);
+            next += n as u64;
+            if rays.is_empty() {
+                // No allowed origin in a whole batch: the cell has no free space.
+                break;
+            }
             let hits = cast(ctx.caster, &rays);
             discover(&tally.pvs, &rays, &hits);
-            tally.batch_done(n, progress);
+            tally.batch_done(rays.len(), progress);
         }
         let found = tally.pvs.count();
         tally.finish(vec![("random", found)])

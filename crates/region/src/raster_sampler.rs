@@ -62,6 +62,13 @@ impl Sampler for RasterSampler {
         while !tally.exhausted() {
             let (eye, _) = surface.sample(halton.point(view));
             view += 1;
+            if !ctx.origin_allowed(eye) {
+                // Give up on a cell without free space rather than searching forever.
+                if view > 1000 && tally.rays == 0 {
+                    break;
+                }
+                continue;
+            }
             let Ok(faces) = Camera::cube_faces(eye, r, near) else {
                 break;
             };

@@ -7,6 +7,7 @@ use sightline_core::sampling::ShiftedHalton;
 use sightline_core::trace::RayCaster;
 use sightline_core::{Aabb, Hit, Ray, Scene};
 
+use crate::sampler::CellContext;
 use crate::viewcell::{CellSurface, ViewCell};
 
 /// Rays cast per batch: large enough to keep both cores busy inside the caster, small enough
@@ -79,11 +80,13 @@ impl RandomRays {
         Ray::new(origin, u * (r * phi.cos()) + v * (r * phi.sin()) + n * z)
     }
 
-    /// Rays `first .. first + count`.
-    pub fn batch(&self, first: u64, count: usize) -> Vec<Ray> {
+    /// Rays `first .. first + count` of the sequence whose origins `ctx` allows (all of them
+    /// unless the cell has a free-space predicate).
+    pub fn batch(&self, ctx: &CellContext<'_>, first: u64, count: usize) -> Vec<Ray> {
         (0..count as u64)
             .into_par_iter()
             .map(|i| self.ray(first + i))
+            .filter(|r| ctx.origin_allowed(r.origin))
             .collect()
     }
 }

@@ -3,6 +3,8 @@
 
 use std::time::{Duration, Instant};
 
+use glam::Vec3;
+
 use serde::Serialize;
 use sightline_core::atomic_set::AtomicTriangleSet;
 use sightline_core::trace::RayCaster;
@@ -20,6 +22,17 @@ pub struct CellContext<'a> {
     pub cell: &'a ViewCell,
     /// Seed of every random choice.
     pub seed: u64,
+    /// The empty-space part of the cell, when the cell's box also covers solid space (e.g. a
+    /// Quake 3 leaf's bounding box around a slanted leaf): ray origins and viewpoints for
+    /// which it returns false are skipped. `None`: the whole cell.
+    pub free_space: Option<&'a (dyn Fn(Vec3) -> bool + Sync)>,
+}
+
+impl CellContext<'_> {
+    /// True when `p` may serve as a ray origin (see [`CellContext::free_space`]).
+    pub fn origin_allowed(&self, p: Vec3) -> bool {
+        self.free_space.is_none_or(|f| f(p))
+    }
 }
 
 /// When a sampler stops. With neither limit set, samplers with their own termination rule

@@ -40,6 +40,7 @@ fn run(sampler: &dyn Sampler, scene: &Scene, cell: &ViewCell, budget: Budget) ->
         caster: &bvh,
         cell,
         seed: 7,
+        free_space: None,
     };
     sampler.sample(&ctx, &budget, &|_| {})
 }

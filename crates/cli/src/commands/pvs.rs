@@ -302,11 +302,18 @@ fn run_bake(args: BakeArgs) -> Result<()> {
         "clusters": clusters,
     });
     let n = scene.triangle_count().max(1) as f64;
+    // Quake 3 leaf boxes are bounding boxes of convex leaves and reach into solid space: only
+    // points whose BSP cluster is the leaf's own serve as origins.
+    let free_space = |cell: usize, p: Vec3| match (&clusters, scene.bsp.as_deref()) {
+        (Some(c), Some(bsp)) => bsp.cluster_at(p) == Some(c[cell]),
+        _ => true,
+    };
     let file = bake(
         &scene,
         &bvh,
         &cells,
         sampler.as_ref(),
+        &free_space,
         &budget,
         args.seed,
         extra,
