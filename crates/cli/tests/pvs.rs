@@ -1,0 +1,237 @@
+//! End-to-end tests of `sightline pvs` and `sightline eval`.
+
+// Test helpers panic on broken fixtures; that is the failure report we want.
+#![allow(clippy::unwrap_used)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn sightline(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_sightline"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("the sightline binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn assert_fails_with(o: &Output, needle: &str) {
+    assert_eq!(o.status.code(), Some(1), "stderr: {}", stderr(o));
+    let err = stderr(o);
+    assert!(err.contains(needle), "expected '{needle}' in: {err}");
+    assert!(!err.contains("panicked"), "panic: {err}");
+}
+
+const SCENE: &str = "procedural:rooms?seed=2&size=2000";
+
+fn baked(dir: &Path) -> PathBuf {
+    let o = sightline(
+        &[
+            "pvs",
+            "bake",
+            SCENE,
+            "--cell",
+            "box:2,2,1,4,4,2",
+            "--cell",
+            "box:8,2,1,10,4,2",
+            "--n-rand",
+            "20000",
+            "-o",
+            "a.pvs",
+            "--json",
+        ],
+        dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["cells"], 2);
+    assert!(v["mean_pvs_size"].as_f64().unwrap() > 10.0);
+    dir.join("a.pvs")
+}
+
+#[test]
+fn bake_show_diff_eval_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    baked(dir.path());
+    let o = sightline(&["pvs", "show", "a.pvs", "--json"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let cells = v["cells"].as_array().unwrap();
+    assert_eq!(cells.len(), 2);
+    assert_eq!(
+        cells[0]["pvs_size"].as_u64().unwrap() as usize,
+        cells[0]["triangles"].as_array().unwrap().len()
+    );
+    assert_eq!(v["metadata"]["method"], "gvs++");
+
+    let o = sightline(&["pvs", "diff", "a.pvs", "a.pvs", "--json"], dir.path());
+    let rows: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(rows
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|r| r["jaccard"] == 1.0 && r["only_in_a"] == 0));
+
+    let o = sightline(
+        &[
+            "eval",
+            SCENE,
+            "--pvs",
+            "a.pvs",
+            "--viewpoints",
+            "4",
+            "--resolution",
+            "64",
+            "--json",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for r in rows.as_array().unwrap() {
+        assert_eq!(r["images"], 24);
+        assert!(r["ground_truth_size"].as_u64().unwrap() > 0);
+        assert!(r["avg_error_pixels"].as_f64().unwrap() < 64.0 * 64.0 * 0.01);
+    }
+}
+
+#[test]
+fn same_seed_gives_identical_file_contents() {
+    let dir = tempfile::tempdir().unwrap();
+    baked(dir.path());
+    std::fs::rename(dir.path().join("a.pvs"), dir.path().join("first.pvs")).unwrap();
+    baked(dir.path());
+    let o = sightline(&["pvs", "diff", "first.pvs", "a.pvs", "--json"], dir.path());
+    let rows: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(rows.as_array().unwrap().iter().all(|r| r["jaccard"] == 1.0));
+}
+
+#[test]
+fn pvs_for_another_scene_is_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    baked(dir.path());
+    let o = sightline(
+        &[
+            "eval",
+            "procedural:rooms?seed=3&size=2000",
+            "--pvs",
+            "a.pvs",
+            "--viewpoints",
+            "1",
+        ],
+        dir.path(),
+    );
+    assert_fails_with(&o, "another scene");
+}
+
+#[test]
+fn truncated_and_garbage_files_are_clean_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let bytes = std::fs::read(baked(dir.path())).unwrap();
+    std::fs::write(dir.path().join("t.pvs"), &bytes[..bytes.len() / 2]).unwrap();
+    assert_fails_with(
+        &sightline(&["pvs", "show", "t.pvs"], dir.path()),
+        "truncated",
+    );
+    std::fs::write(dir.path().join("g.pvs"), b"hello world").unwrap();
+    assert_fails_with(
+        &sightline(&["pvs", "show", "g.pvs"], dir.path()),
+        "not a .pvs file",
+    );
+    let mut flipped = bytes.clone();
+    let last = flipped.len() - 1;
+    flipped[last] ^= 1;
+    std::fs::write(dir.path().join("f.pvs"), &flipped).unwrap();
+    assert_fails_with(
+        &sightline(&["pvs", "show", "f.pvs"], dir.path()),
+        "checksum",
+    );
+}
+
+#[test]
+fn bad_bake_arguments_are_clean_errors_and_keep_old_output() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("keep.pvs"), b"old").unwrap();
+    let cases: [(&[&str], &str); 5] = [
+        (
+            &["pvs", "bake", SCENE, "-o", "keep.pvs"],
+            "exactly one cell source",
+        ),
+        (
+            &["pvs", "bake", SCENE, "--grid", "2,0,1", "-o", "keep.pvs"],
+            "whole numbers",
+        ),
+        (
+            &[
+                "pvs",
+                "bake",
+                SCENE,
+                "--cell",
+                "box:1,1,1,0,0,0",
+                "-o",
+                "keep.pvs",
+            ],
+            "min must be <= max",
+        ),
+        (
+            &["pvs", "bake", SCENE, "--q3-leaves", "-o", "keep.pvs"],
+            "Quake 3 map",
+        ),
+        (
+            &[
+                "pvs",
+                "bake",
+                SCENE,
+                "--cell",
+                "point:1,1,1,1",
+                "--delta-abs=-1",
+                "-o",
+                "keep.pvs",
+            ],
+            "delta_abs",
+        ),
+    ];
+    for (args, needle) in cases {
+        assert_fails_with(&sightline(args, dir.path()), needle);
+        assert_eq!(std::fs::read(dir.path().join("keep.pvs")).unwrap(), b"old");
+    }
+}
+
+#[test]
+fn q3_leaf_bake_stays_inside_q3map2_pvs() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/q3dm6ish.bsp");
+    let o = sightline(
+        &[
+            "pvs",
+            "bake",
+            map,
+            "--q3-leaves",
+            "--clusters",
+            "0,1,2,3,4,5",
+            "--n-rand",
+            "100000",
+            "-o",
+            "q.pvs",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = sightline(&["pvs", "compare-q3", map, "q.pvs", "--json"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 6);
+    let ours: u64 = rows.iter().map(|r| r["ours"].as_u64().unwrap()).sum();
+    let outside: u64 = rows
+        .iter()
+        .map(|r| r["ours_not_q3map2"].as_u64().unwrap())
+        .sum();
+    println!("{outside} of {ours} (cluster, triangle) pairs outside q3map2's PVS");
+    // q3map2's PVS is conservative (up to its epsilons), so almost nothing we see may lie
+    // outside it; a handful of grazing pairs are tolerated.
+    assert!(ours > 1000 && outside * 200 <= ours, "{outside} of {ours}");
+}
