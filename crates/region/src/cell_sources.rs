@@ -150,6 +150,59 @@ pub fn inside_solid(scene: &Scene, caster: &dyn RayCaster, point: Vec3) -> bool 
     backs >= 4
 }
 
+/// `count` cubic cells of half size `half_extent` at random places in the scene's empty space:
+/// centres drawn uniformly in the bounds (for Z-up scenes at 1 to 3 half sizes above the
+/// lowest geometry below them, i.e. at eye height over the ground) and kept when neither the
+/// centre nor any corner is inside solid geometry (and, for Quake 3 maps, lies in a cluster).
+/// Deterministic for a seed; gives fewer cells when free space is hard to find.
+pub fn random_free_cells(
+    scene: &Scene,
+    caster: &dyn RayCaster,
+    count: usize,
+    half_extent: f32,
+    seed: u64,
+) -> Vec<ViewCell> {
+    let bounds = scene.bounds();
+    let mut rng = sightline_core::random::SplitMix64::new(seed);
+    let up = scene.up.vector();
+    let mut cells = Vec::with_capacity(count);
+    for _ in 0..count * 200 {
+        if cells.len() == count {
+            break;
+        }
+        let mut c = bounds.min
+            + (bounds.max - bounds.min) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        if up == Vec3::Z {
+            // Drop to the ground below and stand at eye height.
+            let down = Ray::new(c, Vec3::NEG_Z);
+            let hit = caster.cast_one(&down);
+            if !hit.is_hit() {
+                continue;
+            }
+            c = down.at(hit.t) + up * half_extent * rng.range_f32(1.2, 3.0);
+        }
+        let Ok(cell) = ViewCell::aabb(c - Vec3::splat(half_extent), c + Vec3::splat(half_extent))
+        else {
+            continue;
+        };
+        let free = std::iter::once(c)
+            .chain(cell.corners())
+            .all(|p| !inside_solid(scene, caster, p))
+            && scene.bsp.as_ref().is_none_or(|b| b.cluster_at(c).is_some());
+        // The cell must not intersect geometry either: a ray along each edge stays clear.
+        let clear = free
+            && cell.edges().iter().all(|(a, b)| {
+                !caster
+                    .cast_one(&Ray::new(*a, *b - *a).with_range(0.0, 1.0))
+                    .is_hit()
+            });
+        if clear {
+            cells.push(cell);
+        }
+    }
+    cells
+}
+
 /// How far (in Quake units, about an inch each) leaf boxes are shrunk: leaf boxes share their
 /// faces with the walls around them, and a ray starting exactly on a wall may round to the far
 /// side of it and see what the wall hides.
@@ -225,6 +278,25 @@ mod tests {
         assert!(e.to_string().contains("cell 1"), "{e}");
         let e = read_cells_file(&dir.path().join("missing.json")).unwrap_err();
         assert!(e.to_string().contains("missing.json"));
+    }
+
+    #[test]
+    fn random_cells_avoid_geometry() {
+        let scene = sightline_core::scene::open(
+            "procedural:city?size=5000",
+            &sightline_core::scene::LoadOptions::default(),
+        )
+        .unwrap();
+        let bvh = Bvh::build(&scene);
+        let cells = random_free_cells(&scene, &bvh, 5, 2.0, 3);
+        assert_eq!(cells.len(), 5);
+        for c in &cells {
+            assert!(!inside_solid(&scene, &bvh, c.center));
+            // Standing at eye height over the ground or a roof below.
+            let below = bvh.cast_one(&Ray::new(c.center, Vec3::NEG_Z));
+            assert!(below.t > 2.0 && below.t < 6.1, "eye height: {}", below.t);
+        }
+        assert_eq!(cells, random_free_cells(&scene, &bvh, 5, 2.0, 3));
     }
 
     #[test]

@@ -29,6 +29,38 @@ enum What {
     Trace(TraceArgs),
     /// Reference rasterizer: frame time and triangles per second at a given resolution.
     Raster(RasterArgs),
+    /// From-region PVS: the GVS++ paper's table 1 — GVS++ (converged) against RAND at equal
+    /// rays and at equal time, GVS and RASTER at equal rays; pixel error on shared views.
+    Pvs(PvsArgs),
+}
+
+/// Arguments of `sightline bench pvs`.
+#[derive(clap::Args, Debug)]
+struct PvsArgs {
+    /// Scenes (default: the procedural city and rooms).
+    #[arg(value_name = "SCENE")]
+    scenes: Vec<String>,
+    /// View cells per scene (random cubes in free space).
+    #[arg(long, default_value_t = 10)]
+    cells: usize,
+    /// Half size of the cells as a fraction of the scene diagonal.
+    #[arg(long, default_value_t = 0.004)]
+    cell_size: f32,
+    /// Evaluation viewpoints per cell (six cube faces each).
+    #[arg(long, default_value_t = 50)]
+    viewpoints: usize,
+    /// Evaluation resolution.
+    #[arg(long, default_value_t = 512)]
+    resolution: u32,
+    /// GVS++/GVS random rays per round (paper: 10,000,000).
+    #[arg(long, default_value_t = 10_000_000)]
+    n_rand: u64,
+    /// Seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Print JSON instead of Markdown.
+    #[arg(long)]
+    json: bool,
 }
 
 /// Arguments of `sightline bench trace`.
@@ -72,6 +104,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
     match args.what {
         What::Trace(a) => trace(a),
         What::Raster(a) => raster(a),
+        What::Pvs(a) => pvs(a),
     }
 }
 
@@ -240,5 +273,157 @@ fn raster(args: RasterArgs) -> Result<()> {
             r.scene, r.triangles, r.size, r.median_ms, r.mtriangles_per_second, r.visible_pixels
         );
     }
+    Ok(())
+}
+
+#[derive(Serialize, Default, Clone)]
+struct PvsRow {
+    scene: String,
+    method: String,
+    budget: String,
+    cells: usize,
+    mean_rays: f64,
+    mean_seconds: f64,
+    avg_error_pixels: f64,
+    max_error_pixels: usize,
+    avg_error_regions: f64,
+    max_error_region_size: usize,
+    pvs_percent: f64,
+    false_negatives: usize,
+}
+
+fn pvs(args: PvsArgs) -> Result<()> {
+    use sightline_region::cell_sources::random_free_cells;
+    use sightline_region::{
+        Budget, CellContext, Gvs, GvsParams, GvsPlusPlus, GvsPlusPlusParams, RandomSampler,
+        RasterSampler, Sampler,
+    };
+    let specs = if args.scenes.is_empty() {
+        vec![
+            "procedural:city".to_string(),
+            "procedural:rooms".to_string(),
+        ]
+    } else {
+        args.scenes.clone()
+    };
+    let gvspp = GvsPlusPlus {
+        params: GvsPlusPlusParams {
+            n_rand: args.n_rand,
+            ..GvsPlusPlusParams::default()
+        },
+    };
+    let gvs = Gvs {
+        params: GvsParams {
+            n_rand: args.n_rand,
+            ..GvsParams::default()
+        },
+    };
+    let raster = RasterSampler::default();
+    let eval = sightline_eval::EvalParams {
+        viewpoints: args.viewpoints,
+        resolution: args.resolution,
+        ..sightline_eval::EvalParams::default()
+    };
+    let mut all_rows = Vec::new();
+    for spec in &specs {
+        let scene = load(spec)?;
+        let bvh = Bvh::build(&scene);
+        let half = scene.bounds().diagonal() * args.cell_size;
+        let cells = random_free_cells(&scene, &bvh, args.cells, half, args.seed);
+        if cells.is_empty() {
+            anyhow::bail!("{spec}: found no free space for view cells");
+        }
+        const LABELS: [(&str, &str); 5] = [
+            ("GVS++", "converged"),
+            ("RAND", "equal rays"),
+            ("RAND", "equal time"),
+            ("GVS", "equal rays"),
+            ("RASTER", "equal rays"),
+        ];
+        let mut rows: Vec<PvsRow> = LABELS
+            .iter()
+            .map(|(m, b)| PvsRow {
+                scene: spec.clone(),
+                method: m.to_string(),
+                budget: b.to_string(),
+                cells: cells.len(),
+                ..PvsRow::default()
+            })
+            .collect();
+        for (i, cell) in cells.iter().enumerate() {
+            eprintln!("{spec}: cell {}/{}", i + 1, cells.len());
+            let ctx = CellContext {
+                scene: &scene,
+                caster: &bvh,
+                cell,
+                seed: args.seed.wrapping_add(i as u64),
+                free_space: None,
+            };
+            let none = &|_: &sightline_region::ConvergencePoint| {};
+            let a = gvspp.sample(&ctx, &Budget::default(), none);
+            let equal_rays = Budget::rays(a.rays);
+            let equal_time = Budget {
+                max_rays: None,
+                max_time: Some(std::time::Duration::from_secs_f64(a.seconds)),
+            };
+            let results = [
+                a.clone(),
+                RandomSampler.sample(&ctx, &equal_rays, none),
+                RandomSampler.sample(&ctx, &equal_time, none),
+                gvs.sample(&ctx, &equal_rays, none),
+                raster.sample(&ctx, &equal_rays, none),
+            ];
+            let sets: Vec<&sightline_core::TriangleSet> =
+                results.iter().map(|r| &r.visible).collect();
+            let evaluations = sightline_eval::evaluate_cell(&scene, cell, &sets, &eval, &|_, _| {});
+            let n = scene.triangle_count().max(1) as f64;
+            for ((row, r), e) in rows.iter_mut().zip(&results).zip(&evaluations) {
+                row.mean_rays += r.rays as f64;
+                row.mean_seconds += r.seconds;
+                row.avg_error_pixels += e.avg_error_pixels;
+                row.max_error_pixels = row.max_error_pixels.max(e.max_error_pixels);
+                row.avg_error_regions += e.avg_error_regions;
+                row.max_error_region_size = row.max_error_region_size.max(e.max_error_region_size);
+                row.pvs_percent += 100.0 * e.pvs_size as f64 / n;
+                row.false_negatives += e.false_negatives;
+            }
+        }
+        let k = cells.len() as f64;
+        for row in &mut rows {
+            row.mean_rays /= k;
+            row.mean_seconds /= k;
+            row.avg_error_pixels /= k;
+            row.avg_error_regions /= k;
+            row.pvs_percent /= k;
+        }
+        all_rows.extend(rows);
+    }
+    if args.json {
+        return print_json(&all_rows);
+    }
+    println!(
+        "| scene | method | budget | mean rays | mean s | avg err px | max err px | avg err regions | max region px | PVS % | false neg (sum) |"
+    );
+    println!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for r in &all_rows {
+        println!(
+            "| `{}` | {} | {} | {:.3e} | {:.2} | {:.2} | {} | {:.2} | {} | {:.2} | {} |",
+            r.scene,
+            r.method,
+            r.budget,
+            r.mean_rays,
+            r.mean_seconds,
+            r.avg_error_pixels,
+            r.max_error_pixels,
+            r.avg_error_regions,
+            r.max_error_region_size,
+            r.pvs_percent,
+            r.false_negatives
+        );
+    }
+    println!(
+        "({} cells per scene, {} viewpoints x 6 cube faces at {}² each)",
+        args.cells, args.viewpoints, args.resolution
+    );
     Ok(())
 }
