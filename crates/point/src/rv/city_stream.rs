@@ -72,7 +72,12 @@ impl StreamingCity {
         let y0 = origin + by as f32 * PITCH;
         let g0 = Vec3::new(x0 - STREET * 0.5, y0 - STREET * 0.5, 0.0);
         let g1 = Vec3::new(x0 + BLOCK + STREET * 0.5, y0 + BLOCK + STREET * 0.5, 0.0);
-        let q = [g0, Vec3::new(g1.x, g0.y, 0.0), g1, Vec3::new(g0.x, g1.y, 0.0)];
+        let q = [
+            g0,
+            Vec3::new(g1.x, g0.y, 0.0),
+            g1,
+            Vec3::new(g0.x, g1.y, 0.0),
+        ];
         self.pending.push([q[0], q[1], q[2]]);
         self.pending.push([q[0], q[2], q[3]]);
         for ly in 0..LOTS {

@@ -156,22 +156,34 @@ mod tests {
 
     #[test]
     fn parallel_behind_is_behind() {
-        assert!(check(tri_at(6.0, 6.0, 6.0, 1.0), tri_at(5.0, 5.0, 5.0, 1.0)));
+        assert!(check(
+            tri_at(6.0, 6.0, 6.0, 1.0),
+            tri_at(5.0, 5.0, 5.0, 1.0)
+        ));
     }
 
     #[test]
     fn parallel_in_front_is_not_behind() {
-        assert!(!check(tri_at(4.0, 4.0, 4.0, 1.0), tri_at(5.0, 5.0, 5.0, 1.0)));
+        assert!(!check(
+            tri_at(4.0, 4.0, 4.0, 1.0),
+            tri_at(5.0, 5.0, 5.0, 1.0)
+        ));
     }
 
     #[test]
     fn coplanar_is_not_behind() {
         // Depth ties go to the lower id in the rasterizer: never call them occluded.
-        assert!(!check(tri_at(5.0, 5.0, 5.0, 0.5), tri_at(5.0, 5.0, 5.0, 1.0)));
+        assert!(!check(
+            tri_at(5.0, 5.0, 5.0, 0.5),
+            tri_at(5.0, 5.0, 5.0, 1.0)
+        ));
     }
 
     #[test]
     fn intersecting_is_not_behind() {
-        assert!(!check(tri_at(4.0, 6.0, 5.0, 1.0), tri_at(5.0, 5.0, 5.0, 1.0)));
+        assert!(!check(
+            tri_at(4.0, 6.0, 5.0, 1.0),
+            tri_at(5.0, 5.0, 5.0, 1.0)
+        ));
     }
 }

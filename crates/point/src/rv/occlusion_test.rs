@@ -81,7 +81,7 @@ fn occluded_by(
         }
         crossings += u32::from(ray_crosses(q, e.a, e.b));
     }
-    if crossings % 2 == 0 {
+    if crossings & 1 == 0 {
         return false;
     }
     // Depth bounds: behind the whole occluder, no triangle test needed.

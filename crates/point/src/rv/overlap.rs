@@ -85,9 +85,7 @@ fn separates(a: DVec2, b: DVec2, pts: &[DVec2], margin: f64, own_side: Option<DV
             }
             pts.iter().all(|p| dist(*p) * s.signum() < -margin)
         }
-        None => {
-            pts.iter().all(|p| dist(*p) > margin) || pts.iter().all(|p| dist(*p) < -margin)
-        }
+        None => pts.iter().all(|p| dist(*p) > margin) || pts.iter().all(|p| dist(*p) < -margin),
     }
 }
 
@@ -190,8 +188,16 @@ mod tests {
 
     #[test]
     fn overlap_diagonal_triangles_separated_by_hypotenuse() {
-        let a = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0)];
-        let b = [DVec2::new(1.0, 1.0), DVec2::new(0.6, 1.0), DVec2::new(1.0, 0.6)];
+        let a = [
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(0.0, 1.0),
+        ];
+        let b = [
+            DVec2::new(1.0, 1.0),
+            DVec2::new(0.6, 1.0),
+            DVec2::new(1.0, 0.6),
+        ];
         assert!(!convex_overlap(&a, &b, 1e-3));
     }
 
@@ -223,10 +229,14 @@ mod tests {
     fn parity_inside_square_is_odd() {
         let s = square(0.0, 0.0, 1.0);
         let q = DVec2::new(0.5, 0.5);
-        let n = (0..4).filter(|&i| ray_crosses(q, s[i], s[(i + 1) % 4])).count();
+        let n = (0..4)
+            .filter(|&i| ray_crosses(q, s[i], s[(i + 1) % 4]))
+            .count();
         assert_eq!(n % 2, 1);
         let q = DVec2::new(-0.5, 0.5);
-        let n = (0..4).filter(|&i| ray_crosses(q, s[i], s[(i + 1) % 4])).count();
+        let n = (0..4)
+            .filter(|&i| ray_crosses(q, s[i], s[(i + 1) % 4]))
+            .count();
         assert_eq!(n % 2, 0);
     }
 }

@@ -127,7 +127,7 @@ impl Scheduler {
             for b in 0..s.pending.len() {
                 if !s.busy[b]
                     && s.pending[b] >= threshold
-                    && best.map_or(true, |c| s.pending[b] > s.pending[c])
+                    && !matches!(best, Some(c) if s.pending[c] >= s.pending[b])
                 {
                     best = Some(b);
                 }

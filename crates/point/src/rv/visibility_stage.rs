@@ -42,7 +42,12 @@ pub(crate) struct BinContext<'a> {
 }
 
 /// Runs the visibility stage on triangle `t` in the bin of `ctx`.
-pub(crate) fn process(t: &ProjTri, ctx: &BinContext<'_>, state: &mut BinState, st: &mut StageStats) {
+pub(crate) fn process(
+    t: &ProjTri,
+    ctx: &BinContext<'_>,
+    state: &mut BinState,
+    st: &mut StageStats,
+) {
     let mut poly = Poly::from_slice(&t.corners);
     if !t.whole_front {
         poly = clip(&poly, &ctx.proj.near_plane());
@@ -71,8 +76,7 @@ pub(crate) fn process(t: &ProjTri, ctx: &BinContext<'_>, state: &mut BinState, s
         zmax,
         plane: t.plane.as_ref(),
     };
-    if !state.occluders.is_empty()
-        && is_occluded(&p, state, ctx.proj, ctx.margin, &mut st.counters)
+    if !state.occluders.is_empty() && is_occluded(&p, state, ctx.proj, ctx.margin, &mut st.counters)
     {
         st.occluded += 1;
         return;
