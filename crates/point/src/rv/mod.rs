@@ -1,2 +1,448 @@
-//! RV: conservative streaming from-point visibility in bounded memory (Ivanchenko 2021).
-//! Being written.
+//! RV: a conservative from-point visible set computed while the scene streams through, in a
+//! fixed memory budget.
+//!
+//! Based on: Ivanchenko. Massively Parallel Analytic Visibility for Streaming Virtual Reality.
+//! 2021 (master's thesis, TU Graz), chapters 4-6.
+//!
+//! The scene arrives as a [`TriangleSource`] (an in-memory [`SceneSource`], or a generator such
+//! as [`StreamingCity`] that never materialises the scene). A sort-middle pipeline projects and
+//! bins triangles into a grid of screen bins (geometry stage, `geometry_stage.rs`), and worker
+//! threads resolve visibility per bin (visibility stage, `visibility_stage.rs`): each bin keeps
+//! occluders made of edge-connected visible triangles (`occluders.rs`), and a triangle is
+//! occluded in a bin when it lies inside one occluder's silhouette and behind its triangles
+//! (`occlusion_test.rs`). A triangle is visible when it is visible in any bin.
+//!
+//! # Guarantee
+//! Never misses a triangle that the reference rasterizer (`sightline_core::raster`) shows at any
+//! resolution of the same camera: every predicate errs towards "overlaps" by a screen margin and
+//! towards "in front" by a relative depth margin (see `overlap.rs`, `depth.rs`), coplanar and
+//! intersecting triangles are never called occluded, and full pools keep triangles visible.
+//! Triangles are double-sided, as in the rasterizer. Degenerate (zero-area or non-finite)
+//! triangles are never reported visible.
+//!
+//! # Memory
+//! [`RvOptions::memory_budget_bytes`] bounds the heap RV allocates: the visible set (two bits
+//! per id bound: the concurrent set and the returned copy), the source buffer, a ring of
+//! projected batches, the bin queues, and a shared occluder pool that takes the rest
+//! (`memory.rs`). [`RvResult::peak_memory_bytes`] is the accounted high-water mark. Memory
+//! held by the source itself (e.g. an in-memory scene) is the caller's and not counted.
+//!
+//! ```
+//! use glam::Vec3;
+//! use sightline_core::scene::SceneBuilder;
+//! use sightline_core::Camera;
+//! use sightline_point::rv::{conservative_visible, RvOptions, SceneSource};
+//!
+//! let mut b = SceneBuilder::new("two boxes");
+//! b.add_box(Vec3::new(-1.0, -1.0, 4.0), Vec3::new(1.0, 1.0, 5.0)); // in front
+//! b.add_box(Vec3::new(-0.5, -0.5, 8.0), Vec3::new(0.5, 0.5, 9.0)); // hidden behind it
+//! let scene = b.finish();
+//! let cam = Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y, 60.0, 64, 64, 0.1).expect("camera");
+//! let options = RvOptions { bins: (4, 4), ..RvOptions::default() };
+//! let result = conservative_visible(&mut SceneSource::new(&scene), &cam, &options)
+//!     .expect("fits the budget");
+//! assert!(result.visible.contains(0) || result.visible.contains(1)); // the front face
+//! assert!(result.peak_memory_bytes <= options.memory_budget_bytes);
+//! ```
+
+mod city_stream;
+mod depth;
+mod geometry_stage;
+mod memory;
+mod occluders;
+mod occlusion_test;
+mod overlap;
+mod pipeline;
+mod projection;
+mod source;
+mod visibility_stage;
+
+use std::sync::Mutex;
+use std::time::Instant;
+
+use sightline_core::atomic_set::AtomicTriangleSet;
+use sightline_core::{Camera, TriangleSet};
+
+pub use city_stream::StreamingCity;
+pub use source::{SceneSource, SourceTriangle, TriangleSource};
+
+use geometry_stage::{bins_of, project, Batch, BinGrid, ProjTri};
+use memory::Pool;
+use occluders::{BinState, Limits};
+use pipeline::{merge_stats, Scheduler};
+use projection::Projection;
+use visibility_stage::{process, BinContext, StageStats};
+
+/// Parameters of an RV run (the thesis' tunables; defaults suit 256-1024 px images).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RvOptions {
+    /// Heap bytes RV may use in all (see the module documentation).
+    pub memory_budget_bytes: usize,
+    /// Bins across and down the image.
+    pub bins: (u32, u32),
+    /// Visibility-stage worker threads (the geometry stage runs on the calling thread).
+    pub threads: usize,
+    /// Triangles per input batch (and per projected batch).
+    pub batch_triangles: usize,
+    /// Projected batches alive at once (the triangle ring buffer).
+    pub ring_batches: usize,
+    /// Queued entries a bin needs before a worker takes it outside drain mode.
+    pub bin_threshold: usize,
+    /// Occluders per bin.
+    pub max_occluders_per_bin: usize,
+    /// Silhouette edges per bin.
+    pub max_edges_per_bin: usize,
+    /// Sort each batch front to back (by nearest view depth) before binning. The thesis
+    /// (section 7.1.3) finds sorted input gives much smaller sets, as near occluders form
+    /// first; sorting within a batch keeps the stream bounded.
+    pub sort_batches: bool,
+}
+
+impl Default for RvOptions {
+    fn default() -> Self {
+        Self {
+            memory_budget_bytes: 256 << 20,
+            bins: (32, 32),
+            threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            batch_triangles: 4096,
+            ring_batches: 8,
+            bin_threshold: 64,
+            max_occluders_per_bin: 256,
+            max_edges_per_bin: 8192,
+            sort_batches: true,
+        }
+    }
+}
+
+/// Counters of an RV run.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RvStats {
+    /// Triangles read from the source.
+    pub triangles_streamed: u64,
+    /// Triangles that survived projection (finite, non-degenerate, on screen).
+    pub triangles_on_screen: u64,
+    /// (triangle, bin) pairs queued.
+    pub bin_entries: u64,
+    /// (triangle, bin) pairs tested against occluders.
+    pub bin_tests: u64,
+    /// Of those, occluded in their bin.
+    pub bin_occluded: u64,
+    /// Occluders started, grown, and merges.
+    pub occluders_created: u64,
+    /// Triangles added to an existing occluder.
+    pub occluders_grown: u64,
+    /// Triangles that joined two or more occluders.
+    pub occluder_merges: u64,
+    /// Visible triangles not added to occluders because a pool was full.
+    pub pool_full: u64,
+    /// Silhouette and triangle tests run.
+    pub silhouette_tests: u64,
+    /// Triangle tests run (occludee inside a silhouette).
+    pub triangle_tests: u64,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+}
+
+/// The result of [`conservative_visible`].
+#[derive(Clone, Debug)]
+pub struct RvResult {
+    /// The conservative visible set over ids `0..source.id_bound()`.
+    pub visible: TriangleSet,
+    /// Accounted peak heap bytes (always at most the budget).
+    pub peak_memory_bytes: usize,
+    /// Counters.
+    pub stats: RvStats,
+}
+
+/// Why RV could not run.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[non_exhaustive]
+pub enum RvError {
+    /// The budget does not cover the fixed parts plus a minimal occluder pool.
+    #[error("memory budget of {budget} bytes is too small: RV needs at least {needed} bytes with these options (visible set, batch ring, bin queues and a minimal occluder pool)")]
+    BudgetTooSmall {
+        /// The budget given.
+        budget: usize,
+        /// The least budget that works with these options.
+        needed: usize,
+    },
+    /// An option is out of range.
+    #[error("bad RV option: {0}")]
+    BadOption(String),
+    /// The source yielded an id at or above its own id bound.
+    #[error("triangle id {id} is not below the source's id bound {bound}")]
+    IdOutOfRange {
+        /// The id.
+        id: u32,
+        /// The source's bound.
+        bound: u32,
+    },
+    /// The source failed.
+    #[error("triangle source failed: {0}")]
+    Source(String),
+}
+
+/// Smallest occluder pool worth running with.
+const MIN_OCCLUDER_POOL: usize = 64 << 10;
+/// Allowance for small allocations not tracked individually (thread handles, scheduler
+/// bookkeeping, merge scratch).
+const SLACK: usize = 64 << 10;
+
+/// The fixed (non-pool) bytes of a run.
+fn fixed_bytes(options: &RvOptions, id_bound: u32, max_entries: usize) -> usize {
+    let bins = options.bins.0 as usize * options.bins.1 as usize;
+    let bitset = (id_bound as usize).div_ceil(64) * 8;
+    let batch = Batch::bytes_for(options.batch_triangles, max_entries, bins);
+    2 * bitset
+        + options.batch_triangles * std::mem::size_of::<SourceTriangle>()
+        // Producer scratch: (bin, index) pairs of one batch plus one triangle's bins.
+        + max_entries * 8
+        + bins * 4
+        // The ring, the sealed batch the producer holds while waiting for a slot, and the one it
+        // is filling.
+        + (options.ring_batches + 2) * batch
+        // Bin queues (deque of batch pointers, counters) and bin states.
+        + bins * (64 + options.ring_batches * 8)
+        + bins * (std::mem::size_of::<Mutex<BinState>>() + 8)
+        // Batch sorting: order and rank arrays and the reordered triangles.
+        + options.batch_triangles * (8 + std::mem::size_of::<ProjTri>())
+        + options.threads * 1024
+        + SLACK
+}
+
+fn check(options: &RvOptions) -> Result<(), RvError> {
+    let (bx, by) = options.bins;
+    if bx == 0 || by == 0 || bx as usize * by as usize > 1 << 16 {
+        return Err(RvError::BadOption(format!(
+            "bins {bx}x{by}: need 1..=65536 bins"
+        )));
+    }
+    if options.threads == 0 {
+        return Err(RvError::BadOption("threads must be at least 1".into()));
+    }
+    if options.batch_triangles == 0 || options.ring_batches == 0 {
+        return Err(RvError::BadOption(
+            "batch_triangles and ring_batches must be at least 1".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Computes a conservative visible set of `source`'s triangles from `camera` (see the module
+/// documentation for the guarantee and the memory accounting).
+pub fn conservative_visible(
+    source: &mut dyn TriangleSource,
+    camera: &Camera,
+    options: &RvOptions,
+) -> Result<RvResult, RvError> {
+    check(options)?;
+    let start = Instant::now();
+    let grid = BinGrid {
+        nx: options.bins.0 as usize,
+        ny: options.bins.1 as usize,
+        width: f64::from(camera.width),
+        height: f64::from(camera.height),
+    };
+    let n_bins = grid.len();
+    // A triangle can fall into every bin, so a batch must hold at least one full-screen one.
+    let max_entries = (options.batch_triangles * 4).max(n_bins);
+    let bound = source.id_bound();
+    let fixed = fixed_bytes(options, bound, max_entries);
+    let needed = fixed + MIN_OCCLUDER_POOL;
+    if options.memory_budget_bytes < needed {
+        return Err(RvError::BudgetTooSmall {
+            budget: options.memory_budget_bytes,
+            needed,
+        });
+    }
+    let pool = Pool::new(options.memory_budget_bytes - fixed);
+    let proj = Projection::new(camera);
+    let margin = overlap::MARGIN_PX;
+    let limits = Limits {
+        max_occluders: options.max_occluders_per_bin,
+        max_edges: options.max_edges_per_bin,
+    };
+    let visible = AtomicTriangleSet::new(bound as usize);
+    let states: Vec<Mutex<BinState>> = (0..n_bins)
+        .map(|_| Mutex::new(BinState::default()))
+        .collect();
+    let sched = Scheduler::new(&grid, options.ring_batches, options.bin_threshold);
+
+    let mut stats = RvStats::default();
+    let mut stage = StageStats::default();
+    let produced = std::thread::scope(|scope| {
+        let workers: Vec<_> = (0..options.threads)
+            .map(|_| {
+                let (sched, states, pool, visible, limits, proj) =
+                    (&sched, &states, &pool, &visible, &limits, &proj);
+                scope.spawn(move || {
+                    let mut st = StageStats::default();
+                    while let Some(work) = sched.take() {
+                        let (x0, x1, y0, y1) = grid.rect(work.bin);
+                        let ctx = BinContext {
+                            proj,
+                            planes: proj.rect_planes(
+                                x0 - margin,
+                                x1 + margin,
+                                y0 - margin,
+                                y1 + margin,
+                            ),
+                            margin,
+                            limits,
+                            pool,
+                            visible,
+                        };
+                        {
+                            let mut state = states[work.bin]
+                                .lock()
+                                .unwrap_or_else(std::sync::PoisonError::into_inner);
+                            for batch in &work.batches {
+                                for &k in batch.bin(work.bin) {
+                                    process(&batch.tris[k as usize], &ctx, &mut state, &mut st);
+                                }
+                            }
+                        }
+                        sched.done(work);
+                    }
+                    st
+                })
+            })
+            .collect();
+        let produced = produce(source, &proj, &grid, margin, options, max_entries, &sched);
+        sched.finish_input();
+        for w in workers {
+            match w.join() {
+                Ok(st) => merge_stats(&mut stage, &st),
+                Err(panic) => std::panic::resume_unwind(panic),
+            }
+        }
+        produced
+    });
+    let (streamed, on_screen, entries) = produced?;
+    for s in &states {
+        s.lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .clear(&pool);
+    }
+    stats.triangles_streamed = streamed;
+    stats.triangles_on_screen = on_screen;
+    stats.bin_entries = entries;
+    stats.bin_tests = stage.tested;
+    stats.bin_occluded = stage.occluded;
+    stats.occluders_created = stage.occluders_created;
+    stats.occluders_grown = stage.occluders_grown;
+    stats.occluder_merges = stage.occluder_merges;
+    stats.pool_full = stage.pool_full;
+    stats.silhouette_tests = stage.counters.silhouette_tests;
+    stats.triangle_tests = stage.counters.triangle_tests;
+    let visible = visible.to_set();
+    stats.seconds = start.elapsed().as_secs_f64();
+    Ok(RvResult {
+        visible,
+        peak_memory_bytes: fixed + pool.peak(),
+        stats,
+    })
+}
+
+/// The geometry stage loop: reads the stream, projects, bins and enqueues batches. Returns
+/// (triangles streamed, on screen, bin entries).
+fn produce(
+    source: &mut dyn TriangleSource,
+    proj: &Projection,
+    grid: &BinGrid,
+    margin: f64,
+    options: &RvOptions,
+    max_entries: usize,
+    sched: &Scheduler,
+) -> Result<(u64, u64, u64), RvError> {
+    let bound = source.id_bound();
+    let n_bins = grid.len();
+    let mut input = Vec::with_capacity(options.batch_triangles);
+    let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(max_entries);
+    let mut tri_bins: Vec<u32> = Vec::with_capacity(n_bins);
+    let mut tris: Vec<ProjTri> = Vec::with_capacity(options.batch_triangles);
+    let (mut streamed, mut on_screen, mut entries) = (0u64, 0u64, 0u64);
+    loop {
+        input.clear();
+        if source.next_batch(options.batch_triangles, &mut input)? == 0 {
+            break;
+        }
+        for t in &input {
+            streamed += 1;
+            if t.id >= bound {
+                return Err(RvError::IdOutOfRange { id: t.id, bound });
+            }
+            let Some((pt, pts, n)) = project(t, proj, margin) else {
+                continue;
+            };
+            tri_bins.clear();
+            bins_of(&pts[..n], grid, margin, &mut tri_bins);
+            if tri_bins.is_empty() {
+                continue;
+            }
+            on_screen += 1;
+            if pairs.len() + tri_bins.len() > max_entries || tris.len() == options.batch_triangles {
+                sched.push(seal(&mut tris, &mut pairs, n_bins, options));
+            }
+            let k = tris.len() as u32;
+            tris.push(pt);
+            pairs.extend(tri_bins.iter().map(|&b| (b, k)));
+            entries += tri_bins.len() as u64;
+        }
+    }
+    if !tris.is_empty() {
+        sched.push(seal(&mut tris, &mut pairs, n_bins, options));
+    }
+    Ok((streamed, on_screen, entries))
+}
+
+/// Counting-sorts the (bin, triangle) pairs into a [`Batch`] and resets the buffers.
+fn seal(
+    tris: &mut Vec<ProjTri>,
+    pairs: &mut Vec<(u32, u32)>,
+    n_bins: usize,
+    options: &RvOptions,
+) -> Batch {
+    let mut batch_tris = std::mem::replace(tris, Vec::with_capacity(options.batch_triangles));
+    if options.sort_batches {
+        let near_z = |t: &ProjTri| t.corners.iter().map(|c| c.z).fold(f64::INFINITY, f64::min);
+        let mut order: Vec<u32> = (0..batch_tris.len() as u32).collect();
+        order.sort_by(|&a, &b| {
+            near_z(&batch_tris[a as usize]).total_cmp(&near_z(&batch_tris[b as usize]))
+        });
+        let mut rank = vec![0u32; order.len()];
+        for (r, &i) in order.iter().enumerate() {
+            rank[i as usize] = r as u32;
+        }
+        batch_tris = order.iter().map(|&i| batch_tris[i as usize]).collect();
+        for pair in pairs.iter_mut() {
+            pair.1 = rank[pair.1 as usize];
+        }
+    }
+    let mut offsets = vec![0u32; n_bins + 1];
+    for &(b, _) in pairs.iter() {
+        offsets[b as usize + 1] += 1;
+    }
+    for i in 0..n_bins {
+        offsets[i + 1] += offsets[i];
+    }
+    let mut fill = offsets.clone();
+    let mut entries = vec![0u32; pairs.len()];
+    for &(b, k) in pairs.iter() {
+        let slot = &mut fill[b as usize];
+        entries[*slot as usize] = k;
+        *slot += 1;
+    }
+    pairs.clear();
+    if options.sort_batches {
+        // Each bin's triangles front to back.
+        for b in 0..n_bins {
+            entries[offsets[b] as usize..offsets[b + 1] as usize].sort_unstable();
+        }
+    }
+    Batch {
+        tris: batch_tris,
+        offsets,
+        entries,
+    }
+}

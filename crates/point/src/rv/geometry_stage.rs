@@ -1,0 +1,263 @@
+//! The geometry stage: transform a batch of input triangles to view space, clip them to the
+//! near plane, drop those outside the screen, and bin them into screen bins by an overlap test.
+//!
+//! Based on: Ivanchenko. Massively Parallel Analytic Visibility for Streaming Virtual Reality.
+//! 2021, section 6.2 (project, back-face handling, bounding rectangle then overlap test per
+//! bin) and section 6.1 (triangle data stored once, bin queues hold indices).
+//!
+//! Back faces: the thesis culls them (or flips them to a consistent orientation). sightline's
+//! reference rasterizer draws triangles double-sided, so culling a back face could drop a
+//! triangle the reference shows (an open mesh seen from behind, a single wall quad): we keep
+//! every triangle and only record its facing, so occluders are grown from triangles of one
+//! facing (see `occluders.rs`).
+//!
+//! A triangle that is non-finite or has zero area in 3D is never visible (as in the rasterizer)
+//! and is dropped here.
+
+use glam::{DVec2, DVec3};
+
+use super::depth::eye_plane;
+use super::overlap::{convex_overlap, Rect};
+use super::projection::{clip, Poly, Projection, MAX_POLY};
+use super::source::SourceTriangle;
+
+/// A projected input triangle, stored once per batch; bin queues refer to it by index.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ProjTri {
+    /// Triangle id.
+    pub(crate) id: u32,
+    /// View-space corners.
+    pub(crate) corners: [DVec3; 3],
+    /// Screen corners (meaningful only when `whole_front`).
+    pub(crate) screen: [DVec2; 3],
+    /// Eye-positive plane; `None` when seen edge-on.
+    pub(crate) plane: Option<[f64; 4]>,
+    /// All corners in front of the near plane (no near clipping needed).
+    pub(crate) whole_front: bool,
+    /// Counter-clockwise on screen (image y down: negative signed area).
+    pub(crate) front: bool,
+}
+
+/// One batch of projected triangles and its per-bin index lists (counting-sorted by bin).
+#[derive(Debug, Default)]
+pub(crate) struct Batch {
+    pub(crate) tris: Vec<ProjTri>,
+    /// `entries[offsets[b]..offsets[b + 1]]` are the indices into `tris` binned to bin `b`.
+    pub(crate) offsets: Vec<u32>,
+    pub(crate) entries: Vec<u32>,
+}
+
+impl Batch {
+    /// Indices of the triangles in bin `bin`.
+    pub(crate) fn bin(&self, bin: usize) -> &[u32] {
+        match (self.offsets.get(bin), self.offsets.get(bin + 1)) {
+            (Some(&a), Some(&b)) => &self.entries[a as usize..b as usize],
+            _ => &[],
+        }
+    }
+
+    /// Heap bytes of a batch of `tris` triangles, `entries` bin entries over `bins` bins.
+    pub(crate) fn bytes_for(tris: usize, entries: usize, bins: usize) -> usize {
+        tris * std::mem::size_of::<ProjTri>() + (bins + 1) * 4 + entries * 4
+    }
+}
+
+/// The screen's grid of bins.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BinGrid {
+    pub(crate) nx: usize,
+    pub(crate) ny: usize,
+    pub(crate) width: f64,
+    pub(crate) height: f64,
+}
+
+impl BinGrid {
+    /// Number of bins.
+    pub(crate) fn len(&self) -> usize {
+        self.nx * self.ny
+    }
+
+    /// Pixel rectangle `(x0, x1, y0, y1)` of bin `b`.
+    pub(crate) fn rect(&self, b: usize) -> (f64, f64, f64, f64) {
+        let (ix, iy) = (b % self.nx, b / self.nx);
+        let (w, h) = (self.width / self.nx as f64, self.height / self.ny as f64);
+        (
+            ix as f64 * w,
+            (ix + 1) as f64 * w,
+            iy as f64 * h,
+            (iy + 1) as f64 * h,
+        )
+    }
+
+    fn range(&self, lo: f64, hi: f64, n: usize, extent: f64) -> (usize, usize) {
+        let cell = extent / n as f64;
+        let clamp = |v: f64| (v / cell).floor().clamp(0.0, (n - 1) as f64) as usize;
+        (clamp(lo), clamp(hi))
+    }
+}
+
+/// Projects one input triangle; `None` when it can never be visible (degenerate, behind the
+/// near plane or off screen). Also returns its near-clipped screen polygon.
+pub(crate) fn project(
+    t: &SourceTriangle,
+    proj: &Projection,
+    margin: f64,
+) -> Option<(ProjTri, [DVec2; MAX_POLY], usize)> {
+    let [a, b, c] = t.corners;
+    if !(a.is_finite() && b.is_finite() && c.is_finite()) {
+        return None;
+    }
+    // The rasterizer's degeneracy rule: exactly zero area in 3D, in f64.
+    let (wa, wb, wc) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+    if (wb - wa).cross(wc - wa) == DVec3::ZERO {
+        return None;
+    }
+    let corners = [proj.view_of(a), proj.view_of(b), proj.view_of(c)];
+    let near = proj.near_plane();
+    let whole_front = corners
+        .iter()
+        .all(|v| super::projection::plane_value(&near, *v) >= 0.0);
+    let poly = if whole_front {
+        Poly::from_slice(&corners)
+    } else {
+        clip(&Poly::from_slice(&corners), &near)
+    };
+    if poly.is_empty() {
+        return None;
+    }
+    let mut pts = [DVec2::ZERO; MAX_POLY];
+    for (i, v) in poly.as_slice().iter().enumerate() {
+        pts[i] = proj.screen_of(*v);
+    }
+    let screen_rect = Rect {
+        min: DVec2::ZERO,
+        max: DVec2::new(proj.width, proj.height),
+    };
+    if !Rect::of(&pts[..poly.len]).touches(&screen_rect, margin) {
+        return None;
+    }
+    let screen = if whole_front {
+        [pts[0], pts[1], pts[2]]
+    } else {
+        [DVec2::ZERO; 3]
+    };
+    let area = (screen[1] - screen[0]).perp_dot(screen[2] - screen[0]);
+    Some((
+        ProjTri {
+            id: t.id,
+            corners,
+            screen,
+            plane: eye_plane(corners[0], corners[1], corners[2]),
+            whole_front,
+            front: area < 0.0,
+        },
+        pts,
+        poly.len,
+    ))
+}
+
+/// Appends the bins `pts` (a convex screen polygon) overlaps, grown by `margin`, to `out`.
+pub(crate) fn bins_of(pts: &[DVec2], grid: &BinGrid, margin: f64, out: &mut Vec<u32>) {
+    let r = Rect::of(pts);
+    let (x0, x1) = grid.range(r.min.x - margin, r.max.x + margin, grid.nx, grid.width);
+    let (y0, y1) = grid.range(r.min.y - margin, r.max.y + margin, grid.ny, grid.height);
+    let single = x0 == x1 && y0 == y1;
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            let b = y * grid.nx + x;
+            if !single {
+                let (bx0, bx1, by0, by1) = grid.rect(b);
+                let rect = [
+                    DVec2::new(bx0, by0),
+                    DVec2::new(bx1, by0),
+                    DVec2::new(bx1, by1),
+                    DVec2::new(bx0, by1),
+                ];
+                if !convex_overlap(pts, &rect, margin) {
+                    continue;
+                }
+            }
+            out.push(b as u32);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+    use sightline_core::Camera;
+
+    fn proj() -> Projection {
+        let cam =
+            Camera::look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 90.0, 64, 64, 0.1).expect("cam");
+        Projection::new(&cam)
+    }
+
+    fn grid() -> BinGrid {
+        BinGrid {
+            nx: 4,
+            ny: 4,
+            width: 64.0,
+            height: 64.0,
+        }
+    }
+
+    fn tri(corners: [Vec3; 3]) -> SourceTriangle {
+        SourceTriangle { id: 0, corners }
+    }
+
+    #[test]
+    fn degenerate_is_dropped() {
+        let t = tri([Vec3::new(0.0, 0.0, -1.0); 3]);
+        assert!(project(&t, &proj(), 1e-3).is_none());
+    }
+
+    #[test]
+    fn behind_camera_is_dropped() {
+        let t = tri([
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(0.0, 1.0, 1.0),
+        ]);
+        assert!(project(&t, &proj(), 1e-3).is_none());
+    }
+
+    #[test]
+    fn crossing_near_plane_is_clipped() {
+        let t = tri([
+            Vec3::new(-1.0, -1.0, 1.0),
+            Vec3::new(1.0, -1.0, -3.0),
+            Vec3::new(0.0, 1.0, -3.0),
+        ]);
+        let (p, _, n) = project(&t, &proj(), 1e-3).expect("visible part");
+        assert!(!p.whole_front);
+        assert!(n >= 3);
+    }
+
+    #[test]
+    fn small_triangle_lands_in_one_bin() {
+        let t = tri([
+            Vec3::new(-0.1, -0.1, -1.0),
+            Vec3::new(-0.05, -0.1, -1.0),
+            Vec3::new(-0.1, -0.05, -1.0),
+        ]);
+        let (_, pts, n) = project(&t, &proj(), 1e-3).expect("visible");
+        let mut bins = Vec::new();
+        bins_of(&pts[..n], &grid(), 1e-3, &mut bins);
+        assert_eq!(bins.len(), 1);
+    }
+
+    #[test]
+    fn full_screen_triangle_lands_in_every_bin() {
+        let t = tri([
+            Vec3::new(-100.0, -100.0, -1.0),
+            Vec3::new(100.0, -100.0, -1.0),
+            Vec3::new(0.0, 100.0, -1.0),
+        ]);
+        let (_, pts, n) = project(&t, &proj(), 1e-3).expect("visible");
+        let mut bins = Vec::new();
+        bins_of(&pts[..n], &grid(), 1e-3, &mut bins);
+        assert_eq!(bins.len(), 16);
+    }
+}

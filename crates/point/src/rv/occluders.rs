@@ -1,0 +1,326 @@
+//! Per-bin occluder state: edge-connected patches of visible triangles with their silhouette
+//! edges, and how a new visible triangle creates, grows or merges occluders.
+//!
+//! Based on: Ivanchenko. Massively Parallel Analytic Visibility for Streaming Virtual Reality.
+//! 2021, chapter 5 ("internal state", "adding visible triangle to occluders", figure 5.14),
+//! sections 6.3.1 (occluder storage, global batch pool) and 6.3.3 (occluder state update,
+//! merging), and 7.1.4 (occluder depth bounds).
+//!
+//! Differences from the thesis, and why:
+//! - Silhouette edges are kept per occluder (not in one flat per-bin buffer): on a CPU the
+//!   per-occluder bounding rectangle then skips whole occluders before any edge is read.
+//! - Edges are matched undirected on their exact screen coordinates, and the silhouette is the
+//!   mod-2 sum of the triangles' edges (a shared edge is removed, an edge seen again is added
+//!   back). With that invariant, an odd number of silhouette crossings from a point means an odd
+//!   number (so at least one) of the occluder's triangles covers it, whatever the orientation,
+//!   manifoldness or self-overlap of the patch: this is what makes the silhouette test sound
+//!   for the double-sided, non-manifold, self-intersecting input sightline accepts.
+//! - Because triangles are double-sided here (see `geometry_stage.rs`), front- and back-facing
+//!   triangles grow separate occluders: a closed mesh whose front and back halves merged would
+//!   cover every point twice, have an empty silhouette and occlude nothing.
+//! - Only triangles entirely in front of the near plane and not seen edge-on become occluders
+//!   (their projections are bounded and their planes order depth along every eye ray).
+//! - When a pool is full (occluders per bin, edges per bin, occluder memory), the visible
+//!   triangle is simply not added: it stays marked visible, the result stays conservative.
+
+use glam::{DVec2, DVec3};
+
+use super::geometry_stage::ProjTri;
+use super::memory::{release_to, reserve_from, Pool};
+use super::overlap::Rect;
+
+/// An occluder's triangle, as the triangle test needs it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct OccTri {
+    pub(crate) corners: [DVec3; 3],
+    pub(crate) screen: [DVec2; 3],
+    pub(crate) plane: [f64; 4],
+    pub(crate) rect: Rect,
+}
+
+/// A silhouette edge (undirected) in screen coordinates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Edge {
+    pub(crate) a: DVec2,
+    pub(crate) b: DVec2,
+}
+
+impl Edge {
+    #[inline]
+    fn same(&self, o: &Edge) -> bool {
+        (self.a == o.a && self.b == o.b) || (self.a == o.b && self.b == o.a)
+    }
+}
+
+/// One occluder: an edge-connected patch of same-facing visible triangles.
+#[derive(Debug)]
+pub(crate) struct Occluder {
+    pub(crate) tris: Vec<OccTri>,
+    pub(crate) edges: Vec<Edge>,
+    /// Bounds of the triangles' projections (a superset of the silhouette's).
+    pub(crate) rect: Rect,
+    /// View depth bounds of the triangles (thesis 7.1.4).
+    pub(crate) zmin: f64,
+    pub(crate) zmax: f64,
+    pub(crate) front: bool,
+}
+
+/// Limits of one bin's state (thesis: occluders per bin, silhouette edge buffer size).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Limits {
+    pub(crate) max_occluders: usize,
+    pub(crate) max_edges: usize,
+}
+
+/// What happened to a visible triangle offered to the occluders.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum AddOutcome {
+    /// Not eligible (crosses the near plane or seen edge-on).
+    NotEligible,
+    /// Started a new occluder.
+    New,
+    /// Grew one occluder.
+    Grown,
+    /// Joined several occluders into one.
+    Merged,
+    /// A pool was full; the triangle stays visible but does not occlude.
+    Full,
+}
+
+/// The occluders of one bin.
+#[derive(Debug, Default)]
+pub(crate) struct BinState {
+    pub(crate) occluders: Vec<Occluder>,
+    edge_count: usize,
+}
+
+/// Most occluders one triangle may join at once (3 edges, a few non-manifold duplicates).
+const MAX_MATCHES: usize = 8;
+
+impl BinState {
+    /// Offers visible triangle `t` to this bin's occluders (chapter 5, figure 5.14).
+    pub(crate) fn add(&mut self, t: &ProjTri, limits: &Limits, pool: &Pool) -> AddOutcome {
+        let Some(plane) = t.plane.filter(|_| t.whole_front) else {
+            return AddOutcome::NotEligible;
+        };
+        let s = t.screen;
+        let edges = [
+            Edge { a: s[0], b: s[1] },
+            Edge { a: s[1], b: s[2] },
+            Edge { a: s[2], b: s[0] },
+        ];
+        let occ_tri = OccTri {
+            corners: t.corners,
+            screen: s,
+            plane,
+            rect: Rect::of(&s),
+        };
+        if self.edge_count + 3 > limits.max_edges {
+            return AddOutcome::Full;
+        }
+        // Occluders sharing an edge with t: same facing, touching bounds, an identical edge.
+        let mut matches = [0usize; MAX_MATCHES];
+        let mut n_matches = 0;
+        for (i, o) in self.occluders.iter().enumerate() {
+            if o.front != t.front || !o.rect.touches(&occ_tri.rect, 0.0) {
+                continue;
+            }
+            if o.edges.iter().any(|e| edges.iter().any(|f| e.same(f))) {
+                if n_matches == MAX_MATCHES {
+                    return AddOutcome::Full;
+                }
+                matches[n_matches] = i;
+                n_matches += 1;
+            }
+        }
+        let z = |f: fn(f64, f64) -> f64| f(f(t.corners[0].z, t.corners[1].z), t.corners[2].z);
+        let (zmin, zmax) = (z(f64::min), z(f64::max));
+        if n_matches == 0 {
+            if self.occluders.len() >= limits.max_occluders
+                || !reserve_from(&mut self.occluders, 1, pool)
+            {
+                return AddOutcome::Full;
+            }
+            let mut o = Occluder {
+                tris: Vec::new(),
+                edges: Vec::new(),
+                rect: occ_tri.rect,
+                zmin,
+                zmax,
+                front: t.front,
+            };
+            if !reserve_from(&mut o.tris, 1, pool) || !reserve_from(&mut o.edges, 3, pool) {
+                release_to(&mut o.tris, pool);
+                release_to(&mut o.edges, pool);
+                return AddOutcome::Full;
+            }
+            o.tris.push(occ_tri);
+            o.edges.extend_from_slice(&edges);
+            self.edge_count += 3;
+            self.occluders.push(o);
+            return AddOutcome::New;
+        }
+        let matches = &mut matches[..n_matches];
+        // Merge into the occluder with the most triangles (chapter 5).
+        let target = matches
+            .iter()
+            .copied()
+            .max_by_key(|&i| self.occluders[i].tris.len())
+            .unwrap_or(matches[0]);
+        let extra_tris: usize = matches
+            .iter()
+            .filter(|&&i| i != target)
+            .map(|&i| self.occluders[i].tris.len())
+            .sum::<usize>()
+            + 1;
+        let extra_edges: usize = matches
+            .iter()
+            .filter(|&&i| i != target)
+            .map(|&i| self.occluders[i].edges.len())
+            .sum::<usize>()
+            + 3;
+        {
+            let o = &mut self.occluders[target];
+            if !reserve_from(&mut o.tris, extra_tris, pool)
+                || !reserve_from(&mut o.edges, extra_edges, pool)
+            {
+                return AddOutcome::Full;
+            }
+        }
+        // Take all matched occluders out (highest index first so swap_remove keeps the rest
+        // valid), fold the others into the target, put the target back.
+        matches.sort_unstable_by(|a, b| b.cmp(a));
+        let mut taken: Vec<Occluder> = Vec::new();
+        let mut main = None;
+        for &i in matches.iter() {
+            let o = self.occluders.swap_remove(i);
+            if i == target {
+                main = Some(o);
+            } else {
+                taken.push(o);
+            }
+        }
+        let Some(mut main) = main else {
+            return AddOutcome::Full;
+        };
+        let merged = !taken.is_empty();
+        for mut o in taken {
+            main.tris.append(&mut o.tris);
+            main.edges.append(&mut o.edges);
+            main.rect = main.rect.union(&o.rect);
+            main.zmin = main.zmin.min(o.zmin);
+            main.zmax = main.zmax.max(o.zmax);
+            release_to(&mut o.tris, pool);
+            release_to(&mut o.edges, pool);
+        }
+        main.tris.push(occ_tri);
+        main.rect = main.rect.union(&occ_tri.rect);
+        main.zmin = main.zmin.min(zmin);
+        main.zmax = main.zmax.max(zmax);
+        // Mod-2 edge update: a shared edge leaves the silhouette, a new one joins it.
+        for e in edges {
+            if let Some(k) = main.edges.iter().position(|f| f.same(&e)) {
+                main.edges.swap_remove(k);
+                self.edge_count -= 1;
+            } else {
+                main.edges.push(e);
+                self.edge_count += 1;
+            }
+        }
+        self.occluders.push(main);
+        if merged {
+            AddOutcome::Merged
+        } else {
+            AddOutcome::Grown
+        }
+    }
+
+    /// Returns all occluder memory to `pool`.
+    pub(crate) fn clear(&mut self, pool: &Pool) {
+        for o in &mut self.occluders {
+            release_to(&mut o.tris, pool);
+            release_to(&mut o.edges, pool);
+        }
+        release_to(&mut self.occluders, pool);
+        self.edge_count = 0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn limits() -> Limits {
+        Limits {
+            max_occluders: 4,
+            max_edges: 64,
+        }
+    }
+
+    fn tri(s: [[f64; 2]; 3]) -> ProjTri {
+        let screen = s.map(|p| DVec2::new(p[0], p[1]));
+        let corners = s.map(|p| DVec3::new(p[0], p[1], 5.0));
+        ProjTri {
+            id: 0,
+            corners,
+            screen,
+            plane: Some([0.0, 0.0, -1.0, 5.0]),
+            whole_front: true,
+            front: true,
+        }
+    }
+
+    #[test]
+    fn first_triangle_starts_occluder() {
+        let pool = Pool::new(1 << 20);
+        let mut b = BinState::default();
+        let out = b.add(&tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), &limits(), &pool);
+        assert_eq!(out, AddOutcome::New);
+        assert_eq!(b.occluders[0].edges.len(), 3);
+    }
+
+    #[test]
+    fn shared_edge_grows_and_drops_edge() {
+        let pool = Pool::new(1 << 20);
+        let mut b = BinState::default();
+        b.add(&tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), &limits(), &pool);
+        let out = b.add(&tri([[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]), &limits(), &pool);
+        assert_eq!(out, AddOutcome::Grown);
+        assert_eq!(b.occluders.len(), 1);
+        assert_eq!(b.occluders[0].edges.len(), 4);
+    }
+
+    #[test]
+    fn bridge_triangle_merges() {
+        let pool = Pool::new(1 << 20);
+        let mut b = BinState::default();
+        b.add(&tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), &limits(), &pool);
+        b.add(&tri([[1.0, 1.0], [2.0, 1.0], [1.0, 2.0]]), &limits(), &pool);
+        // Shares edge (1,0)-(0,1) with the first and nothing with the second...
+        let out = b.add(&tri([[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]), &limits(), &pool);
+        assert_eq!(out, AddOutcome::Grown);
+        // ...then one touching both.
+        let out = b.add(&tri([[1.0, 1.0], [1.0, 0.0], [2.0, 1.0]]), &limits(), &pool);
+        assert_eq!(out, AddOutcome::Merged);
+        assert_eq!(b.occluders.len(), 1);
+        assert_eq!(b.occluders[0].tris.len(), 4);
+    }
+
+    #[test]
+    fn full_pool_refuses() {
+        let pool = Pool::new(0);
+        let mut b = BinState::default();
+        let out = b.add(&tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), &limits(), &pool);
+        assert_eq!(out, AddOutcome::Full);
+        assert!(b.occluders.is_empty());
+    }
+
+    #[test]
+    fn near_crossing_triangle_is_not_eligible() {
+        let pool = Pool::new(1 << 20);
+        let mut b = BinState::default();
+        let mut t = tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
+        t.whole_front = false;
+        assert_eq!(b.add(&t, &limits(), &pool), AddOutcome::NotEligible);
+    }
+}

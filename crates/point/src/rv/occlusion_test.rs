@@ -1,0 +1,104 @@
+//! The occlusion test of a clipped occludee against a bin's occluders: the silhouette test
+//! (edge overlap, then crossing parity) and the triangle test (overlap, depth relation, split).
+//!
+//! Based on: Ivanchenko. Massively Parallel Analytic Visibility for Streaming Virtual Reality.
+//! 2021, chapter 5 (occlusion test, figure 5.10; silhouette test, figures 5.11-5.12; triangle
+//! test, figure 5.13), section 6.3.2, and section 7.1.4 (occluder depth bounds).
+//!
+//! Soundness, in one paragraph: if no silhouette edge of occluder `O` comes within the margin
+//! of the occludee `P` and a ray from a point of `P` crosses `O`'s silhouette an odd number of
+//! times, then every point of `P` (grown by the margin) is covered by an odd number, so at least
+//! one, of `O`'s triangles (the silhouette is the mod-2 sum of their edges, see
+//! `occluders.rs`). If moreover `P` is behind every triangle of `O` that it overlaps, every
+//! point of `P` is hidden by some triangle of `O`, and so is every sample the reference
+//! rasterizer could take of `P`.
+
+use glam::DVec2;
+
+use super::depth::{occludee_behind, OccluderView, DEPTH_EPS};
+use super::occluders::{BinState, Occluder};
+use super::overlap::{convex_overlap, inner_point, ray_crosses, segment_overlaps, Rect};
+use super::projection::{Poly, Projection};
+
+/// An occludee clipped to a bin, with what the tests need precomputed.
+pub(crate) struct Occludee<'a> {
+    /// View-space polygon (clipped to the near plane and the bin).
+    pub(crate) poly: &'a Poly,
+    /// Its screen projection.
+    pub(crate) screen: &'a [DVec2],
+    /// Bounds of `screen`.
+    pub(crate) rect: Rect,
+    /// View depth bounds.
+    pub(crate) zmin: f64,
+    pub(crate) zmax: f64,
+    /// Eye-positive plane of the unclipped triangle.
+    pub(crate) plane: Option<&'a [f64; 4]>,
+}
+
+/// Counters of the test, for statistics.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct TestCounters {
+    pub(crate) silhouette_tests: u64,
+    pub(crate) triangle_tests: u64,
+}
+
+/// True when some occluder of `state` hides all of `p`.
+pub(crate) fn is_occluded(
+    p: &Occludee<'_>,
+    state: &BinState,
+    proj: &Projection,
+    margin: f64,
+    counters: &mut TestCounters,
+) -> bool {
+    state
+        .occluders
+        .iter()
+        .any(|o| occluded_by(p, o, proj, margin, counters))
+}
+
+fn occluded_by(
+    p: &Occludee<'_>,
+    o: &Occluder,
+    proj: &Projection,
+    margin: f64,
+    counters: &mut TestCounters,
+) -> bool {
+    // P must lie inside the silhouette, so inside the occluder's bounds.
+    if !o.rect.contains(&p.rect, margin) {
+        return false;
+    }
+    // Entirely nearer than every occluder triangle: cannot be hidden by it.
+    if p.zmax * (1.0 + DEPTH_EPS) < o.zmin {
+        return false;
+    }
+    counters.silhouette_tests += 1;
+    // Silhouette test: no edge overlaps P, and P is inside (odd crossing parity).
+    let q = inner_point(p.screen);
+    let mut crossings = 0u32;
+    for e in &o.edges {
+        if segment_overlaps(e.a, e.b, p.screen, margin) {
+            return false;
+        }
+        crossings += u32::from(ray_crosses(q, e.a, e.b));
+    }
+    if crossings & 1 == 0 {
+        return false;
+    }
+    // Depth bounds: behind the whole occluder, no triangle test needed.
+    if p.zmin > o.zmax * (1.0 + DEPTH_EPS) {
+        return true;
+    }
+    // Triangle test: behind every occluder triangle it overlaps.
+    counters.triangle_tests += 1;
+    o.tris.iter().all(|t| {
+        if !t.rect.touches(&p.rect, margin) || !convex_overlap(&t.screen, p.screen, margin) {
+            return true;
+        }
+        let view = OccluderView {
+            corners: &t.corners,
+            screen: &t.screen,
+            plane: &t.plane,
+        };
+        occludee_behind(p.poly, p.plane, &view, proj, margin)
+    })
+}

@@ -1,0 +1,110 @@
+//! The input stream: batches of (triangle id, three corners), from an in-memory scene or from
+//! anything that can produce triangles on the fly (a file reader, a generator).
+//!
+//! Based on: Ivanchenko. Massively Parallel Analytic Visibility for Streaming Virtual Reality.
+//! 2021, section 6.2 (the geometry stage fetches batches of input triangles from a stream).
+
+use glam::Vec3;
+use sightline_core::Scene;
+
+use super::RvError;
+
+/// One input triangle: its id (the bit it sets in the visible set) and world-space corners.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SourceTriangle {
+    /// Triangle id, below the source's [`TriangleSource::id_bound`].
+    pub id: u32,
+    /// World-space corners.
+    pub corners: [Vec3; 3],
+}
+
+/// A stream of triangles. Ids need not be contiguous or ordered, but must be below
+/// [`TriangleSource::id_bound`]; the same id may not appear twice.
+pub trait TriangleSource {
+    /// Exclusive upper bound of the ids the stream yields (sizes the visible set).
+    fn id_bound(&self) -> u32;
+
+    /// Appends up to `max` triangles to `out` and returns how many; 0 means the stream ended.
+    fn next_batch(&mut self, max: usize, out: &mut Vec<SourceTriangle>) -> Result<usize, RvError>;
+}
+
+/// Streams an in-memory [`Scene`] in id order. Triangles with out-of-range indices are yielded
+/// with NaN corners (so they are never reported visible, like the rasterizer never draws them).
+#[derive(Debug)]
+pub struct SceneSource<'a> {
+    scene: &'a Scene,
+    next: usize,
+}
+
+impl<'a> SceneSource<'a> {
+    /// A stream over all triangles of `scene`.
+    pub fn new(scene: &'a Scene) -> Self {
+        Self { scene, next: 0 }
+    }
+}
+
+impl TriangleSource for SceneSource<'_> {
+    fn id_bound(&self) -> u32 {
+        u32::try_from(self.scene.triangles.len()).unwrap_or(u32::MAX)
+    }
+
+    fn next_batch(&mut self, max: usize, out: &mut Vec<SourceTriangle>) -> Result<usize, RvError> {
+        let end = (self.next + max).min(self.id_bound() as usize);
+        let start = self.next;
+        for id in start..end {
+            let t = self.scene.triangles[id];
+            let corner = |i: u32| {
+                self.scene
+                    .positions
+                    .get(i as usize)
+                    .copied()
+                    .unwrap_or(Vec3::NAN)
+            };
+            out.push(SourceTriangle {
+                id: id as u32,
+                corners: [corner(t[0]), corner(t[1]), corner(t[2])],
+            });
+        }
+        self.next = end;
+        Ok(end - start)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sightline_core::scene::SceneBuilder;
+
+    #[test]
+    fn empty_scene_streams_nothing() {
+        let scene = Scene::default();
+        let mut s = SceneSource::new(&scene);
+        let mut out = Vec::new();
+        assert_eq!(s.next_batch(10, &mut out).ok(), Some(0));
+        assert_eq!(s.id_bound(), 0);
+    }
+
+    #[test]
+    fn bad_index_gives_nan_corner() {
+        let mut b = SceneBuilder::new("bad");
+        let v = b.add_vertex(Vec3::ZERO);
+        b.add_triangle([v, v, 7]);
+        let scene = b.finish();
+        let mut s = SceneSource::new(&scene);
+        let mut out = Vec::new();
+        assert_eq!(s.next_batch(10, &mut out).ok(), Some(1));
+        assert!(out[0].corners[2].is_nan());
+    }
+
+    #[test]
+    fn batches_cover_all_ids_in_order() {
+        let mut b = SceneBuilder::new("boxes");
+        b.add_box(Vec3::ZERO, Vec3::ONE);
+        let scene = b.finish();
+        let mut s = SceneSource::new(&scene);
+        let mut out = Vec::new();
+        while s.next_batch(5, &mut out).ok() > Some(0) {}
+        let ids: Vec<u32> = out.iter().map(|t| t.id).collect();
+        assert_eq!(ids, (0..12).collect::<Vec<_>>());
+    }
+}

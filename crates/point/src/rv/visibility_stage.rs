@@ -1,0 +1,93 @@
+//! The visibility stage for one bin: clip each queued triangle to the bin's frustum, test it
+//! against the bin's occluders, mark it visible when not occluded and offer it to the occluders.
+//!
+//! Based on: Ivanchenko. Massively Parallel Analytic Visibility for Streaming Virtual Reality.
+//! 2021, chapter 5 ("clipping against bin", figures 5.7-5.8) and section 6.3 (triangles of a bin
+//! are processed one by one, in stream order, against the bin's occluder state; a triangle is
+//! visible as soon as it is visible in one bin, so the visible set only ever gains bits).
+
+use glam::DVec2;
+use sightline_core::atomic_set::AtomicTriangleSet;
+
+use super::geometry_stage::ProjTri;
+use super::memory::Pool;
+use super::occluders::{AddOutcome, BinState, Limits};
+use super::occlusion_test::{is_occluded, Occludee, TestCounters};
+use super::overlap::Rect;
+use super::projection::{clip, Poly, Projection, MAX_POLY};
+
+/// Per-worker statistics of the visibility stage.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct StageStats {
+    pub(crate) tested: u64,
+    pub(crate) occluded: u64,
+    pub(crate) visible: u64,
+    pub(crate) clipped_away: u64,
+    pub(crate) occluders_created: u64,
+    pub(crate) occluders_grown: u64,
+    pub(crate) occluder_merges: u64,
+    pub(crate) pool_full: u64,
+    pub(crate) counters: TestCounters,
+}
+
+/// What one bin's processing needs that does not change during a run.
+pub(crate) struct BinContext<'a> {
+    pub(crate) proj: &'a Projection,
+    /// The bin's frustum, grown by the margin.
+    pub(crate) planes: [[f64; 4]; 4],
+    pub(crate) margin: f64,
+    pub(crate) limits: &'a Limits,
+    pub(crate) pool: &'a Pool,
+    pub(crate) visible: &'a AtomicTriangleSet,
+}
+
+/// Runs the visibility stage on triangle `t` in the bin of `ctx`.
+pub(crate) fn process(
+    t: &ProjTri,
+    ctx: &BinContext<'_>,
+    state: &mut BinState,
+    st: &mut StageStats,
+) {
+    let mut poly = Poly::from_slice(&t.corners);
+    if !t.whole_front {
+        poly = clip(&poly, &ctx.proj.near_plane());
+    }
+    for plane in &ctx.planes {
+        poly = clip(&poly, plane);
+    }
+    if poly.is_empty() {
+        st.clipped_away += 1;
+        return;
+    }
+    st.tested += 1;
+    let mut screen = [DVec2::ZERO; MAX_POLY];
+    let (mut zmin, mut zmax) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (i, v) in poly.as_slice().iter().enumerate() {
+        screen[i] = ctx.proj.screen_of(*v);
+        zmin = zmin.min(v.z);
+        zmax = zmax.max(v.z);
+    }
+    let screen = &screen[..poly.len];
+    let p = Occludee {
+        poly: &poly,
+        screen,
+        rect: Rect::of(screen),
+        zmin,
+        zmax,
+        plane: t.plane.as_ref(),
+    };
+    if !state.occluders.is_empty() && is_occluded(&p, state, ctx.proj, ctx.margin, &mut st.counters)
+    {
+        st.occluded += 1;
+        return;
+    }
+    st.visible += 1;
+    ctx.visible.insert(t.id);
+    match state.add(t, ctx.limits, ctx.pool) {
+        AddOutcome::New => st.occluders_created += 1,
+        AddOutcome::Grown => st.occluders_grown += 1,
+        AddOutcome::Merged => st.occluder_merges += 1,
+        AddOutcome::Full => st.pool_full += 1,
+        AddOutcome::NotEligible => {}
+    }
+}
