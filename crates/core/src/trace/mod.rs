@@ -3,6 +3,7 @@
 //! Hits are closest hits over `[ray.t_min, ray.t_max]`. Degenerate (zero-area) triangles are
 //! never hit. Triangles are double-sided.
 
+mod box4;
 pub mod brute;
 pub mod bvh;
 #[cfg(feature = "embree")]
