@@ -13,21 +13,23 @@
 //!
 //! # Layout
 //! Nodes are 128 bytes on two cache lines: the four child boxes as six rows of four lanes
-//! (min x, y, z, max x, y, z), then per child its node index or first triangle, and its
-//! triangle count (0 for an inner child). Triangles are copied in leaf order with their three
-//! corners and their original id (40 bytes each), so a leaf is one contiguous run of memory
-//! and the scene is not touched while tracing.
+//! (min x, y, z, max x, y, z), then per child its node index or first packet, and its packet
+//! count (0 for an inner child). Triangles are copied in leaf order, four to a 160-byte packet
+//! (`Tri4`: corners as rows of four lanes, and the scene ids), so a leaf is one
+//! contiguous run of packets tested four triangles at a time, and the scene is not touched
+//! while tracing.
 //!
 //! # Memory
-//! Per triangle that is kept (degenerate ones are dropped): 40 bytes of leaf triangles plus
-//! about 20 bytes of 4-wide nodes on the bench scenes, so about 60 bytes per triangle in all
-//! ([`Bvh::memory_bytes`]). The build peaks at about 170 bytes per triangle (24-byte boxes,
-//! 4-byte ids, and an uncompacted binary node array of 64 bytes per triangle), i.e. about
-//! 1.7 GB for 10M triangles.
+//! Per triangle that is kept (degenerate ones are dropped), on the 1M-triangle procedural city
+//! and on munich: about 48 bytes of packets (3.4 triangles per packet) plus 12 bytes of nodes,
+//! so about 60 bytes per triangle ([`Bvh::memory_bytes`]). The build peaks at about 170 bytes
+//! per triangle (24-byte boxes, 4-byte ids, and an uncompacted binary node array of 64 bytes
+//! per triangle), i.e. about 1.7 GB for 10M triangles.
 //!
 //! # Exactness
-//! Leaves use the same watertight test as [`super::BruteForce`] and ties in `t` go to the lower
-//! triangle id, so hits equal brute force bit for bit. Box tests are only ever made more
+//! Leaves use the same watertight test as [`super::BruteForce`] (four lanes at a time with the
+//! same bits, see `tri4.rs`) and ties in `t` go to the lower triangle id, so hits equal brute
+//! force bit for bit. Box tests are only ever made more
 //! conservative (Ize's slack on the far distance, a relative slack on the culling distance) so
 //! that a box whose triangle the leaf test would accept is never culled by rounding.
 
@@ -38,7 +40,8 @@ use crate::geometry::{Aabb, Hit, Ray};
 use crate::scene::Scene;
 
 use super::box4::{BoxRay4, Boxes4, EMPTY_BOXES};
-use super::triangle::{intersect, ShearedRay};
+use super::tri4::{intersect4, Tri4};
+use super::triangle::ShearedRay;
 use super::RayCaster;
 
 /// Number of SAH bins per axis (Wald 2007 finds 16 close to a full sweep in quality).
@@ -120,15 +123,6 @@ impl Node {
 #[repr(C, align(64))]
 struct NodePair([Node; 2]);
 
-/// A triangle in leaf order: its corners and its id in the scene.
-#[derive(Clone, Copy, Debug)]
-struct LeafTriangle {
-    a: Vec3,
-    b: Vec3,
-    c: Vec3,
-    id: u32,
-}
-
 /// A bounding volume hierarchy over a scene's triangles: the default [`RayCaster`].
 ///
 /// Owns a copy of the triangles it needs, so it does not borrow the scene.
@@ -149,8 +143,10 @@ struct LeafTriangle {
 pub struct Bvh {
     /// 4-wide nodes, the root first (empty when `triangles` is).
     nodes: Vec<Node4>,
-    /// Triangles in leaf order.
-    triangles: Vec<LeafTriangle>,
+    /// Triangles in leaf order, four to a packet; a leaf is a run of packets.
+    packets: Vec<Tri4>,
+    /// Triangles held (the packets' lanes less the padding).
+    triangle_count: usize,
 }
 
 /// Bounds, centroid bounds and count of a set of triangles (a bin, or a node's content).
@@ -460,21 +456,32 @@ fn node_area(n: &Node) -> f32 {
 /// close together); the root is node 0. Each 4-wide node takes the binary node's two children
 /// and keeps opening the child with the largest surface area (the likeliest to be entered)
 /// until it has four (Wald et al. 2008).
-fn collapse(root: &Node, sparse: &[NodePair]) -> Vec<Node4> {
+///
+/// `pack(first, count)` turns a binary leaf (a range of triangles in leaf order) into packets
+/// and returns the first packet's index and the packet count, which the 4-wide node stores.
+fn collapse(
+    root: &Node,
+    sparse: &[NodePair],
+    pack: &mut impl FnMut(u32, u32) -> (u32, u32),
+) -> Vec<Node4> {
     let mut nodes = Vec::with_capacity(sparse.len() / 2 + 1);
     if root.is_leaf() {
         let mut n = Node4::EMPTY;
         n.set_box(0, root);
-        n.child[0] = root.first;
-        n.count[0] = root.count;
+        (n.child[0], n.count[0]) = pack(root.first, root.count);
         nodes.push(n);
     } else {
-        collapse_inner(root, sparse, &mut nodes);
+        collapse_inner(root, sparse, pack, &mut nodes);
     }
     nodes
 }
 
-fn collapse_inner(inner: &Node, sparse: &[NodePair], out: &mut Vec<Node4>) -> u32 {
+fn collapse_inner(
+    inner: &Node,
+    sparse: &[NodePair],
+    pack: &mut impl FnMut(u32, u32) -> (u32, u32),
+    out: &mut Vec<Node4>,
+) -> u32 {
     let index = out.len();
     out.push(Node4::EMPTY);
     let mut kids = [Node::default(); 4];
@@ -494,10 +501,9 @@ fn collapse_inner(inner: &Node, sparse: &[NodePair], out: &mut Vec<Node4>) -> u3
     for (lane, kid) in kids[..len].iter().enumerate() {
         node.set_box(lane, kid);
         if kid.is_leaf() {
-            node.child[lane] = kid.first;
-            node.count[lane] = kid.count;
+            (node.child[lane], node.count[lane]) = pack(kid.first, kid.count);
         } else {
-            node.child[lane] = collapse_inner(kid, sparse, out);
+            node.child[lane] = collapse_inner(kid, sparse, pack, out);
         }
     }
     out[index] = node;
@@ -534,40 +540,54 @@ impl Bvh {
         if ids.is_empty() {
             return Self {
                 nodes: Vec::new(),
-                triangles: Vec::new(),
+                packets: Vec::new(),
+                triangle_count: 0,
             };
         }
         let content = summarize(&input, &ids);
         let mut sparse = vec![NodePair::default(); ids.len() - 1];
         let root = build_node(&input, &mut ids, 0, content, &mut sparse, 0, 0);
-        let nodes = collapse(&root, &sparse);
-        drop(sparse);
         drop(boxes);
-        let triangles = ids
-            .par_iter()
-            .map(|&id| {
-                let [a, b, c] = corners(&scene.triangles[id as usize]).unwrap_or_default();
-                LeafTriangle { a, b, c, id }
-            })
-            .collect();
-        Self { nodes, triangles }
+        let mut packets = Vec::with_capacity(ids.len() / 2);
+        let mut pack = |first: u32, count: u32| {
+            let start = packets.len() as u32;
+            let leaf = &ids[first as usize..(first + count) as usize];
+            for chunk in leaf.chunks(4) {
+                let mut tris = [([Vec3::ZERO; 3], 0); 4];
+                for (slot, &id) in tris.iter_mut().zip(chunk) {
+                    let c = corners(&scene.triangles[id as usize]).unwrap_or_default();
+                    *slot = (c, id);
+                }
+                packets.push(Tri4::new(&tris[..chunk.len()]));
+            }
+            (start, packets.len() as u32 - start)
+        };
+        let mut nodes = collapse(&root, &sparse, &mut pack);
+        drop(sparse);
+        nodes.shrink_to_fit();
+        packets.shrink_to_fit();
+        Self {
+            nodes,
+            packets,
+            triangle_count: ids.len(),
+        }
     }
 
     /// Number of triangles the BVH holds (the scene's, less degenerate ones).
     pub fn triangle_count(&self) -> usize {
-        self.triangles.len()
+        self.triangle_count
     }
 
     /// Heap bytes held by the BVH (nodes and leaf triangles).
     pub fn memory_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<Node4>()
-            + self.triangles.capacity() * std::mem::size_of::<LeafTriangle>()
+            + self.packets.capacity() * std::mem::size_of::<Tri4>()
     }
 
     /// Walks the tree, children near to far. `leaf` tests one leaf and returns the new culling
     /// distance, or `None` to stop at once (any-hit). Returns false when stopped.
     #[inline(always)]
-    fn traverse(&self, ray: &Ray, mut leaf: impl FnMut(&[LeafTriangle]) -> Option<f32>) -> bool {
+    fn traverse(&self, ray: &Ray, mut leaf: impl FnMut(&[Tri4]) -> Option<f32>) -> bool {
         let t_min = ray.t_min - ray.t_min.abs() * CULL_SLACK;
         let Some(r) = BoxRay4::new(ray, t_min) else {
             return true;
@@ -581,7 +601,7 @@ impl Bvh {
             if current.count > 0 {
                 let s = current.child as usize;
                 let e = s + current.count as usize;
-                match leaf(&self.triangles[s..e]) {
+                match leaf(&self.packets[s..e]) {
                     Some(t) => t_far = t,
                     None => return false,
                 }
@@ -660,15 +680,16 @@ impl Bvh {
         let sheared = ShearedRay::new(ray);
         let mut best = Hit::MISS;
         let t_max = slack_up(ray.t_max);
-        self.traverse(ray, |tris| {
-            for tri in tris {
-                if let Some(t) = intersect(&sheared, tri.a, tri.b, tri.c) {
+        self.traverse(ray, |packets| {
+            for packet in packets {
+                let (ts, mut mask) = intersect4(&sheared, packet);
+                while mask != 0 {
+                    let lane = mask.trailing_zeros() as usize & 3;
+                    mask &= mask - 1;
+                    let (t, id) = (ts[lane], packet.ids[lane]);
                     // Ties go to the lower id, as in brute force.
-                    if t < best.t || (t == best.t && tri.id < best.triangle) {
-                        best = Hit {
-                            triangle: tri.id,
-                            t,
-                        };
+                    if t < best.t || (t == best.t && id < best.triangle) {
+                        best = Hit { triangle: id, t };
                     }
                 }
             }
@@ -687,10 +708,8 @@ impl Bvh {
         }
         let sheared = ShearedRay::new(ray);
         let t_max = slack_up(ray.t_max);
-        !self.traverse(ray, |tris| {
-            let hit = tris
-                .iter()
-                .any(|tri| intersect(&sheared, tri.a, tri.b, tri.c).is_some());
+        !self.traverse(ray, |packets| {
+            let hit = packets.iter().any(|p| intersect4(&sheared, p).1 != 0);
             (!hit).then_some(t_max)
         })
     }

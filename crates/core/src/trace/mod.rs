@@ -9,6 +9,7 @@ pub mod bvh;
 #[cfg(feature = "embree")]
 pub mod embree;
 pub mod measure;
+mod tri4;
 pub mod triangle;
 
 use crate::geometry::{Hit, Ray};
