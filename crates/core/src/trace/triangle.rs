@@ -7,7 +7,7 @@
 //! hits at least one of the triangles that share it (no cracks). When an edge function is
 //! exactly zero in f32 it is recomputed in f64, as the paper recommends.
 //!
-//! [`super::tri4`] evaluates this same test on four triangles at once with the same operations
+//! `tri4.rs` evaluates this same test on four triangles at once with the same operations
 //! in the same order; a change here must be made there too (its tests compare the two).
 
 use glam::Vec3;
