@@ -1,30 +1,35 @@
 //! Our default ray caster: a binned-SAH bounding volume hierarchy over the scene's triangles,
-//! built in parallel, traversed with a stack, children tested at their parent and the nearer
-//! one visited first.
+//! built in parallel as a binary tree, collapsed into a 4-wide tree whose four child boxes are
+//! tested at once (SSE), and traversed with a stack, nearer children first.
 //!
 //! Based on: Wald. On fast construction of SAH-based bounding volume hierarchies. 2007
 //! (binned SAH build, 16 bins, bins keep bounds and centroid bounds so children need no extra pass).
+//! Based on: Wald, Benthin, Boulos. Getting rid of packets: efficient SIMD single-ray traversal
+//! using multi-branching BVHs. IRT 2008 (the 4-wide tree, collapsed from the binary one).
+//! Based on: Ernst, Greiner. Multi bounding volume hierarchies. IRT 2008.
 //! Based on: Ize. Robust BVH ray traversal. JCGT 2(2), 2013 (the `1 + 2 gamma(3)` slab slack).
 //! Based on: Woop, Benthin, Wald. Watertight ray/triangle intersection. JCGT 2(1), 2013
 //! (the leaf test, [`super::triangle::intersect`]).
 //!
 //! # Layout
-//! Nodes are 32 bytes (box, one index, one count). The two children of an inner node sit next
-//! to each other in one 64-byte aligned pair, so testing both children at the parent touches one
-//! cache line; the inner node stores the index of that pair. Triangles are copied in leaf order
-//! with their three corners and their original id (40 bytes each), so a leaf is one contiguous
-//! run of memory and the scene is not touched while tracing.
+//! Nodes are 128 bytes on two cache lines: the four child boxes as six rows of four lanes
+//! (min x, y, z, max x, y, z), then per child its node index or first packet, and its packet
+//! count (0 for an inner child). Triangles are copied in leaf order, four to a 160-byte packet
+//! (`Tri4`: corners as rows of four lanes, and the scene ids), so a leaf is one
+//! contiguous run of packets tested four triangles at a time, and the scene is not touched
+//! while tracing.
 //!
 //! # Memory
-//! Per triangle that is kept (degenerate ones are dropped): 40 bytes of leaf triangles plus
-//! 64 bytes per inner node, 28 bytes per triangle with the ~2.3 triangles per leaf that the
-//! SAH picks on random boxes, so 68 bytes per triangle in all ([`Bvh::memory_bytes`]). The build peaks at about 170 bytes
-//! per triangle (24-byte boxes, 4-byte ids, and an uncompacted node array of 64 bytes per
-//! triangle), i.e. about 1.7 GB for 10M triangles.
+//! Per triangle that is kept (degenerate ones are dropped), on the 1M-triangle procedural city
+//! and on munich: about 48 bytes of packets (3.4 triangles per packet) plus 12 bytes of nodes,
+//! so about 60 bytes per triangle ([`Bvh::memory_bytes`]). The build peaks at about 170 bytes
+//! per triangle (24-byte boxes, 4-byte ids, and an uncompacted binary node array of 64 bytes
+//! per triangle), i.e. about 1.7 GB for 10M triangles.
 //!
 //! # Exactness
-//! Leaves use the same watertight test as [`super::BruteForce`] and ties in `t` go to the lower
-//! triangle id, so hits equal brute force bit for bit. Box tests are only ever made more
+//! Leaves use the same watertight test as [`super::BruteForce`] (four lanes at a time with the
+//! same bits, see `tri4.rs`) and ties in `t` go to the lower triangle id, so hits equal brute
+//! force bit for bit. Box tests are only ever made more
 //! conservative (Ize's slack on the far distance, a relative slack on the culling distance) so
 //! that a box whose triangle the leaf test would accept is never culled by rounding.
 
@@ -34,7 +39,9 @@ use rayon::prelude::*;
 use crate::geometry::{Aabb, Hit, Ray};
 use crate::scene::Scene;
 
-use super::triangle::{intersect, ShearedRay};
+use super::box4::{BoxRay4, Boxes4, EMPTY_BOXES};
+use super::tri4::{intersect4, Tri4};
+use super::triangle::ShearedRay;
 use super::RayCaster;
 
 /// Number of SAH bins per axis (Wald 2007 finds 16 close to a full sweep in quality).
@@ -55,9 +62,10 @@ const PARALLEL_BIN: usize = 1 << 16;
 /// Below this depth splits follow the SAH; deeper nodes split at the object median, which
 /// bounds the tree depth by `MAX_SAH_DEPTH + 32` and so the traversal stack.
 const MAX_SAH_DEPTH: u32 = 40;
-/// Traversal stack size: `MAX_SAH_DEPTH` levels plus a median-split tail over at most 2^32
-/// triangles, each level pushing at most one node.
-const STACK_SIZE: usize = 80;
+/// Traversal stack size: the binary tree has at most `MAX_SAH_DEPTH` levels plus a
+/// median-split tail over at most 2^32 triangles; each 4-wide level spans at least one of them
+/// and pushes at most three nodes (four, briefly, while sorting).
+const STACK_SIZE: usize = 3 * (MAX_SAH_DEPTH as usize + 32) + 1;
 /// Rays per `rayon` task in [`Bvh::cast`].
 const RAYS_PER_TASK: usize = 64;
 
@@ -115,15 +123,6 @@ impl Node {
 #[repr(C, align(64))]
 struct NodePair([Node; 2]);
 
-/// A triangle in leaf order: its corners and its id in the scene.
-#[derive(Clone, Copy, Debug)]
-struct LeafTriangle {
-    a: Vec3,
-    b: Vec3,
-    c: Vec3,
-    id: u32,
-}
-
 /// A bounding volume hierarchy over a scene's triangles: the default [`RayCaster`].
 ///
 /// Owns a copy of the triangles it needs, so it does not borrow the scene.
@@ -142,12 +141,12 @@ struct LeafTriangle {
 /// ```
 #[derive(Debug)]
 pub struct Bvh {
-    /// The root (meaningless when `triangles` is empty).
-    root: Node,
-    /// Children pairs; inner nodes index into it.
-    pairs: Vec<NodePair>,
-    /// Triangles in leaf order.
-    triangles: Vec<LeafTriangle>,
+    /// 4-wide nodes, the root first (empty when `triangles` is).
+    nodes: Vec<Node4>,
+    /// Triangles in leaf order, four to a packet; a leaf is a run of packets.
+    packets: Vec<Tri4>,
+    /// Triangles held (the packets' lanes less the padding).
+    triangle_count: usize,
 }
 
 /// Bounds, centroid bounds and count of a set of triangles (a bin, or a node's content).
@@ -423,33 +422,92 @@ fn build_node(
     Node::inner(&content.bounds, pair_base)
 }
 
-/// Copies the pairs reachable from `root` into a dense array, depth first, so that a subtree's
-/// pairs are close together.
-fn compact(root: &mut Node, sparse: &[NodePair]) -> Vec<NodePair> {
-    let mut out = Vec::new();
+/// A 4-wide node: its children's boxes side by side (one SIMD lane per child) and, per child,
+/// either (inner, `count == 0`) its node index or (leaf) its first triangle and triangle count.
+/// Unused slots have [`EMPTY_BOXES`]' never-entered boxes.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Node4 {
+    bounds: Boxes4,
+    child: [u32; 4],
+    count: [u32; 4],
+}
+
+impl Node4 {
+    const EMPTY: Node4 = Node4 {
+        bounds: EMPTY_BOXES,
+        child: [0; 4],
+        count: [0; 4],
+    };
+
+    fn set_box(&mut self, lane: usize, n: &Node) {
+        for a in 0..3 {
+            self.bounds[a][lane] = n.min[a];
+            self.bounds[a + 3][lane] = n.max[a];
+        }
+    }
+}
+
+fn node_area(n: &Node) -> f32 {
+    Aabb::new(Vec3::from_array(n.min), Vec3::from_array(n.max)).surface_area()
+}
+
+/// Collapses the binary tree under `root` into 4-wide nodes, depth first (a subtree's nodes are
+/// close together); the root is node 0. Each 4-wide node takes the binary node's two children
+/// and keeps opening the child with the largest surface area (the likeliest to be entered)
+/// until it has four (Wald et al. 2008).
+///
+/// `pack(first, count)` turns a binary leaf (a range of triangles in leaf order) into packets
+/// and returns the first packet's index and the packet count, which the 4-wide node stores.
+fn collapse(
+    root: &Node,
+    sparse: &[NodePair],
+    pack: &mut impl FnMut(u32, u32) -> (u32, u32),
+) -> Vec<Node4> {
+    let mut nodes = Vec::with_capacity(sparse.len() / 2 + 1);
     if root.is_leaf() {
-        return out;
+        let mut n = Node4::EMPTY;
+        n.set_box(0, root);
+        (n.child[0], n.count[0]) = pack(root.first, root.count);
+        nodes.push(n);
+    } else {
+        collapse_inner(root, sparse, pack, &mut nodes);
     }
-    // (index in `out` whose children must be copied, old pair index)
-    let mut todo = vec![(usize::MAX, root.first as usize)];
-    while let Some((parent, old)) = todo.pop() {
-        let new = out.len();
-        out.push(sparse[old]);
-        match parent {
-            usize::MAX => root.first = new as u32,
-            p => {
-                let (pair, side) = (p >> 1, p & 1);
-                out[pair].0[side].first = new as u32;
-            }
-        }
-        for side in (0..2).rev() {
-            let child = &sparse[old].0[side];
-            if !child.is_leaf() {
-                todo.push((new * 2 + side, child.first as usize));
-            }
+    nodes
+}
+
+fn collapse_inner(
+    inner: &Node,
+    sparse: &[NodePair],
+    pack: &mut impl FnMut(u32, u32) -> (u32, u32),
+    out: &mut Vec<Node4>,
+) -> u32 {
+    let index = out.len();
+    out.push(Node4::EMPTY);
+    let mut kids = [Node::default(); 4];
+    kids[..2].copy_from_slice(&sparse[inner.first as usize].0);
+    let mut len = 2;
+    while len < 4 {
+        let widest = (0..len)
+            .filter(|&i| !kids[i].is_leaf())
+            .max_by(|&i, &j| node_area(&kids[i]).total_cmp(&node_area(&kids[j])));
+        let Some(w) = widest else { break };
+        let [l, r] = sparse[kids[w].first as usize].0;
+        kids[w] = l;
+        kids[len] = r;
+        len += 1;
+    }
+    let mut node = Node4::EMPTY;
+    for (lane, kid) in kids[..len].iter().enumerate() {
+        node.set_box(lane, kid);
+        if kid.is_leaf() {
+            (node.child[lane], node.count[lane]) = pack(kid.first, kid.count);
+        } else {
+            node.child[lane] = collapse_inner(kid, sparse, pack, out);
         }
     }
-    out
+    out[index] = node;
+    index as u32
 }
 
 /// True when the triangle can ever be hit: finite corners and a non-zero cross product.
@@ -481,93 +539,124 @@ impl Bvh {
         let input = BuildInput { boxes: &boxes };
         if ids.is_empty() {
             return Self {
-                root: Node::default(),
-                pairs: Vec::new(),
-                triangles: Vec::new(),
+                nodes: Vec::new(),
+                packets: Vec::new(),
+                triangle_count: 0,
             };
         }
         let content = summarize(&input, &ids);
         let mut sparse = vec![NodePair::default(); ids.len() - 1];
-        let mut root = build_node(&input, &mut ids, 0, content, &mut sparse, 0, 0);
-        let pairs = compact(&mut root, &sparse);
-        drop(sparse);
+        let root = build_node(&input, &mut ids, 0, content, &mut sparse, 0, 0);
         drop(boxes);
-        let triangles = ids
-            .par_iter()
-            .map(|&id| {
-                let [a, b, c] = corners(&scene.triangles[id as usize]).unwrap_or_default();
-                LeafTriangle { a, b, c, id }
-            })
-            .collect();
+        let mut packets = Vec::with_capacity(ids.len() / 2);
+        let mut pack = |first: u32, count: u32| {
+            let start = packets.len() as u32;
+            let leaf = &ids[first as usize..(first + count) as usize];
+            for chunk in leaf.chunks(4) {
+                let mut tris = [([Vec3::ZERO; 3], 0); 4];
+                for (slot, &id) in tris.iter_mut().zip(chunk) {
+                    let c = corners(&scene.triangles[id as usize]).unwrap_or_default();
+                    *slot = (c, id);
+                }
+                packets.push(Tri4::new(&tris[..chunk.len()]));
+            }
+            (start, packets.len() as u32 - start)
+        };
+        let mut nodes = collapse(&root, &sparse, &mut pack);
+        drop(sparse);
+        nodes.shrink_to_fit();
+        packets.shrink_to_fit();
         Self {
-            root,
-            pairs,
-            triangles,
+            nodes,
+            packets,
+            triangle_count: ids.len(),
         }
     }
 
     /// Number of triangles the BVH holds (the scene's, less degenerate ones).
     pub fn triangle_count(&self) -> usize {
-        self.triangles.len()
+        self.triangle_count
     }
 
     /// Heap bytes held by the BVH (nodes and leaf triangles).
     pub fn memory_bytes(&self) -> usize {
-        self.pairs.capacity() * std::mem::size_of::<NodePair>()
-            + self.triangles.capacity() * std::mem::size_of::<LeafTriangle>()
+        self.nodes.capacity() * std::mem::size_of::<Node4>()
+            + self.packets.capacity() * std::mem::size_of::<Tri4>()
     }
 
-    fn node(&self, index: u32) -> &Node {
-        &self.pairs[(index >> 1) as usize].0[(index & 1) as usize]
-    }
-
-    /// Walks the tree. `leaf` tests one leaf and returns the new culling distance, or `None`
-    /// to stop at once (any-hit).
+    /// Walks the tree, children near to far. `leaf` tests one leaf and returns the new culling
+    /// distance, or `None` to stop at once (any-hit). Returns false when stopped.
     #[inline(always)]
-    fn traverse(&self, ray: &Ray, mut leaf: impl FnMut(&[LeafTriangle]) -> Option<f32>) -> bool {
-        let Some(r) = BoxRay::new(ray) else {
+    fn traverse(&self, ray: &Ray, mut leaf: impl FnMut(&[Tri4]) -> Option<f32>) -> bool {
+        let t_min = ray.t_min - ray.t_min.abs() * CULL_SLACK;
+        let Some(r) = BoxRay4::new(ray, t_min) else {
             return true;
         };
         let mut t_far = slack_up(ray.t_max);
-        if r.enter(&self.root, t_far) == f32::INFINITY {
-            return true;
-        }
-        let mut stack = [(0u32, 0f32); STACK_SIZE];
+        let mut stack = [Entry::default(); STACK_SIZE];
         let mut top = 0usize;
-        let mut node = &self.root;
+        // The root, an inner node.
+        let mut current = Entry::default();
         loop {
-            if node.is_leaf() {
-                let (s, e) = (node.first as usize, (node.first + node.count) as usize);
-                match leaf(&self.triangles[s..e]) {
+            if current.count > 0 {
+                let s = current.child as usize;
+                let e = s + current.count as usize;
+                match leaf(&self.packets[s..e]) {
                     Some(t) => t_far = t,
                     None => return false,
                 }
             } else {
-                let pair = &self.pairs[node.first as usize];
-                let t0 = r.enter(&pair.0[0], t_far);
-                let t1 = r.enter(&pair.0[1], t_far);
-                let base = node.first * 2;
-                let hit0 = t0 != f32::INFINITY;
-                let hit1 = t1 != f32::INFINITY;
-                match (hit0, hit1) {
-                    (true, true) => {
-                        let (near, far, t_far_child) =
-                            if t0 <= t1 { (0, 1, t1) } else { (1, 0, t0) };
+                let node = &self.nodes[current.child as usize];
+                let (t, mut mask) = r.enter(&node.bounds, t_far, ROBUST_FAR);
+                if mask != 0 {
+                    let entry = |lane: u32| Entry {
+                        child: node.child[lane as usize & 3],
+                        count: node.count[lane as usize & 3],
+                        t: t[lane as usize & 3],
+                    };
+                    let first = entry(mask.trailing_zeros());
+                    mask &= mask - 1;
+                    if mask == 0 {
+                        current = first;
+                        continue;
+                    }
+                    let second = entry(mask.trailing_zeros());
+                    mask &= mask - 1;
+                    if mask == 0 {
+                        let (near, far) = if second.t < first.t {
+                            (second, first)
+                        } else {
+                            (first, second)
+                        };
                         debug_assert!(top < STACK_SIZE);
-                        stack[top] = (base + far, t_far_child);
+                        stack[top] = far;
                         top += 1;
-                        node = &pair.0[near as usize];
+                        current = near;
                         continue;
                     }
-                    (true, false) => {
-                        node = &pair.0[0];
-                        continue;
+                    // Three or four children: push them all, sort the pushed ones far to near
+                    // (insertion sort), and take the nearest back off.
+                    let pushed = top;
+                    stack[top] = first;
+                    stack[top + 1] = second;
+                    top += 2;
+                    while mask != 0 {
+                        stack[top] = entry(mask.trailing_zeros());
+                        top += 1;
+                        mask &= mask - 1;
                     }
-                    (false, true) => {
-                        node = &pair.0[1];
-                        continue;
+                    for i in pushed + 1..top {
+                        let e = stack[i];
+                        let mut j = i;
+                        while j > pushed && stack[j - 1].t < e.t {
+                            stack[j] = stack[j - 1];
+                            j -= 1;
+                        }
+                        stack[j] = e;
                     }
-                    (false, false) => {}
+                    top -= 1;
+                    current = stack[top];
+                    continue;
                 }
             }
             // Pop the next node that is not farther than the closest hit so far.
@@ -576,9 +665,8 @@ impl Bvh {
                     return true;
                 }
                 top -= 1;
-                let (index, t_enter) = stack[top];
-                if t_enter <= t_far {
-                    node = self.node(index);
+                if stack[top].t <= t_far {
+                    current = stack[top];
                     break;
                 }
             }
@@ -586,21 +674,22 @@ impl Bvh {
     }
 
     fn closest(&self, ray: &Ray) -> Hit {
-        if self.triangles.is_empty() {
+        if self.nodes.is_empty() {
             return Hit::MISS;
         }
         let sheared = ShearedRay::new(ray);
         let mut best = Hit::MISS;
         let t_max = slack_up(ray.t_max);
-        self.traverse(ray, |tris| {
-            for tri in tris {
-                if let Some(t) = intersect(&sheared, tri.a, tri.b, tri.c) {
+        self.traverse(ray, |packets| {
+            for packet in packets {
+                let (ts, mut mask) = intersect4(&sheared, packet);
+                while mask != 0 {
+                    let lane = mask.trailing_zeros() as usize & 3;
+                    mask &= mask - 1;
+                    let (t, id) = (ts[lane], packet.ids[lane]);
                     // Ties go to the lower id, as in brute force.
-                    if t < best.t || (t == best.t && tri.id < best.triangle) {
-                        best = Hit {
-                            triangle: tri.id,
-                            t,
-                        };
+                    if t < best.t || (t == best.t && id < best.triangle) {
+                        best = Hit { triangle: id, t };
                     }
                 }
             }
@@ -614,15 +703,13 @@ impl Bvh {
     }
 
     fn any_hit(&self, ray: &Ray) -> bool {
-        if self.triangles.is_empty() {
+        if self.nodes.is_empty() {
             return false;
         }
         let sheared = ShearedRay::new(ray);
         let t_max = slack_up(ray.t_max);
-        !self.traverse(ray, |tris| {
-            let hit = tris
-                .iter()
-                .any(|tri| intersect(&sheared, tri.a, tri.b, tri.c).is_some());
+        !self.traverse(ray, |packets| {
+            let hit = packets.iter().any(|p| intersect4(&sheared, p).1 != 0);
             (!hit).then_some(t_max)
         })
     }
@@ -633,85 +720,12 @@ fn slack_up(t: f32) -> f32 {
     t + t.abs() * CULL_SLACK
 }
 
-/// A ray prepared for slab tests: origin, inverse direction, and for each axis whether the
-/// direction is negative (then the box's `max` is the near plane).
-struct BoxRay {
-    origin: [f32; 3],
-    inv: [f32; 3],
-    /// Per axis, the word of a [`Node`] (seen as 8 words: min, first, max, count) holding the
-    /// near plane, and the one holding the far plane (Williams et al. 2005).
-    near: [usize; 3],
-    far: [usize; 3],
-    t_min: f32,
-}
-
-impl BoxRay {
-    /// `None` when the ray can never hit anything (non-finite or zero direction or origin,
-    /// empty or NaN range), matching what the leaf test would say.
-    fn new(ray: &Ray) -> Option<Self> {
-        let usable = ray.origin.is_finite()
-            && ray.dir.is_finite()
-            && ray.dir != Vec3::ZERO
-            && ray.t_min <= ray.t_max;
-        if !usable {
-            return None;
-        }
-        // A zero component gives an infinite inverse whose sign follows the zero's sign; the
-        // slab test below handles the resulting infinities and NaNs.
-        let inv = Vec3::ONE / ray.dir;
-        Some(Self {
-            origin: ray.origin.to_array(),
-            inv: inv.to_array(),
-            near: [0, 1, 2].map(|a| {
-                if ray.dir[a].is_sign_negative() {
-                    a + 4
-                } else {
-                    a
-                }
-            }),
-            far: [0, 1, 2].map(|a| {
-                if ray.dir[a].is_sign_negative() {
-                    a
-                } else {
-                    a + 4
-                }
-            }),
-            t_min: ray.t_min - ray.t_min.abs() * CULL_SLACK,
-        })
-    }
-
-    /// The entry distance into `n`'s box clipped to `[t_min, t_far]`, or infinity when the
-    /// ray misses the box in that range.
-    ///
-    /// `(plane - origin) * inv` is NaN when the origin lies on a plane the ray is parallel
-    /// to: the comparisons below are false for NaN, so such a slab does not constrain the
-    /// interval (the box is closed). The entry of a hit box is always finite: at least one
-    /// axis has a finite inverse direction, and a parallel axis whose slab excludes the origin
-    /// gives `+inf` (a miss).
-    #[inline(always)]
-    fn enter(&self, n: &Node, t_far: f32) -> f32 {
-        let mut t0 = self.t_min;
-        let mut t1 = t_far;
-        let words: &[f32; 8] = bytemuck::cast_ref(n);
-        for a in 0..3 {
-            // `& 7` lets the compiler drop the bounds checks.
-            let near = words[self.near[a] & 7];
-            let far = words[self.far[a] & 7];
-            let tn = (near - self.origin[a]) * self.inv[a];
-            let tf = (far - self.origin[a]) * self.inv[a] * ROBUST_FAR;
-            if tn > t0 {
-                t0 = tn;
-            }
-            if tf < t1 {
-                t1 = tf;
-            }
-        }
-        if t0 <= t1 {
-            t0
-        } else {
-            f32::INFINITY
-        }
-    }
+/// A node on the traversal stack: what [`Node4`] says of the child, and its entry distance.
+#[derive(Clone, Copy, Debug, Default)]
+struct Entry {
+    child: u32,
+    count: u32,
+    t: f32,
 }
 
 impl RayCaster for Bvh {

@@ -3,11 +3,13 @@
 //! Hits are closest hits over `[ray.t_min, ray.t_max]`. Degenerate (zero-area) triangles are
 //! never hit. Triangles are double-sided.
 
+mod box4;
 pub mod brute;
 pub mod bvh;
 #[cfg(feature = "embree")]
 pub mod embree;
 pub mod measure;
+mod tri4;
 pub mod triangle;
 
 use crate::geometry::{Hit, Ray};

@@ -6,6 +6,9 @@
 //! the same transformed vertices by the same formula, a ray through a shared edge or vertex
 //! hits at least one of the triangles that share it (no cracks). When an edge function is
 //! exactly zero in f32 it is recomputed in f64, as the paper recommends.
+//!
+//! `tri4.rs` evaluates this same test on four triangles at once with the same operations
+//! in the same order; a change here must be made there too (its tests compare the two).
 
 use glam::Vec3;
 
@@ -14,15 +17,15 @@ use crate::geometry::Ray;
 /// A ray preprocessed for [`intersect`]: the permutation and shear of the paper.
 #[derive(Clone, Copy, Debug)]
 pub struct ShearedRay {
-    origin: Vec3,
-    kx: usize,
-    ky: usize,
-    kz: usize,
-    sx: f32,
-    sy: f32,
-    sz: f32,
-    t_min: f32,
-    t_max: f32,
+    pub(super) origin: Vec3,
+    pub(super) kx: usize,
+    pub(super) ky: usize,
+    pub(super) kz: usize,
+    pub(super) sx: f32,
+    pub(super) sy: f32,
+    pub(super) sz: f32,
+    pub(super) t_min: f32,
+    pub(super) t_max: f32,
 }
 
 impl ShearedRay {
