@@ -1,0 +1,7 @@
+//! Integration tests of sightline-cull, one module per property.
+#![allow(clippy::unwrap_used)]
+
+/// The software occlusion buffer never culls a box that the exact depth test shows visible.
+mod conservative;
+/// The grid traversal visits cells in occlusion order, each once, covering the frustum.
+mod traversal_order;
