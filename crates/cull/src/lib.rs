@@ -6,12 +6,15 @@
 //! - [`OcclusionBuffer`] (`occlusion_buffer.rs`): the software masked depth buffer, usable alone.
 //! - [`Grid`] (`grid.rs`): the uniform grid of dynamic objects.
 //! - [`Traversal`] (`traversal.rs`): occlusion-order traversal of the frustum over the grid.
+//! - [`Scheduler`] (`scheduler.rs`): which cells are queried, drawn and depth-pre-passed.
 #![deny(missing_docs)]
 
 mod grid;
 mod occlusion_buffer;
+mod scheduler;
 mod traversal;
 
 pub use grid::{Grid, GridError, GridShape};
 pub use occlusion_buffer::{OcclusionBuffer, DEPTH_SLACK, TILE_H, TILE_W};
+pub use scheduler::{DepthClass, Scheduler, SchedulerConfig};
 pub use traversal::{can_occlude, frustum_corners, Traversal};

@@ -259,7 +259,7 @@ impl OcclusionBuffer {
 
     /// Rasterizes one triangle given as `[sx, sy, 1/z]` per corner, all inside the guard band.
     fn raster_triangle(&mut self, mut p: [[f32; 3]; 3]) {
-        let height = self.height as f32;
+        let height = self.height;
         let area =
             (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
         if area == 0.0 || area.is_nan() {
@@ -274,10 +274,10 @@ impl OcclusionBuffer {
         let xmin = p[0][0].min(p[1][0]).min(p[2][0]);
         let xmax = p[0][0].max(p[1][0]).max(p[2][0]);
         // Pixel centres inside [min, max]: first = ceil(min - 0.5), last = floor(max - 0.5).
-        let row0 = ((ymin - 0.5).ceil().max(0.0)) as i32;
-        let row1 = ((ymax - 0.5).floor().min(height - 1.0)) as i32;
-        let col0 = ((xmin - 0.5).ceil().max(0.0)) as i32;
-        let col1 = ((xmax - 0.5).floor().min(self.width as f32 - 1.0)) as i32;
+        let row0 = ceil_i(ymin - 0.5).max(0);
+        let row1 = floor_i(ymax - 0.5).min(height as i32 - 1);
+        let col0 = ceil_i(xmin - 0.5).max(0);
+        let col1 = floor_i(xmax - 0.5).min(self.width as i32 - 1);
         if row0 > row1 || col0 > col1 {
             return;
         }
@@ -342,8 +342,8 @@ impl OcclusionBuffer {
                         xr = xr.min(x);
                     }
                 }
-                let a = ((xl - 0.5).ceil().max(col0 as f32)) as i32;
-                let b = ((xr - 0.5).floor().min(col1 as f32)) as i32;
+                let a = ceil_i(xl - 0.5).max(col0);
+                let b = floor_i(xr - 0.5).min(col1);
                 if a <= b {
                     *s = (a, b);
                     lo_all = lo_all.min(a);
@@ -487,6 +487,21 @@ impl OcclusionBuffer {
         let r = if t.mask & bit != 0 { t.z1 } else { t.z0 };
         Some(if r > 0.0 { 1.0 / r } else { f32::INFINITY })
     }
+}
+
+/// `floor` as an integer without a libm call (`f32::floor` needs SSE4.1 to inline); values
+/// beyond `i32` saturate, which the callers clamp anyway.
+#[inline(always)]
+fn floor_i(x: f32) -> i32 {
+    let i = x as i32;
+    i - i32::from(x < i as f32)
+}
+
+/// `ceil` as an integer, see [`floor_i`].
+#[inline(always)]
+fn ceil_i(x: f32) -> i32 {
+    let i = x as i32;
+    i + i32::from(x > i as f32)
 }
 
 /// Merges an occluder's coverage `cov` at conservative `1/z` value `r` into a tile.

@@ -3,5 +3,7 @@
 
 /// The software occlusion buffer never culls a box that the exact depth test shows visible.
 mod conservative;
+/// The scheduler's durations, cap, growth, jitter and exemptions behave as configured.
+mod scheduler_numbers;
 /// The grid traversal visits cells in occlusion order, each once, covering the frustum.
 mod traversal_order;
