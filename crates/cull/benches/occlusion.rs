@@ -1,7 +1,7 @@
 //! Throughput of the software occlusion buffer at 1920x1080: occluder triangles per second for
 //! triangles with a 10x10-pixel bounding box (right triangles with 10-pixel legs, 50 px² of
 //! area, at random depths 5..50 and random screen positions), and box tests per second
-//! against the buffer those triangles leave (boxes of about 20x20 pixels at depths 40..100, behind most occluders).
+//! against the buffer those triangles leave plus a full-screen wall at depth 70 (boxes of about 20x20 pixels at depths 40..100).
 //!
 //! Run: `cargo bench -p sightline-cull --bench occlusion`. One thread.
 
@@ -70,6 +70,17 @@ fn bench_occlusion(c: &mut Criterion) {
     let queries = boxes(&cam, 100_000);
     buffer.clear();
     buffer.render_occluders(&tris, &cam);
+    // A full-screen wall at depth 70 behind the small triangles: boxes beyond it are hidden.
+    let wall = [
+        unproject(&cam, -10.0, -10.0, 70.0),
+        unproject(&cam, W as f32 + 10.0, -10.0, 70.0),
+        unproject(&cam, W as f32 + 10.0, H as f32 + 10.0, 70.0),
+        unproject(&cam, -10.0, H as f32 + 10.0, 70.0),
+    ];
+    buffer.render_occluders(
+        &[wall[0], wall[1], wall[2], wall[0], wall[2], wall[3]],
+        &cam,
+    );
     let visible = queries.iter().filter(|q| buffer.test_box(q, &cam)).count();
     eprintln!("box tests: {visible} of {} boxes visible", queries.len());
     group.bench_function("box_tests_20px", |b| {
