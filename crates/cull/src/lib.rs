@@ -1,3 +1,28 @@
-//! sightline-cull: run-time occlusion culling with a uniform grid, occlusion queries and query
-//! scheduling (Seletsky 2013), and a software occlusion buffer backend. Being written.
+//! sightline-cull: run-time occlusion culling with a uniform grid, occlusion-order traversal and
+//! occlusion-query scheduling (Seletsky 2013), and a software occlusion buffer backend in the
+//! style of Masked Occlusion Culling (Andersson, Hasselgren, Akenine-Möller 2015/2016).
+//!
+//! Modules, one algorithm each:
+//! - [`OcclusionBuffer`] (`occlusion_buffer.rs`): the software masked depth buffer, usable alone.
+//! - [`Grid`] (`grid.rs`): the uniform grid of dynamic objects.
+//! - [`Traversal`] (`traversal.rs`): occlusion-order traversal of the frustum over the grid.
+//! - [`Scheduler`] (`scheduler.rs`): which cells are queried, drawn and depth-pre-passed.
+//! - [`OcclusionBackend`] (`backend.rs`): the backend trait and its software implementation.
+//! - [`simulate()`] (`simulate.rs`): the per-frame loop over a camera path, with popping counts.
+//! - [`scenes`] (`scenes.rs`): The Grid and Teapot Graveyard with motion and camera paths.
 #![deny(missing_docs)]
+
+mod backend;
+mod grid;
+mod occlusion_buffer;
+pub mod scenes;
+mod scheduler;
+mod simulate;
+mod traversal;
+
+pub use backend::{OcclusionBackend, SoftwareBackend};
+pub use grid::{Grid, GridError, GridShape};
+pub use occlusion_buffer::{OcclusionBuffer, DEPTH_SLACK, TILE_H, TILE_W};
+pub use scheduler::{DepthClass, Scheduler, SchedulerConfig};
+pub use simulate::{simulate, FrameStats, SimConfig, SimReport};
+pub use traversal::{can_occlude, frustum_corners, Traversal};

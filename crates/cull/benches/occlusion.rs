@@ -1,0 +1,93 @@
+//! Throughput of the software occlusion buffer at 1920x1080: occluder triangles per second for
+//! triangles with a 10x10-pixel bounding box (right triangles with 10-pixel legs, 50 px² of
+//! area, at random depths 5..50 and random screen positions), and box tests per second
+//! against the buffer those triangles leave plus a full-screen wall at depth 70 (boxes of about 20x20 pixels at depths 40..100).
+//!
+//! Run: `cargo bench -p sightline-cull --bench occlusion`. One thread.
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use glam::Vec3;
+use sightline_core::random::SplitMix64;
+use sightline_core::{Aabb, Camera};
+use sightline_cull::OcclusionBuffer;
+
+const W: u32 = 1920;
+const H: u32 = 1080;
+
+fn camera() -> Camera {
+    Camera::look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 60.0, W, H, 0.1).expect("bench camera")
+}
+
+/// The world point seen at screen `(sx, sy)` at view depth `z` (camera at the origin looking
+/// down -Z with +Y up).
+fn unproject(cam: &Camera, sx: f32, sy: f32, z: f32) -> Vec3 {
+    let u = (2.0 * sx / W as f32 - 1.0) * cam.tan_half_x();
+    let v = (1.0 - 2.0 * sy / H as f32) * cam.tan_half_y();
+    Vec3::new(u * z, v * z, -z)
+}
+
+fn triangles(cam: &Camera, n: usize) -> Vec<Vec3> {
+    let mut rng = SplitMix64::new(1);
+    let mut out = Vec::with_capacity(3 * n);
+    for _ in 0..n {
+        let sx = rng.range_f32(0.0, W as f32 - 10.0);
+        let sy = rng.range_f32(0.0, H as f32 - 10.0);
+        let z = rng.range_f32(5.0, 50.0);
+        out.push(unproject(cam, sx, sy, z));
+        out.push(unproject(cam, sx + 10.0, sy, z * 1.001));
+        out.push(unproject(cam, sx, sy + 10.0, z * 0.999));
+    }
+    out
+}
+
+fn boxes(cam: &Camera, n: usize) -> Vec<Aabb> {
+    let mut rng = SplitMix64::new(2);
+    (0..n)
+        .map(|_| {
+            let sx = rng.range_f32(0.0, W as f32 - 20.0);
+            let sy = rng.range_f32(0.0, H as f32 - 20.0);
+            let z = rng.range_f32(40.0, 100.0);
+            let a = unproject(cam, sx, sy, z);
+            let b = unproject(cam, sx + 20.0, sy + 20.0, z + 1.0);
+            Aabb::new(a.min(b), a.max(b))
+        })
+        .collect()
+}
+
+fn bench_occlusion(c: &mut Criterion) {
+    let cam = camera();
+    let mut group = c.benchmark_group("occlusion_1080p");
+    group.sample_size(20);
+    let tris = triangles(&cam, 100_000);
+    let mut buffer = OcclusionBuffer::new(W, H);
+    group.throughput(Throughput::Elements(100_000));
+    group.bench_function("occluder_tris_10px", |b| {
+        b.iter(|| {
+            buffer.clear();
+            buffer.render_occluders(&tris, &cam);
+        });
+    });
+    let queries = boxes(&cam, 100_000);
+    buffer.clear();
+    buffer.render_occluders(&tris, &cam);
+    // A full-screen wall at depth 70 behind the small triangles: boxes beyond it are hidden.
+    let wall = [
+        unproject(&cam, -10.0, -10.0, 70.0),
+        unproject(&cam, W as f32 + 10.0, -10.0, 70.0),
+        unproject(&cam, W as f32 + 10.0, H as f32 + 10.0, 70.0),
+        unproject(&cam, -10.0, H as f32 + 10.0, 70.0),
+    ];
+    buffer.render_occluders(
+        &[wall[0], wall[1], wall[2], wall[0], wall[2], wall[3]],
+        &cam,
+    );
+    let visible = queries.iter().filter(|q| buffer.test_box(q, &cam)).count();
+    eprintln!("box tests: {visible} of {} boxes visible", queries.len());
+    group.bench_function("box_tests_20px", |b| {
+        b.iter(|| queries.iter().filter(|q| buffer.test_box(q, &cam)).count());
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench_occlusion);
+criterion_main!(benches);

@@ -1,0 +1,671 @@
+//! A software occlusion buffer: occluder triangles are rasterized into tiles of 8x4 pixels, each
+//! holding a 32-bit coverage mask and two depth layers; boxes are tested against it
+//! conservatively (a box may be reported visible when it is hidden, never the reverse).
+//!
+//! Based on: Andersson, Hasselgren, Akenine-Möller. Masked Depth Culling for Graphics Hardware.
+//! 2015, section 3 (the two-layer tile: a reference layer valid for every pixel of the tile, a
+//! working layer valid for the pixels of a coverage mask, merged with a depth-distance
+//! discard heuristic); Hasselgren, Andersson, Akenine-Möller. Masked Software Occlusion
+//! Culling. 2016 (its software form: per-scanline edge spans turned into masks by shifts,
+//! depth as `1/z` so that it is affine in screen space, triangles clipped to a guard band).
+//!
+//! # Conventions
+//! The camera conventions of [`sightline_core::camera`]: pixel `(x, y)` is sampled at its centre,
+//! depth is the view depth `z` (distance along `forward`). Inside the buffer depth is stored as
+//! `r = 1/z` (larger is nearer), because `1/z` of a planar triangle is an affine function of
+//! the screen position, so the farthest point of a triangle over a tile is at a tile corner.
+//! The buffer covers the camera's field of view with its own pixel grid (`width x height`).
+//!
+//! # Why it is conservative
+//! - A tile's reference layer `z0` is a lower bound on `r` for every pixel of the tile, the
+//!   working layer `z1` a lower bound for the pixels of `mask`. Both only ever come from the
+//!   farthest value of an occluder over the pixels it covers (the plane's minimum over the tile,
+//!   but never below the triangle's farthest vertex), so they never claim an occluder nearer
+//!   than it is.
+//! - Coverage is the pixel-centre rule evaluated in `f32`: it agrees with the exact rule except
+//!   for pixel centres within about 1/100 of a pixel of an edge. The box test widens a box's
+//!   screen rectangle by one pixel on each side, so a box peeking out next to a silhouette is
+//!   tested against the uncovered pixels beyond it.
+//! - A box's depth is its nearest corner (the minimum view depth over a box is at a corner), and
+//!   the comparison keeps a relative slack of [`DEPTH_SLACK`] for the rounding of `f32`.
+
+use glam::Vec3;
+use sightline_core::{Aabb, Camera};
+
+/// Tile width in pixels (a row of a tile is one byte of the mask).
+pub const TILE_W: u32 = 8;
+/// Tile height in pixels.
+pub const TILE_H: u32 = 4;
+/// Relative slack on `1/z` when comparing a box with the buffer: the box is treated as this
+/// much nearer than it is, which absorbs the `f32` rounding of both sides (about 1e-6
+/// relative inside the guard band) with a wide margin.
+pub const DEPTH_SLACK: f32 = 2e-5;
+/// Triangles are clipped to a guard band of this many half-screens around the centre, which
+/// keeps screen coordinates small enough for `f32` spans to be accurate to 1/100 px.
+const GUARD: f32 = 4.0;
+const FULL: u32 = u32::MAX;
+
+/// One 8x4 tile: reference layer, working layer and the working layer's coverage.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Tile {
+    /// Every pixel of the tile has `1/z >= z0` (0 = nothing drawn, infinitely far).
+    z0: f32,
+    /// Every pixel in `mask` has `1/z >= z1`; `z1 > z0` whenever `mask != 0`.
+    z1: f32,
+    /// Pixels of the working layer, bit `8 * row + column`.
+    mask: u32,
+}
+
+const CLEAR_TILE: Tile = Tile {
+    z0: 0.0,
+    z1: 0.0,
+    mask: 0,
+};
+
+/// A conservative masked software depth buffer. See the module documentation.
+///
+/// ```
+/// use glam::Vec3;
+/// use sightline_core::{Aabb, Camera};
+/// use sightline_cull::OcclusionBuffer;
+///
+/// let cam = Camera::look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 60.0, 128, 128, 0.1).unwrap();
+/// let mut buffer = OcclusionBuffer::new(128, 128);
+/// // A large wall at z = -5 in front of the camera.
+/// let (a, b, c, d) = (
+///     Vec3::new(-50.0, -50.0, -5.0), Vec3::new(50.0, -50.0, -5.0),
+///     Vec3::new(50.0, 50.0, -5.0), Vec3::new(-50.0, 50.0, -5.0),
+/// );
+/// buffer.render_occluders(&[a, b, c, a, c, d], &cam);
+/// let behind = Aabb::new(Vec3::new(-1.0, -1.0, -12.0), Vec3::new(1.0, 1.0, -10.0));
+/// let before = Aabb::new(Vec3::new(-1.0, -1.0, -4.0), Vec3::new(1.0, 1.0, -3.0));
+/// assert!(!buffer.test_box(&behind, &cam));
+/// assert!(buffer.test_box(&before, &cam));
+/// ```
+#[derive(Clone, Debug)]
+pub struct OcclusionBuffer {
+    width: u32,
+    height: u32,
+    tiles_x: u32,
+    tiles_y: u32,
+    /// Mask bits of the last tile column / row that lie outside the image: they count as
+    /// covered by every occluder, so that edge tiles can become full.
+    outside_x: u32,
+    outside_y: u32,
+    tiles: Vec<Tile>,
+}
+
+/// World to screen mapping of a camera onto the buffer's pixel grid.
+#[derive(Clone, Copy, Debug)]
+struct Projector {
+    eye: Vec3,
+    right: Vec3,
+    up: Vec3,
+    forward: Vec3,
+    near: f32,
+    /// `sx = kx * vx / vz + cx`, `sy = -ky * vy / vz + cy`.
+    kx: f32,
+    ky: f32,
+    cx: f32,
+    cy: f32,
+    tan_x: f32,
+    tan_y: f32,
+}
+
+impl Projector {
+    fn new(camera: &Camera, width: u32, height: u32) -> Self {
+        let (tan_x, tan_y) = (camera.tan_half_x(), camera.tan_half_y());
+        let (cx, cy) = (width as f32 * 0.5, height as f32 * 0.5);
+        Self {
+            eye: camera.eye,
+            right: camera.right,
+            up: camera.up,
+            forward: camera.forward,
+            near: camera.near,
+            kx: cx / tan_x,
+            ky: cy / tan_y,
+            cx,
+            cy,
+            tan_x,
+            tan_y,
+        }
+    }
+
+    #[inline(always)]
+    fn view(&self, p: Vec3) -> Vec3 {
+        let d = p - self.eye;
+        Vec3::new(d.dot(self.right), d.dot(self.up), d.dot(self.forward))
+    }
+
+    /// Screen position and `1/z` of a view point with `z > 0`.
+    #[inline(always)]
+    fn screen(&self, v: Vec3) -> [f32; 3] {
+        let r = 1.0 / v.z;
+        [self.kx * v.x * r + self.cx, -self.ky * v.y * r + self.cy, r]
+    }
+
+    /// True when a view point needs no clipping: in front of the near plane, inside the guard band.
+    #[inline(always)]
+    fn inside_guard(&self, v: Vec3) -> bool {
+        v.z >= self.near
+            && v.x.abs() <= GUARD * self.tan_x * v.z
+            && v.y.abs() <= GUARD * self.tan_y * v.z
+    }
+
+    /// The clipping planes in view space (`inside` when `dot >= 0` on `(x, y, z, 1)`).
+    fn planes(&self) -> [[f32; 4]; 5] {
+        let gx = GUARD * self.tan_x;
+        let gy = GUARD * self.tan_y;
+        [
+            [0.0, 0.0, 1.0, -self.near],
+            [-1.0, 0.0, gx, 0.0],
+            [1.0, 0.0, gx, 0.0],
+            [0.0, -1.0, gy, 0.0],
+            [0.0, 1.0, gy, 0.0],
+        ]
+    }
+}
+
+impl OcclusionBuffer {
+    /// An empty (cleared) buffer of `width x height` pixels; sizes are clamped to at least 1.
+    pub fn new(width: u32, height: u32) -> Self {
+        let width = width.max(1);
+        let height = height.max(1);
+        let tiles_x = width.div_ceil(TILE_W);
+        let tiles_y = height.div_ceil(TILE_H);
+        let cols_in = width - (tiles_x - 1) * TILE_W;
+        let rows_in = height - (tiles_y - 1) * TILE_H;
+        let row_bits = ((1u32 << TILE_W) - 1) ^ ((1u32 << cols_in) - 1);
+        let outside_x = row_bits.wrapping_mul(0x0101_0101);
+        let outside_y = !(((1u64 << (TILE_W * rows_in)) - 1) as u32);
+        Self {
+            width,
+            height,
+            tiles_x,
+            tiles_y,
+            outside_x,
+            outside_y,
+            tiles: vec![CLEAR_TILE; (tiles_x * tiles_y) as usize],
+        }
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Removes every occluder.
+    pub fn clear(&mut self) {
+        self.tiles.fill(CLEAR_TILE);
+    }
+
+    /// Rasterizes occluder triangles, given as a flat list of corners (three per triangle; a
+    /// trailing incomplete triangle is ignored), seen from `camera`. Triangles are double-sided;
+    /// non-finite and degenerate ones are skipped.
+    pub fn render_occluders(&mut self, triangles: &[Vec3], camera: &Camera) {
+        let proj = Projector::new(camera, self.width, self.height);
+        for t in triangles.chunks_exact(3) {
+            let v = [proj.view(t[0]), proj.view(t[1]), proj.view(t[2])];
+            if v.iter().all(|p| p.z < proj.near) || !v.iter().all(|p| p.is_finite()) {
+                continue;
+            }
+            if v.iter().all(|&p| proj.inside_guard(p)) {
+                self.raster_triangle([proj.screen(v[0]), proj.screen(v[1]), proj.screen(v[2])]);
+            } else {
+                self.raster_clipped(v, &proj);
+            }
+        }
+    }
+
+    /// Clips a view-space triangle to the near plane and the guard band, then fans it out.
+    fn raster_clipped(&mut self, v: [Vec3; 3], proj: &Projector) {
+        // Sutherland-Hodgman: each plane adds at most one vertex, 3 + 5 = 8.
+        let mut poly = [Vec3::ZERO; 9];
+        let mut next = [Vec3::ZERO; 9];
+        poly[..3].copy_from_slice(&v);
+        let mut n = 3;
+        for plane in proj.planes() {
+            let dist = |p: Vec3| plane[0] * p.x + plane[1] * p.y + plane[2] * p.z + plane[3];
+            let mut m = 0;
+            for i in 0..n {
+                let (a, b) = (poly[i], poly[(i + 1) % n]);
+                let (da, db) = (dist(a), dist(b));
+                if da >= 0.0 {
+                    next[m] = a;
+                    m += 1;
+                }
+                if (da >= 0.0) != (db >= 0.0) {
+                    next[m] = a + (b - a) * (da / (da - db));
+                    m += 1;
+                }
+            }
+            std::mem::swap(&mut poly, &mut next);
+            n = m;
+            if n < 3 {
+                return;
+            }
+        }
+        for i in 1..n - 1 {
+            // Clipped points lie on z = near at the least; clamp the rounding of the lerp.
+            let s = |p: Vec3| proj.screen(Vec3::new(p.x, p.y, p.z.max(proj.near)));
+            self.raster_triangle([s(poly[0]), s(poly[i]), s(poly[i + 1])]);
+        }
+    }
+
+    /// Rasterizes one triangle given as `[sx, sy, 1/z]` per corner, all inside the guard band.
+    fn raster_triangle(&mut self, mut p: [[f32; 3]; 3]) {
+        let height = self.height;
+        let area =
+            (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
+        if area == 0.0 || area.is_nan() {
+            return;
+        }
+        if area < 0.0 {
+            p.swap(1, 2);
+        }
+        let area = area.abs();
+        let ymin = p[0][1].min(p[1][1]).min(p[2][1]);
+        let ymax = p[0][1].max(p[1][1]).max(p[2][1]);
+        let xmin = p[0][0].min(p[1][0]).min(p[2][0]);
+        let xmax = p[0][0].max(p[1][0]).max(p[2][0]);
+        // Pixel centres inside [min, max]: first = ceil(min - 0.5), last = floor(max - 0.5).
+        let row0 = ceil_i(ymin - 0.5).max(0);
+        let row1 = floor_i(ymax - 0.5).min(height as i32 - 1);
+        let col0 = ceil_i(xmin - 0.5).max(0);
+        let col1 = floor_i(xmax - 0.5).min(self.width as i32 - 1);
+        if row0 > row1 || col0 > col1 {
+            return;
+        }
+
+        // 1/z over the screen: r = r0 + ra (x - x0) + rb (y - y0). For slivers (less than a
+        // pixel of area) the gradient is ill-conditioned: use the farthest corner only.
+        let r_far = p[0][2].min(p[1][2]).min(p[2][2]);
+        let (ra, rb) = if area >= 1.0 {
+            let (d1x, d1y, d1r) = (p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]);
+            let (d2x, d2y, d2r) = (p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]);
+            (
+                (d1r * d2y - d2r * d1y) / area,
+                (d2r * d1x - d1r * d2x) / area,
+            )
+        } else {
+            (0.0, 0.0)
+        };
+        let plane_ok = area >= 1.0;
+
+        // Edges a -> b with the interior on the left of (b - a) in y-down screen space: an edge
+        // going up (dy < 0) bounds the span from the left, one going down from the right.
+        let mut edge_x0 = [0.0f32; 3];
+        let mut edge_y0 = [0.0f32; 3];
+        let mut edge_slope = [0.0f32; 3];
+        let mut edge_left = [false; 3];
+        let mut edge_used = [false; 3];
+        for i in 0..3 {
+            let (a, b) = (p[i], p[(i + 1) % 3]);
+            let dy = b[1] - a[1];
+            if dy != 0.0 {
+                edge_used[i] = true;
+                edge_x0[i] = a[0];
+                edge_y0[i] = a[1];
+                edge_slope[i] = (b[0] - a[0]) / dy;
+                edge_left[i] = dy < 0.0;
+            }
+        }
+
+        let ty0 = row0 as u32 / TILE_H;
+        let ty1 = row1 as u32 / TILE_H;
+        for ty in ty0..=ty1 {
+            // Spans of the up to four rows of this tile row, in pixels, inclusive.
+            let mut span = [(1i32, 0i32); TILE_H as usize];
+            let mut lo_all = i32::MAX;
+            let mut hi_all = i32::MIN;
+            for (k, s) in span.iter_mut().enumerate() {
+                let row = (ty * TILE_H) as i32 + k as i32;
+                if row < row0 || row > row1 {
+                    continue;
+                }
+                let yc = row as f32 + 0.5;
+                let mut xl = f32::NEG_INFINITY;
+                let mut xr = f32::INFINITY;
+                for e in 0..3 {
+                    if !edge_used[e] {
+                        continue;
+                    }
+                    let x = edge_x0[e] + (yc - edge_y0[e]) * edge_slope[e];
+                    if edge_left[e] {
+                        xl = xl.max(x);
+                    } else {
+                        xr = xr.min(x);
+                    }
+                }
+                let a = ceil_i(xl - 0.5).max(col0);
+                let b = floor_i(xr - 0.5).min(col1);
+                if a <= b {
+                    *s = (a, b);
+                    lo_all = lo_all.min(a);
+                    hi_all = hi_all.max(b);
+                }
+            }
+            if lo_all > hi_all {
+                continue;
+            }
+            let ya = (ty * TILE_H) as f32 + 0.5;
+            let yb = ya + (TILE_H - 1) as f32;
+            let r_rows = p[0][2] + (rb * (ya - p[0][1])).min(rb * (yb - p[0][1]));
+            for tx in lo_all as u32 / TILE_W..=hi_all as u32 / TILE_W {
+                let base = (tx * TILE_W) as i32;
+                let mut mask = 0u32;
+                let mut cmin = i32::MAX;
+                let mut cmax = i32::MIN;
+                for (k, &(a, b)) in span.iter().enumerate() {
+                    let lo = (a - base).clamp(0, TILE_W as i32);
+                    let hi = (b + 1 - base).clamp(0, TILE_W as i32);
+                    if hi > lo {
+                        mask |= ((1u32 << hi) - (1u32 << lo)) << (k as u32 * TILE_W);
+                        cmin = cmin.min(lo);
+                        cmax = cmax.max(hi - 1);
+                    }
+                }
+                if mask == 0 {
+                    continue;
+                }
+                if tx == self.tiles_x - 1 {
+                    mask |= self.outside_x;
+                }
+                if ty == self.tiles_y - 1 {
+                    mask |= self.outside_y;
+                }
+                let r = if plane_ok {
+                    let xa = (base + cmin) as f32 + 0.5 - p[0][0];
+                    let xb = (base + cmax) as f32 + 0.5 - p[0][0];
+                    (r_rows + (ra * xa).min(ra * xb)).max(r_far)
+                } else {
+                    r_far
+                };
+                let idx = (ty * self.tiles_x + tx) as usize;
+                update_tile(&mut self.tiles[idx], mask, r);
+            }
+        }
+    }
+
+    /// True when the box may be visible from `camera`: it crosses the near plane, or some pixel
+    /// of its (widened) screen rectangle is not covered by a nearer occluder. A box entirely
+    /// behind the near plane or outside the image is not visible.
+    pub fn test_box(&self, aabb: &Aabb, camera: &Camera) -> bool {
+        let proj = Projector::new(camera, self.width, self.height);
+        let mut zmin = f32::INFINITY;
+        let mut zmax = f32::NEG_INFINITY;
+        let mut views = [Vec3::ZERO; 8];
+        for (i, v) in views.iter_mut().enumerate() {
+            let c = Vec3::new(
+                if i & 1 != 0 { aabb.max.x } else { aabb.min.x },
+                if i & 2 != 0 { aabb.max.y } else { aabb.min.y },
+                if i & 4 != 0 { aabb.max.z } else { aabb.min.z },
+            );
+            *v = proj.view(c);
+            zmin = zmin.min(v.z);
+            zmax = zmax.max(v.z);
+        }
+        if !(zmin.is_finite() && zmax.is_finite()) {
+            return true;
+        }
+        if zmax < proj.near {
+            return false;
+        }
+        if zmin < proj.near {
+            return true;
+        }
+        let (mut x0, mut y0, mut x1, mut y1) = (
+            f32::INFINITY,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NEG_INFINITY,
+        );
+        for v in views {
+            let [sx, sy, _] = proj.screen(v);
+            x0 = x0.min(sx);
+            x1 = x1.max(sx);
+            y0 = y0.min(sy);
+            y1 = y1.max(sy);
+        }
+        // Pixel centres in [x0, x1] widened by one pixel on each side (see module docs).
+        let px0 = (x0 - 0.5).ceil() - 1.0;
+        let px1 = (x1 - 0.5).floor() + 2.0;
+        let py0 = (y0 - 0.5).ceil() - 1.0;
+        let py1 = (y1 - 0.5).floor() + 2.0;
+        let clamp_x = |v: f32| v.clamp(0.0, self.width as f32) as u32;
+        let clamp_y = |v: f32| v.clamp(0.0, self.height as f32) as u32;
+        self.test_rect_depth(clamp_x(px0), clamp_y(py0), clamp_x(px1), clamp_y(py1), zmin)
+    }
+
+    /// True when some pixel of the rectangle `[x0, x1) x [y0, y1)` (clamped to the buffer) may
+    /// show a surface at view depth `nearest_depth`, i.e. is not covered by an occluder nearer
+    /// than that. An empty rectangle is not visible; a depth that is not positive is visible.
+    pub fn test_rect_depth(&self, x0: u32, y0: u32, x1: u32, y1: u32, nearest_depth: f32) -> bool {
+        let (x1, y1) = (x1.min(self.width), y1.min(self.height));
+        if x0 >= x1 || y0 >= y1 {
+            return false;
+        }
+        if nearest_depth.is_nan() || nearest_depth <= 0.0 {
+            return true;
+        }
+        let r = (1.0 / nearest_depth) * (1.0 + DEPTH_SLACK);
+        for ty in y0 / TILE_H..=(y1 - 1) / TILE_H {
+            let rlo = y0.saturating_sub(ty * TILE_H).min(TILE_H);
+            let rhi = (y1 - ty * TILE_H).min(TILE_H);
+            let rows = ((1u64 << (TILE_W * rhi)) - (1u64 << (TILE_W * rlo))) as u32;
+            let row_tiles = &self.tiles[(ty * self.tiles_x) as usize..];
+            for tx in x0 / TILE_W..=(x1 - 1) / TILE_W {
+                let t = row_tiles[tx as usize];
+                if r < t.z0 {
+                    continue;
+                }
+                let clo = x0.saturating_sub(tx * TILE_W).min(TILE_W);
+                let chi = (x1 - tx * TILE_W).min(TILE_W);
+                let cols = (1u32 << chi) - (1u32 << clo);
+                let q = cols.wrapping_mul(0x0101_0101) & rows;
+                if q & !t.mask != 0 || r >= t.z1 {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    /// The conservative (farthest possible) occluder depth at pixel `(x, y)`:
+    /// `f32::INFINITY` where nothing is known, `None` outside the buffer.
+    pub fn depth_at(&self, x: u32, y: u32) -> Option<f32> {
+        if x >= self.width || y >= self.height {
+            return None;
+        }
+        let t = self.tiles[((y / TILE_H) * self.tiles_x + x / TILE_W) as usize];
+        let bit = 1u32 << ((y % TILE_H) * TILE_W + x % TILE_W);
+        let r = if t.mask & bit != 0 { t.z1 } else { t.z0 };
+        Some(if r > 0.0 { 1.0 / r } else { f32::INFINITY })
+    }
+}
+
+/// `floor` as an integer without a libm call (`f32::floor` needs SSE4.1 to inline); values
+/// beyond `i32` saturate, which the callers clamp anyway.
+#[inline(always)]
+fn floor_i(x: f32) -> i32 {
+    let i = x as i32;
+    i - i32::from(x < i as f32)
+}
+
+/// `ceil` as an integer, see [`floor_i`].
+#[inline(always)]
+fn ceil_i(x: f32) -> i32 {
+    let i = x as i32;
+    i + i32::from(x > i as f32)
+}
+
+/// Merges an occluder's coverage `cov` at conservative `1/z` value `r` into a tile.
+///
+/// Andersson et al. 2015, section 3: when the new triangle is much nearer than the working
+/// layer (farther from it than the working layer is from the reference layer), the working
+/// layer is dropped and restarted from the triangle, otherwise the triangle joins it at the
+/// farther of the two depths. A full working mask becomes the new reference layer.
+#[inline(always)]
+fn update_tile(tile: &mut Tile, cov: u32, r: f32) {
+    if r.is_nan() || r <= tile.z0 {
+        // Nothing nearer than what every pixel already has.
+        return;
+    }
+    if tile.mask == 0 || r - tile.z1 > tile.z1 - tile.z0 {
+        tile.z1 = r;
+        tile.mask = cov;
+    } else {
+        tile.z1 = tile.z1.min(r);
+        tile.mask |= cov;
+    }
+    if tile.mask == FULL {
+        tile.z0 = tile.z1;
+        tile.z1 = 0.0;
+        tile.mask = 0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn camera(w: u32, h: u32) -> Camera {
+        Camera::look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 60.0, w, h, 0.1).expect("camera")
+    }
+
+    fn wall(z: f32, half: f32) -> Vec<Vec3> {
+        let a = Vec3::new(-half, -half, z);
+        let b = Vec3::new(half, -half, z);
+        let c = Vec3::new(half, half, z);
+        let d = Vec3::new(-half, half, z);
+        vec![a, b, c, a, c, d]
+    }
+
+    fn unit_box_at(z: f32) -> Aabb {
+        Aabb::new(Vec3::new(-0.5, -0.5, z - 0.5), Vec3::new(0.5, 0.5, z + 0.5))
+    }
+
+    #[test]
+    fn empty_buffer_sees_every_box_in_view() {
+        let b = OcclusionBuffer::new(64, 48);
+        assert!(b.test_box(&unit_box_at(-10.0), &camera(64, 48)));
+        assert_eq!(b.depth_at(3, 3), Some(f32::INFINITY));
+    }
+
+    #[test]
+    fn empty_occluder_list_changes_nothing() {
+        let mut b = OcclusionBuffer::new(64, 48);
+        b.render_occluders(&[], &camera(64, 48));
+        assert!(b.tiles.iter().all(|t| *t == CLEAR_TILE));
+    }
+
+    #[test]
+    fn full_screen_wall_hides_box_behind_and_not_in_front() {
+        let cam = camera(61, 37);
+        let mut b = OcclusionBuffer::new(61, 37);
+        b.render_occluders(&wall(-5.0, 100.0), &cam);
+        assert!(!b.test_box(&unit_box_at(-8.0), &cam));
+        assert!(b.test_box(&unit_box_at(-3.0), &cam));
+        // Straddling the wall: its near face is in front.
+        assert!(b.test_box(&unit_box_at(-5.2), &cam));
+        let d = b.depth_at(30, 18).expect("inside");
+        assert!((d - 5.0).abs() < 1e-3, "{d}");
+    }
+
+    #[test]
+    fn box_behind_camera_or_off_screen_is_not_visible() {
+        let cam = camera(64, 64);
+        let b = OcclusionBuffer::new(64, 64);
+        assert!(!b.test_box(&unit_box_at(10.0), &cam));
+        let side = Aabb::new(Vec3::new(100.0, 0.0, -2.0), Vec3::new(101.0, 1.0, -1.0));
+        assert!(!b.test_box(&side, &cam));
+    }
+
+    #[test]
+    fn box_crossing_near_plane_is_visible() {
+        let cam = camera(64, 64);
+        let mut b = OcclusionBuffer::new(64, 64);
+        b.render_occluders(&wall(-1.0, 100.0), &cam);
+        assert!(b.test_box(&unit_box_at(0.0), &cam));
+    }
+
+    #[test]
+    fn wall_crossing_near_plane_is_clipped_and_still_occludes() {
+        let cam = camera(64, 64);
+        let mut b = OcclusionBuffer::new(64, 64);
+        // A slanted wall z = -10 - 0.15 y: it fills the view and its lower corners lie
+        // behind the camera.
+        let (p, q, r, s) = (
+            Vec3::new(-100.0, -100.0, 5.0),
+            Vec3::new(100.0, -100.0, 5.0),
+            Vec3::new(100.0, 100.0, -25.0),
+            Vec3::new(-100.0, 100.0, -25.0),
+        );
+        b.render_occluders(&[p, q, r, p, r, s], &cam);
+        assert!(!b.test_box(&unit_box_at(-30.0), &cam));
+    }
+
+    #[test]
+    fn small_hole_keeps_box_visible() {
+        let cam = camera(64, 64);
+        let mut b = OcclusionBuffer::new(64, 64);
+        // A wall with a 0.4-wide square hole in the middle (four quads around it).
+        let z = -5.0;
+        let quad = |x0: f32, y0: f32, x1: f32, y1: f32| {
+            let (a, bb, c, d) = (
+                Vec3::new(x0, y0, z),
+                Vec3::new(x1, y0, z),
+                Vec3::new(x1, y1, z),
+                Vec3::new(x0, y1, z),
+            );
+            vec![a, bb, c, a, c, d]
+        };
+        let mut tris = quad(-50.0, -50.0, 50.0, -0.2);
+        tris.extend(quad(-50.0, 0.2, 50.0, 50.0));
+        tris.extend(quad(-50.0, -0.2, -0.2, 0.2));
+        tris.extend(quad(0.2, -0.2, 50.0, 0.2));
+        b.render_occluders(&tris, &cam);
+        assert!(b.test_box(&unit_box_at(-10.0), &cam));
+        let far_side = Aabb::new(Vec3::new(2.0, 2.0, -12.0), Vec3::new(3.0, 3.0, -10.0));
+        assert!(!b.test_box(&far_side, &cam));
+    }
+
+    #[test]
+    fn empty_rect_is_not_visible() {
+        let b = OcclusionBuffer::new(16, 16);
+        assert!(!b.test_rect_depth(5, 5, 5, 9, 1.0));
+        assert!(b.test_rect_depth(0, 0, 16, 16, 1.0));
+    }
+
+    #[test]
+    fn clear_forgets_occluders() {
+        let cam = camera(32, 32);
+        let mut b = OcclusionBuffer::new(32, 32);
+        b.render_occluders(&wall(-5.0, 100.0), &cam);
+        b.clear();
+        assert!(b.test_box(&unit_box_at(-8.0), &cam));
+    }
+
+    #[test]
+    fn tile_update_keeps_farther_depth_of_merged_layer() {
+        let mut t = CLEAR_TILE;
+        update_tile(&mut t, 0x0000_FFFF, 0.5);
+        update_tile(&mut t, 0xFFFF_0000, 0.4);
+        // Full: the reference layer is the farther of the two.
+        assert_eq!(t.mask, 0);
+        assert_eq!(t.z0, 0.4);
+    }
+
+    #[test]
+    fn tile_update_discards_far_working_layer_for_near_triangle() {
+        let mut t = CLEAR_TILE;
+        update_tile(&mut t, 0x0000_00FF, 0.1);
+        update_tile(&mut t, 0x0000_FF00, 0.9);
+        assert_eq!((t.mask, t.z1), (0x0000_FF00, 0.9));
+    }
+}
