@@ -38,6 +38,9 @@ enum Command {
     Pvs(commands::pvs::Args),
     /// Measure the pixel error of a .pvs file (the GVS++ paper's metric).
     Eval(commands::eval::Args),
+    /// Which triangles are visible from a point: reference rasterizer, --conservative (RV,
+    /// bounded memory) or --exact.
+    Visible(commands::visible::Args),
     /// Run the main job on the embedded default scene and write `sightline-report/`.
     Demo(commands::demo::Args),
 }
@@ -51,6 +54,7 @@ fn main() -> ExitCode {
         Command::Bench(a) => commands::bench::run(a),
         Command::Pvs(a) => commands::pvs::run(a),
         Command::Eval(a) => commands::eval::run(a),
+        Command::Visible(a) => commands::visible::run(a),
         Command::Demo(a) => commands::demo::run(a),
     };
     match result {

@@ -111,3 +111,39 @@ fn empty_scene_file_is_rejected() {
     let o = sightline(&["render", "empty.obj"], dir.path());
     assert_fails_with(&o, "no triangles");
 }
+
+#[test]
+fn conservative_visible_set_misses_nothing_the_reference_sees() {
+    let dir = tempfile::tempdir().unwrap();
+    let bunny = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/bunny.obj");
+    let o = sightline(
+        &[
+            "visible",
+            bunny,
+            "--conservative",
+            "--size",
+            "128x128",
+            "--json",
+            "-o",
+            "ids.txt",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["missed"], 0);
+    let visible = v["visible"].as_u64().unwrap();
+    assert!(visible >= v["reference_visible"].as_u64().unwrap());
+    let ids = std::fs::read_to_string(dir.path().join("ids.txt")).unwrap();
+    assert_eq!(ids.lines().count() as u64, visible);
+}
+
+#[test]
+fn impossible_memory_budget_is_clean_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(
+        &["visible", "--conservative", "--memory", "1KiB"],
+        dir.path(),
+    );
+    assert_fails_with(&o, "too small");
+}

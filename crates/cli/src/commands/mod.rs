@@ -7,3 +7,4 @@ pub(crate) mod eval;
 pub(crate) mod info;
 pub(crate) mod pvs;
 pub(crate) mod render;
+pub(crate) mod visible;
