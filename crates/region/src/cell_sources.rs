@@ -125,7 +125,12 @@ pub fn read_cells_file(path: &Path) -> Result<Vec<ViewCell>, CellsError> {
 /// first hit the back side of a triangle (its normal pointing away from the ray's origin).
 /// Meshes are assumed to be consistently wound with outward normals (as generators and most
 /// game maps are); for open or inconsistently wound meshes this is a heuristic.
+/// Quake 3 maps answer from their BSP instead: a point is solid when its leaf has no cluster
+/// (their polygons are wound clockwise, so the normal rule would be inverted there).
 pub fn inside_solid(scene: &Scene, caster: &dyn RayCaster, point: Vec3) -> bool {
+    if let Some(bsp) = scene.bsp.as_deref() {
+        return bsp.cluster_at(point).is_none();
+    }
     let dirs = [
         Vec3::X,
         Vec3::NEG_X,

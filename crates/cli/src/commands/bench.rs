@@ -336,7 +336,8 @@ fn pvs(args: PvsArgs) -> Result<()> {
         let half = scene.bounds().diagonal() * args.cell_size;
         let cells = random_free_cells(&scene, &bvh, args.cells, half, args.seed);
         if cells.is_empty() {
-            anyhow::bail!("{spec}: found no free space for view cells");
+            eprintln!("{spec}: found no free space for view cells, skipped");
+            continue;
         }
         const LABELS: [(&str, &str); 5] = [
             ("GVS++", "converged"),
