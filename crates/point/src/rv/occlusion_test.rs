@@ -78,8 +78,13 @@ fn occluded_by(
     // Silhouette test: no edge overlaps P, and P is inside (non-zero winding number).
     let q = inner_point(p.screen);
     let mut winding = 0i32;
+    // P grown by the margin lies in this rectangle; an edge whose bounds miss it cannot come
+    // within the margin of P, so the exact (costly) edge overlap test is skipped for it.
+    let (lo, hi) = (p.rect.min - margin, p.rect.max + margin);
     for e in &o.edges {
-        if segment_overlaps(e.a, e.b, p.screen, margin) {
+        let (emin, emax) = (e.a.min(e.b), e.a.max(e.b));
+        let near = emin.x <= hi.x && emax.x >= lo.x && emin.y <= hi.y && emax.y >= lo.y;
+        if near && segment_overlaps(e.a, e.b, p.screen, margin) {
             return false;
         }
         winding += ray_winding(q, e.a, e.b);
