@@ -4,6 +4,51 @@ use glam::Vec3;
 
 use super::{Object, Scene, UpAxis};
 
+/// Where a generator puts its geometry: a [`SceneBuilder`], or a consumer that hands the
+/// triangles on without keeping the scene (e.g. a streaming visibility pass). Vertex indices
+/// are the sink's own: a sink may forget vertices between objects as long as
+/// [`TriangleSink::vertex_count`] and [`TriangleSink::add_vertex`] agree with the indices
+/// [`TriangleSink::add_triangle`] then receives.
+pub trait TriangleSink {
+    /// Sets the scene's up axis (sinks that do not care ignore it).
+    fn set_up(&mut self, _up: UpAxis) {}
+
+    /// Starts a new object; following triangles belong to it. The name is formatted lazily so
+    /// sinks that drop names do not pay for them.
+    fn begin_object(&mut self, name: std::fmt::Arguments<'_>);
+
+    /// The index the next vertex will get.
+    fn vertex_count(&self) -> u32;
+
+    /// Adds a vertex and returns its index.
+    fn add_vertex(&mut self, p: Vec3) -> u32;
+
+    /// Adds a triangle by vertex indices; its id is the number of triangles added before it.
+    fn add_triangle(&mut self, t: [u32; 3]);
+}
+
+impl TriangleSink for SceneBuilder {
+    fn set_up(&mut self, up: UpAxis) {
+        SceneBuilder::set_up(self, up);
+    }
+
+    fn begin_object(&mut self, name: std::fmt::Arguments<'_>) {
+        SceneBuilder::begin_object(self, name.to_string());
+    }
+
+    fn vertex_count(&self) -> u32 {
+        SceneBuilder::vertex_count(self)
+    }
+
+    fn add_vertex(&mut self, p: Vec3) -> u32 {
+        SceneBuilder::add_vertex(self, p)
+    }
+
+    fn add_triangle(&mut self, t: [u32; 3]) {
+        SceneBuilder::add_triangle(self, t);
+    }
+}
+
 /// Builds a [`Scene`] object by object. Triangles get ids in the order they are added.
 #[derive(Debug)]
 pub struct SceneBuilder {

@@ -6,7 +6,8 @@
 //!
 //! The scene arrives as a [`TriangleSource`] (an in-memory [`SceneSource`], or a generator such
 //! as [`StreamingCity`] that never materialises the scene). A sort-middle pipeline projects and
-//! bins triangles into a grid of screen bins (geometry stage, `geometry_stage.rs`), and worker
+//! bins triangles into a grid of screen bins (geometry stage, `geometry_stage.rs`, on several
+//! threads: `producer.rs`), and worker
 //! threads resolve visibility per bin (visibility stage, `visibility_stage.rs`): each bin keeps
 //! occluders made of edge-connected visible triangles (`occluders.rs`), and a triangle is
 //! occluded in a bin when it lies inside one occluder's silhouette and behind its triangles
@@ -53,6 +54,7 @@ mod occluders;
 mod occlusion_test;
 mod overlap;
 mod pipeline;
+mod producer;
 mod projection;
 mod source;
 mod visibility_stage;
@@ -66,10 +68,11 @@ use sightline_core::{Camera, TriangleSet};
 pub use city_stream::StreamingCity;
 pub use source::{SceneSource, SourceTriangle, TriangleSource};
 
-use geometry_stage::{bins_of, project, Batch, BinGrid, ProjTri};
+use geometry_stage::{Batch, BinGrid};
 use memory::Pool;
 use occluders::{BinState, Limits};
 use pipeline::{merge_stats, Scheduler};
+use producer::{GeometryContext, Producers, Scratch};
 use projection::Projection;
 use visibility_stage::{process, BinContext, StageStats};
 
@@ -80,8 +83,10 @@ pub struct RvOptions {
     pub memory_budget_bytes: usize,
     /// Bins across and down the image.
     pub bins: (u32, u32),
-    /// Visibility-stage worker threads (the geometry stage runs on the calling thread).
+    /// Visibility-stage worker threads.
     pub threads: usize,
+    /// Geometry-stage threads (projection and binning; the calling thread is one of them).
+    pub geometry_threads: usize,
     /// Triangles per input batch (and per projected batch).
     pub batch_triangles: usize,
     /// Projected batches alive at once (the triangle ring buffer).
@@ -104,6 +109,7 @@ impl Default for RvOptions {
             memory_budget_bytes: 256 << 20,
             bins: (32, 32),
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            geometry_threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
             batch_triangles: 4096,
             ring_batches: 8,
             bin_threshold: 64,
@@ -194,19 +200,15 @@ fn fixed_bytes(options: &RvOptions, id_bound: u32, max_entries: usize) -> usize 
     let bitset = (id_bound as usize).div_ceil(64) * 8;
     let batch = Batch::bytes_for(options.batch_triangles, max_entries, bins);
     2 * bitset
-        + options.batch_triangles * std::mem::size_of::<SourceTriangle>()
-        // Producer scratch: (bin, index) pairs of one batch plus one triangle's bins.
-        + max_entries * 8
-        + bins * 4
-        // The ring, the sealed batch the producer holds while waiting for a slot, and the one it
-        // is filling.
-        + (options.ring_batches + 2) * batch
+        // Per geometry thread: input, pairs, bins, the batch it fills, the sealed batch it holds
+        // while waiting for a slot or its turn, and sorting scratch.
+        + options.geometry_threads * Scratch::bytes_for(options, max_entries, bins)
+        // The ring of queued batches.
+        + options.ring_batches * batch
         // Bin queues (deque of batch pointers, counters) and bin states.
         + bins * (64 + options.ring_batches * 8)
         + bins * (std::mem::size_of::<Mutex<BinState>>() + 8)
-        // Batch sorting: order and rank arrays and the reordered triangles.
-        + options.batch_triangles * (8 + std::mem::size_of::<ProjTri>())
-        + options.threads * 1024
+        + (options.threads + options.geometry_threads) * 1024
         + SLACK
 }
 
@@ -217,8 +219,10 @@ fn check(options: &RvOptions) -> Result<(), RvError> {
             "bins {bx}x{by}: need 1..=65536 bins"
         )));
     }
-    if options.threads == 0 {
-        return Err(RvError::BadOption("threads must be at least 1".into()));
+    if options.threads == 0 || options.geometry_threads == 0 {
+        return Err(RvError::BadOption(
+            "threads and geometry_threads must be at least 1".into(),
+        ));
     }
     if options.batch_triangles == 0 || options.ring_batches == 0 {
         return Err(RvError::BadOption(
@@ -230,8 +234,11 @@ fn check(options: &RvOptions) -> Result<(), RvError> {
 
 /// Computes a conservative visible set of `source`'s triangles from `camera` (see the module
 /// documentation for the guarantee and the memory accounting).
+///
+/// The source is read by whichever geometry thread needs the next batch (one at a time), so it
+/// must be `Send`.
 pub fn conservative_visible(
-    source: &mut dyn TriangleSource,
+    source: &mut (dyn TriangleSource + Send),
     camera: &Camera,
     options: &RvOptions,
 ) -> Result<RvResult, RvError> {
@@ -270,6 +277,15 @@ pub fn conservative_visible(
 
     let mut stats = RvStats::default();
     let mut stage = StageStats::default();
+    let producers = Producers::new(source);
+    let gctx = GeometryContext {
+        proj: &proj,
+        grid: &grid,
+        margin,
+        options,
+        max_entries,
+        sched: &sched,
+    };
     let produced = std::thread::scope(|scope| {
         let workers: Vec<_> = (0..options.threads)
             .map(|_| {
@@ -287,6 +303,10 @@ pub fn conservative_visible(
                                 y0 - margin,
                                 y1 + margin,
                             ),
+                            bin_rect: overlap::Rect {
+                                min: glam::DVec2::new(x0 - margin, y0 - margin),
+                                max: glam::DVec2::new(x1 + margin, y1 + margin),
+                            },
                             margin,
                             limits,
                             pool,
@@ -308,7 +328,31 @@ pub fn conservative_visible(
                 })
             })
             .collect();
-        let produced = produce(source, &proj, &grid, margin, options, max_entries, &sched);
+        let helpers: Vec<_> = (1..options.geometry_threads)
+            .map(|_| {
+                let (producers, gctx) = (&producers, &gctx);
+                scope.spawn(move || {
+                    let mut scratch = Scratch::new(options, max_entries, n_bins);
+                    producer::run(producers, gctx, &mut scratch)
+                })
+            })
+            .collect();
+        let mut scratch = Scratch::new(options, max_entries, n_bins);
+        let mut produced = producer::run(&producers, &gctx, &mut scratch);
+        drop(scratch);
+        for h in helpers {
+            match h.join() {
+                Ok(p) => {
+                    produced.streamed += p.streamed;
+                    produced.on_screen += p.on_screen;
+                    produced.entries += p.entries;
+                }
+                Err(panic) => {
+                    sched.finish_input();
+                    std::panic::resume_unwind(panic)
+                }
+            }
+        }
         sched.finish_input();
         for w in workers {
             match w.join() {
@@ -318,7 +362,10 @@ pub fn conservative_visible(
         }
         produced
     });
-    let (streamed, on_screen, entries) = produced?;
+    if let Some(e) = producers.into_error() {
+        return Err(e);
+    }
+    let (streamed, on_screen, entries) = (produced.streamed, produced.on_screen, produced.entries);
     for s in &states {
         s.lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner)
@@ -342,107 +389,4 @@ pub fn conservative_visible(
         peak_memory_bytes: fixed + pool.peak(),
         stats,
     })
-}
-
-/// The geometry stage loop: reads the stream, projects, bins and enqueues batches. Returns
-/// (triangles streamed, on screen, bin entries).
-fn produce(
-    source: &mut dyn TriangleSource,
-    proj: &Projection,
-    grid: &BinGrid,
-    margin: f64,
-    options: &RvOptions,
-    max_entries: usize,
-    sched: &Scheduler,
-) -> Result<(u64, u64, u64), RvError> {
-    let bound = source.id_bound();
-    let n_bins = grid.len();
-    let mut input = Vec::with_capacity(options.batch_triangles);
-    let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(max_entries);
-    let mut tri_bins: Vec<u32> = Vec::with_capacity(n_bins);
-    let mut tris: Vec<ProjTri> = Vec::with_capacity(options.batch_triangles);
-    let (mut streamed, mut on_screen, mut entries) = (0u64, 0u64, 0u64);
-    loop {
-        input.clear();
-        if source.next_batch(options.batch_triangles, &mut input)? == 0 {
-            break;
-        }
-        for t in &input {
-            streamed += 1;
-            if t.id >= bound {
-                return Err(RvError::IdOutOfRange { id: t.id, bound });
-            }
-            let Some((pt, pts, n)) = project(t, proj, margin) else {
-                continue;
-            };
-            tri_bins.clear();
-            bins_of(&pts[..n], grid, margin, &mut tri_bins);
-            if tri_bins.is_empty() {
-                continue;
-            }
-            on_screen += 1;
-            if pairs.len() + tri_bins.len() > max_entries || tris.len() == options.batch_triangles {
-                sched.push(seal(&mut tris, &mut pairs, n_bins, options));
-            }
-            let k = tris.len() as u32;
-            tris.push(pt);
-            pairs.extend(tri_bins.iter().map(|&b| (b, k)));
-            entries += tri_bins.len() as u64;
-        }
-    }
-    if !tris.is_empty() {
-        sched.push(seal(&mut tris, &mut pairs, n_bins, options));
-    }
-    Ok((streamed, on_screen, entries))
-}
-
-/// Counting-sorts the (bin, triangle) pairs into a [`Batch`] and resets the buffers.
-fn seal(
-    tris: &mut Vec<ProjTri>,
-    pairs: &mut Vec<(u32, u32)>,
-    n_bins: usize,
-    options: &RvOptions,
-) -> Batch {
-    let mut batch_tris = std::mem::replace(tris, Vec::with_capacity(options.batch_triangles));
-    if options.sort_batches {
-        let near_z = |t: &ProjTri| t.corners.iter().map(|c| c.z).fold(f64::INFINITY, f64::min);
-        let mut order: Vec<u32> = (0..batch_tris.len() as u32).collect();
-        order.sort_by(|&a, &b| {
-            near_z(&batch_tris[a as usize]).total_cmp(&near_z(&batch_tris[b as usize]))
-        });
-        let mut rank = vec![0u32; order.len()];
-        for (r, &i) in order.iter().enumerate() {
-            rank[i as usize] = r as u32;
-        }
-        batch_tris = order.iter().map(|&i| batch_tris[i as usize]).collect();
-        for pair in pairs.iter_mut() {
-            pair.1 = rank[pair.1 as usize];
-        }
-    }
-    let mut offsets = vec![0u32; n_bins + 1];
-    for &(b, _) in pairs.iter() {
-        offsets[b as usize + 1] += 1;
-    }
-    for i in 0..n_bins {
-        offsets[i + 1] += offsets[i];
-    }
-    let mut fill = offsets.clone();
-    let mut entries = vec![0u32; pairs.len()];
-    for &(b, k) in pairs.iter() {
-        let slot = &mut fill[b as usize];
-        entries[*slot as usize] = k;
-        *slot += 1;
-    }
-    pairs.clear();
-    if options.sort_batches {
-        // Each bin's triangles front to back.
-        for b in 0..n_bins {
-            entries[offsets[b] as usize..offsets[b + 1] as usize].sort_unstable();
-        }
-    }
-    Batch {
-        tris: batch_tris,
-        offsets,
-        entries,
-    }
 }

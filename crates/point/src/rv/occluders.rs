@@ -9,12 +9,13 @@
 //! Differences from the thesis, and why:
 //! - Silhouette edges are kept per occluder (not in one flat per-bin buffer): on a CPU the
 //!   per-occluder bounding rectangle then skips whole occluders before any edge is read.
-//! - Edges are matched undirected on their exact screen coordinates, and the silhouette is the
-//!   mod-2 sum of the triangles' edges (a shared edge is removed, an edge seen again is added
-//!   back). With that invariant, an odd number of silhouette crossings from a point means an odd
-//!   number (so at least one) of the occluder's triangles covers it, whatever the orientation,
-//!   manifoldness or self-overlap of the patch: this is what makes the silhouette test sound
-//!   for the double-sided, non-manifold, self-intersecting input sightline accepts.
+//! - Triangles join an occluder when they share an edge (undirected, exact screen coordinates)
+//!   with it, and the silhouette is the sum of the triangles' *directed* edges (the thesis'
+//!   half-edges) with exactly opposite pairs cancelled. All triangles of an occluder have the
+//!   same screen orientation (one facing), so the silhouette's winding number around a point
+//!   counts the occluder's triangles covering it, whatever the manifoldness or self-overlap of
+//!   the patch: this is what makes the silhouette test sound for the double-sided,
+//!   non-manifold, self-intersecting input sightline accepts.
 //! - Because triangles are double-sided here (see `geometry_stage.rs`), front- and back-facing
 //!   triangles grow separate occluders: a closed mesh whose front and back halves merged would
 //!   cover every point twice, have an empty silhouette and occlude nothing.
@@ -48,7 +49,13 @@ pub(crate) struct Edge {
 impl Edge {
     #[inline]
     fn same(&self, o: &Edge) -> bool {
-        (self.a == o.a && self.b == o.b) || (self.a == o.b && self.b == o.a)
+        (self.a == o.a && self.b == o.b) || self.inverse(o)
+    }
+
+    /// The same segment walked the other way (a manifold neighbour's shared edge).
+    #[inline]
+    fn inverse(&self, o: &Edge) -> bool {
+        self.a == o.b && self.b == o.a
     }
 }
 
@@ -217,9 +224,11 @@ impl BinState {
         main.rect = main.rect.union(&occ_tri.rect);
         main.zmin = main.zmin.min(zmin);
         main.zmax = main.zmax.max(zmax);
-        // Mod-2 edge update: a shared edge leaves the silhouette, a new one joins it.
+        // Directed edge update: an edge walked the other way by the patch cancels (it leaves
+        // the silhouette), any other edge joins it. Cancelling only exact inverse pairs keeps
+        // the winding number of the silhouette equal to the sum of the triangles' windings.
         for e in edges {
-            if let Some(k) = main.edges.iter().position(|f| f.same(&e)) {
+            if let Some(k) = main.edges.iter().position(|f| f.inverse(&e)) {
                 main.edges.swap_remove(k);
                 self.edge_count -= 1;
             } else {

@@ -5,11 +5,14 @@
 //! 2021, chapter 5 (occlusion test, figure 5.10; silhouette test, figures 5.11-5.12; triangle
 //! test, figure 5.13), section 6.3.2, and section 7.1.4 (occluder depth bounds).
 //!
-//! Soundness, in one paragraph: if no silhouette edge of occluder `O` comes within the margin
-//! of the occludee `P` and a ray from a point of `P` crosses `O`'s silhouette an odd number of
-//! times, then every point of `P` (grown by the margin) is covered by an odd number, so at least
-//! one, of `O`'s triangles (the silhouette is the mod-2 sum of their edges, see
-//! `occluders.rs`). If moreover `P` is behind every triangle of `O` that it overlaps, every
+//! Soundness, in one paragraph: the silhouette of occluder `O` is the sum of its triangles'
+//! directed edges with opposite pairs cancelled, and all its triangles have the same screen
+//! orientation (see `occluders.rs`), so its winding number around a point is (up to sign) the
+//! number of `O`'s triangles covering that point. If no silhouette edge comes within the margin
+//! of the occludee `P`, the winding number is constant over `P` grown by the margin; if it is
+//! non-zero at one point of `P`, every point of `P` is covered by at least one of `O`'s
+//! triangles. (The thesis' half-edges, chapter 5; a parity count would miss points covered an
+//! even number of times, as where a patch folds over itself.) If moreover `P` is behind every triangle of `O` that it overlaps, every
 //! point of `P` is hidden by some triangle of `O`, and so is every sample the reference
 //! rasterizer could take of `P`.
 
@@ -17,7 +20,7 @@ use glam::DVec2;
 
 use super::depth::{occludee_behind, OccluderView, DEPTH_EPS};
 use super::occluders::{BinState, Occluder};
-use super::overlap::{convex_overlap, inner_point, ray_crosses, segment_overlaps, Rect};
+use super::overlap::{convex_overlap, inner_point, ray_winding, segment_overlaps, Rect};
 use super::projection::{Poly, Projection};
 
 /// An occludee clipped to a bin, with what the tests need precomputed.
@@ -72,16 +75,21 @@ fn occluded_by(
         return false;
     }
     counters.silhouette_tests += 1;
-    // Silhouette test: no edge overlaps P, and P is inside (odd crossing parity).
+    // Silhouette test: no edge overlaps P, and P is inside (non-zero winding number).
     let q = inner_point(p.screen);
-    let mut crossings = 0u32;
+    let mut winding = 0i32;
+    // P grown by the margin lies in this rectangle; an edge whose bounds miss it cannot come
+    // within the margin of P, so the exact (costly) edge overlap test is skipped for it.
+    let (lo, hi) = (p.rect.min - margin, p.rect.max + margin);
     for e in &o.edges {
-        if segment_overlaps(e.a, e.b, p.screen, margin) {
+        let (emin, emax) = (e.a.min(e.b), e.a.max(e.b));
+        let near = emin.x <= hi.x && emax.x >= lo.x && emin.y <= hi.y && emax.y >= lo.y;
+        if near && segment_overlaps(e.a, e.b, p.screen, margin) {
             return false;
         }
-        crossings += u32::from(ray_crosses(q, e.a, e.b));
+        winding += ray_winding(q, e.a, e.b);
     }
-    if crossings & 1 == 0 {
+    if winding == 0 {
         return false;
     }
     // Depth bounds: behind the whole occluder, no triangle test needed.

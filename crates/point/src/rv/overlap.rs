@@ -136,6 +136,22 @@ pub(crate) fn ray_crosses(q: DVec2, a: DVec2, b: DVec2) -> bool {
     x > q.x
 }
 
+/// Signed crossing (winding-number form of [`ray_crosses`]): +1 when the directed edge `a→b`
+/// crosses the `+x` ray from `q` going towards `+y`, -1 going towards `-y`, 0 otherwise. Summed
+/// over a set of directed edges it is their winding number around `q` (same half-open rule, so
+/// exact over closed chains).
+#[inline]
+pub(crate) fn ray_winding(q: DVec2, a: DVec2, b: DVec2) -> i32 {
+    if !ray_crosses(q, a, b) {
+        return 0;
+    }
+    if b.y > a.y {
+        1
+    } else {
+        -1
+    }
+}
+
 /// A point inside convex polygon `p` (its vertex centroid).
 pub(crate) fn inner_point(p: &[DVec2]) -> DVec2 {
     centroid(p)
@@ -238,5 +254,16 @@ mod tests {
             .filter(|&i| ray_crosses(q, s[i], s[(i + 1) % 4]))
             .count();
         assert_eq!(n % 2, 0);
+    }
+
+    #[test]
+    fn winding_counts_overlapping_squares() {
+        // Two same-orientation squares over q: winding 2 (parity would say "outside").
+        let (a, b) = (square(0.0, 0.0, 1.0), square(0.2, 0.2, 1.0));
+        let q = DVec2::new(0.5, 0.5);
+        let w: i32 = (0..4)
+            .map(|i| ray_winding(q, a[i], a[(i + 1) % 4]) + ray_winding(q, b[i], b[(i + 1) % 4]))
+            .sum();
+        assert_eq!(w.abs(), 2);
     }
 }

@@ -1,5 +1,6 @@
-//! The sort-middle pipeline on CPU threads: the calling thread runs the geometry stage over the
-//! stream, worker threads run the visibility stage per bin, connected by bounded bin queues.
+//! The sort-middle pipeline on CPU threads: geometry threads (the caller and helpers, see
+//! `producer.rs`) run the geometry stage over the stream, worker threads run the visibility
+//! stage per bin, connected by bounded bin queues.
 //!
 //! Based on: Ivanchenko. Massively Parallel Analytic Visibility for Streaming Virtual Reality.
 //! 2021, section 6.1 (megakernel, bin queues, triangle ring buffer with reference counts) and
@@ -12,8 +13,8 @@
 //!   shared by reference count (`Arc`) among the bins it was binned into and freed when the
 //!   last bin has processed it; the producer blocks while the ring is full. Reference counts
 //!   are per batch, not per triangle.
-//! - Geometry runs on one thread (the caller's), visibility on `threads` workers: a fixed split
-//!   instead of every block choosing a stage. When the producer is blocked on a full ring the
+//! - Geometry runs on `geometry_threads` threads, visibility on `threads` workers: a fixed split
+//!   instead of every block choosing a stage; batches enter the queues in stream order. When the producer is blocked on a full ring the
 //!   workers ignore the threshold (the thesis' drain mode), so the pipeline cannot stall.
 
 use std::collections::VecDeque;

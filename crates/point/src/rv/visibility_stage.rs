@@ -35,6 +35,8 @@ pub(crate) struct BinContext<'a> {
     pub(crate) proj: &'a Projection,
     /// The bin's frustum, grown by the margin.
     pub(crate) planes: [[f64; 4]; 4],
+    /// The bin's screen rectangle, grown by the margin (the same region as `planes`).
+    pub(crate) bin_rect: Rect,
     pub(crate) margin: f64,
     pub(crate) limits: &'a Limits,
     pub(crate) pool: &'a Pool,
@@ -49,11 +51,18 @@ pub(crate) fn process(
     st: &mut StageStats,
 ) {
     let mut poly = Poly::from_slice(&t.corners);
-    if !t.whole_front {
-        poly = clip(&poly, &ctx.proj.near_plane());
-    }
-    for plane in &ctx.planes {
-        poly = clip(&poly, plane);
+    // Most triangles of a large scene are small and lie inside one bin: then clipping to the
+    // bin's frustum would return them unchanged, so it is skipped. (Keeping the unclipped
+    // triangle where rounding might have shaved a sliver off is conservative: a larger
+    // occludee is never easier to occlude.)
+    let inside_bin = t.whole_front && ctx.bin_rect.contains(&Rect::of(&t.screen), 0.0);
+    if !inside_bin {
+        if !t.whole_front {
+            poly = clip(&poly, &ctx.proj.near_plane());
+        }
+        for plane in &ctx.planes {
+            poly = clip(&poly, plane);
+        }
     }
     if poly.is_empty() {
         st.clipped_away += 1;

@@ -22,7 +22,9 @@ mod spheres;
 
 use glam::Vec3;
 
-use super::{Scene, SceneBuilder};
+use super::{Scene, SceneBuilder, TriangleSink};
+
+pub use city::City;
 
 /// The generator names, in the order `--help` lists them.
 pub const GENERATORS: [&str; 5] = ["city", "rooms", "canyon", "boxes", "spheres"];
@@ -119,7 +121,7 @@ pub fn generate(params: &Params) -> Scene {
 
 /// Adds an axis-aligned box with Z up but without its bottom (-Z) face: buildings and walls
 /// stand on a floor, and a bottom face coplanar with the floor would only make depth ties.
-fn add_box_on_floor(b: &mut SceneBuilder, min: Vec3, max: Vec3) {
+fn add_box_on_floor<S: TriangleSink + ?Sized>(b: &mut S, min: Vec3, max: Vec3) {
     let base = b.vertex_count();
     for i in 0..8u32 {
         let pick = |bit: u32, lo: f32, hi: f32| if i & bit != 0 { hi } else { lo };
@@ -143,7 +145,7 @@ fn add_box_on_floor(b: &mut SceneBuilder, min: Vec3, max: Vec3) {
 }
 
 /// Adds a quad `a b c d` (counter-clockwise seen from the side it faces) as two triangles.
-fn add_quad(b: &mut SceneBuilder, a: Vec3, bb: Vec3, c: Vec3, d: Vec3) {
+fn add_quad<S: TriangleSink + ?Sized>(b: &mut S, a: Vec3, bb: Vec3, c: Vec3, d: Vec3) {
     let i = [
         b.add_vertex(a),
         b.add_vertex(bb),

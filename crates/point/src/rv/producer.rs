@@ -1,0 +1,354 @@
+//! The geometry stage on several threads: each reads a batch from the shared stream, projects
+//! and bins it, sorts it front to back, and hands the sealed batches to the bin queues in stream
+//! order.
+//!
+//! Based on: Ivanchenko. Massively Parallel Analytic Visibility for Streaming Virtual Reality.
+//! 2021, sections 6.1 (many blocks run the geometry stage at once, each on its own input batch)
+//! and 6.2 (fetch a batch, project, bin, write to the bin queues), and 7.1.3 (sorted input).
+//!
+//! Only reading the stream is serial (a `TriangleSource` is a sequential reader); projection,
+//! binning and sorting, the bulk of the stage, run in parallel. Batches are pushed in the order
+//! their input was read (a ticket per input batch), so every bin sees its triangles in the same
+//! order on every run and the visible set does not depend on thread timing.
+
+use std::sync::{Condvar, Mutex, PoisonError};
+
+use super::geometry_stage::{bins_of, project, Batch, BinGrid, ProjTri};
+use super::pipeline::Scheduler;
+use super::projection::Projection;
+use super::source::{SourceTriangle, TriangleSource};
+use super::{RvError, RvOptions};
+
+/// Counters of the geometry stage.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Produced {
+    pub(crate) streamed: u64,
+    pub(crate) on_screen: u64,
+    pub(crate) entries: u64,
+}
+
+/// The stream, shared by the geometry threads.
+struct Reader<'s> {
+    source: &'s mut (dyn TriangleSource + Send),
+    /// Ticket of the next input batch.
+    next_ticket: u64,
+    /// The stream ended, failed, or a thread found bad input.
+    done: bool,
+}
+
+/// Shared state of the geometry threads.
+pub(crate) struct Producers<'s> {
+    reader: Mutex<Reader<'s>>,
+    /// Ticket whose batches may be pushed now.
+    turn: Mutex<u64>,
+    turn_changed: Condvar,
+    error: Mutex<Option<RvError>>,
+    bound: u32,
+}
+
+impl<'s> Producers<'s> {
+    /// Geometry threads reading `source`.
+    pub(crate) fn new(source: &'s mut (dyn TriangleSource + Send)) -> Self {
+        let bound = source.id_bound();
+        Self {
+            reader: Mutex::new(Reader {
+                source,
+                next_ticket: 0,
+                done: false,
+            }),
+            turn: Mutex::new(0),
+            turn_changed: Condvar::new(),
+            error: Mutex::new(None),
+            bound,
+        }
+    }
+
+    /// The first error any thread met, if any.
+    pub(crate) fn into_error(self) -> Option<RvError> {
+        self.error
+            .into_inner()
+            .unwrap_or_else(PoisonError::into_inner)
+    }
+
+    fn fail(&self, e: RvError) {
+        let mut slot = self.error.lock().unwrap_or_else(PoisonError::into_inner);
+        if slot.is_none() {
+            *slot = Some(e);
+        }
+        drop(slot);
+        self.reader
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .done = true;
+    }
+
+    /// Reads the next input batch into `input`; its ticket, or `None` at the end.
+    fn read(&self, max: usize, input: &mut Vec<SourceTriangle>) -> Option<u64> {
+        let mut r = self.reader.lock().unwrap_or_else(PoisonError::into_inner);
+        if r.done {
+            return None;
+        }
+        input.clear();
+        match r.source.next_batch(max, input) {
+            Ok(0) => {
+                r.done = true;
+                None
+            }
+            Ok(_) => {
+                r.next_ticket += 1;
+                Some(r.next_ticket - 1)
+            }
+            Err(e) => {
+                drop(r);
+                self.fail(e);
+                None
+            }
+        }
+    }
+
+    fn wait_turn(&self, ticket: u64) {
+        let mut t = self.turn.lock().unwrap_or_else(PoisonError::into_inner);
+        while *t != ticket {
+            t = self
+                .turn_changed
+                .wait(t)
+                .unwrap_or_else(PoisonError::into_inner);
+        }
+    }
+
+    fn end_turn(&self, ticket: u64) {
+        *self.turn.lock().unwrap_or_else(PoisonError::into_inner) = ticket + 1;
+        self.turn_changed.notify_all();
+    }
+}
+
+/// Per-thread buffers of the geometry stage (accounted in `fixed_bytes`).
+pub(crate) struct Scratch {
+    input: Vec<SourceTriangle>,
+    pairs: Vec<(u32, u32)>,
+    tri_bins: Vec<u32>,
+    tris: Vec<ProjTri>,
+}
+
+impl Scratch {
+    /// Buffers for `options`.
+    pub(crate) fn new(options: &RvOptions, max_entries: usize, n_bins: usize) -> Self {
+        Self {
+            input: Vec::with_capacity(options.batch_triangles),
+            pairs: Vec::with_capacity(max_entries),
+            tri_bins: Vec::with_capacity(n_bins),
+            tris: Vec::with_capacity(options.batch_triangles),
+        }
+    }
+
+    /// Heap bytes of one thread's buffers, its sealed batch waiting for a ring slot, and the
+    /// sorting scratch of `seal`.
+    pub(crate) fn bytes_for(options: &RvOptions, max_entries: usize, n_bins: usize) -> usize {
+        let b = options.batch_triangles;
+        b * std::mem::size_of::<SourceTriangle>()
+            + max_entries * 8
+            + n_bins * 4
+            + 2 * Batch::bytes_for(b, max_entries, n_bins)
+            + b * (16 + 4 + std::mem::size_of::<ProjTri>())
+    }
+}
+
+/// What a geometry thread needs that does not change during a run.
+pub(crate) struct GeometryContext<'a> {
+    pub(crate) proj: &'a Projection,
+    pub(crate) grid: &'a BinGrid,
+    pub(crate) margin: f64,
+    pub(crate) options: &'a RvOptions,
+    pub(crate) max_entries: usize,
+    pub(crate) sched: &'a Scheduler,
+}
+
+/// One geometry thread: reads input batches until the stream ends and pushes their binned,
+/// sorted batches in ticket order.
+pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scratch) -> Produced {
+    let mut out = Produced::default();
+    let n_bins = ctx.grid.len();
+    while let Some(ticket) = shared.read(ctx.options.batch_triangles, &mut s.input) {
+        let mut bad = None;
+        for t in &s.input {
+            out.streamed += 1;
+            if t.id >= shared.bound {
+                bad = Some(RvError::IdOutOfRange {
+                    id: t.id,
+                    bound: shared.bound,
+                });
+                break;
+            }
+            let Some((pt, pts, n)) = project(t, ctx.proj, ctx.margin) else {
+                continue;
+            };
+            s.tri_bins.clear();
+            bins_of(&pts[..n], ctx.grid, ctx.margin, &mut s.tri_bins);
+            if s.tri_bins.is_empty() {
+                continue;
+            }
+            out.on_screen += 1;
+            if s.pairs.len() + s.tri_bins.len() > ctx.max_entries
+                || s.tris.len() == ctx.options.batch_triangles
+            {
+                // Rare (huge triangles): this input needs more than one batch.
+                let batch = seal(&mut s.tris, &mut s.pairs, n_bins, ctx.options);
+                shared.wait_turn(ticket);
+                ctx.sched.push(batch);
+            }
+            let k = s.tris.len() as u32;
+            s.tris.push(pt);
+            s.pairs.extend(s.tri_bins.iter().map(|&b| (b, k)));
+            out.entries += s.tri_bins.len() as u64;
+        }
+        let batch =
+            (!s.tris.is_empty()).then(|| seal(&mut s.tris, &mut s.pairs, n_bins, ctx.options));
+        shared.wait_turn(ticket);
+        if let Some(batch) = batch {
+            ctx.sched.push(batch);
+        }
+        shared.end_turn(ticket);
+        if let Some(e) = bad {
+            shared.fail(e);
+            break;
+        }
+    }
+    out
+}
+
+/// Sorts a batch front to back (optional) and counting-sorts its (bin, triangle) pairs into a
+/// [`Batch`]; resets the buffers.
+fn seal(
+    tris: &mut Vec<ProjTri>,
+    pairs: &mut Vec<(u32, u32)>,
+    n_bins: usize,
+    options: &RvOptions,
+) -> Batch {
+    let mut batch_tris = std::mem::replace(tris, Vec::with_capacity(options.batch_triangles));
+    if options.sort_batches {
+        // Keys computed once: the nearest view depth of each triangle.
+        let mut keys: Vec<(f64, u32)> = batch_tris
+            .iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let z = t.corners[0].z.min(t.corners[1].z).min(t.corners[2].z);
+                (z, i as u32)
+            })
+            .collect();
+        keys.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let mut rank = vec![0u32; keys.len()];
+        for (r, &(_, i)) in keys.iter().enumerate() {
+            rank[i as usize] = r as u32;
+        }
+        batch_tris = keys.iter().map(|&(_, i)| batch_tris[i as usize]).collect();
+        for pair in pairs.iter_mut() {
+            pair.1 = rank[pair.1 as usize];
+        }
+    }
+    let mut offsets = vec![0u32; n_bins + 1];
+    for &(b, _) in pairs.iter() {
+        offsets[b as usize + 1] += 1;
+    }
+    for i in 0..n_bins {
+        offsets[i + 1] += offsets[i];
+    }
+    let mut fill = offsets.clone();
+    let mut entries = vec![0u32; pairs.len()];
+    for &(b, k) in pairs.iter() {
+        let slot = &mut fill[b as usize];
+        entries[*slot as usize] = k;
+        *slot += 1;
+    }
+    pairs.clear();
+    if options.sort_batches {
+        // Each bin's triangles front to back.
+        for b in 0..n_bins {
+            entries[offsets[b] as usize..offsets[b + 1] as usize].sort_unstable();
+        }
+    }
+    Batch {
+        tris: batch_tris,
+        offsets,
+        entries,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+    use sightline_core::Camera;
+
+    use super::super::{conservative_visible, RvError, RvOptions, StreamingCity};
+    use super::*;
+
+    fn camera(city: &StreamingCity) -> Camera {
+        let h = city.half_extent();
+        Camera::look_at(
+            Vec3::new(-h, -h, 30.0),
+            Vec3::ZERO,
+            Vec3::Z,
+            60.0,
+            64,
+            64,
+            0.1,
+        )
+        .expect("camera")
+    }
+
+    #[test]
+    fn more_geometry_threads_give_the_same_set() {
+        let run = |g: usize| {
+            let mut city = StreamingCity::new(2, 20_000);
+            let cam = camera(&city);
+            let o = RvOptions {
+                geometry_threads: g,
+                threads: 2,
+                batch_triangles: 256,
+                bins: (8, 8),
+                ..RvOptions::default()
+            };
+            conservative_visible(&mut city, &cam, &o).expect("runs")
+        };
+        let (a, b) = (run(1), run(3));
+        assert_eq!(a.visible, b.visible);
+        assert_eq!(a.stats.triangles_streamed, b.stats.triangles_streamed);
+    }
+
+    /// Yields one good batch, then an id past its bound.
+    struct Bad(u32);
+
+    impl TriangleSource for Bad {
+        fn id_bound(&self) -> u32 {
+            10
+        }
+        fn next_batch(
+            &mut self,
+            _max: usize,
+            out: &mut Vec<SourceTriangle>,
+        ) -> Result<usize, RvError> {
+            self.0 += 1;
+            let id = if self.0 == 1 { 0 } else { 99 };
+            out.push(SourceTriangle {
+                id,
+                corners: [
+                    Vec3::new(0.0, 0.0, 5.0),
+                    Vec3::new(1.0, 0.0, 5.0),
+                    Vec3::new(0.0, 1.0, 5.0),
+                ],
+            });
+            Ok(1)
+        }
+    }
+
+    #[test]
+    fn bad_id_is_reported_with_several_threads() {
+        let cam = Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y, 60.0, 32, 32, 0.1).expect("cam");
+        let o = RvOptions {
+            geometry_threads: 3,
+            bins: (2, 2),
+            ..RvOptions::default()
+        };
+        let r = conservative_visible(&mut Bad(0), &cam, &o);
+        assert_eq!(r.err(), Some(RvError::IdOutOfRange { id: 99, bound: 10 }));
+    }
+}
