@@ -147,3 +147,48 @@ fn impossible_memory_budget_is_clean_error() {
     );
     assert_fails_with(&o, "too small");
 }
+
+#[test]
+fn convert_keeps_triangle_ids() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = "procedural:spheres?size=2000";
+    let mut hashes = Vec::new();
+    for out in ["s.ply", "s.obj", "s.glb"] {
+        let o = sightline(&["convert", spec, "-o", out, "--json"], dir.path());
+        assert!(o.status.success(), "{}", stderr(&o));
+        let written: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let o = sightline(&["info", out, "--json"], dir.path());
+        let read: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(
+            written["geometry_hash"], read["geometry_hash"],
+            "{out} changed the ids"
+        );
+        hashes.push(read["geometry_hash"].clone());
+    }
+    assert!(hashes.windows(2).all(|w| w[0] == w[1]));
+}
+
+#[test]
+fn demo_writes_report_with_every_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(
+        &[
+            "demo",
+            "procedural:city?size=5000",
+            "--size",
+            "128",
+            "--cells",
+            "2",
+            "--n-rand",
+            "100000",
+            "--json",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["steps"].as_array().unwrap().len() >= 7);
+    let html = std::fs::read_to_string(dir.path().join("sightline-report/index.html")).unwrap();
+    assert!(html.contains("<table>") && html.contains("overview.png"));
+    assert!(dir.path().join("sightline-report/overview.png").exists());
+}

@@ -17,6 +17,9 @@ pub(crate) struct Args {
     /// meshes). Triangle order is kept, so triangle ids stay the same.
     #[arg(short, long)]
     output: PathBuf,
+    /// Print a JSON summary.
+    #[arg(long)]
+    json: bool,
 }
 
 pub(crate) fn run(args: Args) -> Result<()> {
@@ -36,6 +39,14 @@ pub(crate) fn run(args: Args) -> Result<()> {
         ),
     };
     result.with_context(|| format!("writing {}", args.output.display()))?;
+    if args.json {
+        return crate::output::print_json(&serde_json::json!({
+            "output": args.output,
+            "triangles": scene.triangle_count(),
+            "objects": scene.objects.len(),
+            "geometry_hash": format!("{:016x}", scene.geometry_hash()),
+        }));
+    }
     println!(
         "wrote {} ({} triangles, {} objects)",
         args.output.display(),

@@ -42,6 +42,9 @@ pub(crate) struct Args {
     /// GVS++ random rays per round (the paper uses 10M; the demo stays quick).
     #[arg(long, default_value_t = 500_000)]
     n_rand: u64,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    json: bool,
 }
 
 struct Step {
@@ -228,6 +231,17 @@ pub(crate) fn run(args: Args) -> Result<()> {
     let index = args.output.join("index.html");
     write_atomic(&index, |w| std::io::Write::write_all(w, html.as_bytes()))
         .with_context(|| format!("writing {}", index.display()))?;
+    if args.json {
+        let steps: Vec<_> = steps
+            .iter()
+            .map(|s| serde_json::json!({"step": s.name, "seconds": s.seconds, "result": s.result}))
+            .collect();
+        return crate::output::print_json(&serde_json::json!({
+            "scene": scene.source,
+            "report": index,
+            "steps": steps,
+        }));
+    }
     println!("sightline demo on {}", scene.source);
     for s in &steps {
         println!("  {:<28} {:>8.3} s  {}", s.name, s.seconds, s.result);
