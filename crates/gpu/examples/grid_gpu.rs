@@ -3,9 +3,66 @@
 //!
 //! `cargo run --release -p sightline-gpu --example grid_gpu -- [frames] [per_room] [popping 0|1]`
 
+use glam::Vec3;
+use sightline_core::{Aabb, Camera};
 use sightline_cull::scenes::the_grid;
-use sightline_cull::{simulate, SimConfig, SoftwareBackend};
-use sightline_gpu::GpuBackend;
+use sightline_cull::{simulate, OcclusionBackend, SimConfig, SoftwareBackend};
+use sightline_gpu::{GpuBackend, GpuFrameStats};
+
+/// Forwards to the GPU backend and sums its per-frame counters (read at each new frame, since
+/// `begin_frame` resets them).
+struct Counted<'a> {
+    gpu: &'a mut GpuBackend,
+    frames: u32,
+    sum: GpuFrameStats,
+}
+
+impl Counted<'_> {
+    fn collect(&mut self) {
+        let s = self.gpu.stats();
+        self.sum.gpu_queries += s.gpu_queries;
+        self.sum.cpu_answers += s.cpu_answers;
+        self.sum.triangles += s.triangles;
+        self.sum.submissions += s.submissions;
+        self.sum.wait_ms += s.wait_ms;
+    }
+
+    fn per_frame(&mut self) -> String {
+        self.collect();
+        let n = self.frames.max(1) as f64;
+        format!(
+            "per frame: {:.0} GPU queries, {:.1} CPU answers, {:.0} occluder triangles, \
+             {:.1} submissions, {:.2} ms submit + wait",
+            self.sum.gpu_queries as f64 / n,
+            self.sum.cpu_answers as f64 / n,
+            self.sum.triangles as f64 / n,
+            self.sum.submissions as f64 / n,
+            self.sum.wait_ms / n
+        )
+    }
+}
+
+impl OcclusionBackend for Counted<'_> {
+    fn begin_frame(&mut self, camera: &Camera) {
+        if self.frames > 0 {
+            self.collect();
+        }
+        self.frames += 1;
+        self.gpu.begin_frame(camera);
+    }
+    fn draw_depth(&mut self, triangles: &[Vec3]) {
+        self.gpu.draw_depth(triangles);
+    }
+    fn query(&mut self, tag: u32, aabb: &Aabb) {
+        self.gpu.query(tag, aabb);
+    }
+    fn take_results(&mut self, out: &mut Vec<(u32, bool)>) {
+        self.gpu.take_results(out);
+    }
+    fn name(&self) -> &'static str {
+        "gpu"
+    }
+}
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -37,8 +94,17 @@ fn main() {
     );
     for latency in [1, 0] {
         config.latency = latency;
-        match simulate(&scene, &mut gpu, &config) {
-            Ok(r) => println!("gpu latency {latency}: {}", r.summary()),
+        let mut counted = Counted {
+            gpu: &mut gpu,
+            frames: 0,
+            sum: GpuFrameStats::default(),
+        };
+        match simulate(&scene, &mut counted, &config) {
+            Ok(r) => println!(
+                "gpu latency {latency}: {}\n  {}",
+                r.summary(),
+                counted.per_frame()
+            ),
             Err(e) => eprintln!("error: {e}"),
         }
         let mut sw = SoftwareBackend::new(config.width, config.height);

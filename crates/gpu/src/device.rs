@@ -34,6 +34,9 @@ pub enum GpuError {
     /// Waiting for the GPU failed (device lost, timeout).
     #[error("waiting for the GPU failed: {0}")]
     Poll(#[from] wgpu::PollError),
+    /// A [`MeshId`](crate::MeshId) that this backend did not upload.
+    #[error("mesh {0} was not uploaded to this backend")]
+    UnknownMesh(u32),
     /// Mapping the query readback buffer failed.
     #[error("reading occlusion query results back failed: {0}")]
     Readback(String),

@@ -49,4 +49,4 @@ mod device;
 mod occlusion_query;
 
 pub use device::{check_vulkan, vulkan_device, GpuError};
-pub use occlusion_query::{GpuBackend, GpuFrameStats, QueryOutcome};
+pub use occlusion_query::{GpuBackend, GpuFrameStats, MeshId, QueryOutcome};

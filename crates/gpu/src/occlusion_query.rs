@@ -26,10 +26,16 @@
 //!   rasterizer.
 //!
 //! # Geometry upload
-//! The unit cube of the query boxes is uploaded once; per query only its box (two `vec3`s) is
-//! an instance. [`OcclusionBackend::draw_depth`] receives world-space triangles of objects that
-//! may have moved, so occluder vertices are re-uploaded each frame (one `write_buffer` per
-//! submission into a buffer that only grows); the trait has no notion of a static mesh.
+//! - Query boxes: the unit cube is uploaded once; per query only its box (two `vec3`s) is an
+//!   instance.
+//! - Static occluders (and dynamic ones that move rigidly): [`GpuBackend::upload_mesh`] uploads
+//!   a mesh once; [`GpuBackend::draw_mesh`] draws it with a per-draw translation, an instance
+//!   attribute of 12 bytes. Translations are the motion the culling scenes have (objects move by
+//!   offsets); rotations would need a matrix per instance in the same place.
+//! - [`OcclusionBackend::draw_depth`] receives world-space triangles of objects that may have
+//!   moved and does not say which are static, so those vertices are re-uploaded each frame (one
+//!   `write_buffer` per submission into a buffer that only grows). The simulation of
+//!   `sightline-cull` uses this path.
 //!
 //! # Latency and readback
 //! Commands are recorded on the CPU during the frame and submitted as one command buffer when
@@ -117,11 +123,17 @@ struct BoxInstance {
     max: [f32; 3],
 }
 
+/// A mesh uploaded once with [`GpuBackend::upload_mesh`], drawn with [`GpuBackend::draw_mesh`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct MeshId(u32);
+
 /// A recorded command, replayed in order into the render pass(es).
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Command {
-    /// Occluder vertices `first..first + count` of this submission.
+    /// Occluder vertices `first..first + count` of this submission (translation slot 0, zero).
     Depth { first: u32, count: u32 },
+    /// An uploaded mesh with translation slot `instance` of this submission.
+    Mesh { mesh: u32, instance: u32 },
     /// Query number `index` of this submission (its box is instance `index`).
     Query { index: u32 },
 }
@@ -211,7 +223,10 @@ pub struct GpuBackend {
     cube_corners: wgpu::Buffer,
     cube_indices: wgpu::Buffer,
     vertex_buffer: GrowBuffer,
+    translation_buffer: GrowBuffer,
     box_buffer: GrowBuffer,
+    /// Uploaded meshes: vertex buffer and vertex count.
+    meshes: Vec<(wgpu::Buffer, u32)>,
     resolve_buffer: GrowBuffer,
     readback_buffer: GrowBuffer,
     query_sets: Vec<wgpu::QuerySet>,
@@ -222,6 +237,8 @@ pub struct GpuBackend {
     /// The depth buffer was cleared by an earlier submission of this frame.
     depth_started: bool,
     vertices: Vec<[f32; 3]>,
+    /// Per-draw translations of this submission; slot 0 is zero, for `draw_depth` triangles.
+    translations: Vec<[f32; 3]>,
     boxes: Vec<BoxInstance>,
     commands: Vec<Command>,
     /// Slot in `outcomes` of each GPU query of this submission, by query index.
@@ -297,6 +314,7 @@ impl GpuBackend {
             shader_location: location,
         };
         let position_attr = [vec3_at(0, 0)];
+        let translation_attr = [vec3_at(1, 0)];
         let box_attrs = [vec3_at(1, 0), vec3_at(2, 12)];
         let triangles_layout = wgpu::VertexBufferLayout {
             array_stride: 12,
@@ -340,7 +358,14 @@ impl GpuBackend {
         let depth_pipeline = pipeline(
             "sightline depth pre-pass",
             "vs_depth",
-            &[Some(triangles_layout)],
+            &[
+                Some(triangles_layout),
+                Some(wgpu::VertexBufferLayout {
+                    array_stride: 12,
+                    step_mode: wgpu::VertexStepMode::Instance,
+                    attributes: &translation_attr,
+                }),
+            ],
             true,
             wgpu::CompareFunction::Greater,
         );
@@ -376,7 +401,14 @@ impl GpuBackend {
                 U::VERTEX | U::COPY_DST,
                 0,
             ),
+            translation_buffer: GrowBuffer::new(
+                device,
+                "sightline translations",
+                U::VERTEX | U::COPY_DST,
+                0,
+            ),
             box_buffer: GrowBuffer::new(device, "sightline boxes", U::VERTEX | U::COPY_DST, 0),
+            meshes: Vec::new(),
             resolve_buffer: GrowBuffer::new(
                 device,
                 "sightline resolve",
@@ -403,6 +435,7 @@ impl GpuBackend {
             camera: None,
             depth_started: false,
             vertices: Vec::new(),
+            translations: vec![[0.0; 3]],
             boxes: Vec::new(),
             commands: Vec::new(),
             query_slots: Vec::new(),
@@ -422,12 +455,62 @@ impl GpuBackend {
         self.stats
     }
 
+    /// Uploads occluder triangles (three world-space corners each; a trailing partial triangle
+    /// is ignored) once, for drawing in any later frame with [`GpuBackend::draw_mesh`].
+    pub fn upload_mesh(&mut self, triangles: &[Vec3]) -> MeshId {
+        let count = triangles.len() / 3 * 3;
+        let corners: Vec<[f32; 3]> = triangles[..count].iter().map(|p| p.to_array()).collect();
+        // An empty mesh still gets a (4-byte) buffer so that ids stay dense.
+        let contents: &[u8] = if corners.is_empty() {
+            &[0; 4]
+        } else {
+            bytemuck::cast_slice(&corners)
+        };
+        let buffer = self
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("sightline mesh"),
+                contents,
+                usage: wgpu::BufferUsages::VERTEX,
+            });
+        self.meshes.push((buffer, count as u32));
+        MeshId(self.meshes.len() as u32 - 1)
+    }
+
+    /// Draws an uploaded mesh, moved by `translation`, into the depth buffer (like
+    /// [`OcclusionBackend::draw_depth`], in order with the queries).
+    pub fn draw_mesh(&mut self, mesh: MeshId, translation: Vec3) -> Result<(), GpuError> {
+        let Some(&(_, count)) = self.meshes.get(mesh.0 as usize) else {
+            return Err(GpuError::UnknownMesh(mesh.0));
+        };
+        if self.camera.is_none() || count == 0 {
+            return Ok(());
+        }
+        let instance = self.translations.len() as u32;
+        self.translations.push(translation.to_array());
+        self.commands.push(Command::Mesh {
+            mesh: mesh.0,
+            instance,
+        });
+        self.stats.triangles += count / 3;
+        Ok(())
+    }
+
     /// Submits what was recorded since the last submission, waits for the query results and
     /// returns every answer of this frame so far, `(tag, outcome)` in issue order. Answers are
     /// also kept for [`OcclusionBackend::take_results`].
     pub fn finish_frame(&mut self) -> Result<&[(u32, QueryOutcome)], GpuError> {
         self.submit_and_read()?;
         Ok(&self.outcomes)
+    }
+
+    /// Forgets the recorded commands and their data (after a submission or a new frame).
+    fn clear_recorded(&mut self) {
+        self.vertices.clear();
+        self.translations.clear();
+        self.translations.push([0.0; 3]);
+        self.boxes.clear();
+        self.commands.clear();
     }
 
     fn submit_and_read(&mut self) -> Result<(), GpuError> {
@@ -437,9 +520,7 @@ impl GpuBackend {
             // Whatever was recorded is lost with the submission; its queries stay `Pending`
             // (visible).
             self.query_slots.clear();
-            self.boxes.clear();
-            self.commands.clear();
-            self.vertices.clear();
+            self.clear_recorded();
         }
         self.stats.wait_ms += start.elapsed().as_secs_f64() * 1e3;
         result
@@ -448,9 +529,8 @@ impl GpuBackend {
     fn submit_and_read_inner(&mut self) -> Result<(), GpuError> {
         let n_queries = self.query_slots.len() as u32;
         if n_queries == 0 {
-            // Occluders drawn after the last query can change no answer: drop them.
-            self.vertices.clear();
-            self.commands.clear();
+            // Nothing to answer. Occluders recorded so far stay recorded: a later query of this
+            // frame must see them.
             return Ok(());
         }
         let Some(camera) = self.camera else {
@@ -491,6 +571,11 @@ impl GpuBackend {
         let vertex_bytes: &[u8] = bytemuck::cast_slice(&self.vertices);
         self.vertex_buffer
             .reserve(&device, vertex_bytes.len() as u64);
+        let translation_bytes: &[u8] = bytemuck::cast_slice(&self.translations);
+        self.translation_buffer
+            .reserve(&device, translation_bytes.len() as u64);
+        self.queue
+            .write_buffer(&self.translation_buffer.buffer, 0, translation_bytes);
         let box_bytes: &[u8] = bytemuck::cast_slice(&self.boxes);
         self.box_buffer.reserve(&device, box_bytes.len() as u64);
         if !vertex_bytes.is_empty() {
@@ -535,22 +620,48 @@ impl GpuBackend {
                 multiview_mask: None,
             });
             pass.set_bind_group(0, &self.bind_group, &[]);
-            let mut bound: Option<bool> = None; // Some(true): query pipeline bound
+            // What is bound, to skip redundant state changes between consecutive draws.
+            #[derive(PartialEq)]
+            enum Bound {
+                Nothing,
+                Triangles,
+                Mesh(u32),
+                Boxes,
+            }
+            let mut bound = Bound::Nothing;
             while let Some(&command) = self.commands.get(next) {
                 match command {
-                    Command::Depth { first, count } => {
-                        if bound != Some(false) {
+                    Command::Depth { .. } | Command::Mesh { .. } => {
+                        if matches!(bound, Bound::Nothing | Bound::Boxes) {
                             pass.set_pipeline(&self.depth_pipeline);
-                            pass.set_vertex_buffer(0, self.vertex_buffer.buffer.slice(..));
-                            bound = Some(false);
+                            pass.set_vertex_buffer(1, self.translation_buffer.buffer.slice(..));
                         }
-                        pass.draw(first..first + count, 0..1);
+                        match command {
+                            Command::Depth { first, count } => {
+                                if bound != Bound::Triangles {
+                                    pass.set_vertex_buffer(0, self.vertex_buffer.buffer.slice(..));
+                                    bound = Bound::Triangles;
+                                }
+                                pass.draw(first..first + count, 0..1);
+                            }
+                            Command::Mesh { mesh, instance } => {
+                                // Ids were checked in `draw_mesh`; meshes are never removed.
+                                if let Some((buffer, count)) = self.meshes.get(mesh as usize) {
+                                    if bound != Bound::Mesh(mesh) {
+                                        pass.set_vertex_buffer(0, buffer.slice(..));
+                                        bound = Bound::Mesh(mesh);
+                                    }
+                                    pass.draw(0..*count, instance..instance + 1);
+                                }
+                            }
+                            Command::Query { .. } => {}
+                        }
                     }
                     Command::Query { index } => {
                         if index / QUERIES_PER_SET != set {
                             break;
                         }
-                        if bound != Some(true) {
+                        if bound != Bound::Boxes {
                             pass.set_pipeline(&self.query_pipeline);
                             pass.set_vertex_buffer(0, self.cube_corners.slice(..));
                             pass.set_vertex_buffer(1, self.box_buffer.buffer.slice(..));
@@ -558,7 +669,7 @@ impl GpuBackend {
                                 self.cube_indices.slice(..),
                                 wgpu::IndexFormat::Uint16,
                             );
-                            bound = Some(true);
+                            bound = Bound::Boxes;
                         }
                         pass.begin_occlusion_query(index % QUERIES_PER_SET);
                         pass.draw_indexed(0..CUBE_INDICES.len() as u32, 0, index..index + 1);
@@ -588,10 +699,7 @@ impl GpuBackend {
         self.queue.submit([encoder.finish()]);
         self.depth_started = true;
         self.stats.submissions += 1;
-        // Commands after the last query (occluders only) were dropped: see above.
-        self.vertices.clear();
-        self.boxes.clear();
-        self.commands.clear();
+        self.clear_recorded();
 
         let slice = self.readback_buffer.buffer.slice(..result_bytes);
         let (tx, rx) = mpsc::channel();
@@ -627,9 +735,7 @@ impl OcclusionBackend for GpuBackend {
     fn begin_frame(&mut self, camera: &Camera) {
         self.camera = Some(*camera);
         self.depth_started = false;
-        self.vertices.clear();
-        self.boxes.clear();
-        self.commands.clear();
+        self.clear_recorded();
         self.query_slots.clear();
         self.outcomes.clear();
         self.ready_from = 0;

@@ -23,10 +23,14 @@ fn clip_from_world(p: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(view.x * camera.projection.x, view.y * camera.projection.y, camera.projection.z, view.z);
 }
 
-// Occluder triangles, world-space corners.
+// Occluder triangles: corners, moved by a per-draw translation (an instance attribute; zero
+// for triangles given in world space).
 @vertex
-fn vs_depth(@location(0) position: vec3<f32>) -> @builtin(position) vec4<f32> {
-    return clip_from_world(position);
+fn vs_depth(
+    @location(0) position: vec3<f32>,
+    @location(1) translation: vec3<f32>,
+) -> @builtin(position) vec4<f32> {
+    return clip_from_world(position + translation);
 }
 
 // A unit-cube corner (each coordinate 0 or 1) placed on a box instance. `select` rather than

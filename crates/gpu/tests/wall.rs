@@ -170,3 +170,70 @@ fn more_queries_than_one_query_set_holds() {
         assert_eq!(visible, i % 3 == 0, "query {i}");
     }
 }
+
+#[test]
+fn uploaded_mesh_occludes_where_it_is_translated_to() {
+    // The wall uploaded once at z = 0, drawn at z = -5 (occludes) and at z = -20 (behind both).
+    let mut gpu = gpu();
+    let mesh = gpu.upload_mesh(&wall(0.0));
+    let mut results = Vec::new();
+    for (frame, z) in [(0u32, -5.0), (1, -20.0)] {
+        gpu.begin_frame(&camera());
+        gpu.draw_mesh(mesh, Vec3::new(0.0, 0.0, z)).unwrap();
+        gpu.query(2 * frame, &behind());
+        gpu.query(2 * frame + 1, &before());
+        gpu.take_results(&mut results);
+    }
+    assert_eq!(results, vec![(0, false), (1, true), (2, true), (3, true)]);
+}
+
+#[test]
+fn meshes_and_triangles_interleave_in_order() {
+    let mut gpu = gpu();
+    let far_wall = gpu.upload_mesh(&wall(-30.0));
+    gpu.begin_frame(&camera());
+    gpu.draw_mesh(far_wall, Vec3::ZERO).unwrap();
+    gpu.query(0, &behind());
+    gpu.draw_depth(&wall(-5.0));
+    gpu.query(1, &behind());
+    let mut results = Vec::new();
+    gpu.take_results(&mut results);
+    assert_eq!(results, vec![(0, true), (1, false)]);
+}
+
+#[test]
+fn unknown_mesh_is_an_error() {
+    let mut other = gpu();
+    let foreign = other.upload_mesh(&wall(-5.0));
+    let mut gpu = gpu();
+    gpu.begin_frame(&camera());
+    assert!(matches!(
+        gpu.draw_mesh(foreign, Vec3::ZERO),
+        Err(sightline_gpu::GpuError::UnknownMesh(0))
+    ));
+}
+
+#[test]
+fn empty_mesh_draws_nothing() {
+    let mut gpu = gpu();
+    let empty = gpu.upload_mesh(&[]);
+    gpu.begin_frame(&camera());
+    gpu.draw_mesh(empty, Vec3::ZERO).unwrap();
+    gpu.query(0, &behind());
+    let mut results = Vec::new();
+    gpu.take_results(&mut results);
+    assert_eq!(results, vec![(0, true)]);
+}
+
+#[test]
+fn occluders_recorded_before_an_empty_readback_are_kept() {
+    // A readback with nothing to answer must not drop occluders a later query needs.
+    let mut gpu = gpu();
+    let mut results = Vec::new();
+    gpu.begin_frame(&camera());
+    gpu.draw_depth(&wall(-5.0));
+    gpu.take_results(&mut results);
+    gpu.query(0, &behind());
+    gpu.take_results(&mut results);
+    assert_eq!(results, vec![(0, false)]);
+}
