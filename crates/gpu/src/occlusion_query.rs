@@ -43,12 +43,16 @@
 //! That call waits for the GPU and maps the resolved counts, so results of frame `n` are
 //! returned at the end of frame `n` and used by the scheduler in frame `n + 1` (the simulation's
 //! `latency = 1`, as in the thesis). Asked for after every query (`latency = 0`), each query is
-//! its own submission: the stop-and-wait baseline.
+//! its own submission: the stop-and-wait baseline. The wait at the end of the frame is the
+//! thesis' blocking read moved forward by the colour pass: a renderer that submits its colour
+//! pass in between would rather wait at the start of frame `n + 1`, which the trait cannot
+//! express yet (one `take_results` call does both submission and readback).
 //!
 //! # Boxes at the near plane
-//! A box with a corner in front of the near plane is reported visible without a query (the
-//! camera may be inside it and the clipped box could miss samples), and a box entirely in front
-//! of the near plane (behind the camera) hidden, as the software backend does.
+//! A box with a corner nearer than the near plane (view depth `< near`) and one beyond it is
+//! reported visible without a query (the camera may be inside it, and its clipped faces could
+//! miss samples), and a box entirely nearer than the near plane (behind the camera) hidden, as
+//! the software backend does.
 
 use std::sync::mpsc;
 use std::time::Instant;
