@@ -1,0 +1,134 @@
+//! Getting a Vulkan device: adapter selection and the check that the backend really is Vulkan.
+//!
+//! Based on: Seletsky. Real Time Visibility Culling With Hardware Occlusion Queries and Uniform
+//! Grids. 2013, section 2.4 (occlusion queries return the number of samples that passed the
+//! depth test; the algorithm needs that count, or at least its exactness, to be trusted).
+//!
+//! wgpu can fall back to its GL backend, whose occlusion queries are only booleans and whose
+//! drivers (llvmpipe, ANGLE) differ from the Vulkan path tested here. So only Vulkan adapters
+//! are accepted and the adapter's reported backend is checked again after selection.
+
+use wgpu::{Adapter, AdapterInfo, Backend, Backends, Device, DeviceType, Queue};
+
+/// Why no usable GPU device was obtained, or why GPU work failed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum GpuError {
+    /// No Vulkan adapter is present (no driver, or no ICD file).
+    #[error(
+        "no Vulkan adapter found: install a Vulkan driver (for CI and machines without a GPU: \
+         `apt-get install -y mesa-vulkan-drivers`, Mesa's lavapipe software driver)"
+    )]
+    NoVulkanAdapter,
+    /// The adapter found runs on another backend (e.g. GL, whose queries are only booleans).
+    #[error("adapter {name:?} runs on the {backend:?} backend, not Vulkan")]
+    NotVulkan {
+        /// The adapter's name.
+        name: String,
+        /// The backend it runs on.
+        backend: Backend,
+    },
+    /// The adapter refused to create a device.
+    #[error("requesting a device from the Vulkan adapter failed: {0}")]
+    RequestDevice(#[from] wgpu::RequestDeviceError),
+    /// Waiting for the GPU failed (device lost, timeout).
+    #[error("waiting for the GPU failed: {0}")]
+    Poll(#[from] wgpu::PollError),
+    /// A [`MeshId`](crate::MeshId) that this backend did not upload.
+    #[error("mesh {0} was not uploaded to this backend")]
+    UnknownMesh(u32),
+    /// Mapping the query readback buffer failed.
+    #[error("reading occlusion query results back failed: {0}")]
+    Readback(String),
+}
+
+/// Checks that `info` describes a Vulkan adapter.
+///
+/// ```
+/// use sightline_gpu::{check_vulkan, GpuError};
+/// // What wgpu reports when it falls back to GL on Mesa's llvmpipe.
+/// let mut info = wgpu::AdapterInfo::new(wgpu::DeviceType::Cpu, wgpu::Backend::Gl);
+/// info.name = "llvmpipe".into();
+/// assert!(matches!(check_vulkan(&info), Err(GpuError::NotVulkan { .. })));
+/// info.backend = wgpu::Backend::Vulkan;
+/// assert!(check_vulkan(&info).is_ok());
+/// ```
+pub fn check_vulkan(info: &AdapterInfo) -> Result<(), GpuError> {
+    if info.backend == Backend::Vulkan {
+        Ok(())
+    } else {
+        Err(GpuError::NotVulkan {
+            name: info.name.clone(),
+            backend: info.backend,
+        })
+    }
+}
+
+/// Preference among adapters: a real GPU first, Mesa's lavapipe (a CPU device) last, so the
+/// same code runs on a workstation's GPU and in CI.
+fn rank(kind: DeviceType) -> u8 {
+    match kind {
+        DeviceType::DiscreteGpu => 0,
+        DeviceType::IntegratedGpu => 1,
+        DeviceType::VirtualGpu => 2,
+        DeviceType::Other => 3,
+        DeviceType::Cpu => 4,
+    }
+}
+
+/// Picks the Vulkan adapter to use: the one whose name contains the environment variable
+/// `SIGHTLINE_GPU_ADAPTER` (case-insensitive) if set and matched, else the best ranked.
+fn pick(adapters: Vec<Adapter>) -> Option<Adapter> {
+    let wanted = std::env::var("SIGHTLINE_GPU_ADAPTER")
+        .ok()
+        .map(|s| s.to_lowercase());
+    let mut adapters: Vec<(AdapterInfo, Adapter)> =
+        adapters.into_iter().map(|a| (a.get_info(), a)).collect();
+    if let Some(w) = wanted {
+        if let Some(i) = adapters
+            .iter()
+            .position(|(info, _)| info.name.to_lowercase().contains(&w))
+        {
+            return Some(adapters.swap_remove(i).1);
+        }
+    }
+    adapters.sort_by_key(|(info, _)| rank(info.device_type));
+    adapters.into_iter().next().map(|(_, a)| a)
+}
+
+/// Acquires a Vulkan device and its queue (blocking), with the adapter's description.
+///
+/// Only `Backends::VULKAN` is enumerated and the chosen adapter's backend is checked with
+/// [`check_vulkan`]. Occlusion queries are part of core WebGPU, so no optional feature or
+/// raised limit is requested and any conformant Vulkan 1.x driver works. Set
+/// `SIGHTLINE_GPU_ADAPTER` to part of an adapter's name to choose among several.
+pub fn vulkan_device() -> Result<(Device, Queue, AdapterInfo), GpuError> {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+    desc.backends = Backends::VULKAN;
+    let instance = wgpu::Instance::new(desc);
+    let adapters = pollster::block_on(instance.enumerate_adapters(Backends::VULKAN));
+    let adapter = pick(adapters).ok_or(GpuError::NoVulkanAdapter)?;
+    let info = adapter.get_info();
+    check_vulkan(&info)?;
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("sightline-gpu"),
+        ..Default::default()
+    }))?;
+    Ok((device, queue, info))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rank_prefers_real_gpus_over_cpu() {
+        assert!(rank(DeviceType::DiscreteGpu) < rank(DeviceType::IntegratedGpu));
+        assert!(rank(DeviceType::IntegratedGpu) < rank(DeviceType::Cpu));
+    }
+
+    #[test]
+    fn pick_of_no_adapters_is_none() {
+        assert!(pick(Vec::new()).is_none());
+    }
+}

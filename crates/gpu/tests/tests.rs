@@ -1,0 +1,39 @@
+//! Integration tests of sightline-gpu, one module per property. They run on whatever Vulkan
+//! adapter [`sightline_gpu::vulkan_device`] picks (lavapipe in CI) and FAIL, never skip, when
+//! there is none.
+#![allow(clippy::unwrap_used)]
+
+use std::sync::OnceLock;
+
+use sightline_gpu::{vulkan_device, GpuBackend};
+use wgpu::{AdapterInfo, Device, Queue};
+
+/// The adapter is Vulkan, and a missing adapter is a loud failure.
+mod adapter;
+/// Against the reference rasterizer's exact depth test on random occluder scenes: no visible
+/// box is reported occluded, except at pixel-centre edge and depth ties (tolerance stated there).
+mod reference;
+/// The simulation of The Grid with the GPU backend, within the software backend's bounds.
+mod simulation;
+/// Occluded and visible boxes behind and in front of a wall; near-plane boxes; depth kept
+/// across mid-frame readbacks; more queries than one query set holds.
+mod wall;
+
+/// One device shared by all tests (creating a Vulkan device on lavapipe takes a while).
+fn shared_device() -> &'static (Device, Queue, AdapterInfo) {
+    static DEVICE: OnceLock<(Device, Queue, AdapterInfo)> = OnceLock::new();
+    DEVICE.get_or_init(|| {
+        vulkan_device().unwrap_or_else(|e| {
+            panic!(
+                "{e}\nThe sightline-gpu tests need a Vulkan adapter and fail rather than skip. \
+                 Install Mesa's software Vulkan driver: apt-get install -y mesa-vulkan-drivers"
+            )
+        })
+    })
+}
+
+/// A fresh backend on the shared device.
+fn gpu() -> GpuBackend {
+    let (device, queue, info) = shared_device();
+    GpuBackend::with_device(device, queue, info.clone())
+}
