@@ -22,7 +22,7 @@ mod traversal;
 
 pub use backend::{OcclusionBackend, SoftwareBackend};
 pub use grid::{Grid, GridError, GridShape};
-pub use occlusion_buffer::{OcclusionBuffer, DEPTH_SLACK, TILE_H, TILE_W};
+pub use occlusion_buffer::{Kernel, OcclusionBuffer, DEPTH_SLACK, TILE_H, TILE_W};
 pub use scheduler::{DepthClass, Scheduler, SchedulerConfig};
 pub use simulate::{simulate, FrameStats, SimConfig, SimReport};
 pub use traversal::{can_occlude, frustum_corners, Traversal};
