@@ -457,6 +457,25 @@ pub fn simulate_methods(
     config: &SimConfig,
     methods: &[Method],
 ) -> Result<Vec<SimReport>, GridError> {
+    let camera = |f: u32| {
+        let t = f as f32 / config.fps;
+        scene
+            .path
+            .camera(t, config.width, config.height, config.fov_y_deg)
+    };
+    simulate_methods_with_cameras(scene, &camera, backend, config, methods)
+}
+
+/// As [`simulate_methods`], with the camera of frame `f` given by `camera(f)` instead of the
+/// scene's path (frames without a camera are skipped). The camera's image size should be the
+/// configured one.
+pub fn simulate_methods_with_cameras(
+    scene: &CullScene,
+    camera_of: &dyn Fn(u32) -> Option<Camera>,
+    backend: &mut dyn OcclusionBackend,
+    config: &SimConfig,
+    methods: &[Method],
+) -> Result<Vec<SimReport>, GridError> {
     let base = &scene.scene;
     let n_obj = base.objects.len();
     let shape = GridShape::with_cell_size(&scene.bounds, scene.cell_size)?;
@@ -529,10 +548,7 @@ pub fn simulate_methods(
 
     for f in 0..config.frames {
         let t = f as f32 / config.fps;
-        let Some(camera) = scene
-            .path
-            .camera(t, config.width, config.height, config.fov_y_deg)
-        else {
+        let Some(camera) = camera_of(f) else {
             continue;
         };
         // Move objects (vertices, boxes and grid entries), then gather their corners: the
