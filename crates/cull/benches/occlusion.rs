@@ -3,13 +3,14 @@
 //! area, at random depths 5..50 and random screen positions), and box tests per second
 //! against the buffer those triangles leave plus a full-screen wall at depth 70 (boxes of about 20x20 pixels at depths 40..100).
 //!
-//! Run: `cargo bench -p sightline-cull --bench occlusion`. One thread.
+//! Run: `cargo bench -p sightline-cull --bench occlusion`. One thread. The occluder benchmark
+//! runs once per rasterizer kernel the CPU supports (scalar, sse2, avx2).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
 use sightline_core::random::SplitMix64;
 use sightline_core::{Aabb, Camera};
-use sightline_cull::OcclusionBuffer;
+use sightline_cull::{Kernel, OcclusionBuffer};
 
 const W: u32 = 1920;
 const H: u32 = 1080;
@@ -61,12 +62,17 @@ fn bench_occlusion(c: &mut Criterion) {
     let tris = triangles(&cam, 100_000);
     let mut buffer = OcclusionBuffer::new(W, H);
     group.throughput(Throughput::Elements(100_000));
-    group.bench_function("occluder_tris_10px", |b| {
-        b.iter(|| {
-            buffer.clear();
-            buffer.render_occluders(&tris, &cam);
+    // Every kernel this CPU supports, side by side in one run (they give identical buffers).
+    for kernel in Kernel::ALL.into_iter().filter(|k| k.available()) {
+        buffer.set_kernel(kernel);
+        group.bench_function(format!("occluder_tris_10px/{}", kernel.name()), |b| {
+            b.iter(|| {
+                buffer.clear();
+                buffer.render_occluders(&tris, &cam);
+            });
         });
-    });
+    }
+    buffer.set_kernel(Kernel::detect());
     let queries = boxes(&cam, 100_000);
     buffer.clear();
     buffer.render_occluders(&tris, &cam);

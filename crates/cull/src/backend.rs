@@ -19,6 +19,12 @@ pub trait OcclusionBackend {
     fn draw_depth(&mut self, triangles: &[Vec3]);
     /// Issues a query of `aabb` against the depth drawn so far, tagged `tag`.
     fn query(&mut self, tag: u32, aabb: &Aabb);
+    /// Tests `aabb` against the depth drawn so far and answers at once, when the backend can
+    /// (a software buffer); `None` when answers only come later (hardware queries).
+    fn test_now(&mut self, aabb: &Aabb) -> Option<bool> {
+        let _ = aabb;
+        None
+    }
     /// Moves the results that are ready, `(tag, visible)`, into `out` (appending).
     fn take_results(&mut self, out: &mut Vec<(u32, bool)>);
     /// A short name for reports.
@@ -71,6 +77,13 @@ impl OcclusionBackend for SoftwareBackend {
             None => true,
         };
         self.results.push((tag, visible));
+    }
+
+    fn test_now(&mut self, aabb: &Aabb) -> Option<bool> {
+        Some(match &self.camera {
+            Some(cam) => self.buffer.test_box(aabb, cam),
+            None => true,
+        })
     }
 
     fn take_results(&mut self, out: &mut Vec<(u32, bool)>) {

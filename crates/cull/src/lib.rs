@@ -8,12 +8,16 @@
 //! - [`Traversal`] (`traversal.rs`): occlusion-order traversal of the frustum over the grid.
 //! - [`Scheduler`] (`scheduler.rs`): which cells are queried, drawn and depth-pre-passed.
 //! - [`OcclusionBackend`] (`backend.rs`): the backend trait and its software implementation.
-//! - [`simulate()`] (`simulate.rs`): the per-frame loop over a camera path, with popping counts.
+//! - [`Hzb`] (`hzb.rs`): a hierarchical depth pyramid (the two-phase baseline's test).
+//! - [`simulate()`], [`simulate_methods`] (`simulate.rs`): the per-frame loop over a camera
+//!   path, the grid method and the baselines (frustum, stop-and-wait, two-phase HZB), with
+//!   popping counts.
 //! - [`scenes`] (`scenes.rs`): The Grid and Teapot Graveyard with motion and camera paths.
 #![deny(missing_docs)]
 
 mod backend;
 mod grid;
+mod hzb;
 mod occlusion_buffer;
 pub mod scenes;
 mod scheduler;
@@ -22,7 +26,11 @@ mod traversal;
 
 pub use backend::{OcclusionBackend, SoftwareBackend};
 pub use grid::{Grid, GridError, GridShape};
-pub use occlusion_buffer::{OcclusionBuffer, DEPTH_SLACK, TILE_H, TILE_W};
+pub use hzb::Hzb;
+pub use occlusion_buffer::{Kernel, OcclusionBuffer, DEPTH_SLACK, TILE_H, TILE_W};
 pub use scheduler::{DepthClass, Scheduler, SchedulerConfig};
-pub use simulate::{simulate, FrameStats, SimConfig, SimReport};
+pub use simulate::{
+    simulate, simulate_methods, simulate_methods_with_cameras, FrameStats, Method, SimConfig,
+    SimReport,
+};
 pub use traversal::{can_occlude, frustum_corners, Traversal};

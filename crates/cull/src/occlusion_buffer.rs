@@ -32,6 +32,12 @@
 use glam::Vec3;
 use sightline_core::{Aabb, Camera};
 
+mod kernels;
+pub use kernels::Kernel;
+use kernels::{ColClamp, Edges, TileRowSpans, SCALAR};
+#[cfg(target_arch = "x86_64")]
+use kernels::{AVX2, SSE2};
+
 /// Tile width in pixels (a row of a tile is one byte of the mask).
 pub const TILE_W: u32 = 8;
 /// Tile height in pixels.
@@ -93,6 +99,7 @@ pub struct OcclusionBuffer {
     outside_x: u32,
     outside_y: u32,
     tiles: Vec<Tile>,
+    kernel: Kernel,
 }
 
 /// World to screen mapping of a camera onto the buffer's pixel grid.
@@ -186,7 +193,27 @@ impl OcclusionBuffer {
             outside_x,
             outside_y,
             tiles: vec![CLEAR_TILE; (tiles_x * tiles_y) as usize],
+            kernel: Kernel::detect(),
         }
+    }
+
+    /// The rasterization kernel in use (the best available one unless set).
+    pub fn kernel(&self) -> Kernel {
+        self.kernel
+    }
+
+    /// Selects a rasterization kernel; returns false (and keeps the current one) when the CPU
+    /// does not support it. Every kernel produces the same buffer, bit for bit.
+    pub fn set_kernel(&mut self, kernel: Kernel) -> bool {
+        if kernel.available() {
+            self.kernel = kernel;
+        }
+        self.kernel == kernel
+    }
+
+    /// True when both buffers have the same size and identical tiles (masks and depths).
+    pub fn same_contents(&self, other: &Self) -> bool {
+        self.width == other.width && self.height == other.height && self.tiles == other.tiles
     }
 
     /// Width in pixels.
@@ -208,22 +235,97 @@ impl OcclusionBuffer {
     /// trailing incomplete triangle is ignored), seen from `camera`. Triangles are double-sided;
     /// non-finite and degenerate ones are skipped.
     pub fn render_occluders(&mut self, triangles: &[Vec3], camera: &Camera) {
+        match self.kernel {
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx2 => {
+                // SAFETY: `self.kernel` is only ever `Avx2` after `Kernel::available` saw
+                // `is_x86_feature_detected!("avx2")` (see `set_kernel` and `new`).
+                unsafe { self.render_avx2(triangles, camera) }
+            }
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Sse2 => self.render_with::<SSE2>(triangles, camera),
+            _ => self.render_with::<SCALAR>(triangles, camera),
+        }
+    }
+
+    /// The AVX2 entry point: the generic rasterizer compiled with AVX2 enabled, so that its
+    /// `#[inline(always)]` body and the AVX2 mask kernel are inlined into one function.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn render_avx2(&mut self, triangles: &[Vec3], camera: &Camera) {
+        self.render_with::<AVX2>(triangles, camera);
+    }
+
+    #[inline(always)]
+    fn render_with<const K: u8>(&mut self, triangles: &[Vec3], camera: &Camera) {
         let proj = Projector::new(camera, self.width, self.height);
+        // The SIMD kernels run one triangle behind the projection and prefetch the tiles of
+        // the next triangle while rasterizing the current one: with scattered triangles the
+        // tile loads miss the cache and dominate otherwise. The order of rasterization (which
+        // the tile merge depends on) is unchanged.
+        let mut queued: Option<[[f32; 3]; 3]> = None;
         for t in triangles.chunks_exact(3) {
             let v = [proj.view(t[0]), proj.view(t[1]), proj.view(t[2])];
             if v.iter().all(|p| p.z < proj.near) || !v.iter().all(|p| p.is_finite()) {
                 continue;
             }
             if v.iter().all(|&p| proj.inside_guard(p)) {
-                self.raster_triangle([proj.screen(v[0]), proj.screen(v[1]), proj.screen(v[2])]);
+                let s = [proj.screen(v[0]), proj.screen(v[1]), proj.screen(v[2])];
+                if K == SCALAR {
+                    self.raster_triangle::<K>(s);
+                    continue;
+                }
+                self.prefetch(&s);
+                if let Some(q) = queued.replace(s) {
+                    self.raster_triangle::<K>(q);
+                }
             } else {
-                self.raster_clipped(v, &proj);
+                if let Some(q) = queued.take() {
+                    self.raster_triangle::<K>(q);
+                }
+                self.raster_clipped::<K>(v, &proj);
             }
+        }
+        if let Some(q) = queued {
+            self.raster_triangle::<K>(q);
         }
     }
 
+    /// Prefetches the first tile of each tile row a triangle's bounding box touches.
+    #[inline(always)]
+    fn prefetch(&self, p: &[[f32; 3]; 3]) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            let ymin = p[0][1].min(p[1][1]).min(p[2][1]);
+            let ymax = p[0][1].max(p[1][1]).max(p[2][1]);
+            let xmin = p[0][0].min(p[1][0]).min(p[2][0]);
+            // Saturating float-to-int casts, clamped into the buffer: only valid tiles.
+            let clamp_x = |v: f32| (v as i32).clamp(0, self.width as i32 - 1) as u32;
+            let clamp_y = |v: f32| (v as i32).clamp(0, self.height as i32 - 1) as u32;
+            let tx = clamp_x(xmin) / TILE_W;
+            let (ty0, ty1) = (clamp_y(ymin) / TILE_H, clamp_y(ymax) / TILE_H);
+            for ty in ty0..=ty1.min(ty0 + 3) {
+                let idx = (ty * self.tiles_x + tx) as usize;
+                if let Some(tile) = self.tiles.get(idx) {
+                    // SAFETY: a prefetch hint (SSE, part of the x86_64 baseline) of an element
+                    // of `self.tiles`; it never faults and reads nothing.
+                    #[allow(unused_unsafe)]
+                    unsafe {
+                        _mm_prefetch::<_MM_HINT_T0>((tile as *const Tile).cast());
+                    }
+                }
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = p;
+    }
+
     /// Clips a view-space triangle to the near plane and the guard band, then fans it out.
-    fn raster_clipped(&mut self, v: [Vec3; 3], proj: &Projector) {
+    fn raster_clipped<const K: u8>(&mut self, v: [Vec3; 3], proj: &Projector) {
         // Sutherland-Hodgman: each plane adds at most one vertex, 3 + 5 = 8.
         let mut poly = [Vec3::ZERO; 9];
         let mut next = [Vec3::ZERO; 9];
@@ -253,12 +355,13 @@ impl OcclusionBuffer {
         for i in 1..n - 1 {
             // Clipped points lie on z = near at the least; clamp the rounding of the lerp.
             let s = |p: Vec3| proj.screen(Vec3::new(p.x, p.y, p.z.max(proj.near)));
-            self.raster_triangle([s(poly[0]), s(poly[i]), s(poly[i + 1])]);
+            self.raster_triangle::<K>([s(poly[0]), s(poly[i]), s(poly[i + 1])]);
         }
     }
 
     /// Rasterizes one triangle given as `[sx, sy, 1/z]` per corner, all inside the guard band.
-    fn raster_triangle(&mut self, mut p: [[f32; 3]; 3]) {
+    #[inline(always)]
+    fn raster_triangle<const K: u8>(&mut self, mut p: [[f32; 3]; 3]) {
         let height = self.height;
         let area =
             (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
@@ -316,40 +419,32 @@ impl OcclusionBuffer {
             }
         }
 
+        let edges = Edges {
+            x0: edge_x0,
+            y0: edge_y0,
+            slope: edge_slope,
+            left: edge_left,
+            used: edge_used,
+        };
+        let clamp = ColClamp {
+            a_lo: col0 as f32,
+            a_hi: (col1 + 1) as f32,
+            b_lo: (col0 - 1) as f32,
+            b_hi: col1 as f32,
+            row0,
+            row1,
+        };
         let ty0 = row0 as u32 / TILE_H;
         let ty1 = row1 as u32 / TILE_H;
         for ty in ty0..=ty1 {
-            // Spans of the up to four rows of this tile row, in pixels, inclusive.
-            let mut span = [(1i32, 0i32); TILE_H as usize];
-            let mut lo_all = i32::MAX;
-            let mut hi_all = i32::MIN;
-            for (k, s) in span.iter_mut().enumerate() {
-                let row = (ty * TILE_H) as i32 + k as i32;
-                if row < row0 || row > row1 {
-                    continue;
-                }
-                let yc = row as f32 + 0.5;
-                let mut xl = f32::NEG_INFINITY;
-                let mut xr = f32::INFINITY;
-                for e in 0..3 {
-                    if !edge_used[e] {
-                        continue;
-                    }
-                    let x = edge_x0[e] + (yc - edge_y0[e]) * edge_slope[e];
-                    if edge_left[e] {
-                        xl = xl.max(x);
-                    } else {
-                        xr = xr.min(x);
-                    }
-                }
-                let a = ceil_i(xl - 0.5).max(col0);
-                let b = floor_i(xr - 0.5).min(col1);
-                if a <= b {
-                    *s = (a, b);
-                    lo_all = lo_all.min(a);
-                    hi_all = hi_all.max(b);
-                }
-            }
+            // Spans of the up to four rows of this tile row, in pixels, inclusive; rows outside
+            // the triangle hold an empty span.
+            let spans = if K == SCALAR {
+                TileRowSpans::scalar(&edges, &clamp, ty)
+            } else {
+                TileRowSpans::simd(&edges, &clamp, ty)
+            };
+            let (lo_all, hi_all) = spans.extent();
             if lo_all > hi_all {
                 continue;
             }
@@ -358,21 +453,24 @@ impl OcclusionBuffer {
             let r_rows = p[0][2] + (rb * (ya - p[0][1])).min(rb * (yb - p[0][1]));
             for tx in lo_all as u32 / TILE_W..=hi_all as u32 / TILE_W {
                 let base = (tx * TILE_W) as i32;
-                let mut mask = 0u32;
-                let mut cmin = i32::MAX;
-                let mut cmax = i32::MIN;
-                for (k, &(a, b)) in span.iter().enumerate() {
-                    let lo = (a - base).clamp(0, TILE_W as i32);
-                    let hi = (b + 1 - base).clamp(0, TILE_W as i32);
-                    if hi > lo {
-                        mask |= ((1u32 << hi) - (1u32 << lo)) << (k as u32 * TILE_W);
-                        cmin = cmin.min(lo);
-                        cmax = cmax.max(hi - 1);
+                let mut mask = match K {
+                    SCALAR => spans.mask_scalar(base),
+                    #[cfg(target_arch = "x86_64")]
+                    AVX2 => {
+                        // SAFETY: `K == AVX2` only inside `render_avx2`, which the dispatcher
+                        // calls only after `is_x86_feature_detected!("avx2")`.
+                        unsafe { spans.mask_avx2(base) }
                     }
-                }
+                    _ => spans.mask_sse2(base),
+                };
                 if mask == 0 {
                     continue;
                 }
+                // The farthest depth is over the covered columns only: the lowest and highest
+                // set column of the tile (the same in every kernel, so they agree bit for bit).
+                let cols = (mask | mask >> 8 | mask >> 16 | mask >> 24) & 0xFF;
+                let cmin = cols.trailing_zeros() as i32;
+                let cmax = 31 - cols.leading_zeros() as i32;
                 if tx == self.tiles_x - 1 {
                     mask |= self.outside_x;
                 }

@@ -238,7 +238,10 @@ pub fn the_grid(seed: u64, per_room: usize) -> CullScene {
         motion: s.motion,
         class: s.class,
         bounds,
-        cell_size: Vec3::new(5.0, 5.0, 6.0),
+        // Seletsky 2013, section 5.4.1: The Grid ran with 3 m cells across (finer cells for
+        // tight indoor scenes, section 4.3.4); vertically one cell per 6 m floor (the bounds
+        // -1..13 split at z = 6, where the upper floor starts).
+        cell_size: Vec3::new(3.0, 3.0, 7.0),
         path,
     }
 }
@@ -324,6 +327,92 @@ pub fn graveyard(seed: u64, teapots: usize) -> CullScene {
     }
 }
 
+/// Makes any scene a culling scene, so that loaded scenes (the city, Quake 3 maps, files) can
+/// be simulated with moving objects. Deterministic rules, with `D` the scene's bounding-box
+/// diagonal and `d` an object's:
+/// - motion: objects with `d < D / 50` sway along a horizontal axis (alternating between the
+///   two axes perpendicular to the scene's up axis by object index), amplitude `d / 2`, period
+///   `2 + (index mod 5)` seconds, phase `index * 2.4` radians; larger objects stay put;
+/// - depth pre-pass class: `d >= D / 10` always, `d >= D / 100` sometimes, smaller never;
+/// - grid: the scene's bounds grown by the largest swing, cells of about `1/48` of the bounds'
+///   longest side on each axis;
+/// - camera path: a walk along the longer horizontal axis through the centre, from 10 % to
+///   90 % of it, at 30 % of the height, 60 s long, looking around by up to 40 degrees (a Z-up
+///   [`CameraPath`]; for Y-up scenes callers build their own cameras from
+///   [`walk_keys`], see the CLI).
+pub fn animate(scene: Scene) -> CullScene {
+    let bounds = scene.bounds();
+    let diag = bounds.diagonal().max(1e-6);
+    let up = scene.up.vector();
+    let (h1, h2) = match scene.up {
+        UpAxis::Z => (Vec3::X, Vec3::Y),
+        UpAxis::Y => (Vec3::X, Vec3::Z),
+    };
+    let boxes: Vec<Aabb> = scene
+        .triangles_by_object()
+        .iter()
+        .map(|ts| Aabb::from_points(ts.iter().flat_map(|&t| scene.triangle(t))))
+        .collect();
+    let mut motion = Vec::with_capacity(boxes.len());
+    let mut class = Vec::with_capacity(boxes.len());
+    let mut reach = 0.0f32;
+    for (o, b) in boxes.iter().enumerate() {
+        let d = if b.is_empty() { 0.0 } else { b.diagonal() };
+        class.push(if d >= diag / 10.0 {
+            DepthClass::Always
+        } else if d >= diag / 100.0 {
+            DepthClass::Sometimes
+        } else {
+            DepthClass::Never
+        });
+        let m = (d > 0.0 && d < diag / 50.0).then(|| Motion {
+            amplitude: if o % 2 == 0 { h1 } else { h2 } * (0.5 * d),
+            period: 2.0 + (o % 5) as f32,
+            phase: (o as f32 * 2.4) % TAU,
+        });
+        if let Some(m) = &m {
+            reach = reach.max(m.amplitude.length());
+        }
+        motion.push(m);
+    }
+    let grown = Aabb::new(
+        bounds.min - Vec3::splat(reach + 1e-3 * diag),
+        bounds.max + Vec3::splat(reach + 1e-3 * diag),
+    );
+    let cell = grown.extent().max_element() / 48.0;
+    let (start, end) = walk_keys(&bounds, up);
+    let path = CameraPath {
+        keys: vec![start, end],
+        speed: (end - start).length() / 60.0,
+        sway_deg: 40.0,
+        sway_period: 8.0,
+    };
+    CullScene {
+        scene,
+        motion,
+        class,
+        bounds: grown,
+        cell_size: Vec3::splat(cell.max(1e-4)),
+        path,
+    }
+}
+
+/// Start and end of the default walk through `bounds` (see [`animate`]).
+pub fn walk_keys(bounds: &Aabb, up: Vec3) -> (Vec3, Vec3) {
+    let e = bounds.extent();
+    let c = bounds.center();
+    // The longer horizontal axis.
+    let (a, b) = if up == Vec3::Z { (0, 1) } else { (0, 2) };
+    let axis = if e[a] >= e[b] { a } else { b };
+    let k = if up == Vec3::Z { 2 } else { 1 };
+    let mut start = c;
+    start[k] = bounds.min[k] + 0.3 * e[k];
+    let mut end = start;
+    start[axis] = bounds.min[axis] + 0.1 * e[axis];
+    end[axis] = bounds.min[axis] + 0.9 * e[axis];
+    (start, end)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -335,6 +424,22 @@ mod tests {
         assert_eq!(s.class.len(), s.scene.objects.len());
         assert!(s.motion.iter().any(Option::is_some));
         assert!(s.bounds.contains(s.scene.bounds().min));
+    }
+
+    #[test]
+    fn animate_moves_small_objects_and_keeps_them_in_bounds() {
+        let s = the_grid(3, 1);
+        let n = s.scene.objects.len();
+        let a = animate(s.scene);
+        assert_eq!((a.motion.len(), a.class.len()), (n, n));
+        // Movers (about 1 m) are small against the 217 m diagonal, walls are not all small.
+        let moving = a.motion.iter().filter(|m| m.is_some()).count();
+        assert!(moving > 0 && moving < n, "{moving} of {n}");
+        for m in a.motion.iter().flatten() {
+            assert!(a.bounds.contains(a.scene.bounds().min - m.amplitude.abs()));
+        }
+        let (p, q) = walk_keys(&a.scene.bounds(), Vec3::Z);
+        assert!(a.scene.bounds().contains(p) && a.scene.bounds().contains(q) && p != q);
     }
 
     #[test]

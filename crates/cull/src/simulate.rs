@@ -19,10 +19,12 @@ use std::time::Instant;
 use glam::Vec3;
 use serde::Serialize;
 use sightline_core::raster::{Frame, Rasterizer};
-use sightline_core::{Aabb, Hit, Scene};
+use sightline_core::{Aabb, Camera, Hit, Scene};
 
 use crate::backend::OcclusionBackend;
 use crate::grid::{Grid, GridError, GridShape};
+use crate::hzb::Hzb;
+use crate::occlusion_buffer::OcclusionBuffer;
 use crate::scenes::CullScene;
 use crate::scheduler::{Scheduler, SchedulerConfig};
 use crate::traversal::Traversal;
@@ -49,6 +51,13 @@ pub struct SimConfig {
     pub scheduler: SchedulerConfig,
     /// Render the ground truth and count popping (costly); off measures culling only.
     pub measure_popping: bool,
+    /// Grid method: query the union of a cell's object boxes clipped to the cell instead of
+    /// the whole cell box (a cell whose objects are hidden is then found hidden even when the
+    /// empty rest of the cell would show).
+    pub tight_query_boxes: bool,
+    /// Grid method: test each object of a drawn cell against the depth drawn so far in this
+    /// frame when the backend answers at once (the software backend), and skip hidden ones.
+    pub object_tests: bool,
 }
 
 impl Default for SimConfig {
@@ -63,6 +72,8 @@ impl Default for SimConfig {
             latency: 1,
             scheduler: SchedulerConfig::default(),
             measure_popping: true,
+            tight_query_boxes: true,
+            object_tests: true,
         }
     }
 }
@@ -76,8 +87,10 @@ pub struct FrameStats {
     pub exact_visible: u32,
     /// Objects in cells inside the frustum (the frustum-culling baseline).
     pub frustum: u32,
-    /// Queries issued.
+    /// Queries issued (cell queries for the grid method, object tests for the baselines).
     pub queries: u32,
+    /// Grid method: objects of drawn cells tested at once against the frame's depth.
+    pub object_tests: u32,
     /// Non-empty cells traversed.
     pub cells: u32,
     /// Objects rendered into the depth pre-pass.
@@ -93,6 +106,8 @@ pub struct FrameStats {
 /// The whole run.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct SimReport {
+    /// The culling method measured.
+    pub method: Method,
     /// Per-frame numbers.
     pub frames: Vec<FrameStats>,
     /// `streaks[k]`: number of missing streaks that lasted `k` frames (index 0 unused).
@@ -143,9 +158,10 @@ impl SimReport {
             .map(|f| f.cull_ms)
             .fold(0.0, f64::max);
         format!(
-            "frames {} objects {} | drawn {:.0} exact-visible {:.0} frustum {:.0} | queries {:.0} \
+            "{}: frames {} objects {} | drawn {:.0} exact-visible {:.0} frustum {:.0} | queries {:.0} \
              cells {:.0} prepass {:.0} | cull {:.2} ms (max {:.2}) | popping {:.4} % (max {:.3} %), \
              missing {:.2} objects/frame, longest streak {} frames, streaks {:?}",
+            self.method.name(),
             self.measured().len(),
             self.objects,
             self.mean(|f| f.drawn as f64),
@@ -165,18 +181,304 @@ impl SimReport {
     }
 }
 
-/// Runs the simulation of `scene` along its camera path with `backend`.
+/// A culling method measured by the simulation, all over the same frames and ground truth.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize)]
+pub enum Method {
+    /// The thesis' method: grid traversal in occlusion order, per-cell queries read with the
+    /// configured latency, scheduler and depth pre-pass.
+    #[default]
+    Grid,
+    /// Frustum culling only: every object of a cell touched by the frustum.
+    Frustum,
+    /// Stop-and-wait: every object in the frustum, front to back, queried against the current
+    /// frame's depth, waiting for each answer; visible objects are drawn into the depth.
+    StopAndWait,
+    /// Two-phase hierarchical Z: draw last frame's visible objects, build a depth pyramid,
+    /// test every object in the frustum, draw the newly visible.
+    TwoPhaseHzb,
+}
+
+impl Method {
+    /// Every method, the grid first.
+    pub const ALL: [Method; 4] = [
+        Method::Grid,
+        Method::Frustum,
+        Method::StopAndWait,
+        Method::TwoPhaseHzb,
+    ];
+
+    /// A short name for reports and command lines.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Grid => "grid",
+            Method::Frustum => "frustum",
+            Method::StopAndWait => "stop-and-wait",
+            Method::TwoPhaseHzb => "two-phase-hzb",
+        }
+    }
+}
+
+/// Runs the simulation of `scene` along its camera path with `backend`: the grid method only.
 pub fn simulate(
     scene: &CullScene,
     backend: &mut dyn OcclusionBackend,
     config: &SimConfig,
 ) -> Result<SimReport, GridError> {
+    let mut reports = simulate_methods(scene, backend, config, &[Method::Grid])?;
+    Ok(reports.pop().unwrap_or_default())
+}
+
+/// The world shared by the methods in one frame: objects in the grid, their current boxes
+/// and triangle corners.
+struct World<'a> {
+    scene: &'a CullScene,
+    shape: GridShape,
+    grid: Grid,
+    boxes: Vec<Aabb>,
+    /// Corners of every object's triangles at the current positions, object after object.
+    corners: Vec<Vec3>,
+    /// Per object, its range in `corners`.
+    ranges: Vec<(usize, usize)>,
+}
+
+impl World<'_> {
+    fn corners_of(&self, o: u32) -> &[Vec3] {
+        let (a, b) = self.ranges[o as usize];
+        &self.corners[a..b]
+    }
+
+    /// The objects of the frustum's cells in traversal order (each once) into `out`, and the
+    /// number of non-empty cells.
+    fn frustum_objects(&mut self, cells: &[u32], out: &mut Vec<u32>) -> u32 {
+        self.grid.begin_pass();
+        let mut nonempty = 0;
+        for &cell in cells {
+            if !self.grid.objects_in(cell).is_empty() {
+                nonempty += 1;
+                self.grid.collect(cell, out);
+            }
+        }
+        nonempty
+    }
+
+    /// The box a cell's query tests: the union of its objects' boxes clipped to the cell
+    /// (objects clamped into a border cell from outside keep their own box), or the cell's
+    /// box when `tight` is off. Any visible point of an object listed in the cell lies in it.
+    fn query_box(&self, cell: u32, tight: bool) -> Aabb {
+        let bounds = self.shape.cell_bounds(cell);
+        if !tight {
+            return bounds;
+        }
+        let mut q = Aabb::EMPTY;
+        for &o in self.grid.objects_in(cell) {
+            let b = self.boxes[o as usize];
+            let clipped = Aabb::new(b.min.max(bounds.min), b.max.min(bounds.max));
+            q = q.union(if clipped.is_empty() { &b } else { &clipped });
+        }
+        if q.is_empty() {
+            bounds
+        } else {
+            q
+        }
+    }
+}
+
+/// Per-method state kept across frames.
+struct MethodState {
+    method: Method,
+    scheduler: Scheduler,
+    traversal: Traversal,
+    cells: Vec<u32>,
+    collected: Vec<u32>,
+    pending: Vec<(u32, bool)>,
+    drawn: Vec<u32>,
+    drawn_flag: Vec<bool>,
+    streak: Vec<u32>,
+    /// Two-phase: objects found visible last frame.
+    last_visible: Vec<u32>,
+    /// Two-phase: its own software depth buffer and pyramid.
+    buffer: OcclusionBuffer,
+    hzb: Hzb,
+    report: SimReport,
+}
+
+impl MethodState {
+    fn cull(
+        &mut self,
+        w: &mut World,
+        camera: &Camera,
+        backend: &mut dyn OcclusionBackend,
+        config: &SimConfig,
+        stats: &mut FrameStats,
+    ) {
+        self.cells.clear();
+        self.traversal
+            .visit(&w.shape, camera, config.far, &mut self.cells);
+        match self.method {
+            Method::Grid => self.cull_grid(w, camera, backend, config, stats),
+            Method::Frustum => {
+                stats.cells = w.frustum_objects(&self.cells, &mut self.drawn);
+            }
+            Method::StopAndWait => {
+                self.collected.clear();
+                stats.cells = w.frustum_objects(&self.cells, &mut self.collected);
+                // Front to back by the distance from the eye to each box.
+                let eye = camera.eye;
+                let dist = |o: &u32| {
+                    let b = &w.boxes[*o as usize];
+                    (eye.clamp(b.min, b.max) - eye).length_squared()
+                };
+                self.collected
+                    .sort_by(|a, b| dist(a).total_cmp(&dist(b)).then(a.cmp(b)));
+                backend.begin_frame(camera);
+                for &o in &self.collected {
+                    backend.query(o, &w.boxes[o as usize]);
+                    stats.queries += 1;
+                    // Wait for the answer; a backend that cannot answer now draws the object.
+                    self.pending.clear();
+                    backend.take_results(&mut self.pending);
+                    let visible = self.pending.iter().find(|r| r.0 == o).is_none_or(|r| r.1);
+                    if visible {
+                        self.drawn.push(o);
+                        stats.prepass += 1;
+                        backend.draw_depth(w.corners_of(o));
+                    }
+                }
+                self.pending.clear();
+            }
+            Method::TwoPhaseHzb => {
+                self.collected.clear();
+                stats.cells = w.frustum_objects(&self.cells, &mut self.collected);
+                self.buffer.clear();
+                // Phase 1: last frame's visible objects (still in the frustum) into the depth.
+                for &o in &self.last_visible {
+                    self.drawn_flag[o as usize] = true;
+                }
+                for &o in &self.collected {
+                    if self.drawn_flag[o as usize] {
+                        self.drawn.push(o);
+                        stats.prepass += 1;
+                        self.buffer.render_occluders(w.corners_of(o), camera);
+                    }
+                }
+                for &o in &self.last_visible {
+                    self.drawn_flag[o as usize] = false;
+                }
+                for &o in &self.drawn {
+                    self.drawn_flag[o as usize] = true;
+                }
+                self.hzb.build(&self.buffer);
+                // Phase 2: every object in the frustum against the pyramid.
+                self.last_visible.clear();
+                for &o in &self.collected {
+                    stats.queries += 1;
+                    if self.hzb.test_box(&w.boxes[o as usize], camera) {
+                        self.last_visible.push(o);
+                        if !self.drawn_flag[o as usize] {
+                            self.drawn.push(o);
+                        }
+                    }
+                }
+                for &o in &self.drawn {
+                    self.drawn_flag[o as usize] = false;
+                }
+            }
+        }
+    }
+
+    fn cull_grid(
+        &mut self,
+        w: &mut World,
+        camera: &Camera,
+        backend: &mut dyn OcclusionBackend,
+        config: &SimConfig,
+        stats: &mut FrameStats,
+    ) {
+        let scheduler = &mut self.scheduler;
+        scheduler.begin_frame();
+        let frame_no = scheduler.frame();
+        for &(cell, vis) in &self.pending {
+            scheduler.record(cell, frame_no - 1, vis);
+        }
+        self.pending.clear();
+        backend.begin_frame(camera);
+        w.grid.begin_pass();
+        for &cell in &self.cells {
+            if w.grid.objects_in(cell).is_empty() {
+                continue;
+            }
+            stats.cells += 1;
+            if scheduler.should_query(cell) {
+                backend.query(cell, &w.query_box(cell, config.tight_query_boxes));
+                stats.queries += 1;
+                if config.latency == 0 {
+                    backend.take_results(&mut self.pending);
+                    for &(c, vis) in &self.pending {
+                        scheduler.record(c, frame_no, vis);
+                    }
+                    self.pending.clear();
+                }
+            }
+            if !scheduler.is_drawn(cell) {
+                continue;
+            }
+            self.collected.clear();
+            w.grid.collect(cell, &mut self.collected);
+            for &o in &self.collected {
+                // Objects of a drawn cell against the depth drawn so far this frame (exact
+                // for this frame, so it never adds popping), where the backend answers now.
+                if config.object_tests {
+                    if let Some(vis) = backend.test_now(&w.boxes[o as usize]) {
+                        stats.object_tests += 1;
+                        if !vis {
+                            continue;
+                        }
+                    }
+                }
+                self.drawn.push(o);
+                if scheduler.enters_prepass(w.scene.class[o as usize]) {
+                    stats.prepass += 1;
+                    backend.draw_depth(w.corners_of(o));
+                }
+            }
+        }
+        backend.take_results(&mut self.pending);
+        scheduler.end_frame();
+    }
+}
+
+/// Runs the simulation of `scene` along its camera path once, culling every frame with each
+/// of `methods` (in that order; `backend` serves the grid and stop-and-wait methods, the
+/// two-phase method has its own software buffer) and measuring each against the same ground
+/// truth. Returns one report per method.
+pub fn simulate_methods(
+    scene: &CullScene,
+    backend: &mut dyn OcclusionBackend,
+    config: &SimConfig,
+    methods: &[Method],
+) -> Result<Vec<SimReport>, GridError> {
+    let camera = |f: u32| {
+        let t = f as f32 / config.fps;
+        scene
+            .path
+            .camera(t, config.width, config.height, config.fov_y_deg)
+    };
+    simulate_methods_with_cameras(scene, &camera, backend, config, methods)
+}
+
+/// As [`simulate_methods`], with the camera of frame `f` given by `camera(f)` instead of the
+/// scene's path (frames without a camera are skipped). The camera's image size should be the
+/// configured one.
+pub fn simulate_methods_with_cameras(
+    scene: &CullScene,
+    camera_of: &dyn Fn(u32) -> Option<Camera>,
+    backend: &mut dyn OcclusionBackend,
+    config: &SimConfig,
+    methods: &[Method],
+) -> Result<Vec<SimReport>, GridError> {
     let base = &scene.scene;
     let n_obj = base.objects.len();
     let shape = GridShape::with_cell_size(&scene.bounds, scene.cell_size)?;
-    let mut grid = Grid::new(shape);
-    let mut scheduler = Scheduler::new(shape.cell_count(), config.scheduler);
-    let mut traversal = Traversal::new();
 
     // Per object: its triangles and its box at time 0.
     let tris_of = base.triangles_by_object();
@@ -194,43 +496,70 @@ pub fn simulate(
     }
     let mut moved: Scene = base.clone();
     let mut offsets = vec![Vec3::ZERO; n_obj];
+    let mut world = World {
+        scene,
+        shape,
+        grid: Grid::new(shape),
+        boxes: base_box.clone(),
+        corners: Vec::new(),
+        ranges: vec![(0, 0); n_obj],
+    };
     for (o, b) in base_box.iter().enumerate() {
         if !b.is_empty() {
-            grid.insert(o as u32, *b)?;
+            world.grid.insert(o as u32, *b)?;
         }
     }
 
-    let mut report = SimReport {
-        pixels: config.width * config.height,
-        objects: n_obj as u32,
-        streaks: vec![0; 2],
-        warmup: config.latency,
-        ..SimReport::default()
-    };
-    let mut cells = Vec::new();
-    let mut collected = Vec::new();
-    let mut drawn_flag = vec![false; n_obj];
-    let mut drawn_list = Vec::new();
-    let mut corners = Vec::new();
-    let mut pending: Vec<(u32, bool)> = Vec::new();
-    let mut streak = vec![0u32; n_obj];
+    let mut states: Vec<MethodState> = methods
+        .iter()
+        .map(|&method| MethodState {
+            method,
+            scheduler: Scheduler::new(shape.cell_count(), config.scheduler),
+            traversal: Traversal::new(),
+            cells: Vec::new(),
+            collected: Vec::new(),
+            pending: Vec::new(),
+            drawn: Vec::new(),
+            drawn_flag: vec![false; n_obj],
+            streak: vec![0; n_obj],
+            last_visible: Vec::new(),
+            buffer: OcclusionBuffer::new(config.width, config.height),
+            hzb: Hzb::new(),
+            report: SimReport {
+                method,
+                pixels: config.width * config.height,
+                objects: n_obj as u32,
+                streaks: vec![0; 2],
+                // Methods that wait for no earlier frame have nothing to warm up.
+                warmup: if method == Method::Grid {
+                    config.latency
+                } else {
+                    0
+                },
+                ..SimReport::default()
+            },
+        })
+        .collect();
+    let mut frustum_cells = Vec::new();
+    let mut frustum_objs = Vec::new();
+    let mut frustum_traversal = Traversal::new();
     let mut frame_img = Frame::new(config.width, config.height);
+    let mut visible = vec![false; n_obj];
 
     for f in 0..config.frames {
         let t = f as f32 / config.fps;
-        let Some(camera) = scene
-            .path
-            .camera(t, config.width, config.height, config.fov_y_deg)
-        else {
+        let Some(camera) = camera_of(f) else {
             continue;
         };
-        // Move objects (vertices and grid entries).
+        // Move objects (vertices, boxes and grid entries), then gather their corners: the
+        // application's data, outside the timed culling.
         for (o, m) in scene.motion.iter().enumerate() {
             if let Some(m) = m {
                 offsets[o] = m.offset(t);
                 if !base_box[o].is_empty() {
                     let b = Aabb::new(base_box[o].min + offsets[o], base_box[o].max + offsets[o]);
-                    grid.insert(o as u32, b)?;
+                    world.boxes[o] = b;
+                    world.grid.insert(o as u32, b)?;
                 }
             }
         }
@@ -240,107 +569,81 @@ pub fn simulate(
                 *p = base.positions[v] + *off;
             }
         }
+        world.corners.clear();
+        for (o, tris) in tris_of.iter().enumerate() {
+            let a = world.corners.len();
+            for &tri in tris {
+                world.corners.extend_from_slice(&moved.triangle(tri));
+            }
+            world.ranges[o] = (a, world.corners.len());
+        }
+        frustum_cells.clear();
+        frustum_traversal.visit(&shape, &camera, config.far, &mut frustum_cells);
+        frustum_objs.clear();
+        world.frustum_objects(&frustum_cells, &mut frustum_objs);
 
-        // --- Culling (timed) ---
-        let start = Instant::now();
-        let mut stats = FrameStats::default();
-        scheduler.begin_frame();
-        let frame_no = scheduler.frame();
-        for &(cell, vis) in &pending {
-            scheduler.record(cell, frame_no - 1, vis);
+        let mut frame_stats = Vec::with_capacity(states.len());
+        for st in &mut states {
+            st.drawn.clear();
+            let mut stats = FrameStats::default();
+            let start = Instant::now();
+            st.cull(&mut world, &camera, backend, config, &mut stats);
+            stats.cull_ms = start.elapsed().as_secs_f64() * 1e3;
+            stats.drawn = st.drawn.len() as u32;
+            stats.frustum = frustum_objs.len() as u32;
+            frame_stats.push(stats);
         }
-        pending.clear();
-        backend.begin_frame(&camera);
-        cells.clear();
-        traversal.visit(&shape, &camera, config.far, &mut cells);
-        grid.begin_pass();
-        for &o in &drawn_list {
-            drawn_flag[o as usize] = false;
-        }
-        drawn_list.clear();
-        for &cell in &cells {
-            if grid.objects_in(cell).is_empty() {
-                continue;
-            }
-            stats.cells += 1;
-            if scheduler.should_query(cell) {
-                backend.query(cell, &shape.cell_bounds(cell));
-                stats.queries += 1;
-                if config.latency == 0 {
-                    backend.take_results(&mut pending);
-                    for &(c, vis) in &pending {
-                        scheduler.record(c, frame_no, vis);
-                    }
-                    pending.clear();
-                }
-            }
-            if !scheduler.is_drawn(cell) {
-                continue;
-            }
-            collected.clear();
-            grid.collect(cell, &mut collected);
-            corners.clear();
-            for &o in &collected {
-                drawn_flag[o as usize] = true;
-                drawn_list.push(o);
-                if scheduler.enters_prepass(scene.class[o as usize]) {
-                    stats.prepass += 1;
-                    for &tri in &tris_of[o as usize] {
-                        corners.extend_from_slice(&moved.triangle(tri));
-                    }
-                }
-            }
-            if !corners.is_empty() {
-                backend.draw_depth(&corners);
-            }
-        }
-        backend.take_results(&mut pending);
-        scheduler.end_frame();
-        stats.cull_ms = start.elapsed().as_secs_f64() * 1e3;
-        stats.drawn = drawn_list.len() as u32;
 
-        // --- Baseline: frustum culling over the same cells ---
-        grid.begin_pass();
-        collected.clear();
-        for &cell in &cells {
-            grid.collect(cell, &mut collected);
-        }
-        stats.frustum = collected.len() as u32;
-
-        // --- Ground truth and popping ---
+        // --- Ground truth and popping, once for every method ---
         if config.measure_popping {
             Rasterizer::new(&moved).render(&camera, None, &mut frame_img);
-            let mut visible = vec![false; n_obj];
-            for &id in &frame_img.ids {
-                if id == Hit::NONE {
-                    continue;
-                }
-                let o = moved.object_of_triangle[id as usize] as usize;
+            visible.fill(false);
+            let ids: Vec<usize> = frame_img
+                .ids
+                .iter()
+                .filter(|&&id| id != Hit::NONE)
+                .map(|&id| moved.object_of_triangle[id as usize] as usize)
+                .collect();
+            for &o in &ids {
                 visible[o] = true;
-                if !drawn_flag[o] {
-                    stats.popping_pixels += 1;
-                }
             }
-            for o in 0..n_obj {
-                stats.exact_visible += u32::from(visible[o]);
-                if f < config.latency {
-                    continue;
+            let exact = visible.iter().filter(|&&v| v).count() as u32;
+            for (st, stats) in states.iter_mut().zip(&mut frame_stats) {
+                for &o in &st.drawn {
+                    st.drawn_flag[o as usize] = true;
                 }
-                if visible[o] && !drawn_flag[o] {
-                    stats.missing += 1;
-                    streak[o] += 1;
-                } else if streak[o] > 0 {
-                    bump(&mut report.streaks, streak[o]);
-                    streak[o] = 0;
+                stats.exact_visible = exact;
+                stats.popping_pixels = ids.iter().filter(|&&o| !st.drawn_flag[o]).count() as u32;
+                if f >= st.report.warmup {
+                    let per_object = visible.iter().zip(&st.drawn_flag).zip(&mut st.streak);
+                    for ((&vis, &drawn), streak) in per_object {
+                        if vis && !drawn {
+                            stats.missing += 1;
+                            *streak += 1;
+                        } else if *streak > 0 {
+                            bump(&mut st.report.streaks, *streak);
+                            *streak = 0;
+                        }
+                    }
+                }
+                for &o in &st.drawn {
+                    st.drawn_flag[o as usize] = false;
                 }
             }
         }
-        report.frames.push(stats);
+        for (st, stats) in states.iter_mut().zip(frame_stats) {
+            st.report.frames.push(stats);
+        }
     }
-    for s in streak.into_iter().filter(|&s| s > 0) {
-        bump(&mut report.streaks, s);
-    }
-    Ok(report)
+    Ok(states
+        .into_iter()
+        .map(|mut st| {
+            for &s in st.streak.iter().filter(|&&s| s > 0) {
+                bump(&mut st.report.streaks, s);
+            }
+            st.report
+        })
+        .collect())
 }
 
 fn bump(hist: &mut Vec<u32>, k: u32) {

@@ -4,9 +4,13 @@
 //! - With the thesis' one-frame latency, a missing object comes back within the configured
 //!   invisible duration plus the latency (no starvation under the default cap).
 //! - Every frame draws at most the frustum baseline's objects.
+//! - The baselines (frustum, stop-and-wait, two-phase HZB) run over the same frames and ground
+//!   truth and never pop: they cull against the current frame only.
 
 use sightline_cull::scenes::the_grid;
-use sightline_cull::{simulate, SchedulerConfig, SimConfig, SoftwareBackend};
+use sightline_cull::{
+    simulate, simulate_methods, Method, SchedulerConfig, SimConfig, SoftwareBackend,
+};
 
 fn config(latency: u32) -> SimConfig {
     SimConfig {
@@ -48,4 +52,32 @@ fn one_frame_latency_objects_return_quickly() {
     let bound = (cfg.scheduler.invisible_duration + 1) as usize;
     assert!(report.max_streak() <= bound, "{}", report.summary());
     assert!(report.measured().iter().all(|f| f.drawn <= f.frustum));
+}
+
+#[test]
+fn baselines_run_in_the_same_frames_and_never_pop() {
+    let scene = the_grid(5, 3);
+    let cfg = config(1);
+    let mut backend = SoftwareBackend::new(cfg.width, cfg.height);
+    let reports = simulate_methods(&scene, &mut backend, &cfg, &Method::ALL).unwrap();
+    let methods: Vec<Method> = reports.iter().map(|r| r.method).collect();
+    assert_eq!(methods, Method::ALL.to_vec());
+    let frustum = &reports[1];
+    for r in &reports[1..] {
+        // Frustum, stop-and-wait and two-phase HZB only cull against this frame's depth.
+        assert_eq!(r.frames.len(), 40);
+        assert_eq!(r.max_streak(), 0, "{}", r.summary());
+        for (i, (f, g)) in r.frames.iter().zip(&frustum.frames).enumerate() {
+            assert_eq!(f.popping_pixels, 0, "{} frame {i}: {f:?}", r.method.name());
+            assert!(f.exact_visible <= f.drawn && f.drawn <= g.drawn, "{f:?}");
+            // The same ground truth for every method.
+            assert_eq!(f.exact_visible, g.exact_visible);
+        }
+    }
+    // Occlusion culling culls: stop-and-wait draws fewer objects than the frustum.
+    let (sw, fr) = (
+        reports[2].mean(|f| f.drawn as f64),
+        frustum.mean(|f| f.drawn as f64),
+    );
+    assert!(sw < 0.5 * fr, "stop-and-wait {sw} frustum {fr}");
 }

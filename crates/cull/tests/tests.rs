@@ -3,6 +3,8 @@
 
 /// The software occlusion buffer never culls a box that the exact depth test shows visible.
 mod conservative;
+/// The SIMD and scalar rasterizer kernels produce identical buffers.
+mod kernels;
 /// The scheduler's durations, cap, growth, jitter and exemptions behave as configured.
 mod scheduler_numbers;
 /// The simulation loop: immediate results with one-frame durations never pop; reports add up.

@@ -1,0 +1,395 @@
+//! The inner kernels of the occlusion buffer's triangle rasterizer, in three forms that give
+//! identical results bit for bit: scalar, SSE2 and AVX2 (chosen at run time).
+//!
+//! Based on: Hasselgren, Andersson, Akenine-Möller. Masked Software Occlusion Culling. 2016,
+//! sections 3-4: the edges of a triangle are evaluated for all scanlines of a tile row at once
+//! (one SIMD lane per scanline), and a tile's 32-bit coverage mask is built from the span ends
+//! of its scanlines with data-parallel operations instead of per-pixel tests. Here a lane is
+//! one of the 4 scanlines of an 8x4 tile row (`__m128`), and the mask of one tile comes from
+//! comparing the 32 pixel columns (one byte lane each) with the span ends, then `movemask`.
+//!
+//! Bit-exactness: every kernel evaluates the same `f32` expressions in the same order (Rust
+//! does not contract `a * b + c` into an FMA) and rounds them with the same integer rules, so
+//! the buffers they produce are identical (checked by the tests).
+
+use super::TILE_H;
+
+/// Kernel selector as a const generic parameter (one monomorphized rasterizer per kernel).
+pub(super) const SCALAR: u8 = 0;
+/// See [`SCALAR`].
+#[cfg(target_arch = "x86_64")]
+pub(super) const SSE2: u8 = 1;
+/// See [`SCALAR`].
+#[cfg(target_arch = "x86_64")]
+pub(super) const AVX2: u8 = 2;
+
+/// Which implementation of the rasterizer's inner loops an
+/// [`OcclusionBuffer`](super::OcclusionBuffer) uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Kernel {
+    /// Portable Rust, one scanline and one pixel row at a time.
+    Scalar,
+    /// SSE2 (every x86_64 CPU): 4 scanlines per instruction, masks by byte comparisons.
+    Sse2,
+    /// AVX2: as SSE2, with a whole 32-pixel tile mask in one 256-bit comparison.
+    Avx2,
+}
+
+impl Kernel {
+    /// Every kernel, scalar first.
+    pub const ALL: [Kernel; 3] = [Kernel::Scalar, Kernel::Sse2, Kernel::Avx2];
+
+    /// The fastest kernel this CPU supports.
+    pub fn detect() -> Self {
+        if Kernel::Avx2.available() {
+            Kernel::Avx2
+        } else if Kernel::Sse2.available() {
+            Kernel::Sse2
+        } else {
+            Kernel::Scalar
+        }
+    }
+
+    /// True when this CPU can run the kernel.
+    pub fn available(self) -> bool {
+        match self {
+            Kernel::Scalar => true,
+            Kernel::Sse2 => cfg!(target_arch = "x86_64"),
+            Kernel::Avx2 => {
+                #[cfg(target_arch = "x86_64")]
+                {
+                    std::arch::is_x86_feature_detected!("avx2")
+                }
+                #[cfg(not(target_arch = "x86_64"))]
+                {
+                    false
+                }
+            }
+        }
+    }
+
+    /// A short name for reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::Scalar => "scalar",
+            Kernel::Sse2 => "sse2",
+            Kernel::Avx2 => "avx2",
+        }
+    }
+}
+
+/// The triangle's edges: `x = x0 + (y - y0) * slope`; `left` edges bound spans from the left.
+pub(super) struct Edges {
+    pub x0: [f32; 3],
+    pub y0: [f32; 3],
+    pub slope: [f32; 3],
+    pub left: [bool; 3],
+    pub used: [bool; 3],
+}
+
+/// Clamps of span ends (pixel columns of the triangle's bounding box) and its rows.
+pub(super) struct ColClamp {
+    /// Span starts are clamped to `[a_lo, a_hi]` before rounding up (`a_hi` = last column + 1,
+    /// so a span starting beyond the box stays empty).
+    pub a_lo: f32,
+    pub a_hi: f32,
+    /// Span ends are clamped to `[b_lo, b_hi]` before rounding down.
+    pub b_lo: f32,
+    pub b_hi: f32,
+    /// First and last pixel row of the triangle.
+    pub row0: i32,
+    pub row1: i32,
+}
+
+/// An empty span: its start beyond and its end before every column.
+const EMPTY_LO: i32 = 1 << 28;
+const EMPTY_HI: i32 = -(1 << 28);
+
+/// The inclusive pixel spans `[a, b]` of the 4 scanlines of one tile row.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct TileRowSpans {
+    a: [i32; 4],
+    b: [i32; 4],
+}
+
+/// `floor` as an integer without a libm call (`f32::floor` needs SSE4.1 to inline).
+#[inline(always)]
+fn floor_i(x: f32) -> i32 {
+    let i = x as i32;
+    i - i32::from(x < i as f32)
+}
+
+/// `ceil` as an integer, see [`floor_i`].
+#[inline(always)]
+fn ceil_i(x: f32) -> i32 {
+    let i = x as i32;
+    i + i32::from(x > i as f32)
+}
+
+impl TileRowSpans {
+    /// Scalar: one scanline at a time.
+    #[inline(always)]
+    pub fn scalar(e: &Edges, c: &ColClamp, ty: u32) -> Self {
+        let mut s = TileRowSpans {
+            a: [EMPTY_LO; 4],
+            b: [EMPTY_HI; 4],
+        };
+        let row_base = (ty * TILE_H) as i32;
+        for k in 0..TILE_H as usize {
+            let row = row_base + k as i32;
+            if row < c.row0 || row > c.row1 {
+                continue;
+            }
+            let yc = row_base as f32 + 0.5 + k as f32;
+            let mut xl = f32::NEG_INFINITY;
+            let mut xr = f32::INFINITY;
+            for i in 0..3 {
+                if !e.used[i] {
+                    continue;
+                }
+                let x = e.x0[i] + (yc - e.y0[i]) * e.slope[i];
+                if e.left[i] {
+                    xl = xl.max(x);
+                } else {
+                    xr = xr.min(x);
+                }
+            }
+            let a = ceil_i((xl - 0.5).max(c.a_lo).min(c.a_hi));
+            let b = floor_i((xr - 0.5).max(c.b_lo).min(c.b_hi));
+            if a <= b {
+                s.a[k] = a;
+                s.b[k] = b;
+            }
+        }
+        s
+    }
+
+    /// SSE2: the 4 scanlines in the 4 lanes of one register.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub fn simd(e: &Edges, c: &ColClamp, ty: u32) -> Self {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 intrinsics only; SSE2 is part of the x86_64 baseline, so it is always
+        // enabled on this target.
+        #[allow(unused_unsafe)]
+        unsafe {
+            let row_base = (ty * TILE_H) as i32;
+            // Same rounding as the scalar `row_base + 0.5 + k`: all terms are small integers or
+            // halves, exact in f32.
+            let yc = _mm_add_ps(
+                _mm_set1_ps(row_base as f32 + 0.5),
+                _mm_setr_ps(0.0, 1.0, 2.0, 3.0),
+            );
+            let mut xl = _mm_set1_ps(f32::NEG_INFINITY);
+            let mut xr = _mm_set1_ps(f32::INFINITY);
+            for i in 0..3 {
+                if !e.used[i] {
+                    continue;
+                }
+                let d = _mm_sub_ps(yc, _mm_set1_ps(e.y0[i]));
+                let x = _mm_add_ps(_mm_set1_ps(e.x0[i]), _mm_mul_ps(d, _mm_set1_ps(e.slope[i])));
+                // `maxps(x, acc)` returns `acc` when `x` is NaN, as `f32::max` does.
+                if e.left[i] {
+                    xl = _mm_max_ps(x, xl);
+                } else {
+                    xr = _mm_min_ps(x, xr);
+                }
+            }
+            let half = _mm_set1_ps(0.5);
+            let xa = _mm_min_ps(
+                _mm_max_ps(_mm_sub_ps(xl, half), _mm_set1_ps(c.a_lo)),
+                _mm_set1_ps(c.a_hi),
+            );
+            let xb = _mm_min_ps(
+                _mm_max_ps(_mm_sub_ps(xr, half), _mm_set1_ps(c.b_lo)),
+                _mm_set1_ps(c.b_hi),
+            );
+            // ceil / floor: truncate, then correct by the comparison mask (-1 where true).
+            let ta = _mm_cvttps_epi32(xa);
+            let a = _mm_sub_epi32(ta, _mm_castps_si128(_mm_cmpgt_ps(xa, _mm_cvtepi32_ps(ta))));
+            let tb = _mm_cvttps_epi32(xb);
+            let b = _mm_add_epi32(tb, _mm_castps_si128(_mm_cmplt_ps(xb, _mm_cvtepi32_ps(tb))));
+            let rows = _mm_add_epi32(_mm_set1_epi32(row_base), _mm_setr_epi32(0, 1, 2, 3));
+            let invalid = _mm_or_si128(
+                _mm_or_si128(
+                    _mm_cmplt_epi32(rows, _mm_set1_epi32(c.row0)),
+                    _mm_cmpgt_epi32(rows, _mm_set1_epi32(c.row1)),
+                ),
+                _mm_cmpgt_epi32(a, b),
+            );
+            let a = _mm_or_si128(
+                _mm_and_si128(invalid, _mm_set1_epi32(EMPTY_LO)),
+                _mm_andnot_si128(invalid, a),
+            );
+            let b = _mm_or_si128(
+                _mm_and_si128(invalid, _mm_set1_epi32(EMPTY_HI)),
+                _mm_andnot_si128(invalid, b),
+            );
+            let mut s = TileRowSpans {
+                a: [0; 4],
+                b: [0; 4],
+            };
+            // SAFETY: SIMD store intrinsics into two local `[i32; 4]` (16 bytes each, unaligned
+            // stores allowed).
+            unsafe {
+                _mm_storeu_si128(s.a.as_mut_ptr().cast(), a);
+                _mm_storeu_si128(s.b.as_mut_ptr().cast(), b);
+            }
+            s
+        }
+    }
+
+    /// Not x86_64: the scalar kernel.
+    #[cfg(not(target_arch = "x86_64"))]
+    #[inline(always)]
+    pub fn simd(e: &Edges, c: &ColClamp, ty: u32) -> Self {
+        Self::scalar(e, c, ty)
+    }
+
+    /// The first and last column of any span (`first > last` when every span is empty).
+    #[inline(always)]
+    pub fn extent(&self) -> (i32, i32) {
+        let lo = self.a[0].min(self.a[1]).min(self.a[2].min(self.a[3]));
+        let hi = self.b[0].max(self.b[1]).max(self.b[2].max(self.b[3]));
+        (lo, hi)
+    }
+
+    /// Coverage mask of the tile starting at column `base` (bit `8 * row + column`), scalar.
+    #[inline(always)]
+    pub fn mask_scalar(&self, base: i32) -> u32 {
+        let mut mask = 0u32;
+        for k in 0..TILE_H as usize {
+            let lo = (self.a[k] - base).clamp(0, 8);
+            let hi = (self.b[k] + 1 - base).clamp(0, 8);
+            if hi > lo {
+                mask |= ((1u32 << hi) - (1u32 << lo)) << (k as u32 * 8);
+            }
+        }
+        mask
+    }
+
+    /// The span ends relative to `base`, saturated to `i8`, in bytes 0-3 (starts) and 4-7
+    /// (ends) of a register (and again in bytes 8-15).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn packed_rel(&self, base: i32) -> std::arch::x86_64::__m128i {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 intrinsics only; SSE2 is part of the x86_64 baseline, so it is always
+        // enabled on this target.
+        #[allow(unused_unsafe)]
+        unsafe {
+            // SAFETY: SIMD load intrinsics from two `[i32; 4]` fields (16 bytes each, unaligned
+            // loads allowed).
+            let (a, b) = unsafe {
+                (
+                    _mm_loadu_si128(self.a.as_ptr().cast()),
+                    _mm_loadu_si128(self.b.as_ptr().cast()),
+                )
+            };
+            let bs = _mm_set1_epi32(base);
+            // Saturating packs clamp far-away span ends to -128 / 127, which compare with the
+            // columns 0..8 the same way as the exact values.
+            let p16 = _mm_packs_epi32(_mm_sub_epi32(a, bs), _mm_sub_epi32(b, bs));
+            _mm_packs_epi16(p16, p16)
+        }
+    }
+
+    /// Coverage mask, SSE2: each row's span ends broadcast to its 8 byte lanes, compared with
+    /// the column numbers, 16 pixels per `movemask`.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub fn mask_sse2(&self, base: i32) -> u32 {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 intrinsics only; SSE2 is part of the x86_64 baseline, so it is always
+        // enabled on this target.
+        #[allow(unused_unsafe)]
+        unsafe {
+            let p8 = self.packed_rel(base);
+            let t = _mm_unpacklo_epi8(p8, p8); // a0 a0 a1 a1 a2 a2 a3 a3 b0 b0 .. b3 b3
+            let ua = _mm_unpacklo_epi16(t, t); // a0 x4, a1 x4, a2 x4, a3 x4
+            let ub = _mm_unpackhi_epi16(t, t);
+            let a01 = _mm_unpacklo_epi32(ua, ua); // a0 x8, a1 x8
+            let a23 = _mm_unpackhi_epi32(ua, ua);
+            let b01 = _mm_unpacklo_epi32(ub, ub);
+            let b23 = _mm_unpackhi_epi32(ub, ub);
+            let cols = _mm_setr_epi8(0, 1, 2, 3, 4, 5, 6, 7, 0, 1, 2, 3, 4, 5, 6, 7);
+            // A pixel is outside when its column is before the start or after the end.
+            let out01 = _mm_or_si128(_mm_cmpgt_epi8(a01, cols), _mm_cmpgt_epi8(cols, b01));
+            let out23 = _mm_or_si128(_mm_cmpgt_epi8(a23, cols), _mm_cmpgt_epi8(cols, b23));
+            let m01 = !(_mm_movemask_epi8(out01) as u32) & 0xFFFF;
+            let m23 = !(_mm_movemask_epi8(out23) as u32) & 0xFFFF;
+            m01 | m23 << 16
+        }
+    }
+
+    /// Coverage mask, AVX2: the span ends shuffled to the 32 byte lanes of one register, one
+    /// comparison per side and one `movemask` for the whole tile.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn mask_avx2(&self, base: i32) -> u32 {
+        use std::arch::x86_64::*;
+        let p8 = _mm256_broadcastsi128_si256(self.packed_rel(base));
+        // Byte lane 8k + c takes row k's start (byte k) or end (byte 4 + k); the shuffle works
+        // within 128-bit halves, each of which holds all 8 bytes after the broadcast.
+        let ia = _mm256_setr_epi8(
+            0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1, 2, 2, 2, 2, 2, 2, 2, 2, 3, 3, 3, 3, 3,
+            3, 3, 3,
+        );
+        let ib = _mm256_add_epi8(ia, _mm256_set1_epi8(4));
+        let a = _mm256_shuffle_epi8(p8, ia);
+        let b = _mm256_shuffle_epi8(p8, ib);
+        let cols = _mm256_setr_epi8(
+            0, 1, 2, 3, 4, 5, 6, 7, 0, 1, 2, 3, 4, 5, 6, 7, 0, 1, 2, 3, 4, 5, 6, 7, 0, 1, 2, 3, 4,
+            5, 6, 7,
+        );
+        let out = _mm256_or_si256(_mm256_cmpgt_epi8(a, cols), _mm256_cmpgt_epi8(cols, b));
+        !(_mm256_movemask_epi8(out) as u32)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn masks_agree_on_every_span_pair() {
+        // Every start/end pair around one tile, in every row, through each kernel.
+        for a in -10..20 {
+            for b in -10..20 {
+                for k in 0..4 {
+                    let mut s = TileRowSpans {
+                        a: [EMPTY_LO; 4],
+                        b: [EMPTY_HI; 4],
+                    };
+                    s.a[k] = a;
+                    s.b[k] = b;
+                    s.a[(k + 1) % 4] = 3;
+                    s.b[(k + 1) % 4] = 12;
+                    let m = s.mask_scalar(8);
+                    #[cfg(target_arch = "x86_64")]
+                    {
+                        assert_eq!(s.mask_sse2(8), m, "{s:?}");
+                        if Kernel::Avx2.available() {
+                            // SAFETY: AVX2 support was just checked.
+                            assert_eq!(unsafe { s.mask_avx2(8) }, m, "{s:?}");
+                        }
+                    }
+                    // Against a per-pixel evaluation of the same spans.
+                    let mut expect = 0u32;
+                    for (row, (&lo, &hi)) in s.a.iter().zip(&s.b).enumerate() {
+                        for c in 0..8 {
+                            if lo <= 8 + c && 8 + c <= hi {
+                                expect |= 1 << (8 * row as i32 + c);
+                            }
+                        }
+                    }
+                    assert_eq!(m, expect, "{s:?}");
+                }
+            }
+        }
+    }
+}
