@@ -102,7 +102,7 @@ fn clip_axis(poly: &[Pt], out: &mut Vec<Pt>, axis: usize, bound: i64, keep_above
     for i in 0..n {
         let (cur, nxt) = (poly[i], poly[(i + 1) % n]);
         let (ci, ni) = (inside(cur), inside(nxt));
-        if ci {
+        if ci && out.last() != Some(&cur) {
             out.push(cur);
         }
         if ci != ni {
@@ -161,19 +161,17 @@ pub(crate) fn bin_polygons(polys: &[ScreenPoly], grid: BinGrid) -> Vec<Bin> {
             for by in by0..=by1 {
                 for bx in bx0..=bx1 {
                     let rect = [bx * step, by * step, (bx + 1) * step, (by + 1) * step];
-                    let piece: Vec<Pt> = if b[0] >= rect[0]
-                        && b[1] >= rect[1]
-                        && b[2] <= rect[2]
-                        && b[3] <= rect[3]
-                    {
-                        p.verts.clone()
-                    } else {
-                        clip_rect(&p.verts, rect, &mut out, &mut tmp);
-                        if twice_area(&out) <= 0 {
-                            continue;
-                        }
-                        out.clone()
-                    };
+                    let piece: Vec<Pt> =
+                        if b[0] >= rect[0] && b[1] >= rect[1] && b[2] <= rect[2] && b[3] <= rect[3]
+                        {
+                            p.verts.clone()
+                        } else {
+                            clip_rect(&p.verts, rect, &mut out, &mut tmp);
+                            if twice_area(&out) <= 0 {
+                                continue;
+                            }
+                            out.clone()
+                        };
                     let index = (by * i64::from(grid.cols) + bx) as u32;
                     found.push((index, p.id, p.plane, piece));
                 }
@@ -185,7 +183,7 @@ pub(crate) fn bin_polygons(polys: &[ScreenPoly], grid: BinGrid) -> Vec<Bin> {
     let mut bins: Vec<Bin> = Vec::new();
     for (index, id, plane, verts) in pieces {
         let (x, y) = (index % grid.cols, index / grid.cols);
-        if bins.last().map_or(true, |b| b.x != x || b.y != y) {
+        if bins.last().is_none_or(|b| b.x != x || b.y != y) {
             bins.push(Bin {
                 x,
                 y,
@@ -227,7 +225,10 @@ mod tests {
 
     #[test]
     fn square_over_four_bins_is_split_in_four() {
-        let bins = bin_polygons(&[square(4 * G, 4 * G, 12 * G, 12 * G)], BinGrid::new(64, 64, 8));
+        let bins = bin_polygons(
+            &[square(4 * G, 4 * G, 12 * G, 12 * G)],
+            BinGrid::new(64, 64, 8),
+        );
         assert_eq!(bins.len(), 4);
         let area: i128 = bins.iter().map(|b| twice_area(b.poly_verts(0))).sum();
         assert_eq!(area, 2 * 64 * i128::from(G * G));

@@ -15,16 +15,33 @@ use rayon::prelude::*;
 use super::polygon::area;
 
 /// Area of the part of convex polygon `poly` inside `[x0, x0+1] × [y0, y0+1]`.
-pub(crate) fn area_in_pixel(poly: &[DVec2], x0: f64, y0: f64, a: &mut Vec<DVec2>, b: &mut Vec<DVec2>) -> f64 {
+pub(crate) fn area_in_pixel(
+    poly: &[DVec2],
+    x0: f64,
+    y0: f64,
+    a: &mut Vec<DVec2>,
+    b: &mut Vec<DVec2>,
+) -> f64 {
     a.clear();
     a.extend_from_slice(poly);
     // (axis, bound, keep >=)
-    let planes = [(0, x0, true), (0, x0 + 1.0, false), (1, y0, true), (1, y0 + 1.0, false)];
+    let planes = [
+        (0, x0, true),
+        (0, x0 + 1.0, false),
+        (1, y0, true),
+        (1, y0 + 1.0, false),
+    ];
     for (axis, bound, above) in planes {
         b.clear();
         let n = a.len();
         let coord = |p: DVec2| if axis == 0 { p.x } else { p.y };
-        let inside = |p: DVec2| if above { coord(p) >= bound } else { coord(p) <= bound };
+        let inside = |p: DVec2| {
+            if above {
+                coord(p) >= bound
+            } else {
+                coord(p) <= bound
+            }
+        };
         for i in 0..n {
             let (c, d) = (a[i], a[(i + 1) % n]);
             let (ci, di) = (inside(c), inside(d));
@@ -82,7 +99,8 @@ pub(crate) fn box_image(
                 if v == 0.0 {
                     continue;
                 }
-                let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+                let (mut lo, mut hi) =
+                    (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
                 for p in &poly.points {
                     lo = lo.min(*p);
                     hi = hi.max(*p);
@@ -147,7 +165,11 @@ mod tests {
 
     #[test]
     fn half_pixel_triangle() {
-        let t = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0)];
+        let t = [
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(0.0, 1.0),
+        ];
         let (mut a, mut b) = (Vec::new(), Vec::new());
         // Clockwise in the usual sense, but counter-clockwise in the y-down sense: area 0.5.
         assert!((area_in_pixel(&t, 0.0, 0.0, &mut a, &mut b) - 0.5).abs() < 1e-12);

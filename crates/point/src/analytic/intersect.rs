@@ -19,7 +19,7 @@
 //! # Depth order
 //! The input triangles are assumed not to intersect, so along an overlap interval the sign of
 //! `1/z_C - 1/z_T` is constant; it is evaluated at the interval's midpoint (f64, relative
-//! tolerance [`DEPTH_TOL`]). When it vanishes there the two triangles touch along `e` (e.g. a
+//! tolerance [`DEPTH_TOL`] plus the change of `1/z` that snapping to the grid can cause). When it vanishes there the two triangles touch along `e` (e.g. a
 //! fold at a silhouette) and the order is the one of their depth *slopes* towards the side
 //! considered; when that vanishes too they are coplanar and the lower triangle id is in front,
 //! the rasterizer's tie rule. A sign change between the interval's ends means the triangles
@@ -109,6 +109,9 @@ pub(crate) fn intersect(e: &Edge, c: &[Pt], counters: &mut Counters) -> Option<(
     for i in 0..n {
         let (ci, cj) = (c[i], c[(i + 1) % n]);
         let edge = sub(cj, ci);
+        if edge == [0, 0] {
+            continue;
+        }
         // The polygon's edge function E(t) = alpha + beta t, positive inside.
         let beta = cross(edge, e.d);
         let alpha = cross(edge, sub(e.a, ci));
@@ -164,27 +167,31 @@ pub(crate) fn in_front(
     c: (&[f64; 3], u32),
     t: (&[f64; 3], u32),
 ) -> (bool, bool) {
+    // Snapping moved the edge by up to 2^-17 px, which changes 1/z by up to that times the
+    // planes' gradients: differences below that are ties too.
+    let slope = c.0[0].abs() + c.0[1].abs() + t.0[0].abs() + t.0[1].abs();
+    let snap_tol = slope / GRID;
     let diff = |s: f64| {
         let p = e.at_px(s);
         let (zc, mc) = eval(c.0, p);
         let (zt, mt) = eval(t.0, p);
-        (zc - zt, DEPTH_TOL * (mc + mt))
+        (zc - zt, DEPTH_TOL * (mc + mt) + snap_tol)
     };
+    let (d0, t0) = diff(lo);
+    let (d1, t1) = diff(hi);
+    let crossing = (d0 > t0 && d1 < -t1) || (d0 < -t0 && d1 > t1);
     let (mid, tol) = diff(0.5 * (lo + hi));
     if mid.abs() > tol {
-        let (d0, t0) = diff(lo);
-        let (d1, t1) = diff(hi);
-        let crossing = (d0 > t0 && d1 < -t1) || (d0 < -t0 && d1 > t1);
         return (mid > 0.0, crossing);
     }
     // Touching along the edge: compare the slopes of 1/z towards the side.
     let g = (c.0[0] - t.0[0]) * normal.x + (c.0[1] - t.0[1]) * normal.y;
     let g_tol = DEPTH_TOL * (c.0[0].abs() + c.0[1].abs() + t.0[0].abs() + t.0[1].abs());
     if g.abs() > g_tol {
-        return (g > 0.0, false);
+        return (g > 0.0, crossing);
     }
     // Coplanar: the lower id is in front (the rasterizer's rule).
-    (c.1 < t.1, false)
+    (c.1 < t.1, crossing)
 }
 
 /// EDGEINTERSECTIONS for one edge: all overlaps with the other polygons of the bin, each
@@ -223,14 +230,8 @@ pub(crate) fn edge_intersections(
         let occluding = if side == Side::Right {
             false
         } else {
-            let (front, crossing) = in_front(
-                e,
-                lo,
-                hi,
-                left,
-                (&p.plane, p.id),
-                (&owner.plane, owner.id),
-            );
+            let (front, crossing) =
+                in_front(e, lo, hi, left, (&p.plane, p.id), (&owner.plane, owner.id));
             counters.intersecting += u64::from(crossing);
             front
         };
@@ -302,7 +303,14 @@ mod tests {
     fn nearer_plane_is_in_front() {
         let e = edge([0, 0], [10, 0]);
         let n = e.left_normal();
-        let (front, crossing) = in_front(&e, 0.0, 1.0, n, (&[0.0, 0.0, 1.0], 5), (&[0.0, 0.0, 0.5], 1));
+        let (front, crossing) = in_front(
+            &e,
+            0.0,
+            1.0,
+            n,
+            (&[0.0, 0.0, 1.0], 5),
+            (&[0.0, 0.0, 0.5], 1),
+        );
         assert!(front && !crossing);
     }
 }

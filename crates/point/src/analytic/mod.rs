@@ -55,8 +55,6 @@
 
 mod bin;
 mod boundary;
-#[cfg(test)]
-mod brute_force;
 mod hidden_line;
 mod integrate;
 mod intersect;
@@ -213,10 +211,14 @@ fn check_camera(c: &Camera) -> Result<(), AnalyticError> {
         return Err(AnalyticError::BadCamera("field of view outside (0, 180)"));
     }
     if !(c.near > 0.0 && c.near.is_finite()) {
-        return Err(AnalyticError::BadCamera("near plane not positive and finite"));
+        return Err(AnalyticError::BadCamera(
+            "near plane not positive and finite",
+        ));
     }
     if c.forward.length_squared() < 0.5 || c.right.length_squared() < 0.5 {
-        return Err(AnalyticError::BadCamera("basis vectors are not unit length"));
+        return Err(AnalyticError::BadCamera(
+            "basis vectors are not unit length",
+        ));
     }
     Ok(())
 }
@@ -289,10 +291,11 @@ fn process_bin(bin: &Bin) -> BinOutput {
         pieces.clear();
         polygon::pieces(group, &mut pieces);
         let id = bin.polys[group[0].0 as usize].id;
-        out.pieces.extend(pieces.drain(..).map(|points| VisiblePolygon {
-            triangle: id,
-            points,
-        }));
+        out.pieces
+            .extend(pieces.drain(..).map(|points| VisiblePolygon {
+                triangle: id,
+                points,
+            }));
     }
     out
 }

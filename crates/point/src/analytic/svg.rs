@@ -15,7 +15,11 @@ fn colour(id: u32) -> [u8; 3] {
     h ^= h >> 13;
     let b = h.to_le_bytes();
     // Keep colours away from black so that they stand out from the background.
-    [64 + b[0] / 2 + b[3] / 4, 64 + b[1] / 2, 64 + b[2] / 2 + b[3] / 4]
+    [
+        64 + b[0] / 2 + b[3] / 4,
+        64 + b[1] / 2,
+        64 + b[2] / 2 + b[3] / 4,
+    ]
 }
 
 /// Writes the visible polygons of `result` as an SVG image of the camera's size (screen pixels,
@@ -26,7 +30,10 @@ pub fn write_svg(result: &AnalyticResult, mut w: impl Write) -> io::Result<()> {
         w,
         r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" viewBox="0 0 {width} {height}">"#
     )?;
-    writeln!(w, r#"<rect width="{width}" height="{height}" fill="black"/>"#)?;
+    writeln!(
+        w,
+        r#"<rect width="{width}" height="{height}" fill="black"/>"#
+    )?;
     for p in &result.polygons {
         let [r, g, b] = colour(p.triangle);
         write!(w, r##"<path fill="#{r:02x}{g:02x}{b:02x}" d=""##)?;
@@ -50,8 +57,8 @@ mod tests {
     fn empty_result_is_valid_svg() {
         let cam =
             Camera::look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 60.0, 8, 8, 0.1).expect("camera");
-        let r = visible_fragments(&Scene::default(), &cam, &AnalyticOptions::default())
-            .expect("valid");
+        let r =
+            visible_fragments(&Scene::default(), &cam, &AnalyticOptions::default()).expect("valid");
         let mut out = Vec::new();
         write_svg(&r, &mut out).expect("write");
         let text = String::from_utf8(out).expect("utf8");
