@@ -152,6 +152,10 @@ pub struct AnalyticStats {
     pub warnings: AnalyticWarnings,
     /// Wall time of the whole visibility computation.
     pub visibility_time: Duration,
+    /// Part of `visibility_time` spent projecting and clipping.
+    pub projection_time: Duration,
+    /// Part of `visibility_time` spent binning.
+    pub binning_time: Duration,
 }
 
 /// The exact visibility from one camera.
@@ -329,9 +333,11 @@ pub fn visible_fragments(
         }
     }
     stats.triangles_in_frustum = polys.len();
+    stats.projection_time = start.elapsed();
     let grid = BinGrid::new(camera.width, camera.height, options.bin_size);
     let bins = bin_polygons(&polys, grid);
     drop(polys);
+    stats.binning_time = start.elapsed() - stats.projection_time;
     stats.bins_filled = bins.len();
     stats.bin_assignments = bins.iter().map(|b| b.polys.len()).sum();
     stats.max_pieces_per_bin = bins.iter().map(|b| b.polys.len()).max().unwrap_or(0);

@@ -17,6 +17,9 @@ pub(crate) type Pt = [i64; 2];
 /// Relative error bound of the float filter (4 ulps: twice the worst case, for safety).
 const FILTER: f64 = 4.0 * f64::EPSILON;
 
+/// Integers below this are exact in `f64`.
+const EXACT_F64: f64 = 9_007_199_254_740_992.0;
+
 /// A cross product evaluated with the filter: its sign is exact, its value is the float
 /// approximation (relative error below 1e-15), and `exact` records whether the fallback ran.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -35,6 +38,21 @@ pub(crate) fn cross(u: Pt, v: Pt) -> Cross {
     let p = u[0] as f64 * v[1] as f64;
     let q = u[1] as f64 * v[0] as f64;
     let r = p - q;
+    // Products below 2^53 are exact integers, and so is their difference: the sign is exact.
+    // (Inside a bin this is the common case; shared vertices and edges give exact zeros.)
+    if p.abs() < EXACT_F64 && q.abs() < EXACT_F64 {
+        return Cross {
+            sign: if r > 0.0 {
+                1
+            } else if r < 0.0 {
+                -1
+            } else {
+                0
+            },
+            value: r,
+            exact: false,
+        };
+    }
     if r.abs() > FILTER * (p.abs() + q.abs()) {
         return Cross {
             sign: if r > 0.0 { 1 } else { -1 },

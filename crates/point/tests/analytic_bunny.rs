@@ -1,0 +1,51 @@
+//! Timing and sanity run on the Stanford bunny at 1024² (ignored by default; the criterion
+//! bench `benches/analytic.rs` is the measurement). Run with
+//! `cargo test -p sightline-point --release --test analytic_bunny -- --ignored --nocapture`.
+#![allow(clippy::unwrap_used)]
+
+use glam::Vec3;
+use sightline_core::scene::{open, LoadOptions};
+use sightline_core::Camera;
+use sightline_point::analytic::{integrate, visible_fragments, AnalyticOptions, Filter};
+
+#[test]
+#[ignore = "needs ../shared/scenes and takes seconds"]
+fn bunny_1024_phases() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/scenes/models/stanford_bunny.obj.gz"
+    );
+    let scene = open(path, &LoadOptions::default()).unwrap();
+    let b = scene.bounds();
+    let radius = 0.5 * b.diagonal();
+    let cam = Camera::look_at(
+        b.center() + Vec3::new(0.0, 0.0, 2.4 * radius),
+        b.center(),
+        Vec3::Y,
+        45.0,
+        1024,
+        1024,
+        0.01 * radius,
+    )
+    .unwrap();
+    for bin_size in [8, 16, 32, 64] {
+        let r = visible_fragments(&scene, &cam, &AnalyticOptions { bin_size }).unwrap();
+        let t = std::time::Instant::now();
+        let img = integrate(&r, Filter::Box, |_| 1.0);
+        let it = t.elapsed();
+        let s = r.stats;
+        eprintln!(
+            "bin {bin_size}: vis {:?} (proj {:?}, bin {:?}), integ {it:?}; {} pieces max {}/bin, {} overlaps, {} polys, {} visible, fallbacks {}, coverage {:.1}",
+            s.visibility_time,
+            s.projection_time,
+            s.binning_time,
+            s.bin_assignments,
+            s.max_pieces_per_bin,
+            s.intersections,
+            r.polygons.len(),
+            r.visible.count_ones(..),
+            s.exact_fallbacks,
+            img.iter().sum::<f32>()
+        );
+    }
+}
