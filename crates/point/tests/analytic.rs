@@ -742,9 +742,10 @@ fn bin_size_does_not_change_the_result() {
                 .visible_area(scene.triangles.len())
         })
         .collect();
+    // Polygons are never clipped to bins: only f64 rounding differs.
     for a in &areas[1..] {
         for (x, y) in a.iter().zip(&areas[0]) {
-            assert!((x - y).abs() < AREA_TOL, "{x} vs {y}");
+            assert!((x - y).abs() < 1e-8, "{x} vs {y}");
         }
     }
 }

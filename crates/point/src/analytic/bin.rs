@@ -1,28 +1,28 @@
-//! Screen-space binning: every projected polygon is clipped to the square bins it overlaps, so
-//! each bin can run the whole visibility pipeline on its own, in parallel with the others.
+//! Screen-space binning: every projected polygon is listed in the square bins its bounding box
+//! overlaps, so each bin can run the whole visibility pipeline on its own, in parallel with the
+//! others.
 //!
 //! Based on: Auzinger, Wimmer, Jeschke. Analytic Visibility on the GPU. Eurographics 2013,
-//! section 4.3 (bins and quantized bounding boxes for AREOVERLAPPING).
+//! section 4.3 (bins, a sort of the triangle-bin pairs, and quantized bounding boxes for
+//! AREOVERLAPPING).
 //!
-//! Unlike the paper, which assigns whole triangles to bins, we *clip* them to the bins: then the
-//! visible regions of a bin are closed polygons inside the bin, the edges on the bin border are
-//! ordinary edges (nothing in the bin lies on their outer side, so boundary completion never
-//! reports anything there), and the integration of a bin only touches the bin's pixels.
-//! Bin borders are whole pixels, hence grid lines. A cut point of an edge with a bin border is
-//! the exact intersection rounded to the grid, computed in `i128` from the edge's end points
-//! only, so both triangles that share the edge get the same cut point (watertight).
+//! Polygons are not clipped to the bins (that would round the cut points and open cracks of a
+//! grid unit between neighbours). Instead each bin processes the parts of the edges inside its
+//! rectangle (`clip_edge`), and the bin's border is processed as four extra edges so the visible
+//! regions of a bin are closed polygons inside the bin (see `boundary.rs`). Bin borders are
+//! whole pixels, hence grid lines.
 
 use rayon::prelude::*;
 
-use super::predicates::{twice_area, Pt};
+use super::predicates::Pt;
 use super::project::{ScreenPoly, GRID};
 
-/// A triangle's piece in one bin.
+/// A projected polygon in the shared polygon storage.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct BinPoly {
     /// Triangle id.
     pub(crate) id: u32,
-    /// First vertex in [`Bin::verts`].
+    /// First vertex in [`Polys::verts`].
     pub(crate) start: u32,
     /// Number of vertices.
     pub(crate) len: u32,
@@ -33,25 +33,50 @@ pub(crate) struct BinPoly {
     pub(crate) bbox: [i64; 4],
 }
 
-/// The pieces of one bin, ordered by triangle id.
+/// All projected polygons, in triangle id order.
 #[derive(Clone, Debug, Default)]
-pub(crate) struct Bin {
-    /// Bin column and row.
-    pub(crate) x: u32,
-    /// Bin row.
-    pub(crate) y: u32,
-    /// Pieces.
+pub(crate) struct Polys {
+    /// Polygons.
     pub(crate) polys: Vec<BinPoly>,
-    /// Vertex storage of all pieces.
+    /// Vertex storage.
     pub(crate) verts: Vec<Pt>,
 }
 
-impl Bin {
-    /// The vertices of piece `k`.
-    pub(crate) fn poly_verts(&self, k: usize) -> &[Pt] {
-        let p = &self.polys[k];
+impl Polys {
+    /// Stores the projected polygons.
+    pub(crate) fn new(input: Vec<ScreenPoly>) -> Self {
+        let mut out = Self::default();
+        for p in input {
+            out.polys.push(BinPoly {
+                id: p.id,
+                start: out.verts.len() as u32,
+                len: p.verts.len() as u32,
+                plane: p.plane,
+                bbox: bbox(&p.verts),
+            });
+            out.verts.extend_from_slice(&p.verts);
+        }
+        out
+    }
+
+    /// The vertices of polygon `k`.
+    pub(crate) fn verts_of(&self, k: u32) -> &[Pt] {
+        let p = &self.polys[k as usize];
         &self.verts[p.start as usize..(p.start + p.len) as usize]
     }
+}
+
+/// One bin: its rectangle and the polygons overlapping it.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Bin {
+    /// Bin column.
+    pub(crate) x: u32,
+    /// Bin row.
+    pub(crate) y: u32,
+    /// `[x0, y0, x1, y1]` in grid units.
+    pub(crate) rect: [i64; 4],
+    /// Indices into [`Polys::polys`], increasing (so triangle ids increase too).
+    pub(crate) members: Vec<u32>,
 }
 
 /// The layout of the bins over a `width × height` image.
@@ -76,60 +101,6 @@ impl BinGrid {
     }
 }
 
-/// `round(num / den)` (half away from zero) for `den != 0`.
-fn div_round(num: i128, den: i128) -> i128 {
-    let (num, den) = if den < 0 { (-num, -den) } else { (num, den) };
-    if num >= 0 {
-        (2 * num + den) / (2 * den)
-    } else {
-        -((-2 * num + den) / (2 * den))
-    }
-}
-
-/// One Sutherland–Hodgman pass against the axis-aligned line `coord[axis] = bound`, keeping the
-/// side `coord >= bound` (`keep_above`) or `coord <= bound`.
-fn clip_axis(poly: &[Pt], out: &mut Vec<Pt>, axis: usize, bound: i64, keep_above: bool) {
-    out.clear();
-    let n = poly.len();
-    let inside = |p: Pt| {
-        if keep_above {
-            p[axis] >= bound
-        } else {
-            p[axis] <= bound
-        }
-    };
-    let other = 1 - axis;
-    for i in 0..n {
-        let (cur, nxt) = (poly[i], poly[(i + 1) % n]);
-        let (ci, ni) = (inside(cur), inside(nxt));
-        if ci && out.last() != Some(&cur) {
-            out.push(cur);
-        }
-        if ci != ni {
-            // Exact rational intersection, rounded: symmetric in the two end points.
-            let num = i128::from(bound - cur[axis]) * i128::from(nxt[other] - cur[other]);
-            let den = i128::from(nxt[axis] - cur[axis]);
-            let mut p = [0; 2];
-            p[axis] = bound;
-            p[other] = cur[other] + div_round(num, den) as i64;
-            if out.last() != Some(&p) {
-                out.push(p);
-            }
-        }
-    }
-    while out.len() > 1 && out.first() == out.last() {
-        out.pop();
-    }
-}
-
-/// Clips `poly` to the rectangle `[x0, x1] × [y0, y1]` (grid units) into `out`.
-fn clip_rect(poly: &[Pt], rect: [i64; 4], out: &mut Vec<Pt>, tmp: &mut Vec<Pt>) {
-    clip_axis(poly, tmp, 0, rect[0], true);
-    clip_axis(tmp, out, 0, rect[2], false);
-    clip_axis(out, tmp, 1, rect[1], true);
-    clip_axis(tmp, out, 1, rect[3], false);
-}
-
 /// Bounding box of a vertex list.
 pub(crate) fn bbox(verts: &[Pt]) -> [i64; 4] {
     let mut b = [i64::MAX, i64::MAX, i64::MIN, i64::MIN];
@@ -142,63 +113,73 @@ pub(crate) fn bbox(verts: &[Pt]) -> [i64; 4] {
     b
 }
 
-/// Clips every polygon to the bins it overlaps and groups the pieces by bin (row-major). Only
-/// bins with at least one piece are returned.
-pub(crate) fn bin_polygons(polys: &[ScreenPoly], grid: BinGrid) -> Vec<Bin> {
-    let step = i64::from(grid.size) * GRID as i64;
-    // Per polygon: (bin index, piece) pairs; then a stable sort groups them by bin while
-    // keeping triangle ids increasing inside each bin (the paper's radix sort).
-    let mut pieces: Vec<(u32, u32, [f64; 3], Vec<Pt>)> = polys
-        .par_iter()
-        .flat_map_iter(|p| {
-            let b = bbox(&p.verts);
-            let bx0 = (b[0] / step).clamp(0, i64::from(grid.cols) - 1);
-            let bx1 = (b[2] / step).clamp(0, i64::from(grid.cols) - 1);
-            let by0 = (b[1] / step).clamp(0, i64::from(grid.rows) - 1);
-            let by1 = (b[3] / step).clamp(0, i64::from(grid.rows) - 1);
-            let mut found = Vec::new();
-            let (mut out, mut tmp) = (Vec::new(), Vec::new());
-            for by in by0..=by1 {
-                for bx in bx0..=bx1 {
-                    let rect = [bx * step, by * step, (bx + 1) * step, (by + 1) * step];
-                    let piece: Vec<Pt> =
-                        if b[0] >= rect[0] && b[1] >= rect[1] && b[2] <= rect[2] && b[3] <= rect[3]
-                        {
-                            p.verts.clone()
-                        } else {
-                            clip_rect(&p.verts, rect, &mut out, &mut tmp);
-                            if twice_area(&out) <= 0 {
-                                continue;
-                            }
-                            out.clone()
-                        };
-                    let index = (by * i64::from(grid.cols) + bx) as u32;
-                    found.push((index, p.id, p.plane, piece));
-                }
+/// The parameter range `[t0, t1]` of the edge `a → a + d` inside the closed rectangle (Liang–
+/// Barsky), or `None` when that part has no length. An edge lying on the rectangle's border
+/// belongs to the bin only when its left side (its polygon's interior) points into the bin, so
+/// the two bins sharing that border do not both report it.
+pub(crate) fn clip_edge(a: Pt, d: Pt, rect: [i64; 4]) -> Option<(f64, f64)> {
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for axis in 0..2 {
+        let (lo, hi) = (rect[axis], rect[axis + 2]);
+        if d[axis] == 0 {
+            if a[axis] < lo || a[axis] > hi {
+                return None;
             }
-            found
+            // On the border line: the left normal (-d.y, d.x) must point inside.
+            let inward = if axis == 0 { -d[1] } else { d[0] };
+            if (a[axis] == lo && inward < 0) || (a[axis] == hi && inward > 0) {
+                return None;
+            }
+            continue;
+        }
+        let (s, e) = (
+            (lo - a[axis]) as f64 / d[axis] as f64,
+            (hi - a[axis]) as f64 / d[axis] as f64,
+        );
+        let (s, e) = if s < e { (s, e) } else { (e, s) };
+        t0 = t0.max(s);
+        t1 = t1.min(e);
+    }
+    (t0 < t1).then_some((t0, t1))
+}
+
+/// Lists every polygon in the bins its bounding box overlaps (with positive area), grouped by
+/// bin (row-major). Only bins with at least one polygon are returned.
+pub(crate) fn bin_polygons(polys: &Polys, grid: BinGrid) -> Vec<Bin> {
+    let step = i64::from(grid.size) * GRID as i64;
+    let cols = i64::from(grid.cols);
+    let rows = i64::from(grid.rows);
+    // (bin index, polygon index) pairs, then one sort groups them (the paper's radix sort).
+    let mut pairs: Vec<(u32, u32)> = polys
+        .polys
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(k, p)| {
+            let b = p.bbox;
+            // Bins whose open interior meets the box: a box ending on a border stays out.
+            let bx0 = (b[0] / step).clamp(0, cols - 1);
+            let bx1 = ((b[2] - 1).div_euclid(step)).clamp(bx0, cols - 1);
+            let by0 = (b[1] / step).clamp(0, rows - 1);
+            let by1 = ((b[3] - 1).div_euclid(step)).clamp(by0, rows - 1);
+            (by0..=by1)
+                .flat_map(move |by| (bx0..=bx1).map(move |bx| ((by * cols + bx) as u32, k as u32)))
         })
         .collect();
-    pieces.par_sort_by_key(|(bin, id, _, _)| (*bin, *id));
+    pairs.par_sort_unstable();
     let mut bins: Vec<Bin> = Vec::new();
-    for (index, id, plane, verts) in pieces {
+    for (index, k) in pairs {
         let (x, y) = (index % grid.cols, index / grid.cols);
         if bins.last().is_none_or(|b| b.x != x || b.y != y) {
+            let (x0, y0) = (i64::from(x) * step, i64::from(y) * step);
             bins.push(Bin {
                 x,
                 y,
-                ..Bin::default()
+                rect: [x0, y0, x0 + step, y0 + step],
+                members: Vec::new(),
             });
         }
         if let Some(bin) = bins.last_mut() {
-            bin.polys.push(BinPoly {
-                id,
-                start: bin.verts.len() as u32,
-                len: verts.len() as u32,
-                plane,
-                bbox: bbox(&verts),
-            });
-            bin.verts.extend_from_slice(&verts);
+            bin.members.push(k);
         }
     }
     bins
@@ -220,52 +201,37 @@ mod tests {
 
     #[test]
     fn no_polygons_gives_no_bins() {
-        assert!(bin_polygons(&[], BinGrid::new(64, 64, 8)).is_empty());
+        assert!(bin_polygons(&Polys::new(Vec::new()), BinGrid::new(64, 64, 8)).is_empty());
     }
 
     #[test]
-    fn square_over_four_bins_is_split_in_four() {
-        let bins = bin_polygons(
-            &[square(4 * G, 4 * G, 12 * G, 12 * G)],
-            BinGrid::new(64, 64, 8),
-        );
+    fn square_over_four_bins_is_in_four() {
+        let polys = Polys::new(vec![square(4 * G, 4 * G, 12 * G, 12 * G)]);
+        let bins = bin_polygons(&polys, BinGrid::new(64, 64, 8));
         assert_eq!(bins.len(), 4);
-        let area: i128 = bins.iter().map(|b| twice_area(b.poly_verts(0))).sum();
-        assert_eq!(area, 2 * 64 * i128::from(G * G));
     }
 
     #[test]
-    fn shared_edge_gets_identical_cut_points() {
-        // Two triangles sharing the diagonal (1,1)-(15,6), cut by the bin border x = 8.
-        let a = ScreenPoly {
-            id: 0,
-            verts: vec![[G, G], [15 * G, 6 * G], [G, 7 * G]],
-            plane: [0.0, 0.0, 1.0],
-        };
-        let b = ScreenPoly {
-            id: 1,
-            verts: vec![[G, G], [15 * G, G], [15 * G, 6 * G]],
-            plane: [0.0, 0.0, 1.0],
-        };
-        let bins = bin_polygons(&[a, b], BinGrid::new(16, 16, 8));
-        let on_border = |bin: &Bin, k: usize| -> Vec<Pt> {
-            bin.poly_verts(k)
-                .iter()
-                .copied()
-                .filter(|v| v[0] == 8 * G && v[1] > G)
-                .collect()
-        };
-        let left = &bins[0];
-        assert_eq!(left.polys.len(), 2);
-        let cut_a = on_border(left, 0);
-        let cut_b = on_border(left, 1);
-        assert!(cut_a.iter().any(|p| cut_b.contains(p)));
+    fn square_ending_on_border_stays_in_its_bin() {
+        let polys = Polys::new(vec![square(G, G, 8 * G, 8 * G)]);
+        let bins = bin_polygons(&polys, BinGrid::new(64, 64, 8));
+        assert_eq!(bins.len(), 1);
     }
 
     #[test]
-    fn rounding_is_half_away_from_zero() {
-        assert_eq!(div_round(5, 2), 3);
-        assert_eq!(div_round(-5, 2), -3);
-        assert_eq!(div_round(4, -3), -1);
+    fn edge_clip_cuts_at_border() {
+        let r = clip_edge([0, 0], [20, 10], [5, 0, 10, 10]);
+        assert_eq!(r, Some((0.25, 0.5)));
+        assert_eq!(clip_edge([0, 0], [4, 0], [5, 0, 10, 10]), None);
+    }
+
+    #[test]
+    fn edge_on_border_goes_to_its_interior_side() {
+        // Upward edge (d = (0, -10)) on x = 10: its left normal (10, 0) points to +x.
+        assert_eq!(clip_edge([10, 10], [0, -10], [0, 0, 10, 10]), None);
+        assert_eq!(
+            clip_edge([10, 10], [0, -10], [10, 0, 20, 10]),
+            Some((0.0, 1.0))
+        );
     }
 }

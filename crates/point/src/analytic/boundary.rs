@@ -13,18 +13,18 @@
 //! that ends on `e`'s line gets that boundary from its own edge. Polygons in front of `T` that
 //! cover both sides are skipped as occluders of `o`: `e` is not visible there anyway.
 
-use super::bin::Bin;
+use super::bin::Polys;
 use super::hidden_line::{scan_report, Event};
 use super::intersect::{in_front, Counters, Edge, Overlap, Side};
 
-/// A boundary segment of a visible region: polygon index in the bin and its end points
+/// A boundary segment of a visible region: polygon index in [`Polys`] and its end points
 /// (pixels), oriented with the region on the left.
 pub(crate) type Segment = (u32, glam::DVec2, glam::DVec2);
 
 /// Reports the completion segments of edge `e` (whose visible intervals are `visible`).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn complete(
-    bin: &Bin,
+    polys: &Polys,
     e: &Edge,
     overlaps: &[Overlap],
     visible: &[(f64, f64)],
@@ -45,7 +45,7 @@ pub(crate) fn complete(
         if !visible.iter().any(|&(s, t)| s < o.hi && t > o.lo) {
             continue;
         }
-        let po = &bin.polys[o.poly as usize];
+        let po = &polys.polys[o.poly as usize];
         events.clear();
         events.push(Event { t: o.lo, v: -1 });
         events.push(Event { t: o.hi, v: 1 });
@@ -62,7 +62,7 @@ pub(crate) fn complete(
             {
                 continue;
             }
-            let px = &bin.polys[x.poly as usize];
+            let px = &polys.polys[x.poly as usize];
             let (lo, hi) = (x.lo.max(o.lo), x.hi.min(o.hi));
             let (front, crossing) =
                 in_front(e, lo, hi, right, (&px.plane, px.id), (&po.plane, po.id));
@@ -76,6 +76,51 @@ pub(crate) fn complete(
         scan_report(events, 1, scratch);
         for &(s, t) in scratch.iter() {
             out.push((o.poly, e.at_px(t), e.at_px(s)));
+        }
+    }
+}
+
+/// The bin's border as four extra edges, counter-clockwise (the bin on their left): for every
+/// polygon that crosses a border edge, the parts where it is the nearest polygon just inside
+/// the bin. These segments close the visible regions of the bin. (A polygon with an edge on the
+/// border gets that boundary from its own edge.) The scan starts at 0: there is no owner whose
+/// visibility gates the report.
+pub(crate) fn border(
+    polys: &Polys,
+    e: &Edge,
+    overlaps: &[Overlap],
+    counters: &mut Counters,
+    events: &mut Vec<Event>,
+    scratch: &mut Vec<(f64, f64)>,
+    out: &mut Vec<Segment>,
+) {
+    let left = e.left_normal();
+    for o in overlaps {
+        if o.side != Side::Both {
+            continue;
+        }
+        let po = &polys.polys[o.poly as usize];
+        events.clear();
+        events.push(Event { t: o.lo, v: -1 });
+        events.push(Event { t: o.hi, v: 1 });
+        for x in overlaps {
+            if x.poly == o.poly || x.side == Side::Right || x.hi <= o.lo || x.lo >= o.hi {
+                continue;
+            }
+            let px = &polys.polys[x.poly as usize];
+            let (lo, hi) = (x.lo.max(o.lo), x.hi.min(o.hi));
+            let (front, crossing) =
+                in_front(e, lo, hi, left, (&px.plane, px.id), (&po.plane, po.id));
+            counters.intersecting += u64::from(crossing);
+            if front {
+                events.push(Event { t: x.lo, v: 1 });
+                events.push(Event { t: x.hi, v: -1 });
+            }
+        }
+        scratch.clear();
+        scan_report(events, 0, scratch);
+        for &(s, t) in scratch.iter() {
+            out.push((o.poly, e.at_px(s), e.at_px(t)));
         }
     }
 }

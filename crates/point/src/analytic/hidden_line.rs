@@ -44,18 +44,19 @@ pub(crate) fn scan_report(events: &mut [Event], init: i32, out: &mut Vec<(f64, f
     }
 }
 
-/// The visible parameter intervals of an edge, given its overlaps: the parts covered by no
-/// occluding polygon. `events` is scratch space.
+/// The visible parameter intervals of the part `[t0, t1]` of an edge (the part inside the bin),
+/// given its overlaps: the parts covered by no occluding polygon. `events` is scratch space.
 pub(crate) fn visible_intervals(
     overlaps: &[Overlap],
+    (t0, t1): (f64, f64),
     events: &mut Vec<Event>,
     out: &mut Vec<(f64, f64)>,
 ) {
     out.clear();
     events.clear();
     // The edge itself ("self" points), with the sign flipped as in the paper.
-    events.push(Event { t: 0.0, v: -1 });
-    events.push(Event { t: 1.0, v: 1 });
+    events.push(Event { t: t0, v: -1 });
+    events.push(Event { t: t1, v: 1 });
     for o in overlaps {
         // Lines 4-9: only occluding intersections stay.
         if o.occluding && o.side != Side::Right {
@@ -83,7 +84,7 @@ mod tests {
     #[test]
     fn no_overlaps_leaves_edge_visible() {
         let mut out = Vec::new();
-        visible_intervals(&[], &mut Vec::new(), &mut out);
+        visible_intervals(&[], (0.0, 1.0), &mut Vec::new(), &mut out);
         assert_eq!(out, vec![(0.0, 1.0)]);
     }
 
@@ -91,7 +92,7 @@ mod tests {
     fn occluders_cut_the_edge() {
         let mut out = Vec::new();
         let o = [occluder(0.2, 0.4), occluder(0.3, 0.5), occluder(0.8, 1.0)];
-        visible_intervals(&o, &mut Vec::new(), &mut out);
+        visible_intervals(&o, (0.0, 1.0), &mut Vec::new(), &mut out);
         assert_eq!(out, vec![(0.0, 0.2), (0.5, 0.8)]);
     }
 
@@ -99,7 +100,7 @@ mod tests {
     fn touching_occluders_leave_no_gap() {
         let mut out = Vec::new();
         let o = [occluder(0.0, 0.5), occluder(0.5, 1.0)];
-        visible_intervals(&o, &mut Vec::new(), &mut out);
+        visible_intervals(&o, (0.0, 1.0), &mut Vec::new(), &mut out);
         assert!(out.is_empty());
     }
 
@@ -108,7 +109,19 @@ mod tests {
         let mut out = Vec::new();
         let mut o = occluder(0.2, 0.4);
         o.occluding = false;
-        visible_intervals(&[o], &mut Vec::new(), &mut out);
+        visible_intervals(&[o], (0.0, 1.0), &mut Vec::new(), &mut out);
         assert_eq!(out, vec![(0.0, 1.0)]);
+    }
+}
+
+#[cfg(test)]
+mod range_tests {
+    use super::*;
+
+    #[test]
+    fn only_the_part_in_the_bin_is_reported() {
+        let mut out = Vec::new();
+        visible_intervals(&[], (0.25, 0.5), &mut Vec::new(), &mut out);
+        assert_eq!(out, vec![(0.25, 0.5)]);
     }
 }

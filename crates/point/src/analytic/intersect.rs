@@ -27,7 +27,7 @@
 
 use glam::DVec2;
 
-use super::bin::Bin;
+use super::bin::{Bin, Polys};
 use super::predicates::{cross, dot, sub, Pt};
 use super::project::GRID;
 
@@ -49,7 +49,7 @@ pub(crate) enum Side {
 /// points `(p0, starting)`, `(p1, ending)` with its type.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Overlap {
-    /// Index of the polygon in the bin.
+    /// Index of the polygon in [`Polys`].
     pub(crate) poly: u32,
     /// Start of the overlap, as a parameter along the edge in `[0, 1]`.
     pub(crate) lo: f64,
@@ -72,16 +72,19 @@ pub(crate) struct Counters {
     pub(crate) intersecting: u64,
 }
 
-/// A directed edge `a → a + d` of the polygon at `owner` in the bin.
+/// A directed edge `a → a + d` of polygon `owner`, or a side of a bin (`owner` = [`NO_OWNER`]).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Edge {
-    /// Index of the owning polygon in the bin.
+    /// Index of the owning polygon in [`Polys`].
     pub(crate) owner: u32,
     /// Start point (grid units).
     pub(crate) a: Pt,
     /// Direction (grid units, non-zero).
     pub(crate) d: Pt,
 }
+
+/// The owner of the bin's border edges.
+pub(crate) const NO_OWNER: u32 = u32::MAX;
 
 impl Edge {
     /// The point at parameter `t`, in pixels.
@@ -195,8 +198,10 @@ pub(crate) fn in_front(
 }
 
 /// EDGEINTERSECTIONS for one edge: all overlaps with the other polygons of the bin, each
-/// classified as occluding (in front of the edge's polygon on its side) or not.
+/// classified as occluding (in front of the edge's polygon on its side) or not. Border edges
+/// (no owner) get no classification.
 pub(crate) fn edge_intersections(
+    polys: &Polys,
     bin: &Bin,
     e: &Edge,
     counters: &mut Counters,
@@ -211,11 +216,12 @@ pub(crate) fn edge_intersections(
         b[0].max(end[0]),
         b[1].max(end[1]),
     ];
-    let owner = &bin.polys[e.owner as usize];
+    let owner = polys.polys.get(e.owner as usize);
     let left = e.left_normal();
-    for (k, p) in bin.polys.iter().enumerate() {
+    for &k in &bin.members {
+        let p = &polys.polys[k as usize];
         // AREOVERLAPPING: closed bounding boxes (a collinear edge touches only the border).
-        if k == e.owner as usize
+        if k == e.owner
             || p.bbox[0] > ebox[2]
             || p.bbox[2] < ebox[0]
             || p.bbox[1] > ebox[3]
@@ -223,20 +229,21 @@ pub(crate) fn edge_intersections(
         {
             continue;
         }
-        let Some((lo, hi, side)) = intersect(e, bin.poly_verts(k), counters) else {
+        let Some((lo, hi, side)) = intersect(e, polys.verts_of(k), counters) else {
             continue;
         };
         counters.intersections += 1;
-        let occluding = if side == Side::Right {
-            false
-        } else {
-            let (front, crossing) =
-                in_front(e, lo, hi, left, (&p.plane, p.id), (&owner.plane, owner.id));
-            counters.intersecting += u64::from(crossing);
-            front
+        let occluding = match owner {
+            Some(owner) if side != Side::Right => {
+                let (front, crossing) =
+                    in_front(e, lo, hi, left, (&p.plane, p.id), (&owner.plane, owner.id));
+                counters.intersecting += u64::from(crossing);
+                front
+            }
+            _ => false,
         };
         out.push(Overlap {
-            poly: k as u32,
+            poly: k,
             lo,
             hi,
             side,

@@ -104,6 +104,52 @@ pub(crate) fn pieces(segments: &[Segment], out: &mut Vec<Piece>) {
     }
 }
 
+/// Clips a convex polygon to the rectangle `[x0, x1] × [y0, y1]` (pixels, Sutherland–Hodgman).
+pub(crate) fn clip_to_rect(poly: &[DVec2], rect: [f64; 4]) -> Vec<DVec2> {
+    let mut a: Vec<DVec2> = poly.to_vec();
+    let mut b = Vec::with_capacity(a.len() + 4);
+    let planes = [
+        (0, rect[0], true),
+        (0, rect[2], false),
+        (1, rect[1], true),
+        (1, rect[3], false),
+    ];
+    for (axis, bound, above) in planes {
+        b.clear();
+        let coord = |p: DVec2| if axis == 0 { p.x } else { p.y };
+        let inside = |p: DVec2| {
+            if above {
+                coord(p) >= bound
+            } else {
+                coord(p) <= bound
+            }
+        };
+        let n = a.len();
+        for i in 0..n {
+            let (c, d) = (a[i], a[(i + 1) % n]);
+            if inside(c) {
+                b.push(c);
+            }
+            if inside(c) != inside(d) {
+                let t = (bound - coord(c)) / (coord(d) - coord(c));
+                let mut p = c + (d - c) * t;
+                if axis == 0 {
+                    p.x = bound;
+                } else {
+                    p.y = bound;
+                }
+                b.push(p);
+            }
+        }
+        std::mem::swap(&mut a, &mut b);
+        if a.len() < 3 {
+            a.clear();
+            return a;
+        }
+    }
+    a
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
