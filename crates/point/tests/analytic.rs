@@ -509,10 +509,10 @@ fn brute_visible_area(scene: &Scene, cam: &Camera) -> Vec<f64> {
 }
 
 /// Absolute tolerance on visible areas (px²). The analytic pipeline snaps screen positions to
-/// 2^-16 px: each boundary moves by at most 1.1e-5 px, so a region of perimeter P changes by at
-/// most P · 1.1e-5 px²; perimeters in these small images stay below 200 px, hence 2.2e-3.
-/// Everything else (f64 intersection points) is far below that.
-const AREA_TOL: f64 = 2.5e-3;
+/// 2^-20 px: each vertex moves by at most 2^-21·√2 ≈ 6.7e-7 px, so a region of perimeter P
+/// changes by at most about P · 6.7e-7 px²; perimeters in these small images stay below 200 px,
+/// hence 1.5e-4. Everything else (f64 intersection points) is far below that.
+const AREA_TOL: f64 = 1.5e-4;
 
 /// Compares per-triangle visible areas; returns the largest absolute difference (px²).
 fn check_against_brute(scene: &Scene, cam: &Camera) -> f64 {

@@ -170,7 +170,7 @@ pub(crate) fn in_front(
     c: (&[f64; 3], u32),
     t: (&[f64; 3], u32),
 ) -> (bool, bool) {
-    // Snapping moved the edge by up to 2^-17 px, which changes 1/z by up to that times the
+    // Snapping moved the edge by up to 2^-21 px, which changes 1/z by up to that times the
     // planes' gradients: differences below that are ties too.
     let slope = c.0[0].abs() + c.0[1].abs() + t.0[0].abs() + t.0[1].abs();
     let snap_tol = slope / GRID;

@@ -5,7 +5,7 @@
 //!
 //! # Pipeline (one file per step, in the paper's order)
 //! 1. `project.rs` — world → view (f64), clipping to the near plane and the frustum's sides,
-//!    projection with the mapping of [`sightline_core::camera`], snapping to a 2^-16 px grid.
+//!    projection with the mapping of [`sightline_core::camera`], snapping to a 2^-20 px grid.
 //! 2. `bin.rs` — listing every polygon in the square bins it overlaps (section 4.3); each bin
 //!    processes the parts of edges inside it, and its own border as four extra edges.
 //! 3. `intersect.rs` — per edge, the overlap interval with every other polygon of the bin, its
@@ -33,7 +33,7 @@
 //!   [`AnalyticWarnings::invalid_triangles`].
 //!
 //! # Exactness
-//! Screen positions are snapped to a grid of 2^-16 px (shared vertices snap identically, so
+//! Screen positions are snapped to a grid of 2^-20 px (shared vertices snap identically, so
 //! meshes stay watertight). On the snapped polygons every combinatorial decision of the 2D
 //! geometry (parallel or not, which side, collinear) is exact (float filter with an `i128`
 //! fallback, see `predicates.rs`); positions of intersection points are f64, and depth

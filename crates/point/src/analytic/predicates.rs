@@ -5,11 +5,13 @@
 //! section 3.1 (ε-prefiltered parallelism queries after Frankel, Nussbaum, Sack 2004).
 //!
 //! Every screen position is an integer on the grid of `project::GRID` units per pixel, below
-//! 2^30 in magnitude, so differences are below 2^31 and exact in `f64`. A cross product
-//! `ux * vy - uy * vx` of such differences is then evaluated in `f64` with an error of at most
-//! `2^-52 * (|ux vy| + |uy vx|)` (two rounded products, one rounded difference, each half an
-//! ulp); when the float result is larger than [`FILTER`] times that sum its sign is certain,
-//! otherwise it is recomputed exactly in `i128` (products below 2^62).
+//! 2^34 in magnitude, so differences are below 2^35 and exact in `f64`. A cross product
+//! `ux * vy - uy * vx` of such differences is then evaluated in `f64`: when both products are
+//! below 2^53 they are exact and so is the result (the common case: short edges near each
+//! other); otherwise its error is at most `2^-52 * (|ux vy| + |uy vx|)` (two rounded products,
+//! one rounded difference, each half an ulp), and when the float result is larger than
+//! [`FILTER`] times that sum its sign is certain, else it is recomputed exactly in `i128`
+//! (products below 2^70).
 
 /// A point or vector on the grid.
 pub(crate) type Pt = [i64; 2];

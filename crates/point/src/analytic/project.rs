@@ -15,11 +15,11 @@ use sightline_core::{Camera, Scene};
 
 use super::predicates::Pt;
 
-/// Grid units per pixel: screen positions are snapped to `1 / GRID` px (2^-16 px, about 1.5e-5
-/// px). Images are at most 16384 = 2^14 px wide, so grid coordinates stay below 2^30 and every
-/// cross product of grid differences is below 2^62: exact in `i128`, and in `f64` whenever the
-/// float filter of `predicates.rs` accepts it.
-pub(crate) const GRID: f64 = 65536.0;
+/// Grid units per pixel: screen positions are snapped to `1 / GRID` px (2^-20 px, about 1e-6
+/// px). Images are at most 16384 = 2^14 px wide, so grid coordinates stay below 2^34 (exact in
+/// `f64`) and every cross product of grid differences is below 2^71: exact in `i128`, and in
+/// `f64` whenever the float filter of `predicates.rs` accepts it.
+pub(crate) const GRID: f64 = 1_048_576.0;
 
 /// Most vertices of a frustum-clipped triangle: 3 plus one per clipping plane (near + 4 sides).
 pub(crate) const MAX_CLIPPED: usize = 8;
@@ -250,7 +250,7 @@ mod tests {
         assert_eq!(p.verts.len(), 3);
         assert!(super::super::predicates::twice_area(&p.verts) > 0);
         // Screen centre column 50 px, corner (-1,-1,-2) at x = 25 px.
-        assert!(p.verts.contains(&[25 * 65536, 75 * 65536]));
+        assert!(p.verts.contains(&[25 * GRID as i64, 75 * GRID as i64]));
     }
 
     #[test]
@@ -274,7 +274,7 @@ mod tests {
         let Projected::Poly(p) = project_triangle(&s, &Projection::new(&camera()), 0) else {
             panic!("expected a polygon");
         };
-        let max = 100 * 65536;
+        let max = 100 * GRID as i64;
         assert!(p
             .verts
             .iter()
