@@ -185,6 +185,73 @@ pub(crate) fn bin_polygons(polys: &Polys, grid: BinGrid) -> Vec<Bin> {
     bins
 }
 
+/// Cells per bin side of [`BinIndex`].
+const CELLS: usize = 4;
+
+/// A uniform grid of `CELLS × CELLS` cells over one bin, listing the bin's polygons per cell,
+/// so that an edge is tested only against the polygons near it (a finer AREOVERLAPPING).
+#[derive(Debug, Default)]
+pub(crate) struct BinIndex {
+    cells: Vec<Vec<u32>>,
+    /// Per member (position in `Bin::members`): the last query that returned it.
+    stamp: Vec<u32>,
+    query: u32,
+    origin: [i64; 2],
+    cell: i64,
+}
+
+impl BinIndex {
+    /// Indexes the members of `bin`.
+    pub(crate) fn new(polys: &Polys, bin: &Bin) -> Self {
+        let cell = ((bin.rect[2] - bin.rect[0]) / CELLS as i64).max(1);
+        let mut index = Self {
+            cells: vec![Vec::new(); CELLS * CELLS],
+            stamp: vec![0; bin.members.len()],
+            query: 0,
+            origin: [bin.rect[0], bin.rect[1]],
+            cell,
+        };
+        for (m, &k) in bin.members.iter().enumerate() {
+            let [x0, y0, x1, y1] = index.cell_range(polys.polys[k as usize].bbox);
+            for cy in y0..=y1 {
+                for cx in x0..=x1 {
+                    index.cells[cy * CELLS + cx].push(m as u32);
+                }
+            }
+        }
+        index
+    }
+
+    /// Cells touched by a closed box, clamped to the bin.
+    fn cell_range(&self, b: [i64; 4]) -> [usize; 4] {
+        let c =
+            |v: i64, o: i64| ((v - o).div_euclid(self.cell)).clamp(0, CELLS as i64 - 1) as usize;
+        [
+            c(b[0], self.origin[0]),
+            c(b[1], self.origin[1]),
+            c(b[2], self.origin[0]),
+            c(b[3], self.origin[1]),
+        ]
+    }
+
+    /// The members (as indices into [`Polys`]) whose cells meet the closed box `b`, each once.
+    pub(crate) fn query(&mut self, bin: &Bin, b: [i64; 4], out: &mut Vec<u32>) {
+        out.clear();
+        self.query += 1;
+        let [x0, y0, x1, y1] = self.cell_range(b);
+        for cy in y0..=y1 {
+            for cx in x0..=x1 {
+                for &m in &self.cells[cy * CELLS + cx] {
+                    if self.stamp[m as usize] != self.query {
+                        self.stamp[m as usize] = self.query;
+                        out.push(bin.members[m as usize]);
+                    }
+                }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -27,7 +27,7 @@
 
 use glam::DVec2;
 
-use super::bin::{Bin, Polys};
+use super::bin::Polys;
 use super::predicates::{cross, dot, sub, Pt};
 use super::project::GRID;
 
@@ -87,6 +87,17 @@ pub(crate) struct Edge {
 pub(crate) const NO_OWNER: u32 = u32::MAX;
 
 impl Edge {
+    /// Closed bounding box `[min_x, min_y, max_x, max_y]` (grid units).
+    pub(crate) fn bbox(&self) -> [i64; 4] {
+        let b = [self.a[0] + self.d[0], self.a[1] + self.d[1]];
+        [
+            self.a[0].min(b[0]),
+            self.a[1].min(b[1]),
+            self.a[0].max(b[0]),
+            self.a[1].max(b[1]),
+        ]
+    }
+
     /// The point at parameter `t`, in pixels.
     pub(crate) fn at_px(&self, t: f64) -> DVec2 {
         DVec2::new(
@@ -202,23 +213,16 @@ pub(crate) fn in_front(
 /// (no owner) get no classification.
 pub(crate) fn edge_intersections(
     polys: &Polys,
-    bin: &Bin,
+    candidates: &[u32],
     e: &Edge,
     counters: &mut Counters,
     out: &mut Vec<Overlap>,
 ) {
     out.clear();
-    let b = e.a;
-    let end = [e.a[0] + e.d[0], e.a[1] + e.d[1]];
-    let ebox = [
-        b[0].min(end[0]),
-        b[1].min(end[1]),
-        b[0].max(end[0]),
-        b[1].max(end[1]),
-    ];
+    let ebox = e.bbox();
     let owner = polys.polys.get(e.owner as usize);
     let left = e.left_normal();
-    for &k in &bin.members {
+    for &k in candidates {
         let p = &polys.polys[k as usize];
         // AREOVERLAPPING: closed bounding boxes (a collinear edge touches only the border).
         if k == e.owner

@@ -263,6 +263,8 @@ fn process_bin(polys: &Polys, bin: &Bin) -> BinOutput {
     let mut segments: Vec<Segment> = Vec::new();
     let (mut overlaps, mut events, mut visible, mut scratch) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut index = bin::BinIndex::new(polys, bin);
+    let mut candidates = Vec::new();
     let r = bin.rect;
     for &k in &bin.members {
         let verts = polys.verts_of(k);
@@ -277,7 +279,8 @@ fn process_bin(polys: &Polys, bin: &Bin) -> BinOutput {
                 continue;
             };
             let e = Edge { owner: k, a, d };
-            intersect::edge_intersections(polys, bin, &e, &mut out.counters, &mut overlaps);
+            index.query(bin, e.bbox(), &mut candidates);
+            intersect::edge_intersections(polys, &candidates, &e, &mut out.counters, &mut overlaps);
             hidden_line::visible_intervals(&overlaps, range, &mut events, &mut visible);
             for &(s, t) in &visible {
                 segments.push((k, e.at_px(s), e.at_px(t)));
@@ -313,7 +316,8 @@ fn process_bin(polys: &Polys, bin: &Bin) -> BinOutput {
             a,
             d: predicates::sub(b, a),
         };
-        intersect::edge_intersections(polys, bin, &e, &mut out.counters, &mut overlaps);
+        index.query(bin, e.bbox(), &mut candidates);
+        intersect::edge_intersections(polys, &candidates, &e, &mut out.counters, &mut overlaps);
         boundary::border(
             polys,
             &e,
