@@ -763,3 +763,36 @@ fn svg_and_image_of_a_scene() {
     assert_eq!(img.len(), 32 * 24);
     assert!(img.iter().all(|v| (0.0..=1.0 + 1e-5).contains(v)));
 }
+
+#[test]
+fn gauss_filter_of_full_coverage_is_one_inside() {
+    // Two full-screen quads: every pixel whose window lies inside the image integrates to 1.
+    let mut b = SceneBuilder::new("quad");
+    add_quad(&mut b, -2.0, 100.0);
+    let scene = b.finish();
+    let r = run(&scene, &front_camera(24, 20));
+    let img = integrate(&r, Filter::Gauss { radius_px: 2.3 }, |_| 1.0);
+    for y in 3..17 {
+        for x in 3..21 {
+            let v = img[y * 24 + x];
+            assert!((v - 1.0).abs() < 1e-5, "pixel ({x}, {y}): {v}");
+        }
+    }
+    // At the image corner only x, y >= 0 is covered (no geometry outside the frustum): the
+    // pixel centre is 0.5 px = 0.652 σ inside, so the value is ((Φ(0.652) - Φ(-3)) / 0.9973)²
+    // = 0.5528.
+    assert!((img[0] - 0.5528).abs() < 1e-3, "{}", img[0]);
+}
+
+#[test]
+fn gauss_filter_agrees_with_box_filter_on_average() {
+    // Both filters preserve the total integral away from the image border.
+    let scene = sphere_and_wall();
+    let cam = front_camera(48, 48);
+    let r = run(&scene, &cam);
+    let boxed = integrate(&r, Filter::Box, value);
+    let gauss = integrate(&r, Filter::Gauss { radius_px: 2.3 }, value);
+    // The sphere and wall lie well inside the image; compare sums over the whole image.
+    let (sb, sg): (f32, f32) = (boxed.iter().sum(), gauss.iter().sum());
+    assert!((sb - sg).abs() < 0.02 * sb, "box {sb} gauss {sg}");
+}

@@ -15,7 +15,8 @@
 //! 5. `boundary.rs` — boundary completion: the segments of the regions seen right behind the
 //!    visible edges (Algorithm 3).
 //! 6. `polygon.rs` — the boundary segments of each triangle's visible region, as convex pieces.
-//! 7. `integrate.rs` — the exact box-filtered image (Algorithm 4).
+//! 7. `integrate.rs` — the exact box-filtered image (Algorithm 4); `gauss.rs` — the
+//!    Gaussian-filtered image (Green's theorem, quadrature along the edges).
 //!
 //! Bins run in parallel with `rayon`; inside a bin, edges run one after another.
 //!
@@ -58,6 +59,7 @@
 
 mod bin;
 mod boundary;
+mod gauss;
 mod hidden_line;
 mod integrate;
 mod intersect;
@@ -205,6 +207,12 @@ impl AnalyticResult {
 pub enum Filter {
     /// The pixel's unit square.
     Box,
+    /// A Gaussian with `σ = radius_px / 3` over the square window of half-width `radius_px`
+    /// around the pixel centre, normalised to unit mass (the paper uses radius 2.3 px).
+    Gauss {
+        /// Window half-width in pixels (0.1..=16).
+        radius_px: f64,
+    },
 }
 
 fn check_camera(c: &Camera) -> Result<(), AnalyticError> {
@@ -414,8 +422,9 @@ pub fn visible_fragments(
 }
 
 /// The image of `result` filtered with `filter`: pixel `(x, y)` (row-major, top row first) is
-/// the exact integral of `value(triangle)` over the visible polygons against the filter centred
-/// on the pixel (for [`Filter::Box`]: the sum of value × area inside the pixel's square).
+/// the integral of `value(triangle)` over the visible polygons against the filter centred on the
+/// pixel: for [`Filter::Box`] exactly the sum of value × area inside the pixel's square, for
+/// [`Filter::Gauss`] to about 1e-6 (see `gauss.rs`). A radius outside 0.1..=16 is clamped.
 pub fn integrate(
     result: &AnalyticResult,
     filter: Filter,
@@ -428,6 +437,14 @@ pub fn integrate(
             result.bin_size,
             &result.bins,
             &result.polygons,
+            &value,
+        ),
+        Filter::Gauss { radius_px } => gauss::gauss_image(
+            result.width,
+            result.height,
+            &result.bins,
+            &result.polygons,
+            radius_px.clamp(0.1, 16.0),
             &value,
         ),
     }
