@@ -31,6 +31,8 @@ pub(crate) struct BinPoly {
     /// Bounding box `[min_x, min_y, max_x, max_y]` in grid units (the quantized box of the
     /// paper's AREOVERLAPPING test).
     pub(crate) bbox: [i64; 4],
+    /// Smallest and largest `1/z` over the polygon (at its vertices, `1/z` being affine).
+    pub(crate) inv_z_range: [f64; 2],
 }
 
 /// All projected polygons, in triangle id order.
@@ -47,12 +49,19 @@ impl Polys {
     pub(crate) fn new(input: Vec<ScreenPoly>) -> Self {
         let mut out = Self::default();
         for p in input {
+            let mut range = [f64::INFINITY, f64::NEG_INFINITY];
+            for v in &p.verts {
+                let (x, y) = (v[0] as f64 / GRID, v[1] as f64 / GRID);
+                let inv = p.plane[0] * x + p.plane[1] * y + p.plane[2];
+                range = [range[0].min(inv), range[1].max(inv)];
+            }
             out.polys.push(BinPoly {
                 id: p.id,
                 start: out.verts.len() as u32,
                 len: p.verts.len() as u32,
                 plane: p.plane,
                 bbox: bbox(&p.verts),
+                inv_z_range: range,
             });
             out.verts.extend_from_slice(&p.verts);
         }

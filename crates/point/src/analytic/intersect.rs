@@ -27,7 +27,7 @@
 
 use glam::DVec2;
 
-use super::bin::Polys;
+use super::bin::{BinPoly, Polys};
 use super::predicates::{cross, dot, sub, Pt};
 use super::project::GRID;
 
@@ -208,17 +208,39 @@ pub(crate) fn in_front(
     (c.1 < t.1, crossing)
 }
 
-/// EDGEINTERSECTIONS for one edge: all overlaps with the other polygons of the bin, each
-/// classified as occluding (in front of the edge's polygon on its side) or not. Border edges
-/// (no owner) get no classification.
+/// Which candidates [`edge_intersections`] considers, by depth range against the edge's owner.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Pass {
+    /// Every candidate.
+    All,
+    /// Candidates whose depth range reaches in front of the owner's farthest point: the only
+    /// possible occluders, enough for hidden-line elimination.
+    MaybeInFront,
+    /// The others: entirely behind the owner, so never occluding (no depth test needed); only
+    /// needed for boundary completion when the edge is visible.
+    Behind,
+}
+
+/// Whether polygon `c` may be in front of polygon `t` somewhere (by their `1/z` ranges; the
+/// margin covers rounding and snapping, so the test is conservative).
+#[inline]
+fn may_be_in_front(c: &BinPoly, t: &BinPoly) -> bool {
+    let slope = c.plane[0].abs() + c.plane[1].abs() + t.plane[0].abs() + t.plane[1].abs();
+    let margin = 1e-6 * (c.inv_z_range[1].abs() + t.inv_z_range[0].abs()) + slope / GRID;
+    c.inv_z_range[1] >= t.inv_z_range[0] - margin
+}
+
+/// EDGEINTERSECTIONS for one edge: all overlaps with the candidate polygons selected by `pass`
+/// (appended to `out`), each classified as occluding (in front of the edge's polygon on its
+/// side) or not. Border edges (no owner) get no classification and need [`Pass::All`].
 pub(crate) fn edge_intersections(
     polys: &Polys,
     candidates: &[u32],
     e: &Edge,
+    pass: Pass,
     counters: &mut Counters,
     out: &mut Vec<Overlap>,
 ) {
-    out.clear();
     let ebox = e.bbox();
     let owner = polys.polys.get(e.owner as usize);
     let left = e.left_normal();
@@ -233,12 +255,27 @@ pub(crate) fn edge_intersections(
         {
             continue;
         }
+        let in_front_pass = match (pass, owner) {
+            (Pass::All, _) | (_, None) => true,
+            (Pass::MaybeInFront, Some(t)) => {
+                if !may_be_in_front(p, t) {
+                    continue;
+                }
+                true
+            }
+            (Pass::Behind, Some(t)) => {
+                if may_be_in_front(p, t) {
+                    continue;
+                }
+                false
+            }
+        };
         let Some((lo, hi, side)) = intersect(e, polys.verts_of(k), counters) else {
             continue;
         };
         counters.intersections += 1;
         let occluding = match owner {
-            Some(owner) if side != Side::Right => {
+            Some(owner) if side != Side::Right && in_front_pass => {
                 let (front, crossing) =
                     in_front(e, lo, hi, left, (&p.plane, p.id), (&owner.plane, owner.id));
                 counters.intersecting += u64::from(crossing);

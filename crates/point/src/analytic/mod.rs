@@ -77,7 +77,7 @@ use sightline_core::{Camera, Scene, TriangleSet};
 use bin::{bin_polygons, Bin, BinGrid, Polys};
 use boundary::Segment;
 use integrate::BinRange;
-use intersect::{Counters, Edge};
+use intersect::{Counters, Edge, Pass};
 use project::{project_triangle, Projected, Projection};
 
 pub use svg::write_svg;
@@ -288,8 +288,21 @@ fn process_bin(polys: &Polys, bin: &Bin) -> BinOutput {
             };
             let e = Edge { owner: k, a, d };
             index.query(bin, e.bbox(), &mut candidates);
-            intersect::edge_intersections(polys, &candidates, &e, &mut out.counters, &mut overlaps);
+            // Hidden lines need only the polygons that may be in front; the ones behind are
+            // needed for boundary completion, and only where the edge is visible.
+            overlaps.clear();
+            intersect::edge_intersections(
+                polys,
+                &candidates,
+                &e,
+                Pass::MaybeInFront,
+                &mut out.counters,
+                &mut overlaps,
+            );
             hidden_line::visible_intervals(&overlaps, range, &mut events, &mut visible);
+            if visible.is_empty() {
+                continue;
+            }
             for &(s, t) in &visible {
                 segments.push((k, e.at_px(s), e.at_px(t)));
             }
@@ -301,6 +314,14 @@ fn process_bin(polys: &Polys, bin: &Bin) -> BinOutput {
             if on_border {
                 continue;
             }
+            intersect::edge_intersections(
+                polys,
+                &candidates,
+                &e,
+                Pass::Behind,
+                &mut out.counters,
+                &mut overlaps,
+            );
             let before = segments.len();
             boundary::complete(
                 polys,
@@ -325,7 +346,15 @@ fn process_bin(polys: &Polys, bin: &Bin) -> BinOutput {
             d: predicates::sub(b, a),
         };
         index.query(bin, e.bbox(), &mut candidates);
-        intersect::edge_intersections(polys, &candidates, &e, &mut out.counters, &mut overlaps);
+        overlaps.clear();
+        intersect::edge_intersections(
+            polys,
+            &candidates,
+            &e,
+            Pass::All,
+            &mut out.counters,
+            &mut overlaps,
+        );
         boundary::border(
             polys,
             &e,
