@@ -33,9 +33,13 @@ fn bunny_1024_phases() {
         let t = std::time::Instant::now();
         let img = integrate(&r, Filter::Box, |_| 1.0);
         let it = t.elapsed();
+        let t = std::time::Instant::now();
+        let gauss = integrate(&r, Filter::Gauss { radius_px: 2.3 }, |_| 1.0);
+        let gt = t.elapsed();
+        let gsum: f32 = gauss.iter().sum();
         let s = r.stats;
         eprintln!(
-            "bin {bin_size}: vis {:?} (proj {:?}, bin {:?}), integ {it:?}; {} pieces max {}/bin, {} overlaps, {} polys, {} visible, fallbacks {}, coverage {:.1}",
+            "bin {bin_size}: vis {:?} (proj {:?}, bin {:?}), integ box {it:?} gauss {gt:?} (sum {gsum:.1}); {} pieces max {}/bin, {} overlaps, {} polys, {} visible, fallbacks {}, coverage {:.1}",
             s.visibility_time,
             s.projection_time,
             s.binning_time,

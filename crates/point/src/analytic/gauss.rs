@@ -10,7 +10,7 @@
 //! integral over a convex polygon is a sum over the polygon's edges of
 //! `∫ g(x - cx) Φ((y(x) - cy) / σ) dx` (Φ the normal CDF), a smooth one-dimensional integral.
 //! Unlike the paper's polynomial filters, it has no elementary closed form; we evaluate it with
-//! 8-point Gauss–Legendre rules on pieces at most σ/2 wide (error far below f32 precision) and
+//! 8-point Gauss–Legendre rules on pieces at most σ wide (error far below f32 precision) and
 //! `erf` to about 1e-7 (Abramowitz–Stegun 7.1.26). The window is a square, so the filter is
 //! radially symmetric up to its truncation at `radius` (the Gaussian's mass outside is 0.5 %).
 
@@ -88,7 +88,7 @@ impl Gauss {
             }
             // Green's theorem: for a polygon counter-clockwise in the y-down sense (clockwise in
             // the usual y-up sense), ∫∫ g(x) g(y) dA = -∮ g(x) Φ(y) dx.
-            let pieces = ((w.abs() / (0.5 * self.sigma)).ceil() as usize).max(1);
+            let pieces = ((w.abs() / self.sigma).ceil() as usize).max(1);
             let h = w / pieces as f64;
             let slope = (b.y - a.y) / w;
             for k in 0..pieces {
