@@ -453,7 +453,8 @@ pub fn visible_fragments(
 /// The image of `result` filtered with `filter`: pixel `(x, y)` (row-major, top row first) is
 /// the integral of `value(triangle)` over the visible polygons against the filter centred on the
 /// pixel: for [`Filter::Box`] exactly the sum of value × area inside the pixel's square, for
-/// [`Filter::Gauss`] to about 1e-6 (see `gauss.rs`). A radius outside 0.1..=16 is clamped.
+/// [`Filter::Gauss`] to about 1e-6 (see `gauss.rs`). A radius outside 0.1..=16 is clamped, a
+/// non-finite one replaced by the paper's 2.3 px.
 pub fn integrate(
     result: &AnalyticResult,
     filter: Filter,
@@ -473,7 +474,11 @@ pub fn integrate(
             result.height,
             &result.bins,
             &result.polygons,
-            radius_px.clamp(0.1, 16.0),
+            if radius_px.is_finite() {
+                radius_px.clamp(0.1, 16.0)
+            } else {
+                2.3
+            },
             &value,
         ),
     }
@@ -521,6 +526,23 @@ mod tests {
         assert!(r.polygons.is_empty());
         let img = integrate(&r, Filter::Box, |_| 1.0);
         assert!(img.iter().all(|&v| v == 0.0));
+    }
+
+    #[test]
+    fn empty_result_gives_black_images() {
+        let scene = Scene::default();
+        let r = visible_fragments(&scene, &camera(), &AnalyticOptions::default()).expect("valid");
+        let img = antialiased_image(&r, &scene, &camera(), Filter::Box);
+        assert!(img.len() == 32 * 32 && img.iter().all(|&v| v == 0.0));
+        let img = integrate(
+            &r,
+            Filter::Gauss {
+                radius_px: f64::NAN,
+            },
+            |_| 1.0,
+        );
+        assert!(img.len() == 32 * 32 && img.iter().all(|&v| v == 0.0));
+        assert_eq!(r.visible_area(0), Vec::<f64>::new());
     }
 
     #[test]
