@@ -8,6 +8,20 @@ use sightline_core::scene::{open, LoadOptions};
 use sightline_core::Camera;
 use sightline_point::analytic::{integrate, visible_fragments, AnalyticOptions, Filter};
 
+/// CPU time of this process so far (user + system, from `/proc/self/stat`, 10 ms ticks), so
+/// that timings on a shared machine can be reported as CPU time too.
+fn cpu_time() -> std::time::Duration {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let after = stat.rsplit(')').next().unwrap_or("");
+    let f: Vec<u64> = after
+        .split_whitespace()
+        .map(|x| x.parse().unwrap_or(0))
+        .collect();
+    // Fields 14 and 15 (utime, stime) are at 11 and 12 after the command name.
+    let ticks = f.get(11).copied().unwrap_or(0) + f.get(12).copied().unwrap_or(0);
+    std::time::Duration::from_millis(ticks * 10)
+}
+
 #[test]
 #[ignore = "needs ../shared/scenes and takes seconds"]
 fn bunny_1024_phases() {
@@ -29,7 +43,9 @@ fn bunny_1024_phases() {
     )
     .unwrap();
     for bin_size in [8, 16, 32, 64] {
+        let c0 = cpu_time();
         let r = visible_fragments(&scene, &cam, &AnalyticOptions { bin_size }).unwrap();
+        let cpu = cpu_time() - c0;
         let t = std::time::Instant::now();
         let img = integrate(&r, Filter::Box, |_| 1.0);
         let it = t.elapsed();
@@ -39,7 +55,7 @@ fn bunny_1024_phases() {
         let gsum: f32 = gauss.iter().sum();
         let s = r.stats;
         eprintln!(
-            "bin {bin_size}: vis {:?} (proj {:?}, bin {:?}), integ box {it:?} gauss {gt:?} (sum {gsum:.1}); {} pieces max {}/bin, {} overlaps, {} polys, {} visible, fallbacks {}, coverage {:.1}",
+            "bin {bin_size}: vis {:?} (cpu {cpu:?}; proj {:?}, bin {:?}), integ box {it:?} gauss {gt:?} (sum {gsum:.1}); {} pieces max {}/bin, {} overlaps, {} polys, {} visible, fallbacks {}, coverage {:.1}",
             s.visibility_time,
             s.projection_time,
             s.binning_time,
