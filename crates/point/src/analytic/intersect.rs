@@ -172,7 +172,6 @@ fn eval(plane: &[f64; 3], p: DVec2) -> (f64, f64) {
 /// Depth order of two polygons over the overlap `[lo, hi]` of edge `e`, on the side of `e`
 /// given by the unit `normal`: whether `c` (id `id_c`) is in front of `t` (id `id_t`), and
 /// whether the order changes along the interval (the triangles intersect).
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn in_front(
     e: &Edge,
     lo: f64,
