@@ -796,3 +796,69 @@ fn gauss_filter_agrees_with_box_filter_on_average() {
     let (sb, sg): (f32, f32) = (boxed.iter().sum(), gauss.iter().sum());
     assert!((sb - sg).abs() < 0.02 * sb, "box {sb} gauss {sg}");
 }
+
+/// The paper's SPIKES, small: a 7×7 grid of square pyramids sharing their base edges
+/// (196 triangles), seen obliquely, so tall spikes hide each other many times over.
+fn spikes() -> Scene {
+    let mut b = SceneBuilder::new("spikes");
+    let n = 7;
+    let mut grid = vec![0u32; (n + 1) * (n + 1)];
+    for j in 0..=n {
+        for i in 0..=n {
+            grid[j * (n + 1) + i] = b.add_vertex(Vec3::new(i as f32 - 3.5, -1.0, -4.0 - j as f32));
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let h = 1.0 + ((i * 7 + j * 3) % 5) as f32 * 0.6;
+            let apex = b.add_vertex(Vec3::new(i as f32 - 3.0, -1.0 + h, -4.5 - j as f32));
+            let c = [
+                grid[j * (n + 1) + i],
+                grid[j * (n + 1) + i + 1],
+                grid[(j + 1) * (n + 1) + i + 1],
+                grid[(j + 1) * (n + 1) + i],
+            ];
+            for k in 0..4 {
+                b.add_triangle([c[k], c[(k + 1) % 4], apex]);
+            }
+        }
+    }
+    b.finish()
+}
+
+#[test]
+fn brute_force_spikes_areas() {
+    let max = check_against_brute(&spikes(), &camera(64, 48));
+    eprintln!("spikes: max area error {max:.2e} px²");
+}
+
+#[test]
+fn raster_spikes_match_supersampling() {
+    let (max, mean) = check_against_raster(&spikes(), &camera(64, 48));
+    eprintln!("spikes: max pixel error {max:.4}, mean {mean:.5}");
+    assert!(
+        max <= PIXEL_TOL && mean <= MEAN_TOL,
+        "max {max} mean {mean}"
+    );
+}
+
+#[test]
+fn brute_force_box_grid_from_many_cameras() {
+    // Fixed-seed cameras around and inside the box field (some cross boxes with the near plane).
+    let scene = box_grid(21);
+    let mut rng = SplitMix64::new(99);
+    let mut worst = 0.0f64;
+    for _ in 0..6 {
+        let eye = Vec3::new(
+            rng.range_f32(-6.0, 6.0),
+            rng.range_f32(-0.5, 3.0),
+            rng.range_f32(-16.0, 3.0),
+        );
+        let target = Vec3::new(rng.range_f32(-4.0, 4.0), 0.0, rng.range_f32(-14.0, -4.0));
+        let Ok(cam) = Camera::look_at(eye, target, Vec3::Y, 70.0, 40, 30, 0.05) else {
+            continue;
+        };
+        worst = worst.max(check_against_brute(&scene, &cam));
+    }
+    eprintln!("box grid, 6 cameras: max area error {worst:.2e} px²");
+}
