@@ -1,0 +1,864 @@
+//! Integration tests of `sightline_point::analytic`:
+//! - against the reference rasterizer at 16×16 supersampling (visible set and box-filtered
+//!   image),
+//! - against an independent brute force (exact trapezoidal arrangement of all projected
+//!   triangles, nearest triangle per cell) on scenes below 200 triangles,
+//! - degenerate configurations and bad input.
+#![allow(clippy::unwrap_used)]
+
+use glam::{DVec2, DVec3, Vec3};
+use sightline_core::random::SplitMix64;
+use sightline_core::raster::render;
+use sightline_core::scene::SceneBuilder;
+use sightline_core::{Camera, Scene};
+use sightline_point::analytic::{
+    antialiased_image, integrate, visible_fragments, write_svg, AnalyticOptions, AnalyticResult,
+    Filter,
+};
+
+// ---------------------------------------------------------------------------------------------
+// Scenes
+
+/// Boxes on a 3×3 grid of disjoint cells over a ground quad: shared edges, silhouette folds,
+/// T-free meshes, no intersections (boxes stay inside their cells and above the ground).
+fn box_grid(seed: u64) -> Scene {
+    let mut rng = SplitMix64::new(seed);
+    let mut b = SceneBuilder::new("box grid");
+    let g = [
+        b.add_vertex(Vec3::new(-20.0, -1.0, 2.0)),
+        b.add_vertex(Vec3::new(20.0, -1.0, 2.0)),
+        b.add_vertex(Vec3::new(20.0, -1.0, -40.0)),
+        b.add_vertex(Vec3::new(-20.0, -1.0, -40.0)),
+    ];
+    b.add_triangle([g[0], g[1], g[2]]);
+    b.add_triangle([g[0], g[2], g[3]]);
+    for i in 0..3 {
+        for j in 0..3 {
+            let cx = -4.0 + 4.0 * i as f32 + rng.range_f32(-0.8, 0.8);
+            let cz = -6.0 - 4.0 * j as f32 + rng.range_f32(-0.8, 0.8);
+            let half = Vec3::new(
+                rng.range_f32(0.4, 1.1),
+                rng.range_f32(0.3, 1.5),
+                rng.range_f32(0.4, 1.1),
+            );
+            let y0 = -1.0 + rng.range_f32(0.0, 0.8);
+            b.add_box(
+                Vec3::new(cx - half.x, y0, cz - half.z),
+                Vec3::new(cx + half.x, y0 + 2.0 * half.y, cz + half.z),
+            );
+        }
+    }
+    b.finish()
+}
+
+/// A UV sphere (closed mesh with silhouette folds) in front of a quad.
+fn sphere_and_wall() -> Scene {
+    let mut b = SceneBuilder::new("sphere");
+    let (rings, segs) = (8u32, 12u32);
+    let c = Vec3::new(0.3, 0.1, -5.0);
+    let mut idx = Vec::new();
+    for r in 0..=rings {
+        let th = std::f32::consts::PI * r as f32 / rings as f32;
+        for s in 0..segs {
+            let ph = 2.0 * std::f32::consts::PI * s as f32 / segs as f32;
+            let p = c + 1.5 * Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin());
+            idx.push(b.add_vertex(p));
+        }
+    }
+    for r in 0..rings {
+        for s in 0..segs {
+            let (a, bb) = (r * segs + s, r * segs + (s + 1) % segs);
+            let (cc, d) = (a + segs, bb + segs);
+            if r > 0 {
+                b.add_triangle([idx[a as usize], idx[bb as usize], idx[d as usize]]);
+            }
+            if r + 1 < rings {
+                b.add_triangle([idx[a as usize], idx[d as usize], idx[cc as usize]]);
+            }
+        }
+    }
+    let w = [
+        b.add_vertex(Vec3::new(-3.0, -3.0, -8.0)),
+        b.add_vertex(Vec3::new(3.0, -3.0, -8.0)),
+        b.add_vertex(Vec3::new(3.0, 3.0, -8.5)),
+        b.add_vertex(Vec3::new(-3.0, 3.0, -8.5)),
+    ];
+    b.add_triangle([w[0], w[1], w[2]]);
+    b.add_triangle([w[0], w[2], w[3]]);
+    b.finish()
+}
+
+/// `n` random triangles, each inside its own depth slab (so none intersect), ids shuffled
+/// against depth; sizes from slivers to large.
+fn layered_triangles(seed: u64, n: usize) -> Scene {
+    let mut rng = SplitMix64::new(seed);
+    let mut b = SceneBuilder::new("layers");
+    let mut slabs: Vec<usize> = (0..n).collect();
+    for i in (1..n).rev() {
+        let j = rng.below(i as u64 + 1) as usize;
+        slabs.swap(i, j);
+    }
+    for &slab in &slabs {
+        let z0 = -3.0 - 0.1 * slab as f32;
+        let centre = Vec3::new(rng.range_f32(-2.0, 2.0), rng.range_f32(-1.5, 1.5), 0.0);
+        let size = if rng.next_f32() < 0.2 {
+            0.02
+        } else {
+            rng.range_f32(0.2, 1.5)
+        };
+        let mut v = [0u32; 3];
+        for k in &mut v {
+            let p = centre
+                + Vec3::new(
+                    rng.range_f32(-size, size),
+                    rng.range_f32(-size, size),
+                    z0 - rng.range_f32(0.0, 0.08),
+                );
+            *k = b.add_vertex(p);
+        }
+        b.add_triangle(v);
+    }
+    b.finish()
+}
+
+/// Three long triangles in cyclic overlap (each covers the next), over a background quad.
+fn cyclic_sticks() -> Scene {
+    let mut b = SceneBuilder::new("cyclic");
+    for k in 0..3 {
+        let a = std::f32::consts::TAU * k as f32 / 3.0;
+        let dir = Vec3::new(a.cos(), a.sin(), 0.0);
+        let side = Vec3::new(-a.sin(), a.cos(), 0.0) * 0.25;
+        // The stick rises from z = -5.3 (at its start) to z = -4.7 (at its end).
+        let p0 = -dir * 1.8 + side * 2.0 + Vec3::new(0.0, 0.0, -5.3);
+        let p1 = dir * 1.8 + side * 2.0 + Vec3::new(0.0, 0.0, -4.7);
+        let i = [
+            b.add_vertex(p0 - side),
+            b.add_vertex(p0 + side),
+            b.add_vertex(p1),
+        ];
+        b.add_triangle(i);
+    }
+    add_quad(&mut b, -7.0, 3.0);
+    b.finish()
+}
+
+fn camera(w: u32, h: u32) -> Camera {
+    Camera::look_at(
+        Vec3::new(0.0, 1.5, 3.0),
+        Vec3::new(0.0, 0.0, -8.0),
+        Vec3::Y,
+        60.0,
+        w,
+        h,
+        0.1,
+    )
+    .unwrap()
+}
+
+fn front_camera(w: u32, h: u32) -> Camera {
+    Camera::look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 60.0, w, h, 0.1).unwrap()
+}
+
+fn scaled(c: &Camera, k: u32) -> Camera {
+    Camera::looking(
+        c.eye,
+        c.forward,
+        c.up,
+        c.fov_y_deg,
+        c.width * k,
+        c.height * k,
+        c.near,
+    )
+    .unwrap()
+}
+
+fn run(scene: &Scene, cam: &Camera) -> AnalyticResult {
+    visible_fragments(scene, cam, &AnalyticOptions::default()).unwrap()
+}
+
+/// A per-triangle value in [0.2, 1] (hashed), so that a wrong triangle changes the pixel.
+fn value(id: u32) -> f32 {
+    let h = id
+        .wrapping_mul(0x9E37_79B9)
+        .rotate_left(13)
+        .wrapping_mul(0x85EB_CA6B);
+    0.2 + 0.8 * (h >> 8) as f32 / (1u32 << 24) as f32
+}
+
+/// A full-screen-ish quad (two triangles sharing the diagonal) at depth `z`.
+fn add_quad(b: &mut SceneBuilder, z: f32, half: f32) {
+    let p = [
+        b.add_vertex(Vec3::new(-half, -half, z)),
+        b.add_vertex(Vec3::new(half, -half, z)),
+        b.add_vertex(Vec3::new(half, half, z)),
+        b.add_vertex(Vec3::new(-half, half, z)),
+    ];
+    b.add_triangle([p[0], p[1], p[2]]);
+    b.add_triangle([p[0], p[2], p[3]]);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Against the rasterizer at 16×16 supersampling
+
+const SS: u32 = 16;
+
+/// Supersampled reference: the big image's pixel (X, Y) samples the small image's screen point
+/// ((X + 0.5) / 16, (Y + 0.5) / 16) exactly (the two cameras differ only in size, and the
+/// screen mapping scales by exactly 16), i.e. a stratified 16×16 grid per small pixel.
+fn supersampled(scene: &Scene, cam: &Camera) -> (Vec<f32>, Vec<u32>) {
+    let big = render(scene, &scaled(cam, SS));
+    let (w, h) = (cam.width as usize, cam.height as usize);
+    let mut img = vec![0.0f32; w * h];
+    for (k, &id) in big.ids.iter().enumerate() {
+        if (id as usize) < scene.triangles.len() {
+            let (x, y) = (k % (w * SS as usize), k / (w * SS as usize));
+            img[(y / SS as usize) * w + x / SS as usize] += value(id) / (SS * SS) as f32;
+        }
+    }
+    (img, big.ids)
+}
+
+/// The rasterizer snaps to 1/256 of a (big) pixel, so it may attribute a sample within
+/// 1/512 px per coordinate of a triangle's projected edge to that triangle (see
+/// `sightline_core::raster`, "Agreement with ray casting"). Such samples are excused when checking
+/// the visible set; `EDGE_EPS` is five times that distance, as in the rasterizer's own tests.
+const EDGE_EPS: f64 = 0.01;
+
+/// Distance (big pixels) from `p` to the boundary of the projected triangle `t`.
+fn boundary_distance(t: &BruteTri, p: DVec2) -> f64 {
+    let n = t.poly.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (t.poly[i], t.poly[(i + 1) % n]);
+            let s = ((p - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
+            (a + (b - a) * s - p).length()
+        })
+        .fold(f64::MAX, f64::min)
+}
+
+/// Checks the raster/analytic agreement and returns (max, mean) per-pixel error. Every triangle
+/// the supersampled rasterizer shows must be in the exact set, except for samples within
+/// `EDGE_EPS` of the triangle's projected boundary (snapping); at most 1 in 10^4 samples may be
+/// excused.
+fn check_against_raster(scene: &Scene, cam: &Camera) -> (f32, f32) {
+    let r = run(scene, cam);
+    let (reference, ids) = supersampled(scene, cam);
+    let big = scaled(cam, SS);
+    let projected = brute_project(scene, &big);
+    let width = big.width as usize;
+    let mut excused = 0usize;
+    for (k, &id) in ids.iter().enumerate() {
+        if (id as usize) < scene.triangles.len() && !r.visible.contains(id as usize) {
+            let p = DVec2::new((k % width) as f64 + 0.5, (k / width) as f64 + 0.5);
+            let near_edge = projected[id as usize]
+                .as_ref()
+                .is_some_and(|t| boundary_distance(t, p) < EDGE_EPS);
+            assert!(near_edge, "sampled triangle {id} not in exact set");
+            excused += 1;
+        }
+    }
+    assert!(excused * 10_000 <= ids.len(), "{excused} excused samples");
+    eprintln!("excused samples: {excused}");
+    let exact = integrate(&r, Filter::Box, value);
+    let mut max = 0.0f32;
+    let mut sum = 0.0f32;
+    for (a, b) in exact.iter().zip(&reference) {
+        max = max.max((a - b).abs());
+        sum += (a - b).abs();
+    }
+    (max, sum / exact.len() as f32)
+}
+
+/// Tolerance of the per-pixel comparison. A straight boundary crossing a pixel is missed by at
+/// most one sample per sample column or row it crosses: 16 of 256 samples, 1/16 of the pixel.
+/// With values in [0.2, 1] the error of one boundary is at most 0.8/16 = 0.05; pixels of these
+/// scenes hold at most about three boundaries (a box corner on a background), hence 0.15.
+/// The mean error must be far smaller (the sampling error of random boundaries averages out).
+const PIXEL_TOL: f32 = 0.15;
+const MEAN_TOL: f32 = 0.005;
+
+#[test]
+fn raster_box_grid_matches_supersampling() {
+    let scene = box_grid(7);
+    let (max, mean) = check_against_raster(&scene, &camera(64, 48));
+    eprintln!("box grid: max pixel error {max:.4}, mean {mean:.5}");
+    assert!(
+        max <= PIXEL_TOL && mean <= MEAN_TOL,
+        "max {max} mean {mean}"
+    );
+}
+
+#[test]
+fn raster_sphere_matches_supersampling() {
+    let scene = sphere_and_wall();
+    let (max, mean) = check_against_raster(&scene, &front_camera(48, 48));
+    eprintln!("sphere: max pixel error {max:.4}, mean {mean:.5}");
+    assert!(
+        max <= PIXEL_TOL && mean <= MEAN_TOL,
+        "max {max} mean {mean}"
+    );
+}
+
+#[test]
+fn raster_layered_triangles_match_supersampling() {
+    let scene = layered_triangles(3, 150);
+    let (max, mean) = check_against_raster(&scene, &front_camera(40, 32));
+    eprintln!("layers: max pixel error {max:.4}, mean {mean:.5}");
+    assert!(
+        max <= 2.0 * PIXEL_TOL && mean <= MEAN_TOL,
+        "max {max} mean {mean}"
+    );
+}
+
+#[test]
+fn raster_near_plane_crossing_matches_supersampling() {
+    // The ground quad and the first boxes cross the near plane of a camera standing inside.
+    let scene = box_grid(11);
+    let cam = Camera::look_at(
+        Vec3::new(-3.5, -0.5, -6.0),
+        Vec3::new(4.0, -0.8, -14.0),
+        Vec3::Y,
+        80.0,
+        48,
+        40,
+        0.2,
+    )
+    .unwrap();
+    let (max, mean) = check_against_raster(&scene, &cam);
+    eprintln!("near plane: max pixel error {max:.4}, mean {mean:.5}");
+    assert!(
+        max <= PIXEL_TOL && mean <= MEAN_TOL,
+        "max {max} mean {mean}"
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Against a brute force
+
+/// Projected, near- and screen-clipped triangle of the brute force: polygon (pixels) and the
+/// plane of its view-space points (normal, offset) to get depth along pixel rays.
+struct BruteTri {
+    poly: Vec<DVec2>,
+    n: DVec3,
+    d: f64,
+}
+
+fn clip_axis(poly: Vec<DVec2>, axis: usize, bound: f64, above: bool) -> Vec<DVec2> {
+    let c = |p: DVec2| if axis == 0 { p.x } else { p.y };
+    let inside = |p: DVec2| if above { c(p) >= bound } else { c(p) <= bound };
+    let mut out = Vec::new();
+    for i in 0..poly.len() {
+        let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+        if inside(a) {
+            out.push(a);
+        }
+        if inside(a) != inside(b) {
+            out.push(a + (b - a) * ((bound - c(a)) / (c(b) - c(a))));
+        }
+    }
+    out
+}
+
+fn brute_project(scene: &Scene, cam: &Camera) -> Vec<Option<BruteTri>> {
+    let (w, h) = (f64::from(cam.width), f64::from(cam.height));
+    let (tx, ty) = (f64::from(cam.tan_half_x()), f64::from(cam.tan_half_y()));
+    let near = f64::from(cam.near);
+    let view = |p: Vec3| {
+        let d = (p - cam.eye).as_dvec3();
+        DVec3::new(
+            d.dot(cam.right.as_dvec3()),
+            d.dot(cam.up.as_dvec3()),
+            d.dot(cam.forward.as_dvec3()),
+        )
+    };
+    let screen = |v: DVec3| {
+        DVec2::new(
+            (v.x / (v.z * tx) + 1.0) * 0.5 * w,
+            (1.0 - v.y / (v.z * ty)) * 0.5 * h,
+        )
+    };
+    let clip_near = |poly: Vec<DVec3>| -> Vec<DVec3> {
+        let mut out = Vec::new();
+        for i in 0..poly.len() {
+            let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+            if a.z >= near {
+                out.push(a);
+            }
+            if (a.z >= near) != (b.z >= near) {
+                let t = (near - a.z) / (b.z - a.z);
+                out.push(a + (b - a) * t);
+            }
+        }
+        out
+    };
+    scene
+        .triangles
+        .iter()
+        .map(|t| {
+            let v = t.map(|i| view(scene.positions[i as usize]));
+            let n = (v[1] - v[0]).cross(v[2] - v[0]);
+            let d = n.dot(v[0]);
+            if d == 0.0 {
+                return None;
+            }
+            let p3 = clip_near(v.to_vec());
+            if p3.len() < 3 {
+                return None;
+            }
+            let mut p: Vec<DVec2> = p3.into_iter().map(screen).collect();
+            p = clip_axis(p, 0, 0.0, true);
+            p = clip_axis(p, 0, w, false);
+            p = clip_axis(p, 1, 0.0, true);
+            p = clip_axis(p, 1, h, false);
+            (p.len() >= 3).then_some(BruteTri { poly: p, n, d })
+        })
+        .collect()
+}
+
+/// View depth of `t` along the ray of screen point `s`.
+fn brute_depth(t: &BruteTri, cam: &Camera, s: DVec2) -> f64 {
+    let (tx, ty) = (f64::from(cam.tan_half_x()), f64::from(cam.tan_half_y()));
+    let u = (2.0 * s.x / f64::from(cam.width) - 1.0) * tx;
+    let v = (1.0 - 2.0 * s.y / f64::from(cam.height)) * ty;
+    t.d / t.n.dot(DVec3::new(u, v, 1.0))
+}
+
+fn inside_convex(poly: &[DVec2], p: DVec2) -> bool {
+    let n = poly.len();
+    let (mut pos, mut neg) = (false, false);
+    for i in 0..n {
+        let (a, b) = (poly[i], poly[(i + 1) % n]);
+        let c = (b - a).perp_dot(p - a);
+        pos |= c > 0.0;
+        neg |= c < 0.0;
+    }
+    !(pos && neg)
+}
+
+/// Visible area per triangle by brute force: split the screen into vertical slabs at every
+/// vertex and every crossing of two projected edges; inside a slab no edges cross, so the cells
+/// between consecutive edges are trapezoids covered by a fixed set of triangles; each cell's
+/// area goes to the triangle nearest at the cell's centre (ties to the lower id).
+fn brute_visible_area(scene: &Scene, cam: &Camera) -> Vec<f64> {
+    let tris = brute_project(scene, cam);
+    let mut segs: Vec<(DVec2, DVec2)> = Vec::new();
+    for t in tris.iter().flatten() {
+        for i in 0..t.poly.len() {
+            let (a, b) = (t.poly[i], t.poly[(i + 1) % t.poly.len()]);
+            if a.x != b.x {
+                segs.push(if a.x < b.x { (a, b) } else { (b, a) });
+            }
+        }
+    }
+    let mut xs: Vec<f64> = segs.iter().flat_map(|s| [s.0.x, s.1.x]).collect();
+    for i in 0..segs.len() {
+        for j in i + 1..segs.len() {
+            let ((a, b), (c, d)) = (segs[i], segs[j]);
+            let den = (b - a).perp_dot(d - c);
+            if den == 0.0 {
+                continue;
+            }
+            let t = (c - a).perp_dot(d - c) / den;
+            let u = (c - a).perp_dot(b - a) / den;
+            if (0.0..=1.0).contains(&t) && (0.0..=1.0).contains(&u) {
+                xs.push(a.x + t * (b.x - a.x));
+            }
+        }
+    }
+    xs.sort_by(f64::total_cmp);
+    xs.dedup();
+    let mut area = vec![0.0; scene.triangles.len()];
+    let y_at = |s: &(DVec2, DVec2), x: f64| {
+        let t = ((x - s.0.x) / (s.1.x - s.0.x)).clamp(0.0, 1.0);
+        s.0.y + t * (s.1.y - s.0.y)
+    };
+    for w in xs.windows(2) {
+        let (x0, x1) = (w[0], w[1]);
+        if x1 - x0 < 1e-12 {
+            continue;
+        }
+        let xm = 0.5 * (x0 + x1);
+        let mut span: Vec<&(DVec2, DVec2)> =
+            segs.iter().filter(|s| s.0.x <= x0 && s.1.x >= x1).collect();
+        span.sort_by(|a, b| y_at(a, xm).total_cmp(&y_at(b, xm)));
+        for pair in span.windows(2) {
+            let (lo, hi) = (pair[0], pair[1]);
+            let cell =
+                0.5 * (x1 - x0) * ((y_at(hi, x0) - y_at(lo, x0)) + (y_at(hi, x1) - y_at(lo, x1)));
+            if cell <= 0.0 {
+                continue;
+            }
+            let p = DVec2::new(xm, 0.5 * (y_at(lo, xm) + y_at(hi, xm)));
+            let mut best: Option<(f64, usize)> = None;
+            for (id, t) in tris.iter().enumerate() {
+                let Some(t) = t else { continue };
+                if !inside_convex(&t.poly, p) {
+                    continue;
+                }
+                let z = brute_depth(t, cam, p);
+                if best.is_none_or(|(bz, _)| z < bz * (1.0 - 1e-9)) {
+                    best = Some((z, id));
+                }
+            }
+            if let Some((_, id)) = best {
+                area[id] += cell;
+            }
+        }
+    }
+    area
+}
+
+/// Absolute tolerance on visible areas (px²). The analytic pipeline snaps screen positions to
+/// 2^-20 px: each vertex moves by at most 2^-21·√2 ≈ 6.7e-7 px, so a region of perimeter P
+/// changes by at most about P · 6.7e-7 px²; perimeters in these small images stay below 200 px,
+/// hence 1.5e-4. Everything else (f64 intersection points) is far below that.
+const AREA_TOL: f64 = 1.5e-4;
+
+/// Compares per-triangle visible areas; returns the largest absolute difference (px²).
+fn check_against_brute(scene: &Scene, cam: &Camera) -> f64 {
+    let r = run(scene, cam);
+    let exact = r.visible_area(scene.triangles.len());
+    let brute = brute_visible_area(scene, cam);
+    let mut max = 0.0f64;
+    for (id, (a, b)) in exact.iter().zip(&brute).enumerate() {
+        max = max.max((a - b).abs());
+        assert!(
+            (a - b).abs() <= AREA_TOL,
+            "triangle {id}: analytic {a} px², brute force {b} px²"
+        );
+        // A triangle with visible area is in the set, and only then.
+        assert_eq!(
+            r.visible.contains(id),
+            *a > 0.0,
+            "triangle {id} set/area mismatch"
+        );
+    }
+    max
+}
+
+#[test]
+fn brute_force_box_grid_areas() {
+    let max = check_against_brute(&box_grid(5), &camera(64, 48));
+    eprintln!("box grid: max area error {max:.2e} px²");
+}
+
+#[test]
+fn brute_force_sphere_areas() {
+    let max = check_against_brute(&sphere_and_wall(), &front_camera(48, 48));
+    eprintln!("sphere: max area error {max:.2e} px²");
+}
+
+#[test]
+fn brute_force_layered_triangles_areas() {
+    let max = check_against_brute(&layered_triangles(9, 120), &front_camera(40, 32));
+    eprintln!("layers: max area error {max:.2e} px²");
+}
+
+#[test]
+fn brute_force_cyclic_overlap_areas() {
+    let scene = cyclic_sticks();
+    let r = run(&scene, &front_camera(48, 48));
+    // All three sticks are visible despite the cycle.
+    assert!((0..3).all(|k| r.visible.contains(k)));
+    let max = check_against_brute(&scene, &front_camera(48, 48));
+    eprintln!("cyclic: max area error {max:.2e} px²");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Degenerate cases and bad input
+
+#[test]
+fn shared_edge_quad_covers_every_pixel_once() {
+    let mut b = SceneBuilder::new("quad");
+    add_quad(&mut b, -2.0, 100.0);
+    add_quad(&mut b, -5.0, 100.0);
+    let scene = b.finish();
+    let r = run(&scene, &front_camera(33, 17));
+    let img = integrate(&r, Filter::Box, |_| 1.0);
+    let err = img.iter().map(|v| (v - 1.0).abs()).fold(0.0f32, f32::max);
+    assert!(err < 1e-5, "coverage error {err}");
+    // The quad behind is hidden completely: no crack along the shared diagonal.
+    assert!(!r.visible.contains(2) && !r.visible.contains(3));
+}
+
+#[test]
+fn t_junction_leaves_no_crack() {
+    // A big triangle whose long edge meets two small triangles at its midpoint (a T-junction),
+    // all at z = -2, in front of a wall.
+    let mut b = SceneBuilder::new("t");
+    let v = [
+        b.add_vertex(Vec3::new(-1.0, -1.0, -2.0)),
+        b.add_vertex(Vec3::new(1.0, -1.0, -2.0)),
+        b.add_vertex(Vec3::new(0.0, -2.0, -2.0)),
+        b.add_vertex(Vec3::new(0.0, -1.0, -2.0)),
+        b.add_vertex(Vec3::new(0.0, 1.0, -2.0)),
+    ];
+    b.add_triangle([v[0], v[1], v[4]]);
+    b.add_triangle([v[0], v[3], v[2]]);
+    b.add_triangle([v[3], v[1], v[2]]);
+    add_quad(&mut b, -3.0, 1.0);
+    let scene = b.finish();
+    let cam = front_camera(64, 64);
+    let r = run(&scene, &cam);
+    let brute = brute_visible_area(&scene, &cam);
+    let exact = r.visible_area(scene.triangles.len());
+    for (a, e) in brute.iter().zip(&exact) {
+        assert!((a - e).abs() < AREA_TOL, "{a} vs {e}");
+    }
+}
+
+#[test]
+fn edge_on_triangle_is_invisible_and_harmless() {
+    let mut b = SceneBuilder::new("edge-on");
+    let v = [
+        b.add_vertex(Vec3::new(0.0, -1.0, -2.0)),
+        b.add_vertex(Vec3::new(0.0, 1.0, -2.0)),
+        b.add_vertex(Vec3::new(0.0, 0.0, -4.0)),
+    ];
+    b.add_triangle(v);
+    add_quad(&mut b, -5.0, 10.0);
+    let scene = b.finish();
+    let r = run(&scene, &front_camera(32, 32));
+    assert!(!r.visible.contains(0));
+    let total: f64 = r.visible_area(3).iter().sum();
+    assert!((total - 1024.0).abs() < 1e-6, "{total}");
+}
+
+#[test]
+fn coplanar_duplicates_lower_id_wins() {
+    let mut b = SceneBuilder::new("twins");
+    add_quad(&mut b, -2.0, 0.5);
+    add_quad(&mut b, -2.0, 0.5);
+    let scene = b.finish();
+    let r = run(&scene, &front_camera(32, 32));
+    assert!(r.visible.contains(0) && r.visible.contains(1));
+    assert!(!r.visible.contains(2) && !r.visible.contains(3));
+}
+
+#[test]
+fn coplanar_partial_overlap_lower_id_wins() {
+    // Two triangles in the plane z = -2 overlapping in a diamond: the brute force gives the
+    // overlap to id 0, so must the analytic method.
+    let mut b = SceneBuilder::new("overlap");
+    let v = [
+        b.add_vertex(Vec3::new(-1.0, -1.0, -2.0)),
+        b.add_vertex(Vec3::new(1.0, -1.0, -2.0)),
+        b.add_vertex(Vec3::new(0.0, 1.0, -2.0)),
+        b.add_vertex(Vec3::new(-1.0, 0.0, -2.0)),
+        b.add_vertex(Vec3::new(1.0, 0.0, -2.0)),
+        b.add_vertex(Vec3::new(0.0, -2.0, -2.0)),
+    ];
+    b.add_triangle([v[0], v[1], v[2]]);
+    b.add_triangle([v[3], v[5], v[4]]);
+    let scene = b.finish();
+    let cam = front_camera(64, 64);
+    let r = run(&scene, &cam);
+    let brute = brute_visible_area(&scene, &cam);
+    let exact = r.visible_area(2);
+    for (a, e) in brute.iter().zip(&exact) {
+        assert!((a - e).abs() < AREA_TOL, "{a} vs {e}");
+    }
+}
+
+#[test]
+fn camera_looking_away_sees_nothing() {
+    let scene = box_grid(1);
+    let cam = Camera::look_at(
+        Vec3::ZERO,
+        Vec3::new(0.0, 0.0, 5.0),
+        Vec3::Y,
+        60.0,
+        32,
+        32,
+        0.1,
+    )
+    .unwrap();
+    let r = run(&scene, &cam);
+    // Only the ground quad (which extends behind the eye) may be seen.
+    assert!(r.visible.ones().all(|id| id < 2));
+}
+
+#[test]
+fn invalid_triangles_are_counted_not_fatal() {
+    let mut scene = box_grid(2);
+    scene.triangles.push([0, 1, 100_000]);
+    let k = scene.positions.len() as u32;
+    scene.positions.push(Vec3::new(f32::NAN, 0.0, -3.0));
+    scene.triangles.push([0, 1, k]);
+    let r = run(&scene, &camera(32, 24));
+    assert_eq!(r.stats.warnings.invalid_triangles, 2);
+    assert!(r.visible.count_ones(..) > 0);
+}
+
+#[test]
+fn intersecting_triangles_are_counted_not_fatal() {
+    // A tilted triangle pierces a large one at z = -3.
+    let mut b = SceneBuilder::new("x");
+    let v = [
+        b.add_vertex(Vec3::new(-2.0, -2.0, -3.0)),
+        b.add_vertex(Vec3::new(2.0, -2.0, -3.0)),
+        b.add_vertex(Vec3::new(0.0, 2.0, -3.0)),
+        b.add_vertex(Vec3::new(-0.5, -0.5, -2.0)),
+        b.add_vertex(Vec3::new(0.5, -0.5, -2.0)),
+        b.add_vertex(Vec3::new(0.0, 0.8, -4.0)),
+    ];
+    b.add_triangle([v[0], v[1], v[2]]);
+    b.add_triangle([v[3], v[4], v[5]]);
+    let scene = b.finish();
+    let r = run(&scene, &front_camera(32, 32));
+    assert!(r.stats.warnings.intersecting_overlaps > 0);
+    assert!(r.visible.contains(0) && r.visible.contains(1));
+}
+
+#[test]
+fn sub_pixel_sliver_is_reported() {
+    // A triangle 0.02 px wide in front of a wall: between pixel centres, still visible.
+    let mut b = SceneBuilder::new("sliver");
+    let cam = front_camera(32, 32);
+    let px = 2.0 * 2.0 * (30f32.to_radians()).tan() / 32.0; // one pixel at z = -2
+    let v = [
+        b.add_vertex(Vec3::new(0.3 * px, -0.2, -2.0)),
+        b.add_vertex(Vec3::new(0.32 * px, -0.2, -2.0)),
+        b.add_vertex(Vec3::new(0.31 * px, 0.2, -2.0)),
+    ];
+    b.add_triangle(v);
+    add_quad(&mut b, -3.0, 5.0);
+    let scene = b.finish();
+    let r = run(&scene, &cam);
+    assert!(r.visible.contains(0));
+    let a = r.visible_area(3)[0];
+    assert!(a > 0.0 && a < 1.0, "{a}");
+}
+
+#[test]
+fn bin_size_does_not_change_the_result() {
+    let scene = box_grid(4);
+    let cam = camera(48, 40);
+    let areas: Vec<Vec<f64>> = [1, 8, 64]
+        .iter()
+        .map(|&bin_size| {
+            visible_fragments(&scene, &cam, &AnalyticOptions { bin_size })
+                .unwrap()
+                .visible_area(scene.triangles.len())
+        })
+        .collect();
+    // Polygons are never clipped to bins: only f64 rounding differs.
+    for a in &areas[1..] {
+        for (x, y) in a.iter().zip(&areas[0]) {
+            assert!((x - y).abs() < 1e-8, "{x} vs {y}");
+        }
+    }
+}
+
+#[test]
+fn svg_and_image_of_a_scene() {
+    let scene = box_grid(3);
+    let cam = camera(32, 24);
+    let r = run(&scene, &cam);
+    let mut svg = Vec::new();
+    write_svg(&r, &mut svg).unwrap();
+    let text = String::from_utf8(svg).unwrap();
+    assert_eq!(text.matches("<path").count(), r.polygons.len());
+    let img = antialiased_image(&r, &scene, &cam, Filter::Box);
+    assert_eq!(img.len(), 32 * 24);
+    assert!(img.iter().all(|v| (0.0..=1.0 + 1e-5).contains(v)));
+}
+
+#[test]
+fn gauss_filter_of_full_coverage_is_one_inside() {
+    // Two full-screen quads: every pixel whose window lies inside the image integrates to 1.
+    let mut b = SceneBuilder::new("quad");
+    add_quad(&mut b, -2.0, 100.0);
+    let scene = b.finish();
+    let r = run(&scene, &front_camera(24, 20));
+    let img = integrate(&r, Filter::Gauss { radius_px: 2.3 }, |_| 1.0);
+    for y in 3..17 {
+        for x in 3..21 {
+            let v = img[y * 24 + x];
+            assert!((v - 1.0).abs() < 1e-5, "pixel ({x}, {y}): {v}");
+        }
+    }
+    // At the image corner only x, y >= 0 is covered (no geometry outside the frustum): the
+    // pixel centre is 0.5 px = 0.652 σ inside, so the value is ((Φ(0.652) - Φ(-3)) / 0.9973)²
+    // = 0.5528.
+    assert!((img[0] - 0.5528).abs() < 1e-3, "{}", img[0]);
+}
+
+#[test]
+fn gauss_filter_agrees_with_box_filter_on_average() {
+    // Both filters preserve the total integral away from the image border.
+    let scene = sphere_and_wall();
+    let cam = front_camera(48, 48);
+    let r = run(&scene, &cam);
+    let boxed = integrate(&r, Filter::Box, value);
+    let gauss = integrate(&r, Filter::Gauss { radius_px: 2.3 }, value);
+    // The sphere and wall lie well inside the image; compare sums over the whole image.
+    let (sb, sg): (f32, f32) = (boxed.iter().sum(), gauss.iter().sum());
+    assert!((sb - sg).abs() < 0.02 * sb, "box {sb} gauss {sg}");
+}
+
+/// The paper's SPIKES, small: a 7×7 grid of square pyramids sharing their base edges
+/// (196 triangles), seen obliquely, so tall spikes hide each other many times over.
+fn spikes() -> Scene {
+    let mut b = SceneBuilder::new("spikes");
+    let n = 7;
+    let mut grid = vec![0u32; (n + 1) * (n + 1)];
+    for j in 0..=n {
+        for i in 0..=n {
+            grid[j * (n + 1) + i] = b.add_vertex(Vec3::new(i as f32 - 3.5, -1.0, -4.0 - j as f32));
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let h = 1.0 + ((i * 7 + j * 3) % 5) as f32 * 0.6;
+            let apex = b.add_vertex(Vec3::new(i as f32 - 3.0, -1.0 + h, -4.5 - j as f32));
+            let c = [
+                grid[j * (n + 1) + i],
+                grid[j * (n + 1) + i + 1],
+                grid[(j + 1) * (n + 1) + i + 1],
+                grid[(j + 1) * (n + 1) + i],
+            ];
+            for k in 0..4 {
+                b.add_triangle([c[k], c[(k + 1) % 4], apex]);
+            }
+        }
+    }
+    b.finish()
+}
+
+#[test]
+fn brute_force_spikes_areas() {
+    let max = check_against_brute(&spikes(), &camera(64, 48));
+    eprintln!("spikes: max area error {max:.2e} px²");
+}
+
+#[test]
+fn raster_spikes_match_supersampling() {
+    let (max, mean) = check_against_raster(&spikes(), &camera(64, 48));
+    eprintln!("spikes: max pixel error {max:.4}, mean {mean:.5}");
+    assert!(
+        max <= PIXEL_TOL && mean <= MEAN_TOL,
+        "max {max} mean {mean}"
+    );
+}
+
+#[test]
+fn brute_force_box_grid_from_many_cameras() {
+    // Fixed-seed cameras around and inside the box field (some cross boxes with the near plane).
+    let scene = box_grid(21);
+    let mut rng = SplitMix64::new(99);
+    let mut worst = 0.0f64;
+    for _ in 0..6 {
+        let eye = Vec3::new(
+            rng.range_f32(-6.0, 6.0),
+            rng.range_f32(-0.5, 3.0),
+            rng.range_f32(-16.0, 3.0),
+        );
+        let target = Vec3::new(rng.range_f32(-4.0, 4.0), 0.0, rng.range_f32(-14.0, -4.0));
+        let Ok(cam) = Camera::look_at(eye, target, Vec3::Y, 70.0, 40, 30, 0.05) else {
+            continue;
+        };
+        worst = worst.max(check_against_brute(&scene, &cam));
+    }
+    eprintln!("box grid, 6 cameras: max area error {worst:.2e} px²");
+}
