@@ -34,6 +34,9 @@ enum Command {
     Convert(commands::convert::Args),
     /// Measure throughput (ray casting, rasterization) side by side with the baselines.
     Bench(commands::bench::Args),
+    /// Run-time occlusion culling over a camera path with moving objects: the uniform-grid
+    /// method and its baselines, objects drawn, queries, culling time and measured popping.
+    Cull(commands::cull::Args),
     /// Potentially visible sets from view cells: bake, show, diff, compare with Quake 3's.
     Pvs(commands::pvs::Args),
     /// Measure the pixel error of a .pvs file (the GVS++ paper's metric).
@@ -52,6 +55,7 @@ fn main() -> ExitCode {
         Command::Render(a) => commands::render::run(a),
         Command::Convert(a) => commands::convert::run(a),
         Command::Bench(a) => commands::bench::run(a),
+        Command::Cull(a) => commands::cull::run(a),
         Command::Pvs(a) => commands::pvs::run(a),
         Command::Eval(a) => commands::eval::run(a),
         Command::Visible(a) => commands::visible::run(a),

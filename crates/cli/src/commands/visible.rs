@@ -35,6 +35,18 @@ pub(crate) struct Args {
     /// generator without ever holding the scene in memory.
     #[arg(long, requires = "conservative")]
     stream: bool,
+    /// With --exact: write the visible polygons (coloured by triangle) as SVG.
+    #[arg(long, requires = "exact")]
+    svg: Option<PathBuf>,
+    /// With --exact: write the analytically anti-aliased image (grey headlight shading) as PNG.
+    #[arg(long, requires = "exact")]
+    png: Option<PathBuf>,
+    /// Pixel filter of --png: `box` (the exact pixel-square integral) or `gauss` (radius 2.3 px).
+    #[arg(long, default_value = "box", value_parser = ["box", "gauss"])]
+    filter: String,
+    /// With --exact: screen bin size in pixels.
+    #[arg(long, default_value_t = 16)]
+    bin_size: u32,
     /// Write the visible triangle ids, one per line, to this file.
     #[arg(short, long)]
     output: Option<PathBuf>,
@@ -91,7 +103,7 @@ pub(crate) fn parse_bytes(s: &str) -> Result<usize, String> {
 pub(crate) fn run(args: Args) -> Result<()> {
     let start = Instant::now();
     if args.exact {
-        bail!("--exact (analytic visibility) is not available in this build yet; use --conservative or the default rasterizer set");
+        return run_exact(&args, start);
     }
     let options = RvOptions {
         memory_budget_bytes: args.memory,
@@ -210,6 +222,80 @@ pub(crate) fn run(args: Args) -> Result<()> {
         );
     }
     if let Some(p) = &args.output {
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// `--exact`: analytic visible fragments, optional SVG and anti-aliased PNG.
+fn run_exact(args: &Args, start: Instant) -> Result<()> {
+    use sightline_point::analytic::{
+        antialiased_image, visible_fragments, write_svg, AnalyticOptions, Filter,
+    };
+    let scene = args.scene.load()?;
+    let camera = args.camera.camera(&scene)?;
+    let result = visible_fragments(
+        &scene,
+        &camera,
+        &AnalyticOptions {
+            bin_size: args.bin_size,
+        },
+    )?;
+    let visibility_seconds = start.elapsed().as_secs_f64();
+    if let Some(path) = &args.svg {
+        sightline_core::atomic_file::write_atomic(path, |w| write_svg(&result, w))
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = &args.png {
+        let filter = if args.filter == "gauss" {
+            Filter::Gauss { radius_px: 2.3 }
+        } else {
+            Filter::Box
+        };
+        let values = antialiased_image(&result, &scene, &camera, filter);
+        let img = image::GrayImage::from_fn(camera.width, camera.height, |x, y| {
+            let v = values[(y * camera.width + x) as usize];
+            image::Luma([(v.clamp(0.0, 1.0) * 255.0).round() as u8])
+        });
+        sightline_core::atomic_file::write_atomic(path, |w| {
+            img.write_to(w, image::ImageFormat::Png)
+                .map_err(std::io::Error::other)
+        })
+        .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = &args.output {
+        let text: String = result.visible.ones().map(|id| format!("{id}\n")).collect();
+        sightline_core::atomic_file::write_atomic(path, |w| {
+            std::io::Write::write_all(w, text.as_bytes())
+        })
+        .with_context(|| format!("writing {}", path.display()))?;
+    }
+    let s = &result.stats;
+    let summary = serde_json::json!({
+        "method": "exact (analytic)",
+        "triangles": scene.triangle_count(),
+        "visible": result.visible.count_ones(..),
+        "visible_polygons": result.polygons.len(),
+        "visibility_seconds": visibility_seconds,
+        "seconds": start.elapsed().as_secs_f64(),
+        "intersections": s.intersections,
+        "invalid_triangles": s.warnings.invalid_triangles,
+        "intersecting_overlaps": s.warnings.intersecting_overlaps,
+    });
+    if args.json {
+        return print_json(&summary);
+    }
+    println!(
+        "exact (analytic): {} of {} triangles visible as {} polygons; visibility {:.3} s, total {:.3} s; {} edge/triangle overlaps; {} warnings (invalid triangles, intersecting overlaps)",
+        result.visible.count_ones(..),
+        scene.triangle_count(),
+        result.polygons.len(),
+        visibility_seconds,
+        start.elapsed().as_secs_f64(),
+        s.intersections,
+        s.warnings.total()
+    );
+    for p in [&args.svg, &args.png, &args.output].into_iter().flatten() {
         println!("wrote {}", p.display());
     }
     Ok(())

@@ -16,9 +16,39 @@ pub(super) fn generate(b: &mut SceneBuilder, seed: u64, size: usize) {
     let count = (size / TRIANGLES_PER_SPHERE).max(1);
     let mut rng = SplitMix64::new(seed);
     let radius_scale = EXTENT * (0.05 / count as f32).cbrt();
+    // Spheres never overlap (the meshes are inscribed in their spheres, so they never
+    // intersect): the exact analytic method assumes non-intersecting triangles, and PLANETS is
+    // a scene of separate bodies. Rejection sampling over a hash grid of cells one maximal
+    // diameter wide, so only neighbouring cells need checking.
+    let cell = 2.0 * radius_scale;
+    let mut grid: std::collections::HashMap<[i32; 3], Vec<(Vec3, f32)>> = Default::default();
+    let key = |p: Vec3| (p / cell).floor().as_ivec3().to_array();
     for i in 0..count {
-        let center = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * EXTENT;
-        let radius = radius_scale * rng.range_f32(0.4, 1.0);
+        let mut radius = radius_scale * rng.range_f32(0.4, 1.0);
+        let center = loop {
+            let c = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * EXTENT;
+            let k = key(c);
+            let mut free = true;
+            'search: for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        let n = [k[0] + dx, k[1] + dy, k[2] + dz];
+                        for &(q, r) in grid.get(&n).map(Vec::as_slice).unwrap_or(&[]) {
+                            if q.distance(c) <= r + radius {
+                                free = false;
+                                break 'search;
+                            }
+                        }
+                    }
+                }
+            }
+            if free {
+                break c;
+            }
+            // Crowded: try again a little smaller (the loop ends: radius shrinks to nothing).
+            radius *= 0.98;
+        };
+        grid.entry(key(center)).or_default().push((center, radius));
         b.begin_object(format!("sphere{i}"));
         add_uv_sphere(b, center, radius);
     }
