@@ -15,17 +15,19 @@
 //! (the leaf test, [`super::triangle::intersect`]).
 //!
 //! # Layout
-//! Nodes are 128 bytes on two cache lines: the four child boxes as six rows of four lanes
-//! (min x, y, z, max x, y, z), then per child its node index or first packet, and its packet
-//! count (0 for an inner child). Triangles are copied in leaf order, four to a 160-byte packet
+//! 4-wide nodes are 128 bytes on two cache lines: the four child boxes as six rows of four
+//! lanes (min x, y, z, max x, y, z), then per child its node index or first packet, and its
+//! packet count (0 for an inner child). 8-wide nodes are 224 bytes: eight lanes per row, and
+//! index and packet count packed into one `u32` per child (`bvh/bvh8.rs`). Triangles are copied in leaf order, four to a 160-byte packet
 //! (`Tri4`: corners as rows of four lanes, and the scene ids), so a leaf is one
 //! contiguous run of packets tested four triangles at a time, and the scene is not touched
 //! while tracing.
 //!
 //! # Memory
-//! Per triangle that is kept (degenerate ones are dropped), on the 1M-triangle procedural city
-//! and on munich: about 48 bytes of packets (3.4 triangles per packet) plus 12 bytes of nodes,
-//! so about 60 bytes per triangle ([`Bvh::memory_bytes`]). The build peaks at about 170 bytes
+//! Per triangle that is kept (degenerate ones are dropped), with 8-wide nodes: about 48 bytes
+//! of packets (3.4 triangles per packet) plus 13 to 17 bytes of nodes, so 61 bytes per
+//! triangle on the 1M-triangle procedural city and 64 to 66 on munich, czest3ctf and the
+//! Stanford bunny ([`Bvh::memory_bytes`]; 4-wide nodes took about 60 on the city). The build peaks at about 170 bytes
 //! per triangle (24-byte boxes, 4-byte ids, and an uncompacted binary node array of 64 bytes
 //! per triangle), i.e. about 1.7 GB for 10M triangles.
 //!
