@@ -37,19 +37,19 @@ pub(super) const EMPTY_BOXES: Boxes4 = [
     [f32::NEG_INFINITY; 4],
 ];
 
-/// A ray prepared for slab tests against [`Boxes4`].
+/// A ray prepared for slab tests against [`Boxes4`] (and `Boxes8` in `box8.rs`).
 #[derive(Clone, Copy, Debug)]
-pub(super) struct BoxRay4 {
-    origin: [f32; 3],
-    inv: [f32; 3],
+pub(super) struct BoxRay {
+    pub(super) origin: [f32; 3],
+    pub(super) inv: [f32; 3],
     /// Per axis, the row of [`Boxes4`] holding the near plane (the max when the direction is
     /// negative) and the one holding the far plane.
-    near: [usize; 3],
-    far: [usize; 3],
-    t_min: f32,
+    pub(super) near: [usize; 3],
+    pub(super) far: [usize; 3],
+    pub(super) t_min: f32,
 }
 
-impl BoxRay4 {
+impl BoxRay {
     /// `None` when the ray can never hit anything (non-finite or zero direction or origin,
     /// empty or NaN range), matching what the leaf test would say. `t_min` is the lower bound
     /// boxes are clipped to (the caller loosens it by its culling slack).
@@ -92,7 +92,7 @@ impl BoxRay4 {
         }
     }
 
-    /// [`BoxRay4::enter`] one lane at a time.
+    /// [`BoxRay::enter`] one lane at a time.
     #[cfg(any(test, not(target_arch = "x86_64")))]
     #[inline(always)]
     pub(super) fn enter_scalar(
@@ -127,7 +127,7 @@ impl BoxRay4 {
         (t0, mask)
     }
 
-    /// [`BoxRay4::enter`] with SSE.
+    /// [`BoxRay::enter`] with SSE.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn enter_sse(&self, boxes: &Boxes4, t_far: f32, far_slack: f32) -> ([f32; 4], u32) {
@@ -177,7 +177,7 @@ mod tests {
 
     #[test]
     fn hits_box_ahead_only() {
-        let r = BoxRay4::new(&Ray::new(Vec3::ZERO, Vec3::X), 0.0).expect("usable ray");
+        let r = BoxRay::new(&Ray::new(Vec3::ZERO, Vec3::X), 0.0).expect("usable ray");
         let (t, mask) = r.enter(&mixed_boxes(), f32::INFINITY, 1.0);
         assert_eq!(mask, 0b101);
         assert_eq!(t[0], 1.0);
@@ -187,7 +187,7 @@ mod tests {
     #[test]
     fn empty_boxes_are_never_entered() {
         for dir in [Vec3::X, Vec3::NEG_Y, Vec3::new(0.0, -0.0, 1.0), Vec3::ONE] {
-            let r = BoxRay4::new(&Ray::new(Vec3::splat(0.5), dir), 0.0).expect("usable ray");
+            let r = BoxRay::new(&Ray::new(Vec3::splat(0.5), dir), 0.0).expect("usable ray");
             assert_eq!(r.enter(&EMPTY_BOXES, f32::INFINITY, 1.0).1, 0, "{dir:?}");
             assert_eq!(r.enter_scalar(&EMPTY_BOXES, f32::INFINITY, 1.0).1, 0);
         }
@@ -195,7 +195,7 @@ mod tests {
 
     #[test]
     fn zero_direction_is_unusable() {
-        assert!(BoxRay4::new(&Ray::new(Vec3::ZERO, Vec3::ZERO), 0.0).is_none());
+        assert!(BoxRay::new(&Ray::new(Vec3::ZERO, Vec3::ZERO), 0.0).is_none());
     }
 
     #[test]
@@ -229,7 +229,7 @@ mod tests {
             } else {
                 coord().abs()
             };
-            let Some(r) = BoxRay4::new(&Ray::new(origin, dir), 0.0) else {
+            let Some(r) = BoxRay::new(&Ray::new(origin, dir), 0.0) else {
                 continue;
             };
             let (ts, ms) = r.enter_scalar(&boxes, t_far, 1.0 + 1e-6);

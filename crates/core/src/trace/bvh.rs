@@ -1,28 +1,33 @@
 //! Our default ray caster: a binned-SAH bounding volume hierarchy over the scene's triangles,
-//! built in parallel as a binary tree, collapsed into a 4-wide tree whose four child boxes are
-//! tested at once (SSE), and traversed with a stack, nearer children first.
+//! built in parallel as a binary tree, collapsed into an 8-wide tree whose eight child boxes
+//! are tested at once with AVX2 (`bvh/bvh8.rs`) when the CPU has it, else into a 4-wide tree
+//! tested with SSE, and traversed with a stack, nearer children first.
 //!
 //! Based on: Wald. On fast construction of SAH-based bounding volume hierarchies. 2007
 //! (binned SAH build, 16 bins, bins keep bounds and centroid bounds so children need no extra pass).
 //! Based on: Wald, Benthin, Boulos. Getting rid of packets: efficient SIMD single-ray traversal
 //! using multi-branching BVHs. IRT 2008 (the 4-wide tree, collapsed from the binary one).
 //! Based on: Ernst, Greiner. Multi bounding volume hierarchies. IRT 2008.
+//! Based on: Fuetterling, Lojewski, Pfreundt, Ebert. Efficient Ray Tracing Kernels for Modern
+//! CPU Architectures. JCGT 4(5), 2015 (the 8-wide tree).
 //! Based on: Ize. Robust BVH ray traversal. JCGT 2(2), 2013 (the `1 + 2 gamma(3)` slab slack).
 //! Based on: Woop, Benthin, Wald. Watertight ray/triangle intersection. JCGT 2(1), 2013
 //! (the leaf test, [`super::triangle::intersect`]).
 //!
 //! # Layout
-//! Nodes are 128 bytes on two cache lines: the four child boxes as six rows of four lanes
-//! (min x, y, z, max x, y, z), then per child its node index or first packet, and its packet
-//! count (0 for an inner child). Triangles are copied in leaf order, four to a 160-byte packet
+//! 4-wide nodes are 128 bytes on two cache lines: the four child boxes as six rows of four
+//! lanes (min x, y, z, max x, y, z), then per child its node index or first packet, and its
+//! packet count (0 for an inner child). 8-wide nodes are 224 bytes: eight lanes per row, and
+//! index and packet count packed into one `u32` per child (`bvh/bvh8.rs`). Triangles are copied in leaf order, four to a 160-byte packet
 //! (`Tri4`: corners as rows of four lanes, and the scene ids), so a leaf is one
 //! contiguous run of packets tested four triangles at a time, and the scene is not touched
 //! while tracing.
 //!
 //! # Memory
-//! Per triangle that is kept (degenerate ones are dropped), on the 1M-triangle procedural city
-//! and on munich: about 48 bytes of packets (3.4 triangles per packet) plus 12 bytes of nodes,
-//! so about 60 bytes per triangle ([`Bvh::memory_bytes`]). The build peaks at about 170 bytes
+//! Per triangle that is kept (degenerate ones are dropped), with 8-wide nodes: about 48 bytes
+//! of packets (3.4 triangles per packet) plus 13 to 17 bytes of nodes, so 61 bytes per
+//! triangle on the 1M-triangle procedural city and 64 to 66 on munich, czest3ctf and the
+//! Stanford bunny ([`Bvh::memory_bytes`]; 4-wide nodes took about 60 on the city). The build peaks at about 170 bytes
 //! per triangle (24-byte boxes, 4-byte ids, and an uncompacted binary node array of 64 bytes
 //! per triangle), i.e. about 1.7 GB for 10M triangles.
 //!
@@ -33,16 +38,19 @@
 //! conservative (Ize's slack on the far distance, a relative slack on the culling distance) so
 //! that a box whose triangle the leaf test would accept is never culled by rounding.
 
+mod bvh8;
+
 use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::geometry::{Aabb, Hit, Ray};
 use crate::scene::Scene;
 
-use super::box4::{BoxRay4, Boxes4, EMPTY_BOXES};
+use super::box4::{BoxRay, Boxes4, EMPTY_BOXES};
 use super::tri4::{intersect4, Tri4};
 use super::triangle::ShearedRay;
 use super::RayCaster;
+use bvh8::{collapse8, Node8};
 
 /// Number of SAH bins per axis (Wald 2007 finds 16 close to a full sweep in quality).
 const BINS: usize = 16;
@@ -141,8 +149,11 @@ struct NodePair([Node; 2]);
 /// ```
 #[derive(Debug)]
 pub struct Bvh {
-    /// 4-wide nodes, the root first (empty when `triangles` is).
+    /// 4-wide nodes, the root first (empty when `triangles` is, or when `nodes8` is used).
     nodes: Vec<Node4>,
+    /// 8-wide nodes, the root first: used instead of `nodes` when the CPU has AVX2, and only
+    /// then non-empty.
+    nodes8: Vec<Node8>,
     /// Triangles in leaf order, four to a packet; a leaf is a run of packets.
     packets: Vec<Tri4>,
     /// Triangles held (the packets' lanes less the padding).
@@ -476,18 +487,15 @@ fn collapse(
     nodes
 }
 
-fn collapse_inner(
-    inner: &Node,
-    sparse: &[NodePair],
-    pack: &mut impl FnMut(u32, u32) -> (u32, u32),
-    out: &mut Vec<Node4>,
-) -> u32 {
-    let index = out.len();
-    out.push(Node4::EMPTY);
-    let mut kids = [Node::default(); 4];
+/// The up to `W` nodes that replace binary node `inner` in a `W`-wide node: its two children,
+/// then the inner child with the largest surface area (the likeliest to be entered) opened
+/// again and again until there are `W` or only leaves (Wald et al. 2008). Returns them and
+/// their number.
+fn open_children<const W: usize>(inner: &Node, sparse: &[NodePair]) -> ([Node; W], usize) {
+    let mut kids = [Node::default(); W];
     kids[..2].copy_from_slice(&sparse[inner.first as usize].0);
     let mut len = 2;
-    while len < 4 {
+    while len < W {
         let widest = (0..len)
             .filter(|&i| !kids[i].is_leaf())
             .max_by(|&i, &j| node_area(&kids[i]).total_cmp(&node_area(&kids[j])));
@@ -497,6 +505,18 @@ fn collapse_inner(
         kids[len] = r;
         len += 1;
     }
+    (kids, len)
+}
+
+fn collapse_inner(
+    inner: &Node,
+    sparse: &[NodePair],
+    pack: &mut impl FnMut(u32, u32) -> (u32, u32),
+    out: &mut Vec<Node4>,
+) -> u32 {
+    let index = out.len();
+    out.push(Node4::EMPTY);
+    let (kids, len) = open_children::<4>(inner, sparse);
     let mut node = Node4::EMPTY;
     for (lane, kid) in kids[..len].iter().enumerate() {
         node.set_box(lane, kid);
@@ -520,6 +540,11 @@ impl Bvh {
     /// Builds the BVH for `scene`. Triangles with an index out of range, a non-finite corner
     /// or zero area are left out: the leaf test would never hit them.
     pub fn build(scene: &Scene) -> Self {
+        Self::build_with(scene, Width::widest())
+    }
+
+    /// [`Bvh::build`] with nodes of the given width.
+    fn build_with(scene: &Scene, width: Width) -> Self {
         let n = scene.triangles.len();
         let corners = |t: &[u32; 3]| -> Option<[Vec3; 3]> {
             let p = |i: u32| scene.positions.get(i as usize).copied();
@@ -540,6 +565,7 @@ impl Bvh {
         if ids.is_empty() {
             return Self {
                 nodes: Vec::new(),
+                nodes8: Vec::new(),
                 packets: Vec::new(),
                 triangle_count: 0,
             };
@@ -562,12 +588,17 @@ impl Bvh {
             }
             (start, packets.len() as u32 - start)
         };
-        let mut nodes = collapse(&root, &sparse, &mut pack);
+        let (mut nodes, mut nodes8) = match width {
+            Width::Four => (collapse(&root, &sparse, &mut pack), Vec::new()),
+            Width::Eight => (Vec::new(), collapse8(&root, &sparse, &mut pack)),
+        };
         drop(sparse);
         nodes.shrink_to_fit();
+        nodes8.shrink_to_fit();
         packets.shrink_to_fit();
         Self {
             nodes,
+            nodes8,
             packets,
             triangle_count: ids.len(),
         }
@@ -581,6 +612,7 @@ impl Bvh {
     /// Heap bytes held by the BVH (nodes and leaf triangles).
     pub fn memory_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<Node4>()
+            + self.nodes8.capacity() * std::mem::size_of::<Node8>()
             + self.packets.capacity() * std::mem::size_of::<Tri4>()
     }
 
@@ -589,7 +621,7 @@ impl Bvh {
     #[inline(always)]
     fn traverse(&self, ray: &Ray, mut leaf: impl FnMut(&[Tri4]) -> Option<f32>) -> bool {
         let t_min = ray.t_min - ray.t_min.abs() * CULL_SLACK;
-        let Some(r) = BoxRay4::new(ray, t_min) else {
+        let Some(r) = BoxRay::new(ray, t_min) else {
             return true;
         };
         let mut t_far = slack_up(ray.t_max);
@@ -728,27 +760,63 @@ struct Entry {
     t: f32,
 }
 
+/// Node width: 8 (AVX2 box tests) where the CPU has AVX2, else 4 (SSE or scalar).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Width {
+    Four,
+    Eight,
+}
+
+impl Width {
+    /// The widest width this CPU traverses with SIMD.
+    fn widest() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if is_x86_feature_detected!("avx2") {
+            return Width::Eight;
+        }
+        Width::Four
+    }
+}
+
+impl Bvh {
+    fn cast_chunk(&self, rays: &[Ray], hits: &mut [Hit]) {
+        #[cfg(target_arch = "x86_64")]
+        if !self.nodes8.is_empty() {
+            // SAFETY: `nodes8` is only built when `Width::widest` detected AVX2.
+            unsafe { self.cast8(rays, hits) };
+            return;
+        }
+        for (r, h) in rays.iter().zip(hits) {
+            *h = self.closest(r);
+        }
+    }
+
+    fn occluded_chunk(&self, rays: &[Ray], out: &mut [bool]) {
+        #[cfg(target_arch = "x86_64")]
+        if !self.nodes8.is_empty() {
+            // SAFETY: `nodes8` is only built when `Width::widest` detected AVX2.
+            unsafe { self.occluded8(rays, out) };
+            return;
+        }
+        for (r, o) in rays.iter().zip(out) {
+            *o = self.any_hit(r);
+        }
+    }
+}
+
 impl RayCaster for Bvh {
     fn cast(&self, rays: &[Ray], hits: &mut [Hit]) {
         assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
         rays.par_chunks(RAYS_PER_TASK)
             .zip(hits.par_chunks_mut(RAYS_PER_TASK))
-            .for_each(|(rs, hs)| {
-                for (r, h) in rs.iter().zip(hs) {
-                    *h = self.closest(r);
-                }
-            });
+            .for_each(|(rs, hs)| self.cast_chunk(rs, hs));
     }
 
     fn occluded(&self, rays: &[Ray], out: &mut [bool]) {
         assert_eq!(rays.len(), out.len(), "one output slot per ray");
         rays.par_chunks(RAYS_PER_TASK)
             .zip(out.par_chunks_mut(RAYS_PER_TASK))
-            .for_each(|(rs, os)| {
-                for (r, o) in rs.iter().zip(os) {
-                    *o = self.any_hit(r);
-                }
-            });
+            .for_each(|(rs, os)| self.occluded_chunk(rs, os));
     }
 }
 
@@ -1021,6 +1089,54 @@ mod tests {
     fn box_scene_matches_brute_force() {
         let scene = box_scene(5);
         assert_matches_brute_force(&scene, &random_rays(scene.bounds(), 8000, 6));
+    }
+
+    /// Both node widths against brute force, whatever the CPU picks for [`Bvh::build`].
+    fn assert_both_widths_match_brute_force(scene: &Scene, rays: &[Ray]) {
+        let brute = BruteForce::new(scene);
+        let mut want = vec![Hit::MISS; rays.len()];
+        brute.cast(rays, &mut want);
+        for width in [Width::Four, Width::widest()] {
+            let bvh = Bvh::build_with(scene, width);
+            let mut got = vec![Hit::MISS; rays.len()];
+            bvh.cast(rays, &mut got);
+            let mut occluded = vec![false; rays.len()];
+            bvh.occluded(rays, &mut occluded);
+            for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+                assert_eq!(g, w, "{width:?}, ray {i}: {:?}", rays[i]);
+                assert_eq!(occluded[i], w.is_hit(), "{width:?}, occluded, ray {i}");
+            }
+        }
+    }
+
+    #[test]
+    fn avx2_cpu_builds_eight_wide_nodes() {
+        let bvh = Bvh::build(&box_scene(1));
+        #[cfg(target_arch = "x86_64")]
+        if is_x86_feature_detected!("avx2") {
+            assert!(bvh.nodes.is_empty() && !bvh.nodes8.is_empty());
+            return;
+        }
+        assert!(!bvh.nodes.is_empty() && bvh.nodes8.is_empty());
+    }
+
+    #[test]
+    fn both_widths_match_brute_force_on_box_scene() {
+        let scene = box_scene(11);
+        assert_both_widths_match_brute_force(&scene, &random_rays(scene.bounds(), 4000, 12));
+    }
+
+    #[test]
+    fn both_widths_match_brute_force_on_random_soup() {
+        let scene = random_soup(5000, 13);
+        assert_both_widths_match_brute_force(&scene, &random_rays(scene.bounds(), 4000, 14));
+    }
+
+    #[test]
+    fn both_widths_match_brute_force_on_one_triangle() {
+        // The root is a leaf: both layouts give it a node of its own.
+        let scene = one_triangle();
+        assert_both_widths_match_brute_force(&scene, &random_rays(scene.bounds(), 500, 15));
     }
 
     #[test]

@@ -4,6 +4,7 @@
 //! never hit. Triangles are double-sided.
 
 mod box4;
+mod box8;
 pub mod brute;
 pub mod bvh;
 #[cfg(feature = "embree")]
