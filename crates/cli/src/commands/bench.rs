@@ -290,6 +290,7 @@ struct PvsRow {
     mean_rays: f64,
     mean_seconds: f64,
     avg_error_pixels: f64,
+    avg_unconfirmed_pixels: f64,
     max_error_pixels: usize,
     avg_error_regions: f64,
     max_error_region_size: usize,
@@ -387,6 +388,7 @@ fn pvs(args: PvsArgs) -> Result<()> {
                 row.mean_rays += r.rays as f64;
                 row.mean_seconds += r.seconds;
                 row.avg_error_pixels += e.avg_error_pixels;
+                row.avg_unconfirmed_pixels += e.avg_unconfirmed_pixels;
                 row.max_error_pixels = row.max_error_pixels.max(e.max_error_pixels);
                 row.avg_error_regions += e.avg_error_regions;
                 row.max_error_region_size = row.max_error_region_size.max(e.max_error_region_size);
@@ -399,6 +401,7 @@ fn pvs(args: PvsArgs) -> Result<()> {
             row.mean_rays /= k;
             row.mean_seconds /= k;
             row.avg_error_pixels /= k;
+            row.avg_unconfirmed_pixels /= k;
             row.avg_error_regions /= k;
             row.pvs_percent /= k;
         }
@@ -408,12 +411,12 @@ fn pvs(args: PvsArgs) -> Result<()> {
         return print_json(&all_rows);
     }
     println!(
-        "| scene | method | budget | mean rays | mean s | avg err px | max err px | avg err regions | max region px | PVS % | false neg (sum) |"
+        "| scene | method | budget | mean rays | mean s | avg err px | max err px | avg err regions | max region px | avg snapping px | PVS % | false neg (sum) |"
     );
-    println!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &all_rows {
         println!(
-            "| `{}` | {} | {} | {:.3e} | {:.2} | {:.2} | {} | {:.2} | {} | {:.2} | {} |",
+            "| `{}` | {} | {} | {:.3e} | {:.2} | {:.2} | {} | {:.2} | {} | {:.2} | {:.2} | {} |",
             r.scene,
             r.method,
             r.budget,
@@ -423,6 +426,7 @@ fn pvs(args: PvsArgs) -> Result<()> {
             r.max_error_pixels,
             r.avg_error_regions,
             r.max_error_region_size,
+            r.avg_unconfirmed_pixels,
             r.pvs_percent,
             r.false_negatives
         );

@@ -140,18 +140,19 @@ pub(crate) fn run(args: Args) -> Result<()> {
         return print_json(&rows);
     }
     println!(
-        "| cell | avg err px | max err px | avg err regions | max region px | PVS | PVS % | seen | false neg | images | s |"
+        "| cell | avg err px | max err px | avg err regions | max region px | avg snapping px | PVS | PVS % | seen | false neg | images | s |"
     );
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
         let e = &r.evaluation;
         println!(
-            "| {} | {:.2} | {} | {:.2} | {} | {} | {:.2} | {} | {} | {} | {:.1} |",
+            "| {} | {:.2} | {} | {:.2} | {} | {:.2} | {} | {:.2} | {} | {} | {} | {:.1} |",
             r.cell,
             e.avg_error_pixels,
             e.max_error_pixels,
             e.avg_error_regions,
             e.max_error_region_size,
+            e.avg_unconfirmed_pixels,
             e.pvs_size,
             r.pvs_percent,
             e.ground_truth_size,
