@@ -54,7 +54,7 @@ fn one_frame_latency_within_the_software_bounds() {
     // (`test_now`), which hardware queries cannot; compare the cell-query method alone.
     let sw_cfg = sightline_cull::SimConfig {
         object_tests: false,
-        ..cfg.clone()
+        ..cfg
     };
     let sw_report = simulate(&scene, &mut sw, &sw_cfg).unwrap();
     eprintln!("gpu, latency 1: {}", report.summary());
