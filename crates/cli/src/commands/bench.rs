@@ -61,6 +61,10 @@ struct PvsArgs {
     /// Print JSON instead of Markdown.
     #[arg(long)]
     json: bool,
+    /// Write a convergence plot per scene (average error against rays for every method, on
+    /// the scene's first cell) as SVG files into DIR.
+    #[arg(long, value_name = "DIR")]
+    plot: Option<std::path::PathBuf>,
 }
 
 /// Arguments of `sightline bench trace`.
@@ -396,6 +400,33 @@ fn pvs(args: PvsArgs) -> Result<()> {
                 row.false_negatives += e.false_negatives;
             }
         }
+        if let Some(dir) = &args.plot {
+            std::fs::create_dir_all(dir)?;
+            let name: String = spec
+                .rsplit('/')
+                .next()
+                .unwrap_or(spec)
+                .chars()
+                .map(|c| {
+                    if c.is_ascii_alphanumeric() || c == '.' {
+                        c
+                    } else {
+                        '_'
+                    }
+                })
+                .collect();
+            let path = dir.join(format!("convergence_{name}.svg"));
+            let ctx = CellContext {
+                scene: &scene,
+                caster: &bvh,
+                cell: &cells[0],
+                seed: args.seed,
+                free_space: None,
+            };
+            let samplers: [&dyn Sampler; 4] = [&gvspp, &RandomSampler, &gvs, &raster];
+            convergence_plot(&ctx, &samplers, &eval, spec, &path)?;
+            eprintln!("wrote {}", path.display());
+        }
         let k = cells.len() as f64;
         for row in &mut rows {
             row.mean_rays /= k;
@@ -436,4 +467,92 @@ fn pvs(args: PvsArgs) -> Result<()> {
         args.cells, args.viewpoints, args.resolution
     );
     Ok(())
+}
+
+/// Average erroneous pixels against rays for every sampler on one cell: each sampler runs at
+/// 1/16, 1/8, 1/4, 1/2 and 1 times the rays GVS++ (the first sampler) needs to converge, and
+/// all resulting sets are judged on the same views. Log-log; a zero error is drawn at 0.001.
+fn convergence_plot(
+    ctx: &sightline_region::CellContext<'_>,
+    samplers: &[&dyn sightline_region::Sampler],
+    eval: &sightline_eval::EvalParams,
+    title: &str,
+    path: &std::path::Path,
+) -> Result<()> {
+    use plotters::prelude::*;
+    use sightline_region::Budget;
+    let none = &|_: &sightline_region::ConvergencePoint| {};
+    let converged = samplers[0].sample(ctx, &Budget::default(), none);
+    let fractions = [1.0 / 16.0, 0.125, 0.25, 0.5, 1.0];
+    let mut runs = Vec::new();
+    for s in samplers {
+        for f in fractions {
+            let budget = Budget::rays(((converged.rays as f64 * f) as u64).max(1));
+            runs.push((s.name(), s.sample(ctx, &budget, none)));
+        }
+    }
+    let sets: Vec<&sightline_core::TriangleSet> = runs.iter().map(|(_, r)| &r.visible).collect();
+    let evaluations = sightline_eval::evaluate_cell(ctx.scene, ctx.cell, &sets, eval, &|_, _| {});
+    let floor = 1e-3;
+    let points: Vec<(&str, f64, f64)> = runs
+        .iter()
+        .zip(&evaluations)
+        .map(|((name, r), e)| (*name, r.rays.max(1) as f64, e.avg_error_pixels.max(floor)))
+        .collect();
+    let (x0, x1) = points
+        .iter()
+        .fold((f64::MAX, 0.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    let y1 = points.iter().fold(1.0f64, |a, p| a.max(p.2));
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (900, 600)).into_drawing_area();
+        let draw = || -> std::result::Result<(), Box<dyn std::error::Error>> {
+            root.fill(&WHITE)?;
+            let mut chart = ChartBuilder::on(&root)
+                .caption(
+                    format!(
+                        "{title}: average erroneous pixels per {}² view",
+                        eval.resolution
+                    ),
+                    ("sans-serif", 18),
+                )
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(60)
+                .build_cartesian_2d(
+                    (x0 * 0.8..x1 * 1.25).log_scale(),
+                    (floor..y1 * 2.0).log_scale(),
+                )?;
+            chart
+                .configure_mesh()
+                .x_desc("rays (RASTER: pixels)")
+                .y_desc("avg error px")
+                .draw()?;
+            const COLOURS: [RGBColor; 4] = [RED, BLUE, GREEN, MAGENTA];
+            for (s, colour) in samplers.iter().zip(COLOURS.iter().cycle()) {
+                let series: Vec<(f64, f64)> = points
+                    .iter()
+                    .filter(|p| p.0 == s.name())
+                    .map(|p| (p.1, p.2))
+                    .collect();
+                chart
+                    .draw_series(LineSeries::new(series.clone(), colour))?
+                    .label(s.name())
+                    .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], colour));
+                chart.draw_series(series.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
+            }
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .draw()?;
+            root.present()?;
+            Ok(())
+        };
+        draw().map_err(|e| anyhow::anyhow!("drawing {}: {e}", path.display()))?;
+    }
+    sightline_core::atomic_file::write_atomic(path, |w| {
+        std::io::Write::write_all(w, svg.as_bytes())
+    })
+    .map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))
 }
