@@ -220,7 +220,20 @@ fn q3_leaf_bake_stays_inside_q3map2_pvs() {
         dir.path(),
     );
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = sightline(&["pvs", "compare-q3", map, "q.pvs", "--json"], dir.path());
+    let o = sightline(
+        &[
+            "pvs",
+            "compare-q3",
+            map,
+            "q.pvs",
+            "--json",
+            "--viewpoints",
+            "2",
+            "--resolution",
+            "64",
+        ],
+        dir.path(),
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let rows: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let rows = rows.as_array().unwrap();
@@ -234,4 +247,10 @@ fn q3_leaf_bake_stays_inside_q3map2_pvs() {
     // q3map2's PVS is conservative (up to its epsilons), so almost nothing we see may lie
     // outside it; a handful of grazing pairs are tolerated.
     assert!(ours > 1000 && outside * 200 <= ours, "{outside} of {ours}");
+    // Both PVSs are judged from inside each cluster: q3map2's conservative one must be
+    // (nearly) free of error, ours small.
+    for r in rows {
+        assert!(r["q3map2_avg_error_pixels"].as_f64().unwrap() < 1.0, "{r}");
+        assert!(r["ours_avg_error_pixels"].as_f64().unwrap() < 5.0, "{r}");
+    }
 }

@@ -5,4 +5,4 @@
 pub mod error_regions;
 pub mod pixel_error;
 
-pub use pixel_error::{evaluate_cell, CellEvaluation, EvalParams, ViewMode};
+pub use pixel_error::{evaluate_cell, evaluate_cell_in, CellEvaluation, EvalParams, ViewMode};

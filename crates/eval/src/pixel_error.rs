@@ -135,10 +135,27 @@ pub fn evaluate_cell(
     params: &EvalParams,
     progress: &dyn Fn(usize, usize),
 ) -> Vec<CellEvaluation> {
+    evaluate_cell_in(scene, cell, &|_| true, pvs_sets, params, progress)
+}
+
+/// [`evaluate_cell`] with viewpoints restricted to the cell's free space: Halton points for
+/// which `free_space` returns false are skipped (e.g. the solid part of a Quake 3 leaf box), so
+/// fewer than `params.viewpoints` viewpoints may be used.
+pub fn evaluate_cell_in(
+    scene: &Scene,
+    cell: &ViewCell,
+    free_space: &dyn Fn(Vec3) -> bool,
+    pvs_sets: &[&TriangleSet],
+    params: &EvalParams,
+    progress: &dyn Fn(usize, usize),
+) -> Vec<CellEvaluation> {
     let n = scene.triangle_count();
     let diagonal = scene.bounds().diagonal().max(1e-6);
     let near = diagonal * 1e-5;
-    let cameras = view_cameras(scene, cell, params, near);
+    let cameras: Vec<Camera> = view_cameras(scene, cell, params, near)
+        .into_iter()
+        .filter(|c| free_space(c.eye))
+        .collect();
     let mut rasterizer = Rasterizer::new(scene);
     let bvh = Bvh::build(scene);
     let r = params.resolution.max(1);

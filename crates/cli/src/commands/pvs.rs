@@ -149,6 +149,13 @@ pub(crate) struct CompareQ3Args {
     /// Quake 3 maps: patch tessellation used for the bake.
     #[arg(long, default_value_t = 4)]
     patch_subdivisions: u32,
+    /// Also measure the pixel error of both PVSs from this many viewpoints per leaf (inside
+    /// the leaf's own cluster), six cube faces each; 0 skips it.
+    #[arg(long, default_value_t = 0)]
+    viewpoints: usize,
+    /// Resolution of those views.
+    #[arg(long, default_value_t = 256)]
+    resolution: u32,
     /// Print JSON.
     #[arg(long)]
     json: bool,
@@ -492,6 +499,9 @@ struct ClusterComparison {
     q3map2: usize,
     ours_not_q3map2: usize,
     q3map2_not_ours: usize,
+    /// Average erroneous pixels per view of our PVS and of q3map2's (with --viewpoints).
+    ours_avg_error_pixels: Option<f64>,
+    q3map2_avg_error_pixels: Option<f64>,
 }
 
 fn run_compare_q3(args: CompareQ3Args) -> Result<()> {
@@ -518,28 +528,58 @@ fn run_compare_q3(args: CompareQ3Args) -> Result<()> {
             args.pvs.display()
         );
     }
-    let mut by_cluster: std::collections::BTreeMap<u32, (usize, fixedbitset::FixedBitSet)> =
-        Default::default();
+    type ClusterCells = (Vec<ViewCell>, fixedbitset::FixedBitSet);
+    let mut by_cluster: std::collections::BTreeMap<u32, ClusterCells> = Default::default();
     for (c, cell) in clusters.iter().zip(&file.cells) {
         let c = c.as_u64().context("cluster ids must be numbers")? as u32;
         let entry = by_cluster.entry(c).or_insert_with(|| {
             (
-                0,
+                Vec::new(),
                 fixedbitset::FixedBitSet::with_capacity(scene.triangle_count()),
             )
         });
-        entry.0 += 1;
+        entry.0.push(cell.cell);
         entry.1.union_with(&cell.visible);
     }
+    let eval = sightline_eval::EvalParams {
+        viewpoints: args.viewpoints,
+        resolution: args.resolution.clamp(1, 8192),
+        ..sightline_eval::EvalParams::default()
+    };
     let mut rows = Vec::new();
     for (cluster, (leaves, ours)) in by_cluster {
         let mut q3 = fixedbitset::FixedBitSet::with_capacity(scene.triangle_count());
         for t in bsp.triangles_visible_from_cluster(cluster) {
             q3.insert(t as usize);
         }
+        let (mut ours_error, mut q3_error) = (None, None);
+        if args.viewpoints > 0 {
+            let (mut sum, mut images) = ([0.0f64; 2], 0usize);
+            for leaf in &leaves {
+                let inside = |p: Vec3| bsp.cluster_at(p) == Some(cluster);
+                let e = sightline_eval::evaluate_cell_in(
+                    &scene,
+                    leaf,
+                    &inside,
+                    &[&ours, &q3],
+                    &eval,
+                    &|_, _| {},
+                );
+                for (k, ek) in e.iter().enumerate() {
+                    sum[k] += ek.avg_error_pixels * ek.images as f64;
+                }
+                images += e[0].images;
+            }
+            if images > 0 {
+                ours_error = Some(sum[0] / images as f64);
+                q3_error = Some(sum[1] / images as f64);
+            }
+        }
         rows.push(ClusterComparison {
             cluster,
-            leaves,
+            ours_avg_error_pixels: ours_error,
+            q3map2_avg_error_pixels: q3_error,
+            leaves: leaves.len(),
             ours: ours.count_ones(..),
             q3map2: q3.count_ones(..),
             ours_not_q3map2: ours.difference(&q3).count(),
@@ -549,12 +589,20 @@ fn run_compare_q3(args: CompareQ3Args) -> Result<()> {
     if args.json {
         return print_json(&rows);
     }
-    println!("| cluster | leaves | ours | q3map2 | ours, culled by q3map2 | q3map2, not ours |");
-    println!("|---:|---:|---:|---:|---:|---:|");
+    println!("| cluster | leaves | ours | q3map2 | ours, culled by q3map2 | q3map2, not ours | ours avg err px | q3map2 avg err px |");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
+        let error = |e: Option<f64>| e.map_or("-".to_string(), |v| format!("{v:.3}"));
         println!(
-            "| {} | {} | {} | {} | {} | {} |",
-            r.cluster, r.leaves, r.ours, r.q3map2, r.ours_not_q3map2, r.q3map2_not_ours
+            "| {} | {} | {} | {} | {} | {} | {} | {} |",
+            r.cluster,
+            r.leaves,
+            r.ours,
+            r.q3map2,
+            r.ours_not_q3map2,
+            r.q3map2_not_ours,
+            error(r.ours_avg_error_pixels),
+            error(r.q3map2_avg_error_pixels)
         );
     }
     let suspicious: usize = rows.iter().map(|r| r.ours_not_q3map2).sum();
