@@ -1,28 +1,9 @@
 //! End-to-end tests of the `sightline` binary: exit codes, error messages that name the problem,
 //! outputs that are written (and never half-written).
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod common;
 
-fn sightline(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sightline"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("the sightline binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// A clean failure: exit code 1 (not a panic's 101) and a message containing `needle`.
-fn assert_fails_with(o: &Output, needle: &str) {
-    assert_eq!(o.status.code(), Some(1), "stderr: {}", stderr(o));
-    let err = stderr(o);
-    assert!(err.contains(needle), "expected '{needle}' in: {err}");
-    assert!(!err.contains("panicked"), "panic: {err}");
-}
+use common::{assert_fails_with, sightline, stderr};
 
 #[test]
 fn info_json_reports_counts_of_default_scene() {

@@ -1,27 +1,9 @@
 //! End-to-end tests of `sightline cull`: the default run prints a row per method, JSON and the
 //! SVG plot are written, camera path files are used and bad ones are clean errors.
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod common;
 
-fn sightline(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sightline"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("the sightline binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn assert_fails_with(o: &Output, needle: &str) {
-    assert_eq!(o.status.code(), Some(1), "stderr: {}", stderr(o));
-    let err = stderr(o);
-    assert!(err.contains(needle), "expected '{needle}' in: {err}");
-    assert!(!err.contains("panicked"), "panic: {err}");
-}
+use common::{assert_fails_with, sightline, stderr};
 
 const SMALL: &[&str] = &["--frames", "12", "--size", "160x90"];
 

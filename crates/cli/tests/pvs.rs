@@ -3,27 +3,10 @@
 // Test helpers panic on broken fixtures; that is the failure report we want.
 #![allow(clippy::unwrap_used)]
 
+mod common;
+
+use common::{assert_fails_with, sightline, stderr};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn sightline(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sightline"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("the sightline binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn assert_fails_with(o: &Output, needle: &str) {
-    assert_eq!(o.status.code(), Some(1), "stderr: {}", stderr(o));
-    let err = stderr(o);
-    assert!(err.contains(needle), "expected '{needle}' in: {err}");
-    assert!(!err.contains("panicked"), "panic: {err}");
-}
 
 const SCENE: &str = "procedural:rooms?seed=2&size=2000";
 

@@ -23,7 +23,7 @@ use serde::Serialize;
 use sightline_core::{Hit, Ray, Scene};
 
 use crate::border::border_polygon;
-use crate::rays::{cast, discover, Discovery, RandomRays, BATCH};
+use crate::rays::{cast, discover, Discovery, RandomRays};
 use crate::sampler::{Budget, CellContext, CellResult, ConvergencePoint, Sampler, Tally};
 use crate::viewcell::{Rect, ViewCell};
 
@@ -86,30 +86,17 @@ impl Sampler for Gvs {
         let delta = p.delta_discontinuity * diagonal;
         let faces = ctx.cell.faces();
         let mut tally = Tally::new(ctx.scene.triangle_count(), *budget);
-        let random = RandomRays::new(ctx.cell, ctx.scene, ctx.seed);
+        let mut random = RandomRays::new(ctx.cell, ctx.scene, ctx.seed);
         let mut found = [0usize; 3];
-        let mut random_index = 0u64;
-        let mut no_free_space = false;
         loop {
             let mut round_new = 0usize;
             let mut queue: Vec<Discovery> = Vec::new();
-            let mut remaining = p.n_rand;
-            while remaining > 0 && !tally.exhausted() {
-                let n = remaining.min(BATCH as u64).min(tally.rays_left()) as usize;
-                let rays = random.batch(ctx, random_index, n);
-                random_index += n as u64;
-                remaining -= n as u64;
-                if rays.is_empty() {
-                    // No allowed origin in a whole batch: the cell has no free space.
-                    no_free_space = true;
-                    break;
-                }
-                let new = discover(&tally.pvs, &rays, &cast(ctx.caster, &rays));
-                found[0] += new.len();
-                round_new += new.len();
-                queue.extend(new);
-                tally.batch_done(rays.len(), progress);
-            }
+            let Some(new) = random.sample_round(ctx, &mut tally, p.n_rand, progress) else {
+                break;
+            };
+            found[0] += new.len();
+            round_new += new.len();
+            queue.extend(new);
             let mut head = 0;
             while head < queue.len() && !tally.exhausted() {
                 let chunk: Vec<Discovery> = queue[head..(head + 2048).min(queue.len())].to_vec();
@@ -192,10 +179,7 @@ impl Sampler for Gvs {
                     tally.batch_done(rs.len(), progress);
                 }
             }
-            if no_free_space
-                || tally.exhausted()
-                || (budget.is_unlimited() && round_new < p.termination_threshold)
-            {
+            if tally.exhausted() || (budget.is_unlimited() && round_new < p.termination_threshold) {
                 break;
             }
         }

@@ -124,33 +124,20 @@ impl Sampler for GvsPlusPlus {
         let delta_abs = p.delta_abs * diagonal;
         let delta = p.delta_discontinuity * diagonal;
         let mut tally = Tally::new(ctx.scene.triangle_count(), *budget);
-        let random = RandomRays::new(ctx.cell, ctx.scene, ctx.seed);
+        let mut random = RandomRays::new(ctx.cell, ctx.scene, ctx.seed);
         let reverse = ReverseOrigins::new(ctx, p.n_rs_edge, p.n_rs_area);
         let mut found = [0usize; 3]; // random, ABS, RS
-        let mut random_index = 0u64;
-        let mut no_free_space = false;
         let mut rs_round = 0u64;
         loop {
             let mut round_new = 0usize;
             let mut queue: Vec<Discovery> = Vec::new();
             // Random sampling (4.1).
-            let mut remaining = p.n_rand;
-            while remaining > 0 && !tally.exhausted() {
-                let n = remaining.min(BATCH as u64).min(tally.rays_left()) as usize;
-                let rays = random.batch(ctx, random_index, n);
-                random_index += n as u64;
-                remaining -= n as u64;
-                if rays.is_empty() {
-                    // No allowed origin in a whole batch: the cell has no free space.
-                    no_free_space = true;
-                    break;
-                }
-                let new = discover(&tally.pvs, &rays, &cast(ctx.caster, &rays));
-                found[0] += new.len();
-                round_new += new.len();
-                queue.extend(new);
-                tally.batch_done(rays.len(), progress);
-            }
+            let Some(new) = random.sample_round(ctx, &mut tally, p.n_rand, progress) else {
+                break;
+            };
+            found[0] += new.len();
+            round_new += new.len();
+            queue.extend(new);
             // Exploration (4.2, 4.3): drain the queue, FIFO.
             let mut head = 0;
             while head < queue.len() && !tally.exhausted() {
@@ -179,10 +166,7 @@ impl Sampler for GvsPlusPlus {
                 }
             }
             // Termination (4.4).
-            if no_free_space
-                || tally.exhausted()
-                || (budget.is_unlimited() && round_new < p.termination_threshold)
-            {
+            if tally.exhausted() || (budget.is_unlimited() && round_new < p.termination_threshold) {
                 break;
             }
         }

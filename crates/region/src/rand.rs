@@ -4,7 +4,7 @@
 //!
 //! Based on: Koch, Wimmer. Guided Visibility Sampling++. 2021, sections 4.1 and 6.1.
 
-use crate::rays::{cast, discover, RandomRays, BATCH};
+use crate::rays::{RandomRays, BATCH};
 use crate::sampler::{Budget, CellContext, CellResult, ConvergencePoint, Sampler, Tally};
 
 /// Rays cast when the budget sets no limit.
@@ -31,19 +31,15 @@ impl Sampler for RandomSampler {
             *budget
         };
         let mut tally = Tally::new(ctx.scene.triangle_count(), budget);
-        let generator = RandomRays::new(ctx.cell, ctx.scene, ctx.seed);
-        let mut next = 0u64;
+        let mut generator = RandomRays::new(ctx.cell, ctx.scene, ctx.seed);
         while !tally.exhausted() {
-            let n = tally.rays_left().min(BATCH as u64) as usize;
-            let rays = generator.batch(ctx, next, n);
-            next += n as u64;
-            if rays.is_empty() {
-                // No allowed origin in a whole batch: the cell has no free space.
+            // A round per batch keeps time budgets fine-grained; `None`: no free space.
+            if generator
+                .sample_round(ctx, &mut tally, BATCH as u64, progress)
+                .is_none()
+            {
                 break;
             }
-            let hits = cast(ctx.caster, &rays);
-            discover(&tally.pvs, &rays, &hits);
-            tally.batch_done(rays.len(), progress);
         }
         let found = tally.pvs.count();
         tally.finish(vec![("random", found)])

@@ -7,7 +7,7 @@ use sightline_core::sampling::ShiftedHalton;
 use sightline_core::trace::RayCaster;
 use sightline_core::{Aabb, Hit, Ray, Scene};
 
-use crate::sampler::CellContext;
+use crate::sampler::{CellContext, ConvergencePoint, Tally};
 use crate::viewcell::{CellSurface, ViewCell};
 
 /// Rays cast per batch: large enough to keep both cores busy inside the caster, small enough
@@ -53,6 +53,8 @@ pub(crate) struct RandomRays {
     surface: CellSurface,
     halton: ShiftedHalton<5>,
     directions: Directions,
+    /// Index of the next ray of the sequence: later phases continue where earlier ones stopped.
+    next: u64,
 }
 
 impl RandomRays {
@@ -61,6 +63,7 @@ impl RandomRays {
             surface: CellSurface::new(cell),
             halton: ShiftedHalton::new(seed),
             directions: Directions::for_cell(cell, scene),
+            next: 0,
         }
     }
 
@@ -88,6 +91,34 @@ impl RandomRays {
             .map(|i| self.ray(first + i))
             .filter(|r| ctx.origin_allowed(r.origin))
             .collect()
+    }
+}
+
+impl RandomRays {
+    /// One random-sampling phase (section 4.1): up to `n_rays` more rays of the sequence,
+    /// within the budget of `tally`, in batches; returns the newly found triangles in ray
+    /// order, or `None` when a whole batch had no allowed origin (the cell has no free space).
+    pub fn sample_round(
+        &mut self,
+        ctx: &CellContext<'_>,
+        tally: &mut Tally,
+        n_rays: u64,
+        progress: &(dyn Fn(&ConvergencePoint) + Sync),
+    ) -> Option<Vec<Discovery>> {
+        let mut found = Vec::new();
+        let mut remaining = n_rays;
+        while remaining > 0 && !tally.exhausted() {
+            let n = remaining.min(BATCH as u64).min(tally.rays_left()) as usize;
+            let rays = self.batch(ctx, self.next, n);
+            self.next += n as u64;
+            remaining -= n as u64;
+            if rays.is_empty() {
+                return None;
+            }
+            found.extend(discover(&tally.pvs, &rays, &cast(ctx.caster, &rays)));
+            tally.batch_done(rays.len(), progress);
+        }
+        Some(found)
     }
 }
 
