@@ -112,10 +112,40 @@ fn bad_inputs_are_clean_errors() {
     assert_fails_with(&run(&["--path", "bad.json"]), "bad.json");
     assert_fails_with(&run(&["--path", "empty.json"]), "empty");
     assert_fails_with(&run(&["--path", "same.json"]), "frame 0");
-    assert_fails_with(&run(&["--backend", "gpu"]), "backend");
+    assert_fails_with(&run(&["--backend", "vulkan"]), "unknown backend");
     assert_fails_with(
         &sightline(&["cull", "procedural:grid?size=abc"], d),
         "bad size",
     );
     assert_fails_with(&sightline(&["cull", "nowhere.obj"], d), "nowhere.obj");
+}
+
+#[test]
+fn gpu_backend_runs_on_vulkan_and_never_draws_more_than_frustum() {
+    // CI installs mesa-vulkan-drivers (lavapipe); without a Vulkan driver this fails loudly.
+    let dir = tempfile::tempdir().unwrap();
+    let mut args = vec![
+        "cull",
+        "procedural:graveyard?seed=1&size=50",
+        "--backend",
+        "gpu",
+        "--json",
+    ];
+    args.extend(SMALL);
+    let o = sightline(&args, dir.path());
+    assert!(
+        o.status.success(),
+        "no Vulkan adapter? install mesa-vulkan-drivers: {}",
+        stderr(&o)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["backend"], "gpu");
+    let summaries = v["summaries"].as_array().unwrap();
+    assert_eq!(summaries.len(), 2, "grid and frustum on the GPU");
+    let drawn = |i: usize| summaries[i]["drawn_mean"].as_f64().unwrap();
+    assert!(drawn(0) <= drawn(1), "{summaries:?}");
+    assert!(
+        summaries[0]["queries_mean"].as_f64().unwrap() > 0.0,
+        "{summaries:?}"
+    );
 }

@@ -37,7 +37,8 @@ pub(crate) struct Args {
     /// Camera path JSON: `{"frames": [{"eye": [x,y,z], "look": [x,y,z]}, ...]}`.
     #[arg(long, value_name = "FILE")]
     path: Option<PathBuf>,
-    /// Occlusion backend: `sw` (the software occlusion buffer).
+    /// Occlusion backend: `sw` (the software occlusion buffer) or `gpu` (wgpu, Vulkan hardware
+    /// occlusion queries; needs a Vulkan driver such as Mesa's lavapipe).
     #[arg(long, default_value = "sw")]
     backend: String,
     /// Frames to simulate (30 per second of the scene's clock).
@@ -108,11 +109,8 @@ struct MethodFrames<'a> {
 }
 
 pub(crate) fn run(args: Args) -> Result<()> {
-    if args.backend != "sw" {
-        bail!(
-            "unknown or unavailable backend {:?}: this build has the software backend `sw`",
-            args.backend
-        );
+    if args.backend != "sw" && args.backend != "gpu" {
+        bail!("unknown backend {:?}: use `sw` (software occlusion buffer) or `gpu` (Vulkan occlusion queries)", args.backend);
     }
     if args.frames == 0 {
         bail!("--frames must be at least 1");
@@ -129,11 +127,21 @@ pub(crate) fn run(args: Args) -> Result<()> {
         ..SimConfig::default()
     };
     let cameras = cameras(&args, &scene, &config)?;
-    let mut backend = SoftwareBackend::new(width, height);
+    let mut software;
+    let mut gpu;
+    // On the GPU every stop-and-wait query is its own submission (hundreds of ms per frame on
+    // a software Vulkan driver), so the GPU run has the grid method and frustum culling only.
+    let (backend, methods): (&mut dyn sightline_cull::OcclusionBackend, &[Method]) =
+        if args.backend == "gpu" {
+            gpu = sightline_gpu::GpuBackend::new().context("--backend gpu")?;
+            (&mut gpu, &[Method::Grid, Method::Frustum])
+        } else {
+            software = SoftwareBackend::new(width, height);
+            (&mut software, &Method::ALL)
+        };
     let camera_of = |f: u32| cameras.get(f as usize).copied();
-    let reports =
-        simulate_methods_with_cameras(&scene, &camera_of, &mut backend, &config, &Method::ALL)
-            .with_context(|| format!("simulating {}", args.scene))?;
+    let reports = simulate_methods_with_cameras(&scene, &camera_of, backend, &config, methods)
+        .with_context(|| format!("simulating {}", args.scene))?;
     let summaries: Vec<Summary> = reports.iter().map(summarize).collect();
     if let Some(plot) = &args.plot {
         write_plot(plot, &reports, &args.scene)?;
