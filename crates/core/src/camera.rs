@@ -8,7 +8,7 @@
 //!   `sx = (vx / (vz * tan_half_x) + 1) * width / 2`, `sy = (1 - vy / (vz * tan_half_y)) * height / 2`;
 //! - depth is the view-space distance along `forward` (`vz`), visible only for `vz >= near`.
 
-use glam::Vec3;
+use glam::{DVec2, DVec3, Vec3};
 
 use crate::geometry::Ray;
 
@@ -188,6 +188,84 @@ impl Camera {
     }
 }
 
+/// The camera mapping in f64, shared by every algorithm that must see exactly the screen
+/// positions the rasterizer sees (the rasterizer itself, exact analytic visibility, RV). The
+/// camera's f32 vectors and tangents are widened, not recomputed, so the mapping is the one
+/// [`Camera::pixel_ray`] uses.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScreenMapping {
+    /// Eye position.
+    pub eye: DVec3,
+    /// Unit right vector.
+    pub right: DVec3,
+    /// Unit up vector.
+    pub up: DVec3,
+    /// Unit view direction.
+    pub forward: DVec3,
+    /// Image width in pixels.
+    pub width: f64,
+    /// Image height in pixels.
+    pub height: f64,
+    /// `tan(fov_x / 2)`, from the camera's f32 value.
+    pub tan_half_x: f64,
+    /// `tan(fov_y / 2)`, from the camera's f32 value.
+    pub tan_half_y: f64,
+    /// Near-plane distance.
+    pub near: f64,
+}
+
+impl ScreenMapping {
+    /// The mapping of `camera`.
+    pub fn new(camera: &Camera) -> Self {
+        Self {
+            eye: camera.eye.as_dvec3(),
+            right: camera.right.as_dvec3(),
+            up: camera.up.as_dvec3(),
+            forward: camera.forward.as_dvec3(),
+            width: f64::from(camera.width),
+            height: f64::from(camera.height),
+            tan_half_x: f64::from(camera.tan_half_x()),
+            tan_half_y: f64::from(camera.tan_half_y()),
+            near: f64::from(camera.near),
+        }
+    }
+
+    /// World point to view coordinates `(right, up, forward)`.
+    pub fn view_of(&self, p: DVec3) -> DVec3 {
+        let d = p - self.eye;
+        DVec3::new(d.dot(self.right), d.dot(self.up), d.dot(self.forward))
+    }
+
+    /// [`Camera::view_to_screen`] in f64 (same formula, same operation order).
+    pub fn screen_of(&self, v: DVec3) -> DVec2 {
+        DVec2::new(
+            (v.x / (v.z * self.tan_half_x) + 1.0) * 0.5 * self.width,
+            (1.0 - v.y / (v.z * self.tan_half_y)) * 0.5 * self.height,
+        )
+    }
+
+    /// Coefficients `[kx, ky, k0]` of `1/z = kx sx + ky sy + k0` over pixel coordinates for the
+    /// plane through view-space `a, b, c`: the ray of screen point `s` has direction `(u, v, 1)`
+    /// with `u = (2 sx / w - 1) tan_x`, `v = (1 - 2 sy / h) tan_y`, and meets the plane
+    /// `n·p = d` at `z = d / n·(u, v, 1)`. `None` when the plane passes through the eye (the
+    /// triangle is seen edge-on and covers no area).
+    pub fn inv_z_plane(&self, a: DVec3, b: DVec3, c: DVec3) -> Option<[f64; 3]> {
+        let n = (b - a).cross(c - a);
+        let d = n.dot(a);
+        if d == 0.0 || !d.is_finite() {
+            return None;
+        }
+        let (tx, ty) = (self.tan_half_x, self.tan_half_y);
+        let rd = 1.0 / d;
+        let plane = [
+            n.x * tx * 2.0 / self.width * rd,
+            -n.y * ty * 2.0 / self.height * rd,
+            (n.z - n.x * tx + n.y * ty) * rd,
+        ];
+        plane.iter().all(|k| k.is_finite()).then_some(plane)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -231,5 +309,29 @@ mod tests {
         let faces = Camera::cube_faces(Vec3::ZERO, 8, 0.1).unwrap();
         let sum: Vec3 = faces.iter().map(|c| c.forward.abs()).sum();
         assert_eq!(sum, Vec3::splat(2.0));
+    }
+
+    #[test]
+    fn screen_mapping_agrees_with_camera_and_plane_depth() {
+        let cam = front_camera();
+        let m = ScreenMapping::new(&cam);
+        let p = Vec3::new(0.7, -0.4, -3.0);
+        let v = m.view_of(p.as_dvec3());
+        let (sx, sy) = cam.view_to_screen(cam.to_view(p));
+        let s = m.screen_of(v);
+        assert!((s.x - f64::from(sx)).abs() < 1e-3 && (s.y - f64::from(sy)).abs() < 1e-3);
+        // A plane z = 3 in view space: 1/z is 1/3 everywhere on screen.
+        let [kx, ky, k0] = m
+            .inv_z_plane(
+                DVec3::new(0.0, 0.0, 3.0),
+                DVec3::new(1.0, 0.0, 3.0),
+                DVec3::new(0.0, 1.0, 3.0),
+            )
+            .unwrap();
+        for (x, y) in [(0.0, 0.0), (37.5, 81.25), (200.0, 100.0)] {
+            assert!((kx * x + ky * y + k0 - 1.0 / 3.0).abs() < 1e-12);
+        }
+        // A plane through the eye is seen edge-on.
+        assert!(m.inv_z_plane(DVec3::ZERO, DVec3::X, DVec3::Y).is_none());
     }
 }

@@ -16,7 +16,7 @@ use fixedbitset::FixedBitSet;
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
-use crate::camera::Camera;
+use crate::camera::{Camera, ScreenMapping as Projection};
 use crate::geometry::Hit;
 use crate::scene::Scene;
 use crate::TriangleSet;
@@ -47,70 +47,6 @@ struct Chunk {
     tris: Vec<RasterTri>,
     /// `bins[band]`: indices into `tris`, increasing.
     bins: Vec<Vec<u32>>,
-}
-
-/// The camera mapping of `camera.rs`, in f64.
-#[derive(Clone, Copy, Debug)]
-struct Projection {
-    eye: DVec3,
-    right: DVec3,
-    up: DVec3,
-    forward: DVec3,
-    width: f64,
-    height: f64,
-    tan_half_x: f64,
-    tan_half_y: f64,
-    near: f64,
-}
-
-impl Projection {
-    fn new(camera: &Camera) -> Self {
-        Self {
-            eye: camera.eye.as_dvec3(),
-            right: camera.right.as_dvec3(),
-            up: camera.up.as_dvec3(),
-            forward: camera.forward.as_dvec3(),
-            width: f64::from(camera.width),
-            height: f64::from(camera.height),
-            // The f32 values of the camera, widened, so the mapping is the one rays use.
-            tan_half_x: f64::from(camera.tan_half_x()),
-            tan_half_y: f64::from(camera.tan_half_y()),
-            near: f64::from(camera.near),
-        }
-    }
-
-    fn view_of(&self, p: DVec3) -> DVec3 {
-        let d = p - self.eye;
-        DVec3::new(d.dot(self.right), d.dot(self.up), d.dot(self.forward))
-    }
-
-    /// `Camera::view_to_screen` in f64 (same formula, same operation order).
-    fn screen_of(&self, v: DVec3) -> DVec2 {
-        DVec2::new(
-            (v.x / (v.z * self.tan_half_x) + 1.0) * 0.5 * self.width,
-            (1.0 - v.y / (v.z * self.tan_half_y)) * 0.5 * self.height,
-        )
-    }
-
-    /// Coefficients of `1/z` over pixel coordinates for the plane through view-space `a, b, c`:
-    /// the ray of screen point `s` has direction `(u, v, 1)` with `u = (2 sx / w - 1) tan_x`,
-    /// `v = (1 - 2 sy / h) tan_y`, and meets the plane `n·p = d` at `z = d / n·(u, v, 1)`.
-    /// `None` when the plane passes through the eye (the triangle is seen edge-on).
-    fn inv_z_plane(&self, a: DVec3, b: DVec3, c: DVec3) -> Option<[f64; 3]> {
-        let n = (b - a).cross(c - a);
-        let d = n.dot(a);
-        if d == 0.0 || !d.is_finite() {
-            return None;
-        }
-        let (tx, ty) = (self.tan_half_x, self.tan_half_y);
-        let rd = 1.0 / d;
-        let plane = [
-            n.x * tx * 2.0 / self.width * rd,
-            -n.y * ty * 2.0 / self.height * rd,
-            (n.z - n.x * tx + n.y * ty) * rd,
-        ];
-        plane.iter().all(|k| k.is_finite()).then_some(plane)
-    }
 }
 
 /// A reusable rasterizer for one scene: holds the per-vertex transform buffer and the setup and

@@ -11,6 +11,7 @@
 //! triangles sharing an edge get bit-identical cut points and stay watertight.
 
 use glam::{DVec2, DVec3};
+use sightline_core::camera::ScreenMapping;
 use sightline_core::{Camera, Scene};
 
 use super::predicates::Pt;
@@ -38,67 +39,23 @@ pub(crate) struct ScreenPoly {
     pub(crate) plane: [f64; 3],
 }
 
-/// The camera mapping of `camera.rs` in f64 (the same formulas the rasterizer uses).
+/// The camera mapping of `camera.rs` in f64: `sightline_core::camera::ScreenMapping`, the one
+/// the rasterizer uses, plus this algorithm's clipping helpers.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Projection {
-    eye: DVec3,
-    right: DVec3,
-    up: DVec3,
-    forward: DVec3,
-    pub(crate) width: f64,
-    pub(crate) height: f64,
-    tan_half_x: f64,
-    tan_half_y: f64,
-    near: f64,
+pub(crate) struct Projection(ScreenMapping);
+
+impl std::ops::Deref for Projection {
+    type Target = ScreenMapping;
+
+    fn deref(&self) -> &ScreenMapping {
+        &self.0
+    }
 }
 
 impl Projection {
-    /// The mapping of `camera` (the f32 tangents of the camera, widened, as the rasterizer does).
+    /// The mapping of `camera`.
     pub(crate) fn new(camera: &Camera) -> Self {
-        Self {
-            eye: camera.eye.as_dvec3(),
-            right: camera.right.as_dvec3(),
-            up: camera.up.as_dvec3(),
-            forward: camera.forward.as_dvec3(),
-            width: f64::from(camera.width),
-            height: f64::from(camera.height),
-            tan_half_x: f64::from(camera.tan_half_x()),
-            tan_half_y: f64::from(camera.tan_half_y()),
-            near: f64::from(camera.near),
-        }
-    }
-
-    /// World point to view coordinates `(right, up, forward)`.
-    pub(crate) fn view_of(&self, p: DVec3) -> DVec3 {
-        let d = p - self.eye;
-        DVec3::new(d.dot(self.right), d.dot(self.up), d.dot(self.forward))
-    }
-
-    /// `Camera::view_to_screen` in f64 (same formula, same operation order).
-    pub(crate) fn screen_of(&self, v: DVec3) -> DVec2 {
-        DVec2::new(
-            (v.x / (v.z * self.tan_half_x) + 1.0) * 0.5 * self.width,
-            (1.0 - v.y / (v.z * self.tan_half_y)) * 0.5 * self.height,
-        )
-    }
-
-    /// `1/z` over screen pixels for the plane through view-space `a, b, c` (the rasterizer's
-    /// formula). `None` when the plane passes through the eye: the triangle is seen edge-on and
-    /// covers no area of the image.
-    pub(crate) fn inv_z_plane(&self, a: DVec3, b: DVec3, c: DVec3) -> Option<[f64; 3]> {
-        let n = (b - a).cross(c - a);
-        let d = n.dot(a);
-        if d == 0.0 || !d.is_finite() {
-            return None;
-        }
-        let (tx, ty) = (self.tan_half_x, self.tan_half_y);
-        let rd = 1.0 / d;
-        let plane = [
-            n.x * tx * 2.0 / self.width * rd,
-            -n.y * ty * 2.0 / self.height * rd,
-            (n.z - n.x * tx + n.y * ty) * rd,
-        ];
-        plane.iter().all(|k| k.is_finite()).then_some(plane)
+        Self(ScreenMapping::new(camera))
     }
 
     /// The five clip planes as signed distances (inside is `>= 0`): near, left, right, top,

@@ -9,7 +9,8 @@
 //! geometry with `w = z`. A plane is `[a, b, c, d]` with `a x + b y + c z + d >= 0` inside. A bin
 //! of the screen is the frustum of four planes through the eye (`d = 0`).
 
-use glam::{DVec2, DVec3, Vec3};
+use glam::{DVec3, Vec3};
+use sightline_core::camera::ScreenMapping;
 use sightline_core::Camera;
 
 /// Most vertices a clipped polygon can have: a triangle gains at most one vertex per clipping
@@ -108,52 +109,29 @@ pub(crate) fn clip(poly: &Poly, plane: &[f64; 4]) -> Poly {
     out
 }
 
-/// The camera mapping of `sightline_core::camera`, in f64, with the same operation order as the
-/// reference rasterizer so both see the same screen positions.
+/// The camera mapping of `camera.rs` in f64: `sightline_core::camera::ScreenMapping`, the one
+/// the rasterizer uses, plus this algorithm's clipping helpers.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Projection {
-    eye: DVec3,
-    right: DVec3,
-    up: DVec3,
-    forward: DVec3,
-    pub(crate) width: f64,
-    pub(crate) height: f64,
-    tan_half_x: f64,
-    tan_half_y: f64,
-    pub(crate) near: f64,
+pub(crate) struct Projection(ScreenMapping);
+
+impl std::ops::Deref for Projection {
+    type Target = ScreenMapping;
+
+    fn deref(&self) -> &ScreenMapping {
+        &self.0
+    }
 }
 
 impl Projection {
     /// The mapping of `camera`.
     pub(crate) fn new(camera: &Camera) -> Self {
-        Self {
-            eye: camera.eye.as_dvec3(),
-            right: camera.right.as_dvec3(),
-            up: camera.up.as_dvec3(),
-            forward: camera.forward.as_dvec3(),
-            width: f64::from(camera.width),
-            height: f64::from(camera.height),
-            // The f32 values of the camera, widened, as the rasterizer does.
-            tan_half_x: f64::from(camera.tan_half_x()),
-            tan_half_y: f64::from(camera.tan_half_y()),
-            near: f64::from(camera.near),
-        }
+        Self(ScreenMapping::new(camera))
     }
 
     /// World point to view coordinates `(right, up, forward)`.
     #[inline]
     pub(crate) fn view_of(&self, p: Vec3) -> DVec3 {
-        let d = p.as_dvec3() - self.eye;
-        DVec3::new(d.dot(self.right), d.dot(self.up), d.dot(self.forward))
-    }
-
-    /// Screen position in pixels of a view point with `z > 0`.
-    #[inline]
-    pub(crate) fn screen_of(&self, v: DVec3) -> DVec2 {
-        DVec2::new(
-            (v.x / (v.z * self.tan_half_x) + 1.0) * 0.5 * self.width,
-            (1.0 - v.y / (v.z * self.tan_half_y)) * 0.5 * self.height,
-        )
+        self.0.view_of(p.as_dvec3())
     }
 
     /// The near plane moved towards the eye by a relative `1e-6`: the rasterizer keeps
