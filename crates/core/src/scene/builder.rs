@@ -117,28 +117,7 @@ impl SceneBuilder {
 
     /// Adds an axis-aligned box as 8 vertices and 12 outward-facing triangles.
     pub fn add_box(&mut self, min: Vec3, max: Vec3) {
-        let base = self.vertex_count();
-        for i in 0..8u32 {
-            let pick = |bit: u32, lo: f32, hi: f32| if i & bit != 0 { hi } else { lo };
-            self.add_vertex(Vec3::new(
-                pick(1, min.x, max.x),
-                pick(2, min.y, max.y),
-                pick(4, min.z, max.z),
-            ));
-        }
-        // Corner index bits: x = 1, y = 2, z = 4. Counter-clockwise seen from outside.
-        const FACES: [[u32; 4]; 6] = [
-            [0, 4, 6, 2], // -x
-            [1, 3, 7, 5], // +x
-            [0, 1, 5, 4], // -y
-            [2, 6, 7, 3], // +y
-            [0, 2, 3, 1], // -z
-            [4, 5, 7, 6], // +z
-        ];
-        for [a, b, c, d] in FACES {
-            self.add_triangle([base + a, base + b, base + c]);
-            self.add_triangle([base + a, base + c, base + d]);
-        }
+        add_box_faces(self, min, max, true);
     }
 
     /// Drops objects that received no triangle (renumbering the rest) and returns the scene.
@@ -167,6 +146,42 @@ impl SceneBuilder {
         }
         self.scene.objects = kept;
         self.scene
+    }
+}
+
+/// Adds an axis-aligned box to `sink` as 8 vertices and its faces as outward-facing triangle
+/// pairs, in the order -x, +x, -y, +y, -z, +z; `with_bottom = false` leaves the -z face out
+/// (boxes standing on a floor, Z up). The one place box topology is written down.
+pub(crate) fn add_box_faces<S: TriangleSink + ?Sized>(
+    sink: &mut S,
+    min: Vec3,
+    max: Vec3,
+    with_bottom: bool,
+) {
+    let base = sink.vertex_count();
+    for i in 0..8u32 {
+        let pick = |bit: u32, lo: f32, hi: f32| if i & bit != 0 { hi } else { lo };
+        sink.add_vertex(Vec3::new(
+            pick(1, min.x, max.x),
+            pick(2, min.y, max.y),
+            pick(4, min.z, max.z),
+        ));
+    }
+    // Corner index bits: x = 1, y = 2, z = 4. Counter-clockwise seen from outside.
+    const FACES: [[u32; 4]; 6] = [
+        [0, 4, 6, 2], // -x
+        [1, 3, 7, 5], // +x
+        [0, 1, 5, 4], // -y
+        [2, 6, 7, 3], // +y
+        [0, 2, 3, 1], // -z
+        [4, 5, 7, 6], // +z
+    ];
+    for (k, [a, b, c, d]) in FACES.into_iter().enumerate() {
+        if k == 4 && !with_bottom {
+            continue;
+        }
+        sink.add_triangle([base + a, base + b, base + c]);
+        sink.add_triangle([base + a, base + c, base + d]);
     }
 }
 

@@ -122,26 +122,7 @@ pub fn generate(params: &Params) -> Scene {
 /// Adds an axis-aligned box with Z up but without its bottom (-Z) face: buildings and walls
 /// stand on a floor, and a bottom face coplanar with the floor would only make depth ties.
 fn add_box_on_floor<S: TriangleSink + ?Sized>(b: &mut S, min: Vec3, max: Vec3) {
-    let base = b.vertex_count();
-    for i in 0..8u32 {
-        let pick = |bit: u32, lo: f32, hi: f32| if i & bit != 0 { hi } else { lo };
-        b.add_vertex(Vec3::new(
-            pick(1, min.x, max.x),
-            pick(2, min.y, max.y),
-            pick(4, min.z, max.z),
-        ));
-    }
-    const SIDES_AND_TOP: [[u32; 4]; 5] = [
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [4, 5, 7, 6],
-    ];
-    for [p, q, r, s] in SIDES_AND_TOP {
-        b.add_triangle([base + p, base + q, base + r]);
-        b.add_triangle([base + p, base + r, base + s]);
-    }
+    super::builder::add_box_faces(b, min, max, false);
 }
 
 /// Adds a quad `a b c d` (counter-clockwise seen from the side it faces) as two triangles.
