@@ -737,9 +737,16 @@ fn bin_size_does_not_change_the_result() {
     let areas: Vec<Vec<f64>> = [1, 8, 64]
         .iter()
         .map(|&bin_size| {
-            visible_fragments(&scene, &cam, &AnalyticOptions { bin_size })
-                .unwrap()
-                .visible_area(scene.triangles.len())
+            visible_fragments(
+                &scene,
+                &cam,
+                &AnalyticOptions {
+                    bin_size,
+                    ..AnalyticOptions::default()
+                },
+            )
+            .unwrap()
+            .visible_area(scene.triangles.len())
         })
         .collect();
     // Polygons are never clipped to bins: only f64 rounding differs.

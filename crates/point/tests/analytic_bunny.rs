@@ -26,8 +26,24 @@ fn bunny_bin_size_does_not_change_the_result() {
         0.01 * radius,
     )
     .unwrap();
-    let r8 = visible_fragments(&scene, &cam, &AnalyticOptions { bin_size: 8 }).unwrap();
-    let r32 = visible_fragments(&scene, &cam, &AnalyticOptions { bin_size: 32 }).unwrap();
+    let r8 = visible_fragments(
+        &scene,
+        &cam,
+        &AnalyticOptions {
+            bin_size: 8,
+            ..AnalyticOptions::default()
+        },
+    )
+    .unwrap();
+    let r32 = visible_fragments(
+        &scene,
+        &cam,
+        &AnalyticOptions {
+            bin_size: 32,
+            ..AnalyticOptions::default()
+        },
+    )
+    .unwrap();
     let a8 = r8.visible_area(scene.triangles.len());
     let a32 = r32.visible_area(scene.triangles.len());
     let mut worst = 0.0f64;

@@ -47,6 +47,10 @@ pub(crate) struct Args {
     /// With --exact: screen bin size in pixels.
     #[arg(long, default_value_t = 16)]
     bin_size: u32,
+    /// With --exact: skip the conservative depth pre-culling of provably hidden triangles (same
+    /// result, slower; for cross-checks and measurements).
+    #[arg(long)]
+    no_preculling: bool,
     /// Write the visible triangle ids, one per line, to this file.
     #[arg(short, long)]
     output: Option<PathBuf>,
@@ -239,6 +243,7 @@ fn run_exact(args: &Args, start: Instant) -> Result<()> {
         &camera,
         &AnalyticOptions {
             bin_size: args.bin_size,
+            depth_preculling: !args.no_preculling,
         },
     )?;
     let visibility_seconds = start.elapsed().as_secs_f64();

@@ -13,12 +13,16 @@
 //! | `canyon` | height field with a meandering river canyon, Z up | one per 16x16 terrain chunk |
 //! | `boxes` | random boxes in a 100³ volume | one per box |
 //! | `spheres` | random UV spheres ("planets") in a 100³ volume | one per sphere |
+//! | `spikes` | a grid of square pyramids of random height (SPIKES of the analytic paper), Y up | one per row |
+//! | `zoneplate` | two superposed zone plates (ZONEPLATES of the analytic paper), Z up | one per plate |
 
 mod boxes;
 mod canyon;
 mod city;
 mod rooms;
 mod spheres;
+mod spikes;
+mod zoneplate;
 
 use glam::Vec3;
 
@@ -27,7 +31,15 @@ use super::{Scene, SceneBuilder, TriangleSink};
 pub use city::City;
 
 /// The generator names, in the order `--help` lists them.
-pub const GENERATORS: [&str; 5] = ["city", "rooms", "canyon", "boxes", "spheres"];
+pub const GENERATORS: [&str; 7] = [
+    "city",
+    "rooms",
+    "canyon",
+    "boxes",
+    "spheres",
+    "spikes",
+    "zoneplate",
+];
 
 /// The largest `size` accepted: beyond this a scene would not fit the memory of the machines
 /// this is built for (about 24 bytes per triangle plus ray-casting structures).
@@ -114,6 +126,8 @@ pub fn generate(params: &Params) -> Scene {
         "rooms" => rooms::generate(&mut b, params.seed, params.size),
         "canyon" => canyon::generate(&mut b, params.seed, params.size),
         "spheres" => spheres::generate(&mut b, params.seed, params.size),
+        "spikes" => spikes::generate(&mut b, params.seed, params.size),
+        "zoneplate" => zoneplate::generate(&mut b, params.seed, params.size),
         _ => boxes::generate(&mut b, params.seed, params.size),
     }
     b.finish()
