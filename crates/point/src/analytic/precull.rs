@@ -27,8 +27,8 @@
 //! pixels within 4 grid units (more than the touch margin, so a pixel touched only through the
 //! margin is always marked when it is outside the union).
 //!
-//! Memory: 8 + 8 + 4 + 4 bytes per pixel (bound, patch bound, two stamps) and 40 bytes per
-//! polygon edge for the matching.
+//! Memory: 8 bytes per pixel (the bound), 16 bytes per pixel of each band in flight (patch
+//! bound, two stamps), 48 bytes per polygon edge for the matching.
 
 use rayon::prelude::*;
 
@@ -46,21 +46,23 @@ const CONTOUR_MARGIN: f64 = 4.0;
 const DEPTH_MARGIN: f64 = 1000.0 * DEPTH_TOL;
 
 /// Calls `f(x, y)` for every pixel whose closed square is within `margin` grid units of the
-/// convex polygon (or segment) `verts`, clamped to the `width` x `height` image.
+/// convex polygon (or segment) `verts`, clamped to the `width` x `height` image and to the pixel
+/// rows `rows`; stops early (and returns false) when `f` returns false.
 fn for_each_touched_pixel(
     verts: &[Pt],
     margin: f64,
-    width: u32,
-    height: u32,
-    mut f: impl FnMut(u32, u32),
-) {
+    (width, height): (u32, u32),
+    rows: std::ops::Range<u32>,
+    mut f: impl FnMut(u32, u32) -> bool,
+) -> bool {
     let (mut y_min, mut y_max) = (f64::INFINITY, f64::NEG_INFINITY);
     for v in verts {
         y_min = y_min.min(v[1] as f64);
         y_max = y_max.max(v[1] as f64);
     }
     let row_of = |y: f64| ((y / GRID).floor().max(0.0) as i64).min(height as i64 - 1);
-    let (row_lo, row_hi) = (row_of(y_min - margin), row_of(y_max + margin));
+    let row_lo = row_of(y_min - margin).max(rows.start as i64);
+    let row_hi = row_of(y_max + margin).min(rows.end as i64 - 1);
     let n = verts.len();
     for row in row_lo..=row_hi {
         // The polygon's x extent inside the strip of this row (grown by the margin): a convex
@@ -92,9 +94,25 @@ fn for_each_touched_pixel(
         }
         let col_of = |x: f64| ((x / GRID).floor().max(0.0) as i64).min(width as i64 - 1);
         for col in col_of(x_lo - margin - 1.0)..=col_of(x_hi + margin + 1.0) {
-            f(col as u32, row as u32);
+            if !f(col as u32, row as u32) {
+                return false;
+            }
         }
     }
+    true
+}
+
+/// The pixel rows a polygon (or segment) grown by `margin` can touch.
+fn row_span(verts: &[Pt], margin: f64) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in verts {
+        lo = lo.min(v[1] as f64);
+        hi = hi.max(v[1] as f64);
+    }
+    (
+        ((lo - margin) / GRID).floor(),
+        ((hi + margin) / GRID).floor(),
+    )
 }
 
 /// `1/z` of `plane` at the vertices of `verts`: (smallest, largest).
@@ -193,60 +211,108 @@ fn patches(polys: &[ScreenPoly]) -> (Vec<u32>, Vec<(u32, u32)>) {
     (patch, unmatched)
 }
 
+/// Rows per band of the parallel occlusion-bound pass.
+const BAND_ROWS: u32 = 16;
+
 /// For every pixel, a lower bound of the nearest surface's `1/z` over the whole pixel square
-/// (`-inf` where nothing is known).
+/// (`-inf` where nothing is known). Horizontal bands of pixels run in parallel; each walks the
+/// patches in the same order and touches only its own rows.
 fn occlusion_bounds(polys: &[ScreenPoly], width: u32, height: u32) -> Vec<f64> {
     let (patch, unmatched) = patches(polys);
-    let pixels = width as usize * height as usize;
-    let mut bound = vec![f64::NEG_INFINITY; pixels];
-    // Polygons and unmatched edges grouped by patch.
+    let size = (width, height);
+    let mut bound = vec![f64::NEG_INFINITY; width as usize * height as usize];
+    // Polygons and unmatched edges grouped by patch, with the rows they may touch.
     let mut members: Vec<u32> = (0..polys.len() as u32).collect();
     members.sort_unstable_by_key(|&k| patch[k as usize]);
-    let mut contour = unmatched;
-    contour.sort_unstable_by_key(|&(k, _)| patch[k as usize]);
-    let mut patch_bound = vec![0.0f64; pixels];
-    let mut touched_by = vec![u32::MAX; pixels];
-    let mut contour_of = vec![u32::MAX; pixels];
-    let mut touched = Vec::new();
-    let (mut m, mut c) = (0, 0);
-    while m < members.len() {
-        let id = patch[members[m] as usize];
-        while c < contour.len() && patch[contour[c].0 as usize] < id {
-            c += 1;
-        }
-        while c < contour.len() && patch[contour[c].0 as usize] == id {
-            let (k, i) = contour[c];
-            let verts = &polys[k as usize].verts;
-            let seg = [verts[i as usize], verts[(i as usize + 1) % verts.len()]];
-            for_each_touched_pixel(&seg, CONTOUR_MARGIN, width, height, |x, y| {
-                contour_of[(y * width + x) as usize] = id;
-            });
-            c += 1;
-        }
-        touched.clear();
-        while m < members.len() && patch[members[m] as usize] == id {
-            let p = &polys[members[m] as usize];
-            let (lo, hi) = inv_z_range(&p.plane, &p.verts);
-            let margin = depth_margin(&p.plane, hi);
-            for_each_touched_pixel(&p.verts, TOUCH_MARGIN, width, height, |x, y| {
-                let at = (y * width + x) as usize;
-                let v = lo.max(pixel_range(&p.plane, x, y).0) - margin;
-                if touched_by[at] != id {
-                    touched_by[at] = id;
-                    patch_bound[at] = v;
-                    touched.push(at);
-                } else {
-                    patch_bound[at] = patch_bound[at].min(v);
+    let member_rows: Vec<(f64, f64)> = members
+        .iter()
+        .map(|&k| row_span(&polys[k as usize].verts, TOUCH_MARGIN))
+        .collect();
+    let mut contour: Vec<(u32, [Pt; 2])> = unmatched
+        .iter()
+        .map(|&(k, i)| {
+            let v = &polys[k as usize].verts;
+            (
+                patch[k as usize],
+                [v[i as usize], v[(i as usize + 1) % v.len()]],
+            )
+        })
+        .collect();
+    contour.sort_unstable_by_key(|c| c.0);
+    let contour_rows: Vec<(f64, f64)> = contour
+        .iter()
+        .map(|c| row_span(&c.1, CONTOUR_MARGIN))
+        .collect();
+    let band_len = (BAND_ROWS * width) as usize;
+    bound
+        .par_chunks_mut(band_len)
+        .enumerate()
+        .for_each(|(band, bound)| {
+            let first = band as u32 * BAND_ROWS;
+            let rows = first..(first + BAND_ROWS).min(height);
+            let (lo_row, hi_row) = (rows.start as f64, (rows.end - 1) as f64);
+            let local = |x: u32, y: u32| ((y - first) * width + x) as usize;
+            let mut patch_bound = vec![0.0f64; bound.len()];
+            let mut touched_by = vec![u32::MAX; bound.len()];
+            let mut contour_of = vec![u32::MAX; bound.len()];
+            let mut touched = Vec::new();
+            let (mut m, mut c) = (0, 0);
+            while m < members.len() {
+                let id = patch[members[m] as usize];
+                while c < contour.len() && contour[c].0 < id {
+                    c += 1;
                 }
-            });
-            m += 1;
-        }
-        for &at in &touched {
-            if contour_of[at] != id {
-                bound[at] = bound[at].max(patch_bound[at]);
+                while c < contour.len() && contour[c].0 == id {
+                    let (r0, r1) = contour_rows[c];
+                    if r1 >= lo_row && r0 <= hi_row {
+                        for_each_touched_pixel(
+                            &contour[c].1,
+                            CONTOUR_MARGIN,
+                            size,
+                            rows.clone(),
+                            |x, y| {
+                                contour_of[local(x, y)] = id;
+                                true
+                            },
+                        );
+                    }
+                    c += 1;
+                }
+                touched.clear();
+                while m < members.len() && patch[members[m] as usize] == id {
+                    let (r0, r1) = member_rows[m];
+                    if r1 >= lo_row && r0 <= hi_row {
+                        let p = &polys[members[m] as usize];
+                        let (lo, hi) = inv_z_range(&p.plane, &p.verts);
+                        let margin = depth_margin(&p.plane, hi);
+                        for_each_touched_pixel(
+                            &p.verts,
+                            TOUCH_MARGIN,
+                            size,
+                            rows.clone(),
+                            |x, y| {
+                                let at = local(x, y);
+                                let v = lo.max(pixel_range(&p.plane, x, y).0) - margin;
+                                if touched_by[at] != id {
+                                    touched_by[at] = id;
+                                    patch_bound[at] = v;
+                                    touched.push(at);
+                                } else {
+                                    patch_bound[at] = patch_bound[at].min(v);
+                                }
+                                true
+                            },
+                        );
+                    }
+                    m += 1;
+                }
+                for &at in &touched {
+                    if contour_of[at] != id {
+                        bound[at] = bound[at].max(patch_bound[at]);
+                    }
+                }
             }
-        }
-    }
+        });
     bound
 }
 
@@ -255,15 +321,16 @@ fn occlusion_bounds(polys: &[ScreenPoly], width: u32, height: u32) -> Vec<f64> {
 fn is_hidden(p: &ScreenPoly, bound: &[f64], width: u32, height: u32) -> bool {
     let (_, hi) = inv_z_range(&p.plane, &p.verts);
     let margin = depth_margin(&p.plane, hi);
-    let mut hidden = true;
-    // The closure cannot stop the walk early; polygons are mostly a few pixels large.
-    for_each_touched_pixel(&p.verts, TOUCH_MARGIN, width, height, |x, y| {
-        if hidden {
+    for_each_touched_pixel(
+        &p.verts,
+        TOUCH_MARGIN,
+        (width, height),
+        0..height,
+        |x, y| {
             let top = hi.min(pixel_range(&p.plane, x, y).1) + margin;
-            hidden = top < bound[(y * width + x) as usize];
-        }
-    });
-    hidden
+            top < bound[(y * width + x) as usize]
+        },
+    )
 }
 
 /// Splits `polys` into (possibly visible, provably hidden count): the polygons kept are in
@@ -338,13 +405,19 @@ mod tests {
             [2 * G + 10, 3 * G + 20],
             [2 * G + 20, 3 * G + 20],
         ];
-        for_each_touched_pixel(&t, TOUCH_MARGIN, 8, 8, |x, y| seen.push((x, y)));
+        for_each_touched_pixel(&t, TOUCH_MARGIN, (8, 8), 0..8, |x, y| {
+            seen.push((x, y));
+            true
+        });
         assert!(seen.contains(&(2, 3)));
         assert!(seen.iter().all(|&(x, y)| (1..=3).contains(&x) && y == 3));
         // A segment along the pixel border x = 4 touches columns 3 and 4.
         seen.clear();
         let seg = [[4 * G, G / 2], [4 * G, G / 2 + 5]];
-        for_each_touched_pixel(&seg, CONTOUR_MARGIN, 8, 8, |x, y| seen.push((x, y)));
+        for_each_touched_pixel(&seg, CONTOUR_MARGIN, (8, 8), 0..8, |x, y| {
+            seen.push((x, y));
+            true
+        });
         assert!(seen.contains(&(3, 0)) && seen.contains(&(4, 0)));
     }
 
