@@ -48,6 +48,7 @@
 
 mod city_stream;
 mod depth;
+mod fusion;
 mod geometry_stage;
 mod memory;
 mod occluders;
@@ -141,6 +142,9 @@ pub struct RvStats {
     pub occluder_merges: u64,
     /// Visible triangles not added to occluders because a pool was full.
     pub pool_full: u64,
+    /// Triangle parts found occluded only by several occluders together (occluder fusion,
+    /// `fusion.rs`; beyond the thesis).
+    pub fused_occluded: u64,
     /// Silhouette and triangle tests run.
     pub silhouette_tests: u64,
     /// Triangle tests run (occludee inside a silhouette).
@@ -380,6 +384,7 @@ pub fn conservative_visible(
     stats.occluders_grown = stage.occluders_grown;
     stats.occluder_merges = stage.occluder_merges;
     stats.pool_full = stage.pool_full;
+    stats.fused_occluded = stage.fused_occluded;
     stats.silhouette_tests = stage.counters.silhouette_tests;
     stats.triangle_tests = stage.counters.triangle_tests;
     let visible = visible.to_set();

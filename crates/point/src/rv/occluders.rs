@@ -26,6 +26,7 @@
 
 use glam::{DVec2, DVec3};
 
+use super::fusion::FusedDepth;
 use super::geometry_stage::ProjTri;
 use super::memory::{release_to, reserve_from, Pool};
 use super::overlap::Rect;
@@ -99,6 +100,8 @@ pub(crate) enum AddOutcome {
 pub(crate) struct BinState {
     pub(crate) occluders: Vec<Occluder>,
     edge_count: usize,
+    /// The fused far-depth grid (see `fusion.rs`).
+    pub(crate) fused: FusedDepth,
 }
 
 /// Most occluders one triangle may join at once (3 edges, a few non-manifold duplicates).
@@ -252,6 +255,7 @@ impl BinState {
         }
         release_to(&mut self.occluders, pool);
         self.edge_count = 0;
+        self.fused.clear(pool);
     }
 }
 

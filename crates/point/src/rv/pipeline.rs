@@ -173,6 +173,7 @@ pub(crate) fn merge_stats(a: &mut StageStats, b: &StageStats) {
     a.occluders_grown += b.occluders_grown;
     a.occluder_merges += b.occluder_merges;
     a.pool_full += b.pool_full;
+    a.fused_occluded += b.fused_occluded;
     a.counters.silhouette_tests += b.counters.silhouette_tests;
     a.counters.triangle_tests += b.counters.triangle_tests;
 }

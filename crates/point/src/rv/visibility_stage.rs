@@ -27,6 +27,8 @@ pub(crate) struct StageStats {
     pub(crate) occluders_grown: u64,
     pub(crate) occluder_merges: u64,
     pub(crate) pool_full: u64,
+    /// Occluded only by several occluders together (`fusion.rs`).
+    pub(crate) fused_occluded: u64,
     pub(crate) counters: TestCounters,
 }
 
@@ -85,18 +87,40 @@ pub(crate) fn process(
         zmax,
         plane: t.plane.as_ref(),
     };
-    if !state.occluders.is_empty() && is_occluded(&p, state, ctx.proj, ctx.margin, &mut st.counters)
-    {
-        st.occluded += 1;
-        return;
+    if !state.occluders.is_empty() {
+        if is_occluded(&p, state, ctx.proj, ctx.margin, &mut st.counters) {
+            st.occluded += 1;
+            return;
+        }
+        if state
+            .fused
+            .hides(screen, &p.rect, zmin, &ctx.bin_rect, ctx.margin)
+        {
+            st.occluded += 1;
+            st.fused_occluded += 1;
+            return;
+        }
     }
     st.visible += 1;
     ctx.visible.insert(t.id);
-    match state.add(t, ctx.limits, ctx.pool) {
+    let outcome = state.add(t, ctx.limits, ctx.pool);
+    match outcome {
         AddOutcome::New => st.occluders_created += 1,
         AddOutcome::Grown => st.occluders_grown += 1,
         AddOutcome::Merged => st.occluder_merges += 1,
         AddOutcome::Full => st.pool_full += 1,
         AddOutcome::NotEligible => {}
+    }
+    if matches!(
+        outcome,
+        AddOutcome::New | AddOutcome::Grown | AddOutcome::Merged
+    ) {
+        // `add` puts the occluder that took the triangle last.
+        let BinState {
+            occluders, fused, ..
+        } = state;
+        if let Some(o) = occluders.last() {
+            fused.update(o, &Rect::of(&t.screen), &ctx.bin_rect, ctx.margin, ctx.pool);
+        }
     }
 }
