@@ -28,9 +28,11 @@
 //! margin is always marked when it is outside the union).
 //!
 //! Memory: 8 bytes per pixel (the bound), 16 bytes per pixel of each band in flight (patch
-//! bound, two stamps), 48 bytes per polygon edge for the matching.
+//! bound, two stamps), 48 bytes per polygon edge and 16 per
+//! vertex for the matching.
 
 use rayon::prelude::*;
+use rustc_hash::FxHashMap;
 
 use super::intersect::DEPTH_TOL;
 use super::predicates::Pt;
@@ -60,7 +62,8 @@ fn for_each_touched_pixel(
         y_min = y_min.min(v[1] as f64);
         y_max = y_max.max(v[1] as f64);
     }
-    let row_of = |y: f64| ((y / GRID).floor().max(0.0) as i64).min(height as i64 - 1);
+    // Clamping before the cast makes the truncating cast a floor (and avoids a libm call).
+    let row_of = |y: f64| ((y / GRID).max(0.0) as i64).min(height as i64 - 1);
     let row_lo = row_of(y_min - margin).max(rows.start as i64);
     let row_hi = row_of(y_max + margin).min(rows.end as i64 - 1);
     let n = verts.len();
@@ -92,7 +95,7 @@ fn for_each_touched_pixel(
         if x_lo > x_hi {
             continue;
         }
-        let col_of = |x: f64| ((x / GRID).floor().max(0.0) as i64).min(width as i64 - 1);
+        let col_of = |x: f64| ((x / GRID).max(0.0) as i64).min(width as i64 - 1);
         for col in col_of(x_lo - margin - 1.0)..=col_of(x_hi + margin + 1.0) {
             if !f(col as u32, row as u32) {
                 return false;
@@ -142,16 +145,6 @@ fn pixel_range(plane: &[f64; 3], x: u32, y: u32) -> (f64, f64) {
     )
 }
 
-/// A directed edge of a polygon, keyed by its undirected end points.
-#[derive(Clone, Copy)]
-struct EdgeKey {
-    lo: Pt,
-    hi: Pt,
-    forward: bool,
-    poly: u32,
-    index: u32,
-}
-
 fn find(parent: &mut [u32], mut k: u32) -> u32 {
     while parent[k as usize] != k {
         let p = parent[k as usize];
@@ -164,46 +157,47 @@ fn find(parent: &mut [u32], mut k: u32) -> u32 {
 /// Polygon patches and their unmatched edges: `(patch of each polygon, unmatched edges as
 /// (polygon, edge index))`.
 fn patches(polys: &[ScreenPoly]) -> (Vec<u32>, Vec<(u32, u32)>) {
-    let mut keys: Vec<EdgeKey> = Vec::new();
+    // Snapped vertices get small ids (shared vertices snap identically), so an undirected edge
+    // is one u64 key and matching is a sort of plain integers.
+    let mut vertex_id: FxHashMap<Pt, u32> = FxHashMap::default();
+    vertex_id.reserve(polys.len());
+    // (key, polygon, edge index << 1 | forward)
+    let mut keys: Vec<(u64, u32, u32)> = Vec::with_capacity(polys.len() * 3);
     for (k, p) in polys.iter().enumerate() {
         let n = p.verts.len();
+        let ids: Vec<u32> = p
+            .verts
+            .iter()
+            .map(|v| {
+                let next = vertex_id.len() as u32;
+                *vertex_id.entry(*v).or_insert(next)
+            })
+            .collect();
         for i in 0..n {
-            let (a, b) = (p.verts[i], p.verts[(i + 1) % n]);
+            let (a, b) = (ids[i], ids[(i + 1) % n]);
             let forward = a < b;
             let (lo, hi) = if forward { (a, b) } else { (b, a) };
-            keys.push(EdgeKey {
-                lo,
-                hi,
-                forward,
-                poly: k as u32,
-                index: i as u32,
-            });
+            keys.push((
+                (lo as u64) << 32 | hi as u64,
+                k as u32,
+                (i as u32) << 1 | forward as u32,
+            ));
         }
     }
-    keys.par_sort_unstable_by(|a, b| (a.lo, a.hi).cmp(&(b.lo, b.hi)));
+    keys.par_sort_unstable_by_key(|e| e.0);
     let mut parent: Vec<u32> = (0..polys.len() as u32).collect();
     let mut unmatched = Vec::new();
-    let mut start = 0;
-    while start < keys.len() {
-        let mut end = start + 1;
-        while end < keys.len() && (keys[end].lo, keys[end].hi) == (keys[start].lo, keys[start].hi) {
-            end += 1;
-        }
-        let group = &keys[start..end];
+    for group in keys.chunk_by(|a, b| a.0 == b.0) {
         // Twins: exactly two uses of the edge, in opposite directions. Anything else (a border,
         // a fold where both lie on one side, a non-manifold edge) bounds the patch.
-        if group.len() == 2 && group[0].forward != group[1].forward {
-            let (a, b) = (
-                find(&mut parent, group[0].poly),
-                find(&mut parent, group[1].poly),
-            );
+        if group.len() == 2 && (group[0].2 & 1) != (group[1].2 & 1) {
+            let (a, b) = (find(&mut parent, group[0].1), find(&mut parent, group[1].1));
             if a != b {
                 parent[a.max(b) as usize] = a.min(b);
             }
         } else {
-            unmatched.extend(group.iter().map(|e| (e.poly, e.index)));
+            unmatched.extend(group.iter().map(|e| (e.1, e.2 >> 1)));
         }
-        start = end;
     }
     let patch = (0..polys.len() as u32)
         .map(|k| find(&mut parent, k))
@@ -212,7 +206,7 @@ fn patches(polys: &[ScreenPoly]) -> (Vec<u32>, Vec<(u32, u32)>) {
 }
 
 /// Rows per band of the parallel occlusion-bound pass.
-const BAND_ROWS: u32 = 16;
+const BAND_ROWS: u32 = 64;
 
 /// For every pixel, a lower bound of the nearest surface's `1/z` over the whole pixel square
 /// (`-inf` where nothing is known). Horizontal bands of pixels run in parallel; each walks the
@@ -228,6 +222,8 @@ fn occlusion_bounds(polys: &[ScreenPoly], width: u32, height: u32) -> Vec<f64> {
         .iter()
         .map(|&k| row_span(&polys[k as usize].verts, TOUCH_MARGIN))
         .collect();
+    // Patch ids in member order, so the bands' walks read memory sequentially.
+    let member_patch: Vec<u32> = members.iter().map(|&k| patch[k as usize]).collect();
     let mut contour: Vec<(u32, [Pt; 2])> = unmatched
         .iter()
         .map(|&(k, i)| {
@@ -258,7 +254,7 @@ fn occlusion_bounds(polys: &[ScreenPoly], width: u32, height: u32) -> Vec<f64> {
             let mut touched = Vec::new();
             let (mut m, mut c) = (0, 0);
             while m < members.len() {
-                let id = patch[members[m] as usize];
+                let id = member_patch[m];
                 while c < contour.len() && contour[c].0 < id {
                     c += 1;
                 }
@@ -279,7 +275,7 @@ fn occlusion_bounds(polys: &[ScreenPoly], width: u32, height: u32) -> Vec<f64> {
                     c += 1;
                 }
                 touched.clear();
-                while m < members.len() && patch[members[m] as usize] == id {
+                while m < members.len() && member_patch[m] == id {
                     let (r0, r1) = member_rows[m];
                     if r1 >= lo_row && r0 <= hi_row {
                         let p = &polys[members[m] as usize];

@@ -293,7 +293,10 @@ mod tests {
         let mut state = BinState::default();
         // Left part at depth 5 and right part at depth 6, overlapping on x = 7.5..8.5 (so each
         // cell is inside one of them, margin included): two occluders.
-        for t in rect(-1.0, 8.5, 1.0, 5.0).iter().chain(&rect(7.5, 17.0, 2.0, 6.0)) {
+        for t in rect(-1.0, 8.5, 1.0, 5.0)
+            .iter()
+            .chain(&rect(7.5, 17.0, 2.0, 6.0))
+        {
             add(&mut state, t, &pool);
         }
         assert_eq!(state.occluders.len(), 2);
@@ -313,7 +316,10 @@ mod tests {
         let pool = Pool::new(1 << 20);
         let mut state = BinState::default();
         // A gap of 0.01 px at x = 8.
-        for t in rect(-1.0, 8.0, 1.0, 5.0).iter().chain(&rect(8.01, 17.0, 1.0, 5.0)) {
+        for t in rect(-1.0, 8.0, 1.0, 5.0)
+            .iter()
+            .chain(&rect(8.01, 17.0, 1.0, 5.0))
+        {
             add(&mut state, t, &pool);
         }
         let p = [
