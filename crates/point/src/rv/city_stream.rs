@@ -53,6 +53,9 @@ pub struct StreamingCity {
     /// Next triangle of `block.triangles` to hand out.
     at: usize,
     next_id: u32,
+    /// The generator's parameters, to start again ([`TriangleSource::rewind`]).
+    seed: u64,
+    size: usize,
 }
 
 impl StreamingCity {
@@ -66,6 +69,8 @@ impl StreamingCity {
             },
             at: 0,
             next_id: 0,
+            seed,
+            size,
         }
     }
 
@@ -81,6 +86,15 @@ impl StreamingCity {
 }
 
 impl TriangleSource for StreamingCity {
+    fn rewind(&mut self) -> Result<bool, RvError> {
+        self.city = City::new(self.seed, self.size);
+        self.block.vertices.clear();
+        self.block.triangles.clear();
+        self.at = 0;
+        self.next_id = 0;
+        Ok(true)
+    }
+
     fn id_bound(&self) -> u32 {
         let blocks = self.city.blocks();
         u32::try_from(blocks * blocks * City::MAX_TRIANGLES_PER_BLOCK).unwrap_or(u32::MAX)
@@ -127,6 +141,11 @@ mod tests {
             assert_eq!(t.corners, scene.triangle(t.id));
         }
         assert!(s.id_bound() as usize >= out.len());
+        // Rewinding yields the same stream again.
+        assert_eq!(s.rewind().ok(), Some(true));
+        let mut again = Vec::new();
+        while s.next_batch(61, &mut again).ok() > Some(0) {}
+        assert_eq!(again, out);
     }
 
     #[test]

@@ -102,6 +102,12 @@ pub struct RvOptions {
     /// (section 7.1.3) finds sorted input gives much smaller sets, as near occluders form
     /// first; sorting within a batch keeps the stream bounded.
     pub sort_batches: bool,
+    /// After the stream, stream the scene once more and re-test every triangle against the
+    /// final occluders (beyond the thesis; needs a source that can
+    /// [`TriangleSource::rewind`]). Triangles that arrived before their occluders existed are
+    /// then found hidden, which an unsorted stream otherwise reports visible. Doubles the
+    /// streaming work; the memory is the same.
+    pub retest_pass: bool,
 }
 
 impl Default for RvOptions {
@@ -117,6 +123,7 @@ impl Default for RvOptions {
             max_occluders_per_bin: 256,
             max_edges_per_bin: 8192,
             sort_batches: true,
+            retest_pass: true,
         }
     }
 }
@@ -149,6 +156,10 @@ pub struct RvStats {
     pub silhouette_tests: u64,
     /// Triangle tests run (occludee inside a silhouette).
     pub triangle_tests: u64,
+    /// Whether the re-test pass ran ([`RvOptions::retest_pass`] and a rewindable source).
+    pub retested: bool,
+    /// Triangles visible after the first pass (before the re-test pass).
+    pub first_pass_visible: u64,
     /// Wall-clock seconds.
     pub seconds: f64,
 }
@@ -236,6 +247,126 @@ fn check(options: &RvOptions) -> Result<(), RvError> {
     Ok(())
 }
 
+/// What one streaming pass over the source shares (the bins' occluder states persist from
+/// one pass to the next).
+struct Pass<'a> {
+    grid: &'a BinGrid,
+    options: &'a RvOptions,
+    proj: &'a Projection,
+    margin: f64,
+    limits: &'a Limits,
+    max_entries: usize,
+    states: &'a [Mutex<BinState>],
+    pool: &'a Pool,
+}
+
+impl Pass<'_> {
+    /// Streams `source` once through the sort-middle pipeline, marking visible triangles in
+    /// `visible`; with `build`, visible triangles also grow the occluders (the thesis' single
+    /// pass), without it they are only tested against the occluders as they stand.
+    fn run(
+        &self,
+        source: &mut (dyn TriangleSource + Send),
+        visible: &AtomicTriangleSet,
+        build: bool,
+    ) -> Result<(producer::Produced, StageStats), RvError> {
+        let (grid, options, margin) = (self.grid, self.options, self.margin);
+        let n_bins = grid.len();
+        let sched = Scheduler::new(grid, options.ring_batches, options.bin_threshold);
+        let mut stage = StageStats::default();
+        let producers = Producers::new(source);
+        let gctx = GeometryContext {
+            proj: self.proj,
+            grid,
+            margin,
+            options,
+            max_entries: self.max_entries,
+            sched: &sched,
+        };
+        let produced = std::thread::scope(|scope| {
+            let workers: Vec<_> = (0..options.threads)
+                .map(|_| {
+                    let (sched, states, pool, limits, proj) =
+                        (&sched, self.states, self.pool, self.limits, self.proj);
+                    scope.spawn(move || {
+                        let mut st = StageStats::default();
+                        while let Some(work) = sched.take() {
+                            let (x0, x1, y0, y1) = grid.rect(work.bin);
+                            let ctx = BinContext {
+                                proj,
+                                planes: proj.rect_planes(
+                                    x0 - margin,
+                                    x1 + margin,
+                                    y0 - margin,
+                                    y1 + margin,
+                                ),
+                                bin_rect: overlap::Rect {
+                                    min: glam::DVec2::new(x0 - margin, y0 - margin),
+                                    max: glam::DVec2::new(x1 + margin, y1 + margin),
+                                },
+                                margin,
+                                limits,
+                                pool,
+                                visible,
+                                build,
+                            };
+                            {
+                                let mut state = states[work.bin]
+                                    .lock()
+                                    .unwrap_or_else(std::sync::PoisonError::into_inner);
+                                for batch in &work.batches {
+                                    for &k in batch.bin(work.bin) {
+                                        process(&batch.tris[k as usize], &ctx, &mut state, &mut st);
+                                    }
+                                }
+                            }
+                            sched.done(work);
+                        }
+                        st
+                    })
+                })
+                .collect();
+            let helpers: Vec<_> = (1..options.geometry_threads)
+                .map(|_| {
+                    let (producers, gctx) = (&producers, &gctx);
+                    scope.spawn(move || {
+                        let mut scratch = Scratch::new(options, self.max_entries, n_bins);
+                        producer::run(producers, gctx, &mut scratch)
+                    })
+                })
+                .collect();
+            let mut scratch = Scratch::new(options, self.max_entries, n_bins);
+            let mut produced = producer::run(&producers, &gctx, &mut scratch);
+            drop(scratch);
+            for h in helpers {
+                match h.join() {
+                    Ok(p) => {
+                        produced.streamed += p.streamed;
+                        produced.on_screen += p.on_screen;
+                        produced.entries += p.entries;
+                    }
+                    Err(panic) => {
+                        sched.finish_input();
+                        std::panic::resume_unwind(panic)
+                    }
+                }
+            }
+            sched.finish_input();
+            for w in workers {
+                match w.join() {
+                    Ok(st) => merge_stats(&mut stage, &st),
+                    Err(panic) => std::panic::resume_unwind(panic),
+                }
+            }
+            produced
+        });
+        if let Some(e) = producers.into_error() {
+            return Err(e);
+        }
+        Ok((produced, stage))
+    }
+}
+
 /// Computes a conservative visible set of `source`'s triangles from `camera` (see the module
 /// documentation for the guarantee and the memory accounting).
 ///
@@ -273,101 +404,47 @@ pub fn conservative_visible(
         max_occluders: options.max_occluders_per_bin,
         max_edges: options.max_edges_per_bin,
     };
-    let visible = AtomicTriangleSet::new(bound as usize);
     let states: Vec<Mutex<BinState>> = (0..n_bins)
         .map(|_| Mutex::new(BinState::default()))
         .collect();
-    let sched = Scheduler::new(&grid, options.ring_batches, options.bin_threshold);
-
-    let mut stats = RvStats::default();
-    let mut stage = StageStats::default();
-    let producers = Producers::new(source);
-    let gctx = GeometryContext {
-        proj: &proj,
+    let pass = Pass {
         grid: &grid,
-        margin,
         options,
+        proj: &proj,
+        margin,
+        limits: &limits,
         max_entries,
-        sched: &sched,
+        states: &states,
+        pool: &pool,
     };
-    let produced = std::thread::scope(|scope| {
-        let workers: Vec<_> = (0..options.threads)
-            .map(|_| {
-                let (sched, states, pool, visible, limits, proj) =
-                    (&sched, &states, &pool, &visible, &limits, &proj);
-                scope.spawn(move || {
-                    let mut st = StageStats::default();
-                    while let Some(work) = sched.take() {
-                        let (x0, x1, y0, y1) = grid.rect(work.bin);
-                        let ctx = BinContext {
-                            proj,
-                            planes: proj.rect_planes(
-                                x0 - margin,
-                                x1 + margin,
-                                y0 - margin,
-                                y1 + margin,
-                            ),
-                            bin_rect: overlap::Rect {
-                                min: glam::DVec2::new(x0 - margin, y0 - margin),
-                                max: glam::DVec2::new(x1 + margin, y1 + margin),
-                            },
-                            margin,
-                            limits,
-                            pool,
-                            visible,
-                        };
-                        {
-                            let mut state = states[work.bin]
-                                .lock()
-                                .unwrap_or_else(std::sync::PoisonError::into_inner);
-                            for batch in &work.batches {
-                                for &k in batch.bin(work.bin) {
-                                    process(&batch.tris[k as usize], &ctx, &mut state, &mut st);
-                                }
-                            }
-                        }
-                        sched.done(work);
-                    }
-                    st
-                })
-            })
+    let mut stats = RvStats::default();
+    let first = AtomicTriangleSet::new(bound as usize);
+    let (produced, mut stage) = pass.run(source, &first, true)?;
+    stats.first_pass_visible = first.count() as u64;
+    // The memory accounting's two bitsets: the concurrent set being filled and the returned
+    // set (here the first pass's result, narrowed by the re-test).
+    let mut visible = first.to_set();
+    drop(first);
+    if options.retest_pass && source.rewind()? {
+        stats.retested = true;
+        let second = AtomicTriangleSet::new(bound as usize);
+        let (_, retest) = pass.run(source, &second, false)?;
+        // Both passes are conservative, so is their intersection. (The re-test alone can
+        // keep a triangle the first pass hid: an occluder that hid it may since have merged
+        // with one whose silhouette edges now pass over it.)
+        let hidden_now: Vec<usize> = visible
+            .ones()
+            .filter(|&id| !second.contains(id as u32))
             .collect();
-        let helpers: Vec<_> = (1..options.geometry_threads)
-            .map(|_| {
-                let (producers, gctx) = (&producers, &gctx);
-                scope.spawn(move || {
-                    let mut scratch = Scratch::new(options, max_entries, n_bins);
-                    producer::run(producers, gctx, &mut scratch)
-                })
-            })
-            .collect();
-        let mut scratch = Scratch::new(options, max_entries, n_bins);
-        let mut produced = producer::run(&producers, &gctx, &mut scratch);
-        drop(scratch);
-        for h in helpers {
-            match h.join() {
-                Ok(p) => {
-                    produced.streamed += p.streamed;
-                    produced.on_screen += p.on_screen;
-                    produced.entries += p.entries;
-                }
-                Err(panic) => {
-                    sched.finish_input();
-                    std::panic::resume_unwind(panic)
-                }
-            }
+        for id in hidden_now {
+            visible.set(id, false);
         }
-        sched.finish_input();
-        for w in workers {
-            match w.join() {
-                Ok(st) => merge_stats(&mut stage, &st),
-                Err(panic) => std::panic::resume_unwind(panic),
-            }
-        }
-        produced
-    });
-    if let Some(e) = producers.into_error() {
-        return Err(e);
+        // Occlusion counters are the re-test's; occluder counters stay the first pass's.
+        stage.tested = retest.tested;
+        stage.occluded = retest.occluded;
+        stage.fused_occluded = retest.fused_occluded;
+        stage.counters.silhouette_tests += retest.counters.silhouette_tests;
+        stage.counters.triangle_tests += retest.counters.triangle_tests;
     }
     let (streamed, on_screen, entries) = (produced.streamed, produced.on_screen, produced.entries);
     for s in &states {
@@ -387,7 +464,6 @@ pub fn conservative_visible(
     stats.fused_occluded = stage.fused_occluded;
     stats.silhouette_tests = stage.counters.silhouette_tests;
     stats.triangle_tests = stage.counters.triangle_tests;
-    let visible = visible.to_set();
     stats.seconds = start.elapsed().as_secs_f64();
     Ok(RvResult {
         visible,

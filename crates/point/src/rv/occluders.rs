@@ -21,8 +21,11 @@
 //!   cover every point twice, have an empty silhouette and occlude nothing.
 //! - Only triangles entirely in front of the near plane and not seen edge-on become occluders
 //!   (their projections are bounded and their planes order depth along every eye ray).
-//! - When a pool is full (occluders per bin, edges per bin, occluder memory), the visible
-//!   triangle is simply not added: it stays marked visible, the result stays conservative.
+//! - When a bin's occluder or edge limit is reached, occluders farther than the new visible
+//!   triangle are dropped to make room (the thesis keeps the first ones; see
+//!   `evict_farther_than`); when nothing can be dropped, or occluder memory is exhausted, the
+//!   visible triangle is simply not added: it stays marked visible, the result stays
+//!   conservative.
 
 use glam::{DVec2, DVec3};
 
@@ -125,8 +128,13 @@ impl BinState {
             plane,
             rect: Rect::of(&s),
         };
-        if self.edge_count + 3 > limits.max_edges {
-            return AddOutcome::Full;
+        let z = |f: fn(f64, f64) -> f64| f(f(t.corners[0].z, t.corners[1].z), t.corners[2].z);
+        let (zmin, zmax) = (z(f64::min), z(f64::max));
+        // A full edge buffer makes room by dropping occluders farther than this triangle.
+        while self.edge_count + 3 > limits.max_edges {
+            if !self.evict_farther_than(zmax, pool) {
+                return AddOutcome::Full;
+            }
         }
         // Occluders sharing an edge with t: same facing, touching bounds, an identical edge.
         let mut matches = [0usize; MAX_MATCHES];
@@ -143,12 +151,14 @@ impl BinState {
                 n_matches += 1;
             }
         }
-        let z = |f: fn(f64, f64) -> f64| f(f(t.corners[0].z, t.corners[1].z), t.corners[2].z);
-        let (zmin, zmax) = (z(f64::min), z(f64::max));
         if n_matches == 0 {
-            if self.occluders.len() >= limits.max_occluders
-                || !reserve_from(&mut self.occluders, 1, pool)
+            // A full bin makes room by dropping its farthest occluder when this triangle lies
+            // entirely in front of it (see `evict_farther_than`).
+            if self.occluders.len() >= limits.max_occluders && !self.evict_farther_than(zmax, pool)
             {
+                return AddOutcome::Full;
+            }
+            if !reserve_from(&mut self.occluders, 1, pool) {
                 return AddOutcome::Full;
             }
             let mut o = Occluder {
@@ -247,6 +257,28 @@ impl BinState {
         }
     }
 
+    /// Drops the occluder whose nearest point is farthest, if that is farther than `z`, and
+    /// returns its memory to `pool`; false when there is none. Beyond the thesis, which keeps
+    /// the first occluders of a full bin: in an unsorted stream those are often far, small
+    /// ones, and the near occluders that hide most of the scene arrive later and were lost.
+    /// Dropping an occluder is always sound: it only stops hiding later triangles.
+    fn evict_farther_than(&mut self, z: f64, pool: &Pool) -> bool {
+        let Some((i, _)) = self
+            .occluders
+            .iter()
+            .enumerate()
+            .filter(|(_, o)| o.zmin > z)
+            .max_by(|a, b| a.1.zmin.total_cmp(&b.1.zmin))
+        else {
+            return false;
+        };
+        let mut o = self.occluders.swap_remove(i);
+        self.edge_count -= o.edges.len();
+        release_to(&mut o.tris, pool);
+        release_to(&mut o.edges, pool);
+        true
+    }
+
     /// Returns all occluder memory to `pool`.
     pub(crate) fn clear(&mut self, pool: &Pool) {
         for o in &mut self.occluders {
@@ -317,6 +349,27 @@ mod tests {
         assert_eq!(out, AddOutcome::Merged);
         assert_eq!(b.occluders.len(), 1);
         assert_eq!(b.occluders[0].tris.len(), 4);
+    }
+
+    #[test]
+    fn full_bin_drops_a_farther_occluder_for_a_nearer_triangle() {
+        let pool = Pool::new(1 << 20);
+        let one = Limits {
+            max_occluders: 1,
+            max_edges: 64,
+        };
+        let mut b = BinState::default();
+        let mut far = tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
+        far.corners.iter_mut().for_each(|c| c.z = 50.0);
+        assert_eq!(b.add(&far, &one, &pool), AddOutcome::New);
+        // A nearer, unconnected triangle replaces it...
+        let near = tri([[5.0, 5.0], [6.0, 5.0], [5.0, 6.0]]);
+        assert_eq!(b.add(&near, &one, &pool), AddOutcome::New);
+        assert_eq!(b.occluders.len(), 1);
+        assert_eq!(b.occluders[0].zmin, 5.0);
+        // ...but a farther one does not replace the near occluder.
+        assert_eq!(b.add(&far, &one, &pool), AddOutcome::Full);
+        assert_eq!(b.occluders[0].zmin, 5.0);
     }
 
     #[test]

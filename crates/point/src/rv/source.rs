@@ -26,6 +26,13 @@ pub trait TriangleSource {
 
     /// Appends up to `max` triangles to `out` and returns how many; 0 means the stream ended.
     fn next_batch(&mut self, max: usize, out: &mut Vec<SourceTriangle>) -> Result<usize, RvError>;
+
+    /// Starts the stream again from its first triangle, yielding the same triangles with the
+    /// same ids; returns false when the source cannot (the default), in which case RV skips
+    /// its re-test pass.
+    fn rewind(&mut self) -> Result<bool, RvError> {
+        Ok(false)
+    }
 }
 
 /// Streams an in-memory [`Scene`] in id order. Triangles with out-of-range indices are yielded
@@ -67,6 +74,11 @@ impl TriangleSource for SceneSource<'_> {
         }
         self.next = end;
         Ok(end - start)
+    }
+
+    fn rewind(&mut self) -> Result<bool, RvError> {
+        self.next = 0;
+        Ok(true)
     }
 }
 

@@ -43,6 +43,8 @@ pub(crate) struct BinContext<'a> {
     pub(crate) limits: &'a Limits,
     pub(crate) pool: &'a Pool,
     pub(crate) visible: &'a AtomicTriangleSet,
+    /// Whether visible triangles join the occluders (false in the re-test pass).
+    pub(crate) build: bool,
 }
 
 /// Runs the visibility stage on triangle `t` in the bin of `ctx`.
@@ -103,6 +105,9 @@ pub(crate) fn process(
     }
     st.visible += 1;
     ctx.visible.insert(t.id);
+    if !ctx.build {
+        return;
+    }
     let outcome = state.add(t, ctx.limits, ctx.pool);
     match outcome {
         AddOutcome::New => st.occluders_created += 1,
