@@ -120,6 +120,42 @@ fn conservative_visible_set_misses_nothing_the_reference_sees() {
 }
 
 #[test]
+fn conservative_from_a_cell_keeps_every_sampled_hit() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(
+        &[
+            "visible",
+            "procedural:city?size=6000",
+            "--conservative",
+            "--cell",
+            "point:-6,-6,2,1",
+            "--json",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["missed"], 0);
+    let (visible, seen) = (
+        v["visible"].as_u64().unwrap(),
+        v["reference_visible"].as_u64().unwrap(),
+    );
+    assert!(seen > 0 && visible >= seen);
+    // Conservative, but far from everything: most of the city is hidden from one street.
+    assert!(visible < v["triangles"].as_u64().unwrap() / 2);
+}
+
+#[test]
+fn malformed_cell_is_clean_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(
+        &["visible", "--conservative", "--cell", "box:1,2,3"],
+        dir.path(),
+    );
+    assert_fails_with(&o, "box needs 6 numbers");
+}
+
+#[test]
 fn impossible_memory_budget_is_clean_error() {
     let dir = tempfile::tempdir().unwrap();
     let o = sightline(

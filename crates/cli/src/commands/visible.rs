@@ -9,8 +9,13 @@ use serde::Serialize;
 use sightline_core::raster::render;
 use sightline_core::scene::procedural::Params;
 use sightline_core::scene::SceneSpec;
+use sightline_core::trace::{Bvh, RayCaster};
 use sightline_core::TriangleSet;
-use sightline_point::rv::{conservative_visible, RvOptions, SceneSource, StreamingCity};
+use sightline_point::rv::{
+    conservative_from_region, conservative_visible, RegionOptions, RvOptions, SceneSource,
+    StreamingCity,
+};
+use sightline_region::ViewCell;
 
 use crate::args::{CameraArgs, SceneArgs};
 use crate::output::print_json;
@@ -35,6 +40,20 @@ pub(crate) struct Args {
     /// generator without ever holding the scene in memory.
     #[arg(long, requires = "conservative")]
     stream: bool,
+    /// With --conservative: visibility from a whole view cell instead of a point: every
+    /// triangle seen from any point of the cell is kept (umbrae of the largest convex
+    /// occluders, two passes over the scene). Syntax as `pvs bake --cell`:
+    /// `box:MINX,MINY,MINZ,MAXX,MAXY,MAXZ` or `point:X,Y,Z,R`.
+    #[arg(
+        long,
+        requires = "conservative",
+        value_name = "SPEC",
+        allow_hyphen_values = true
+    )]
+    cell: Option<String>,
+    /// With --cell: convex occluders kept (the largest by solid angle from the cell).
+    #[arg(long, default_value_t = 1024, requires = "cell")]
+    max_occluders: usize,
     /// With --exact: write the visible polygons (coloured by triangle) as SVG.
     #[arg(long, requires = "exact")]
     svg: Option<PathBuf>,
@@ -104,10 +123,108 @@ pub(crate) fn parse_bytes(s: &str) -> Result<usize, String> {
     Ok(bytes as usize)
 }
 
+/// `--conservative --cell`: the conservative from-region set, with a sampled cross-check on a
+/// materialised scene (rays from random points of the cell: whatever they hit must be kept).
+fn run_from_region(args: &Args, spec: &str, start: Instant) -> Result<()> {
+    let cell = ViewCell::parse(spec).with_context(|| format!("--cell '{spec}'"))?;
+    let options = RegionOptions {
+        max_occluders: args.max_occluders,
+        ..RegionOptions::default()
+    };
+    let (r, check) = if args.stream {
+        let SceneSpec::Procedural(Params { name, seed, size }) =
+            SceneSpec::parse(&args.scene.scene)?
+        else {
+            bail!("--stream works with procedural:city scenes only");
+        };
+        if name != "city" {
+            bail!("--stream works with procedural:city scenes only, not procedural:{name}");
+        }
+        let r = conservative_from_region(
+            &mut StreamingCity::new(seed, size),
+            &cell.corners(),
+            &options,
+        )?;
+        (r, None)
+    } else {
+        let scene = args.scene.load()?;
+        let r = conservative_from_region(&mut SceneSource::new(&scene), &cell.corners(), &options)?;
+        let seconds = start.elapsed().as_secs_f64();
+        let bvh = Bvh::build(&scene);
+        let seen = sampled_from_cell(&bvh, &cell, 200_000);
+        let missed = seen.difference(&r.visible).count();
+        (r, Some((seen.count_ones(..), missed, seconds)))
+    };
+    let n = r.visible.count_ones(..);
+    let seconds = check.map_or(start.elapsed().as_secs_f64(), |c| c.2);
+    let summary = Summary {
+        method: "conservative from a view cell (umbrae of convex occluders)",
+        triangles: r.stats.triangles_streamed as usize,
+        visible: n,
+        seconds,
+        peak_memory_bytes: None,
+        reference_visible: check.map(|c| c.0),
+        overestimation: check.map(|c| n as f64 / c.0.max(1) as f64 - 1.0),
+        missed: check.map(|c| c.1),
+    };
+    if let Some(path) = &args.output {
+        let text: String = r.visible.ones().map(|id| format!("{id}\n")).collect();
+        sightline_core::atomic_file::write_atomic(path, |w| {
+            std::io::Write::write_all(w, text.as_bytes())
+        })
+        .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if args.json {
+        return print_json(&summary);
+    }
+    println!(
+        "{}: {} of {} triangles ({:.2}%) in {:.3} s, {} occluders",
+        summary.method,
+        n,
+        summary.triangles,
+        100.0 * n as f64 / summary.triangles.max(1) as f64,
+        summary.seconds,
+        r.stats.occluders
+    );
+    if let Some((seen, missed, _)) = check {
+        println!(
+            "sampled check: 200000 rays from the cell hit {seen} triangles, {missed} of them missing from the set (must be 0)"
+        );
+    }
+    Ok(())
+}
+
+/// Triangles hit by `rays` rays from random points of `cell` in random directions.
+fn sampled_from_cell(bvh: &Bvh, cell: &ViewCell, rays: usize) -> TriangleSet {
+    let mut rng = sightline_core::random::SplitMix64::new(0x5eed);
+    let batch: Vec<sightline_core::Ray> = (0..rays)
+        .map(|_| {
+            let o = cell.interior_point([rng.next_f32(), rng.next_f32(), rng.next_f32()]);
+            let z = rng.range_f32(-1.0, 1.0);
+            let a = rng.range_f32(0.0, std::f32::consts::TAU);
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            sightline_core::Ray::new(o, glam::Vec3::new(r * a.cos(), r * a.sin(), z))
+        })
+        .collect();
+    let mut hits = vec![sightline_core::Hit::default(); batch.len()];
+    bvh.cast(&batch, &mut hits);
+    let mut seen = TriangleSet::with_capacity(bvh.triangle_count());
+    for h in hits
+        .iter()
+        .filter(|h| h.triangle != sightline_core::Hit::NONE)
+    {
+        seen.insert(h.triangle as usize);
+    }
+    seen
+}
+
 pub(crate) fn run(args: Args) -> Result<()> {
     let start = Instant::now();
     if args.exact {
         return run_exact(&args, start);
+    }
+    if let Some(spec) = &args.cell {
+        return run_from_region(&args, spec, start);
     }
     let options = RvOptions {
         memory_budget_bytes: args.memory,

@@ -48,6 +48,7 @@
 
 mod city_stream;
 mod depth;
+mod from_region;
 mod fusion;
 mod geometry_stage;
 mod memory;
@@ -67,6 +68,7 @@ use sightline_core::atomic_set::AtomicTriangleSet;
 use sightline_core::{Camera, TriangleSet};
 
 pub use city_stream::StreamingCity;
+pub use from_region::{conservative_from_region, RegionOptions, RegionResult, RegionStats};
 pub use source::{SceneSource, SourceTriangle, TriangleSource};
 
 use geometry_stage::{Batch, BinGrid};

@@ -1,0 +1,102 @@
+//! Conservative from-region visibility (`rv::conservative_from_region`): on the city, the
+//! rooms and a Quake 3 map, for random view cells in free space, every triangle that a ray from
+//! a random point of the cell hits is in the set (the ground truth the method must never miss),
+//! and the set contains GVS++'s aggressive PVS of the same cell. Prints both sizes.
+#![allow(clippy::unwrap_used)]
+
+use glam::Vec3;
+use sightline_core::random::SplitMix64;
+use sightline_core::scene::{open, LoadOptions};
+use sightline_core::trace::{Bvh, RayCaster};
+use sightline_core::{Hit, Ray, Scene};
+use sightline_point::rv::{conservative_from_region, RegionOptions, SceneSource};
+use sightline_region::cell_sources::random_free_cells;
+use sightline_region::{Budget, CellContext, GvsPlusPlus, GvsPlusPlusParams, Sampler};
+
+/// Random rays from random points of the cell, in uniformly random directions.
+fn sampled_hits(bvh: &Bvh, cell: &sightline_region::ViewCell, rays: usize, seed: u64) -> Vec<u32> {
+    let mut rng = SplitMix64::new(seed);
+    let batch: Vec<Ray> = (0..rays)
+        .map(|_| {
+            let o = cell.interior_point([rng.next_f32(), rng.next_f32(), rng.next_f32()]);
+            let z = rng.range_f32(-1.0, 1.0);
+            let a = rng.range_f32(0.0, std::f32::consts::TAU);
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            Ray::new(o, Vec3::new(r * a.cos(), r * a.sin(), z))
+        })
+        .collect();
+    let mut hits = vec![Hit::default(); batch.len()];
+    bvh.cast(&batch, &mut hits);
+    hits.iter()
+        .filter(|h| h.triangle != Hit::NONE)
+        .map(|h| h.triangle)
+        .collect()
+}
+
+fn check(name: &str, scene: &Scene, cells: usize, half: f32) {
+    let bvh = Bvh::build(scene);
+    let cells = random_free_cells(scene, &bvh, cells, half, 7);
+    assert!(!cells.is_empty(), "{name}: no free cells");
+    let gvspp = GvsPlusPlus {
+        params: GvsPlusPlusParams {
+            n_rand: 20_000,
+            ..GvsPlusPlusParams::default()
+        },
+    };
+    for (k, cell) in cells.iter().enumerate() {
+        let r = conservative_from_region(
+            &mut SceneSource::new(scene),
+            &cell.corners(),
+            &RegionOptions::default(),
+        )
+        .unwrap();
+        for t in sampled_hits(&bvh, cell, 50_000, k as u64) {
+            assert!(
+                r.visible.contains(t as usize),
+                "{name} cell {k}: triangle {t} is seen from inside the cell but not in the set"
+            );
+        }
+        let ctx = CellContext {
+            scene,
+            caster: &bvh,
+            cell,
+            seed: 3,
+            free_space: None,
+        };
+        let aggressive = gvspp.sample(&ctx, &Budget::rays(400_000), &|_| {});
+        let missing: Vec<usize> = aggressive.visible.difference(&r.visible).collect();
+        assert!(
+            missing.is_empty(),
+            "{name} cell {k}: GVS++ found {} triangles outside the conservative set, e.g. {:?}",
+            missing.len(),
+            &missing[..missing.len().min(5)]
+        );
+        println!(
+            "from-region {name} cell {k}: {} triangles, GVS++ {}, conservative {} ({:.1}x), {} occluders",
+            scene.triangle_count(),
+            aggressive.visible.count_ones(..),
+            r.visible.count_ones(..),
+            r.visible.count_ones(..) as f64 / aggressive.visible.count_ones(..).max(1) as f64,
+            r.stats.occluders
+        );
+    }
+}
+
+#[test]
+fn city_cells_are_conservative_and_contain_gvspp() {
+    let scene = open("procedural:city?seed=2&size=20000", &LoadOptions::default()).unwrap();
+    check("city", &scene, 3, 2.0);
+}
+
+#[test]
+fn rooms_cells_are_conservative_and_contain_gvspp() {
+    let scene = open("procedural:rooms?seed=2&size=4000", &LoadOptions::default()).unwrap();
+    check("rooms", &scene, 3, 0.3);
+}
+
+#[test]
+fn quake3_cells_are_conservative_and_contain_gvspp() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/q3dm6ish.bsp");
+    let scene = open(path, &LoadOptions::default()).unwrap();
+    check("q3dm6ish", &scene, 3, 8.0);
+}
