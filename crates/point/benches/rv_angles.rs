@@ -1,0 +1,276 @@
+//! RV on the full scene set, 120 camera angles each (3° steps, as in the thesis' appendix),
+//! against the exact analytic visible set: false negatives (must be 0), overestimation
+//! |RV| / |exact| - 1, and RV time per frame. Prints a markdown table (one row per scene).
+//!
+//! Run: `cargo bench -p sightline-point --bench rv_angles` (a few minutes on 2 cores).
+//! `RV_ANGLES=N` changes the number of angles, `RV_SIZE=PX` the image size (default 256).
+//!
+//! Scenes: the thesis' scene types re-created (cube, bunny, bunny+box, a low-poly model,
+//! walls, boxes with walls, a flat grid of detail behind large occluders), the city scenes,
+//! and every scene in `../shared/scenes` (skipped with a note when the directory is missing).
+//! Objects are orbited at 2.2 radii, 20° above the horizon; scenes one walks in (cities, Quake 3
+//! maps, buildings) are seen from a fixed eye at eye height near the centre, turning 3° per
+//! frame.
+
+use std::path::Path;
+use std::time::Instant;
+
+use glam::Vec3;
+use sightline_core::scene::{open, LoadOptions, SceneBuilder};
+use sightline_core::{Camera, Scene};
+use sightline_point::analytic::{visible_fragments, AnalyticOptions};
+use sightline_point::rv::{conservative_visible, RvOptions, SceneSource};
+
+enum Placement {
+    Orbit,
+    Walk,
+}
+
+fn cameras(scene: &Scene, placement: &Placement, angles: usize, size: u32) -> Vec<Camera> {
+    let b = scene.bounds();
+    let (c, r) = (b.center(), 0.5 * b.diagonal());
+    let up = scene.up.vector();
+    let (e1, e2) = if up == Vec3::Z {
+        (Vec3::X, Vec3::Y)
+    } else {
+        (Vec3::Z, Vec3::X)
+    };
+    // Eye height for walking: 1.7 % of the diagonal above the lowest point, at least a little.
+    let eye_height = (up.dot(b.min)) + 0.017 * 2.0 * r;
+    (0..angles)
+        .filter_map(|k| {
+            let a = (k as f32) * std::f32::consts::TAU / angles as f32;
+            let dir = e1 * a.cos() + e2 * a.sin();
+            let (eye, target, near) = match placement {
+                Placement::Orbit => {
+                    let eye = c
+                        + (dir * 20f32.to_radians().cos() + up * 20f32.to_radians().sin())
+                            * 2.2
+                            * r;
+                    (eye, c, r * 0.01)
+                }
+                Placement::Walk => {
+                    let eye = c - up * up.dot(c) + up * eye_height + e1 * 0.013 * r;
+                    (eye, eye + dir, r * 1e-4)
+                }
+            };
+            Camera::look_at(eye, target, up, 60.0, size, size, near).ok()
+        })
+        .collect()
+}
+
+fn add_quad(b: &mut SceneBuilder, p: [Vec3; 4]) {
+    let i = p.map(|v| b.add_vertex(v));
+    b.add_triangle([i[0], i[1], i[2]]);
+    b.add_triangle([i[0], i[2], i[3]]);
+}
+
+/// Parallel walls (large occluders), staggered so some are seen through gaps.
+fn add_walls(b: &mut SceneBuilder, n: usize, length: f32, height: f32) {
+    for k in 0..n {
+        let x = -0.5 * length + k as f32 * length / n as f32;
+        let y0 = if k % 2 == 0 {
+            -0.5 * length
+        } else {
+            -0.3 * length
+        };
+        let y1 = y0 + 0.8 * length;
+        add_quad(
+            b,
+            [
+                Vec3::new(x, y0, 0.0),
+                Vec3::new(x, y1, 0.0),
+                Vec3::new(x, y1, height),
+                Vec3::new(x, y0, height),
+            ],
+        );
+    }
+}
+
+fn shared(path: &str) -> Option<Scene> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/scenes")
+        .join(path);
+    if !p.exists() {
+        println!("<!-- skipped {path}: not found -->");
+        return None;
+    }
+    open(p.to_str()?, &LoadOptions::default()).ok()
+}
+
+fn scenes() -> Vec<(String, Scene, Placement)> {
+    let mut out = Vec::new();
+    let mut push = |name: &str, scene: Option<Scene>, placement: Placement| {
+        if let Some(s) = scene {
+            out.push((name.to_string(), s, placement));
+        }
+    };
+    // The thesis' scene types.
+    let mut b = SceneBuilder::new("cube");
+    b.add_box(Vec3::splat(-1.0), Vec3::splat(1.0));
+    push("cube", Some(b.finish()), Placement::Orbit);
+    push(
+        "bunny (69k)",
+        shared("models/stanford_bunny.obj.gz"),
+        Placement::Orbit,
+    );
+    if let Some(bunny) = shared("models/bunny.obj") {
+        // The bunny beside a box of about its size.
+        let bb = bunny.bounds();
+        let mut b = SceneBuilder::new("bunny+box");
+        for t in 0..bunny.triangle_count() {
+            let [p, q, r] = bunny.triangle(t as u32);
+            let i = [b.add_vertex(p), b.add_vertex(q), b.add_vertex(r)];
+            b.add_triangle(i);
+        }
+        let e = bb.extent();
+        let shift = Vec3::new(e.x * 0.7, 0.0, e.z * 0.3);
+        b.add_box(bb.min + shift, bb.min + shift + e * 0.6);
+        push("bunny+box (3.7k + box)", Some(b.finish()), Placement::Orbit);
+        push(
+            "low-poly model (bunny 3.7k, for the deer)",
+            Some(bunny),
+            Placement::Orbit,
+        );
+    }
+    let mut b = SceneBuilder::new("walls");
+    b.set_up(sightline_core::UpAxis::Z);
+    add_walls(&mut b, 8, 40.0, 6.0);
+    push("walls", Some(b.finish()), Placement::Orbit);
+    if let Ok(boxes) = open("procedural:boxes?seed=3&size=3000", &LoadOptions::default()) {
+        let mut b = SceneBuilder::new("boxes+walls");
+        b.set_up(sightline_core::UpAxis::Z);
+        for t in 0..boxes.triangle_count() {
+            // The boxes' 100³ volume scaled into the walls' 40 x 40 x 6 area.
+            let tri = boxes
+                .triangle(t as u32)
+                .map(|p| (p - Vec3::splat(50.0)) * Vec3::new(0.4, 0.4, 0.06) + Vec3::Z * 3.0);
+            let i = tri.map(|p| b.add_vertex(p));
+            b.add_triangle(i);
+        }
+        add_walls(&mut b, 8, 40.0, 6.0);
+        push("boxes with walls", Some(b.finish()), Placement::Orbit);
+    }
+    // "flat": a few large polygons in front of much small detail.
+    let mut b = SceneBuilder::new("flat");
+    b.set_up(sightline_core::UpAxis::Z);
+    for j in 0..24 {
+        for i in 0..24 {
+            let p = Vec3::new(i as f32 - 12.0, j as f32 - 12.0, 0.0);
+            b.add_box(
+                p,
+                p + Vec3::new(0.4, 0.4, 0.3 + 0.05 * ((i * j) % 7) as f32),
+            );
+        }
+    }
+    add_walls(&mut b, 4, 30.0, 2.0);
+    push(
+        "flat grid behind large occluders",
+        Some(b.finish()),
+        Placement::Orbit,
+    );
+    // Cities.
+    push(
+        "procedural:city (20k)",
+        open("procedural:city?seed=1&size=20000", &LoadOptions::default()).ok(),
+        Placement::Walk,
+    );
+    push("city/munich", shared("city/munich.ply.gz"), Placement::Walk);
+    push("city/etoile", shared("city/etoile.ply.gz"), Placement::Walk);
+    // The rest of the shared scenes.
+    push(
+        "models/teapot",
+        shared("models/teapot.obj"),
+        Placement::Orbit,
+    );
+    push(
+        "models/dragon",
+        shared("models/dragon_res3.ply.gz"),
+        Placement::Orbit,
+    );
+    push(
+        "buildings/fzk_haus",
+        shared("buildings/fzk_haus.obj.gz"),
+        Placement::Orbit,
+    );
+    for map in ["fan", "q3dm6ish", "dm4ish", "oa_dm1", "oa_dm2", "czest3ctf"] {
+        push(
+            &format!("q3/{map}"),
+            shared(&format!("q3/{map}.bsp")),
+            Placement::Walk,
+        );
+    }
+    push(
+        "procedural:rooms",
+        open("procedural:rooms?seed=1&size=8000", &LoadOptions::default()).ok(),
+        Placement::Walk,
+    );
+    push(
+        "procedural:spheres",
+        open(
+            "procedural:spheres?seed=1&size=20000",
+            &LoadOptions::default(),
+        )
+        .ok(),
+        Placement::Orbit,
+    );
+    out
+}
+
+fn main() {
+    let angles: usize = std::env::var("RV_ANGLES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(120);
+    let size: u32 = std::env::var("RV_SIZE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(256);
+    let options = RvOptions {
+        bins: (16, 16),
+        ..RvOptions::default()
+    };
+    println!("RV against the exact analytic set, {angles} angles at {size}², 256 MiB budget\n");
+    println!("| scene | triangles | exact (mean) | RV (mean) | overestimation mean / max | false negatives | RV ms/frame | peak MiB |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let mut total_fn = 0usize;
+    for (name, scene, placement) in scenes() {
+        let (mut exact_sum, mut rv_sum, mut fns, mut rv_secs, mut peak) =
+            (0usize, 0usize, 0usize, 0.0f64, 0usize);
+        let mut over = Vec::new();
+        let cams = cameras(&scene, &placement, angles, size);
+        for cam in &cams {
+            let Ok(exact) = visible_fragments(&scene, cam, &AnalyticOptions::default()) else {
+                continue;
+            };
+            let t = Instant::now();
+            let Ok(rv) = conservative_visible(&mut SceneSource::new(&scene), cam, &options) else {
+                continue;
+            };
+            rv_secs += t.elapsed().as_secs_f64();
+            peak = peak.max(rv.peak_memory_bytes);
+            let (e, v) = (exact.visible.count_ones(..), rv.visible.count_ones(..));
+            fns += exact.visible.difference(&rv.visible).count();
+            exact_sum += e;
+            rv_sum += v;
+            if e > 0 {
+                over.push(v as f64 / e as f64 - 1.0);
+            }
+        }
+        total_fn += fns;
+        let n = cams.len().max(1);
+        let mean = over.iter().sum::<f64>() / over.len().max(1) as f64;
+        let max = over.iter().copied().fold(0.0, f64::max);
+        println!(
+            "| {name} | {} | {:.0} | {:.0} | {:.1} % / {:.1} % | {fns} | {:.1} | {:.1} |",
+            scene.triangle_count(),
+            exact_sum as f64 / n as f64,
+            rv_sum as f64 / n as f64,
+            100.0 * mean,
+            100.0 * max,
+            1000.0 * rv_secs / n as f64,
+            peak as f64 / (1 << 20) as f64,
+        );
+    }
+    println!("\nfalse negatives in all: {total_fn}");
+}
