@@ -8,8 +8,9 @@ use anyhow::Result;
 use image::RgbImage;
 use sightline_cull::{FrameStats, SimReport};
 
-use crate::report::html::{img, Cell, Section, Table};
-use crate::report::plot::{line_plot, Series};
+use crate::report::colour::hex;
+use crate::report::html::{escape, img, Cell, Section, Table};
+use crate::report::plot::{line_plot, series_colour, Series};
 use crate::report::CellOutcome;
 
 /// One step of the demo.
@@ -206,6 +207,16 @@ pub(crate) fn culling(reports: &[SimReport]) -> Result<Section> {
         reports.first().map_or(0, |r| r.objects),
         t.html()
     );
+    body.push_str("<p class=\"legend\">");
+    for (i, r) in reports.iter().enumerate() {
+        let _ = write!(
+            body,
+            "<span style=\"color:{}\">&#9644; {}</span> ",
+            hex(series_colour(i)),
+            escape(r.method.name())
+        );
+    }
+    body.push_str("</p>\n");
     type Pick = fn(&FrameStats) -> f64;
     let panels: [(&str, Pick); 3] = [
         ("objects drawn", |f| f.drawn as f64),
@@ -217,10 +228,12 @@ pub(crate) fn culling(reports: &[SimReport]) -> Result<Section> {
             .iter()
             .map(|r| Series {
                 label: r.method.name().into(),
+                // After the warm-up (nothing is drawn before the first query results).
                 points: r
                     .frames
                     .iter()
                     .enumerate()
+                    .skip(r.warmup as usize)
                     .map(|(f, s)| (f as f64, pick(s)))
                     .collect(),
             })
@@ -228,7 +241,7 @@ pub(crate) fn culling(reports: &[SimReport]) -> Result<Section> {
         let _ = writeln!(
             body,
             "<figure class=\"plot\">{}<figcaption>{label} per frame</figcaption></figure>",
-            line_plot(&series, "frame", label, 560, 300)?
+            line_plot(&series, "frame", label, (540, 300), false)?
         );
     }
     Ok(Section::new(

@@ -15,14 +15,21 @@ pub(crate) struct Series {
 /// Most lines drawn in one plot (more would be an unreadable tangle; the caller says so).
 pub(crate) const MAX_LINES: usize = 48;
 
-/// A plot of `series` with axis descriptions, `width x height` pixels. The legend is drawn
-/// when there are at most 12 lines.
+/// The colour of line `i` (plotters' 99-colour palette), for legends written outside a plot.
+pub(crate) fn series_colour(i: usize) -> [u8; 3] {
+    let c = Palette99::pick(i).to_rgba();
+    [c.0, c.1, c.2]
+}
+
+/// A plot of `series` with axis descriptions, `width x height` pixels. With `legend`, a legend
+/// is drawn in the lower right when there are at most 12 lines (callers plotting curves that
+/// pass there write their own legend with [`series_colour`]).
 pub(crate) fn line_plot(
     series: &[Series],
     x_desc: &str,
     y_desc: &str,
-    width: u32,
-    height: u32,
+    (width, height): (u32, u32),
+    legend: bool,
 ) -> Result<String> {
     let series = &series[..series.len().min(MAX_LINES)];
     let xmax = series
@@ -67,7 +74,7 @@ pub(crate) fn line_plot(
                         PathElement::new([(x, y), (x + 16, y)], colour.stroke_width(2))
                     });
             }
-            if series.len() <= 12 && !series.is_empty() {
+            if legend && series.len() <= 12 && !series.is_empty() {
                 chart
                     .configure_series_labels()
                     .position(SeriesLabelPosition::LowerRight)
@@ -114,7 +121,7 @@ mod tests {
 
     #[test]
     fn plot_of_no_series_is_an_empty_chart() {
-        let svg = line_plot(&[], "rays", "PVS", 300, 200).unwrap();
+        let svg = line_plot(&[], "rays", "PVS", (300, 200), true).unwrap();
         assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
     }
 
@@ -124,16 +131,17 @@ mod tests {
             label: label.into(),
             points: (0..5).map(|i| (i as f64 * 100.0, k * i as f64)).collect(),
         };
-        let svg = line_plot(
-            &[s("cell 0", 1.0), s("cell <1>", 2.0)],
-            "rays",
-            "PVS",
-            400,
-            300,
-        )
-        .unwrap();
+        let series = [s("cell 0", 1.0), s("cell <1>", 2.0)];
+        let svg = line_plot(&series, "rays", "PVS", (400, 300), true).unwrap();
         assert!(svg.matches("<polyline").count() >= 2, "{svg}");
         assert!(svg.contains("cell 0"));
         assert!(!svg.contains("cell <1>"), "legend text must be escaped");
+        let bare = line_plot(&series, "rays", "PVS", (400, 300), false).unwrap();
+        assert!(!bare.contains("cell 0"));
+    }
+
+    #[test]
+    fn series_colours_differ() {
+        assert_ne!(series_colour(0), series_colour(1));
     }
 }

@@ -171,7 +171,9 @@ pub(crate) fn cell_table(scene: &Scene, file: &PvsFile, outcomes: &[CellOutcome]
 /// The worst views as images.
 pub(crate) fn worst_views(images: &[WorstImage], shown: usize) -> Result<Section> {
     let mut body = String::new();
-    if images.is_empty() {
+    if shown == 0 {
+        body.push_str("<p class=\"note\">No worst views requested.</p>\n");
+    } else if images.is_empty() {
         body.push_str(
             "<p class=\"note\">No view of any cell has an erroneous pixel: nothing to show.</p>\n",
         );
@@ -250,8 +252,8 @@ pub(crate) fn convergence(file: &PvsFile) -> Result<Section> {
             &series,
             "rays",
             "PVS size (triangles)",
-            900,
-            420,
+            (900, 420),
+            true,
         )?);
         b.push_str("</div>\n");
         b
