@@ -120,17 +120,51 @@ pub(crate) fn worst_views(
         .collect()
 }
 
-/// `base` dimmed to 45 %, with erroneous pixels red and unconfirmed ones yellow on top.
+/// Pixels within this distance (Chebyshev) of an erroneous pixel are tinted red, so that a
+/// few scattered error pixels can be found in a large image.
+pub(crate) const HALO_PX: usize = 3;
+
+/// `mask` grown by `r` pixels in every direction (square neighbourhood; separable: rows, then
+/// columns).
+pub(crate) fn dilate(mask: &[bool], width: usize, height: usize, r: usize) -> Vec<bool> {
+    debug_assert_eq!(mask.len(), width * height);
+    let mut rows = vec![false; mask.len()];
+    for y in 0..height {
+        for x in 0..width {
+            let (lo, hi) = (x.saturating_sub(r), (x + r).min(width.saturating_sub(1)));
+            rows[y * width + x] = (lo..=hi).any(|k| mask[y * width + k]);
+        }
+    }
+    let mut out = vec![false; mask.len()];
+    for y in 0..height {
+        let (lo, hi) = (y.saturating_sub(r), (y + r).min(height.saturating_sub(1)));
+        for x in 0..width {
+            out[y * width + x] = (lo..=hi).any(|k| rows[k * width + x]);
+        }
+    }
+    out
+}
+
+/// `base` dimmed to 45 %, with erroneous pixels red, a red tint within [`HALO_PX`] of them,
+/// and unconfirmed pixels yellow.
 pub(crate) fn highlight(base: &RgbImage, v: &ViewErrors) -> RgbImage {
-    let w = base.width();
+    let (w, h) = (base.width() as usize, base.height() as usize);
+    let halo = if v.error.len() == w * h {
+        dilate(&v.error, w, h, HALO_PX)
+    } else {
+        vec![false; w * h]
+    };
     RgbImage::from_fn(base.width(), base.height(), |x, y| {
-        let i = (y * w + x) as usize;
+        let i = y as usize * w + x as usize;
+        let dim = base.get_pixel(x, y).0.map(|c| c as f32 * 0.45);
         if v.error.get(i).copied().unwrap_or(false) {
             image::Rgb(ERROR_RED)
         } else if v.unconfirmed.get(i).copied().unwrap_or(false) {
             image::Rgb(SNAP_YELLOW)
+        } else if halo[i] {
+            image::Rgb([0, 1, 2].map(|k| (0.5 * dim[k] + 0.5 * ERROR_RED[k] as f32) as u8))
         } else {
-            image::Rgb(base.get_pixel(x, y).0.map(|c| (c as f32 * 0.45) as u8))
+            image::Rgb(dim.map(|c| c as u8))
         }
     })
 }
@@ -151,6 +185,39 @@ mod tests {
         let h = highlight(&base, &v);
         assert_eq!(h.get_pixel(0, 0).0, ERROR_RED);
         assert_eq!(h.get_pixel(1, 0).0, SNAP_YELLOW);
-        assert_eq!(h.get_pixel(2, 0).0, [90, 45, 0]);
+        // Within the halo of the error pixel: half dimmed colour, half red.
+        assert_eq!(h.get_pixel(2, 0).0, [172, 34, 12]);
+    }
+
+    #[test]
+    fn far_from_errors_pixels_are_only_dimmed() {
+        let w = 2 * HALO_PX as u32 + 3;
+        let base = RgbImage::from_pixel(w, 1, image::Rgb([200, 100, 0]));
+        let mut error = vec![false; w as usize];
+        error[0] = true;
+        let v = ViewErrors {
+            frame: Frame::new(w, 1),
+            error,
+            unconfirmed: vec![false; w as usize],
+        };
+        assert_eq!(highlight(&base, &v).get_pixel(w - 1, 0).0, [90, 45, 0]);
+    }
+
+    #[test]
+    fn dilate_of_empty_mask_is_empty() {
+        assert!(dilate(&[], 0, 0, 3).is_empty());
+        assert!(dilate(&[false; 12], 4, 3, 1).iter().all(|&b| !b));
+    }
+
+    #[test]
+    fn dilate_grows_a_pixel_into_a_square_clipped_at_the_border() {
+        let mut m = vec![false; 25];
+        m[0] = true; // (0, 0)
+        let d = dilate(&m, 5, 5, 1);
+        let on: Vec<usize> = (0..25).filter(|&i| d[i]).collect();
+        assert_eq!(on, vec![0, 1, 5, 6]);
+        let mut m = vec![false; 25];
+        m[12] = true; // centre
+        assert_eq!(dilate(&m, 5, 5, 1).iter().filter(|&&b| b).count(), 9);
     }
 }

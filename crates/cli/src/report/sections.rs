@@ -181,8 +181,9 @@ pub(crate) fn worst_views(images: &[WorstImage], shown: usize) -> Result<Section
         let _ = writeln!(
             body,
             "<p>The {} cells with the most erroneous pixels in one view, each in its worst view: \
-             the scene dimmed, <span style=\"color:#d00\">erroneous pixels red</span>, snapping \
-             artefacts yellow.</p>",
+             the scene dimmed, <span style=\"color:#d00\">erroneous pixels red</span> with a faint \
+             red halo (so that a few scattered pixels can be found), snapping artefacts \
+             yellow.</p>",
             images.len().min(shown)
         );
     }
