@@ -1,6 +1,9 @@
 //! The pixel error of every cell of a `.pvs` file, with the GVS++ paper's metric
 //! (`sightline_eval::evaluate_cell_in`), and the worst views rendered with their error pixels
 //! highlighted.
+//!
+//! Based on: Koch, Wimmer. Guided Visibility Sampling++. 2021, section 6 (the error measures),
+//! as implemented in `sightline_eval::pixel_error`.
 
 use std::time::Instant;
 
