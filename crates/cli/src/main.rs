@@ -5,6 +5,7 @@
 mod args;
 mod commands;
 mod output;
+mod report;
 
 use std::process::ExitCode;
 
@@ -44,6 +45,9 @@ enum Command {
     /// Which triangles are visible from a point: reference rasterizer, --conservative (RV,
     /// bounded memory) or --exact.
     Visible(commands::visible::Args),
+    /// Write a self-contained HTML report of a .pvs file: per-cell PVS size and pixel error,
+    /// worst views, convergence plots, a map of the cells.
+    Report(commands::report::Args),
     /// Run the main job on the embedded default scene and write `sightline-report/`.
     Demo(commands::demo::Args),
 }
@@ -59,6 +63,7 @@ fn main() -> ExitCode {
         Command::Pvs(a) => commands::pvs::run(a),
         Command::Eval(a) => commands::eval::run(a),
         Command::Visible(a) => commands::visible::run(a),
+        Command::Report(a) => commands::report::run(a),
         Command::Demo(a) => commands::demo::run(a),
     };
     match result {

@@ -206,6 +206,18 @@ fn demo_writes_report_with_every_step() {
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert!(v["steps"].as_array().unwrap().len() >= 7);
     let html = std::fs::read_to_string(dir.path().join("sightline-report/index.html")).unwrap();
-    assert!(html.contains("<table>") && html.contains("overview.png"));
+    for id in [
+        "steps-table",
+        "cell-table",
+        "from-point-table",
+        "rand-table",
+        "culling-table",
+    ] {
+        assert!(html.contains(&format!("<table id=\"{id}\"")), "no {id}");
+    }
+    // Self-contained: images are inline, the PNG files beside it are extras.
+    assert!(html.contains("src=\"data:image/png;base64,"));
+    assert!(!html.contains("src=\"overview.png"));
     assert!(dir.path().join("sightline-report/overview.png").exists());
+    assert!(dir.path().join("sightline-report/demo.pvs").exists());
 }

@@ -5,4 +5,7 @@
 pub mod error_regions;
 pub mod pixel_error;
 
-pub use pixel_error::{evaluate_cell, evaluate_cell_in, CellEvaluation, EvalParams, ViewMode};
+pub use pixel_error::{
+    evaluate_cell, evaluate_cell_in, view_errors, CellEvaluation, EvalParams, ViewErrors, ViewMode,
+    WorstView,
+};

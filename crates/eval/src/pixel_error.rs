@@ -166,23 +166,9 @@ pub fn evaluate_cell_in(
     for (i, camera) in cameras.iter().enumerate() {
         rasterizer.render(camera, None, &mut frame);
         // Pixels whose triangle some PVS misses: confirm them with the exact pixel-centre ray.
-        let candidates: Vec<usize> = frame
-            .ids
-            .iter()
-            .enumerate()
-            .filter(|(_, &id)| id != Hit::NONE && pvs_sets.iter().any(|p| !p.contains(id as usize)))
-            .map(|(i, _)| i)
-            .collect();
-        let rays: Vec<Ray> = candidates
-            .iter()
-            .map(|&i| camera.pixel_ray(i as u32 % r, i as u32 / r))
-            .collect();
-        let mut hits = vec![Hit::MISS; rays.len()];
-        bvh.cast(&rays, &mut hits);
-        let mut confirmed = vec![true; frame.ids.len()];
-        for (&i, h) in candidates.iter().zip(&hits) {
-            confirmed[i] = h.triangle == frame.ids[i];
-        }
+        let confirmed = confirm_pixels(&bvh, camera, &frame, &|id| {
+            pvs_sets.iter().any(|p| !p.contains(id as usize))
+        });
         for (&id, &ok) in frame.ids.iter().zip(&confirmed) {
             if id != Hit::NONE && ok {
                 ground_truth.insert(id as usize);
@@ -226,6 +212,92 @@ pub fn evaluate_cell_in(
             }
         })
         .collect()
+}
+
+/// Whether each pixel's triangle is confirmed by the exact ray through the pixel centre. Only
+/// covered pixels whose triangle `suspect` returns true for are checked (one ray each); every
+/// other pixel counts as confirmed.
+fn confirm_pixels(
+    caster: &dyn RayCaster,
+    camera: &Camera,
+    frame: &Frame,
+    suspect: &dyn Fn(u32) -> bool,
+) -> Vec<bool> {
+    let w = frame.width.max(1);
+    let candidates: Vec<usize> = frame
+        .ids
+        .iter()
+        .enumerate()
+        .filter(|(_, &id)| id != Hit::NONE && suspect(id))
+        .map(|(i, _)| i)
+        .collect();
+    let rays: Vec<Ray> = candidates
+        .iter()
+        .map(|&i| camera.pixel_ray(i as u32 % w, i as u32 / w))
+        .collect();
+    let mut hits = vec![Hit::MISS; rays.len()];
+    caster.cast(&rays, &mut hits);
+    let mut confirmed = vec![true; frame.ids.len()];
+    for (&i, h) in candidates.iter().zip(&hits) {
+        confirmed[i] = h.triangle == frame.ids[i];
+    }
+    confirmed
+}
+
+/// The pixels of one view that a PVS gets wrong, classified as [`evaluate_cell`] counts them.
+#[derive(Clone, Debug)]
+pub struct ViewErrors {
+    /// The reference render of the full scene.
+    pub frame: Frame,
+    /// Erroneous pixels: the winning triangle is missing from the PVS and ray casting through
+    /// the pixel centre confirms it is seen there (row-major, `frame.width` wide).
+    pub error: Vec<bool>,
+    /// Pixels the rasterizer alone calls erroneous (snapping artefacts of the reference).
+    pub unconfirmed: Vec<bool>,
+}
+
+impl ViewErrors {
+    /// Number of erroneous pixels.
+    pub fn error_count(&self) -> usize {
+        self.error.iter().filter(|&&e| e).count()
+    }
+
+    /// Number of unconfirmed pixels.
+    pub fn unconfirmed_count(&self) -> usize {
+        self.unconfirmed.iter().filter(|&&e| e).count()
+    }
+}
+
+/// Renders `camera`'s view of `scene` and classifies every pixel for `pvs`, with the same
+/// rules as [`evaluate_cell`]: e.g. to show a cell's [`WorstView`] with its error pixels.
+/// `caster` must be built over `scene`.
+pub fn view_errors(
+    scene: &Scene,
+    caster: &dyn RayCaster,
+    camera: &Camera,
+    pvs: &TriangleSet,
+) -> ViewErrors {
+    let frame = sightline_core::raster::render(scene, camera);
+    let missing = |id: u32| !pvs.contains(id as usize);
+    let confirmed = confirm_pixels(caster, camera, &frame, &missing);
+    let wrong: Vec<bool> = frame
+        .ids
+        .iter()
+        .map(|&id| id != Hit::NONE && missing(id))
+        .collect();
+    ViewErrors {
+        error: wrong
+            .iter()
+            .zip(&confirmed)
+            .map(|(&w, &c)| w && c)
+            .collect(),
+        unconfirmed: wrong
+            .iter()
+            .zip(&confirmed)
+            .map(|(&w, &c)| w && !c)
+            .collect(),
+        frame,
+    }
 }
 
 #[derive(Default)]
@@ -383,6 +455,25 @@ mod tests {
             .count();
         assert!(by_render > 0);
         assert_eq!(by_render, by_membership);
+    }
+
+    #[test]
+    fn worst_view_errors_match_the_evaluation() {
+        let scene = occluder_scene();
+        let none = TriangleSet::with_capacity(scene.triangle_count());
+        let e = &evaluate_cell(&scene, &cell(), &[&none], &params(), &|_, _| {})[0];
+        let worst = e.worst_view.unwrap();
+        let camera = worst.camera(params().resolution, 1e-5 * scene.bounds().diagonal());
+        let bvh = Bvh::build(&scene);
+        let v = view_errors(&scene, &bvh, &camera.unwrap(), &none);
+        assert_eq!(v.error_count(), e.max_error_pixels);
+        assert!(v.error.iter().zip(&v.unconfirmed).all(|(&a, &b)| !(a && b)));
+        // With everything in the PVS nothing is wrong.
+        let mut all = TriangleSet::with_capacity(scene.triangle_count());
+        all.insert_range(..);
+        let camera = worst.camera(params().resolution, 1e-5 * scene.bounds().diagonal());
+        let v = view_errors(&scene, &bvh, &camera.unwrap(), &all);
+        assert_eq!((v.error_count(), v.unconfirmed_count()), (0, 0));
     }
 
     #[test]

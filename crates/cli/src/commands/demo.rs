@@ -1,30 +1,37 @@
 //! `sightline demo`: the main job on the embedded default scene, ending in
-//! `sightline-report/index.html`. It grows as the algorithm parts land: today it generates and
-//! validates the city, builds the ray-casting BVH, renders views with the reference rasterizer,
-//! cross-checks them against ray casting, computes the sampled, exact and conservative
-//! from-point sets, bakes a PVS for a few view cells with GVS++ and RAND
-//! at equal rays, and measures both with the GVS++ paper's pixel error.
+//! `sightline-report/index.html`: it generates and validates the city, builds the ray-casting
+//! BVH, renders views with the reference rasterizer, cross-checks them against ray casting,
+//! computes the sampled, exact and conservative from-point sets, bakes a PVS for a few view
+//! cells with GVS++ (and RAND at equal rays), measures both with the GVS++ paper's pixel error,
+//! and runs a short culling camera path with moving objects. The page is built by the same
+//! report builder as `sightline report` (`crate::report`), plus the demo's own sections
+//! (`demo_sections.rs`).
 
-use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
+use glam::{Quat, Vec3};
 use indicatif::{ProgressBar, ProgressStyle};
 use sightline_core::atomic_file::write_atomic;
 use sightline_core::raster;
 use sightline_core::trace::{Bvh, RayCaster};
 use sightline_core::validate::validate;
 use sightline_core::{Camera, Hit, Ray, TriangleSet};
-
-use sightline_eval::{evaluate_cell, EvalParams};
+use sightline_cull::scenes::{animate, walk_keys};
+use sightline_cull::{simulate_methods_with_cameras, Method, SimConfig, SoftwareBackend};
+use sightline_eval::EvalParams;
+use sightline_region::bake::{bake, cell_seed};
 use sightline_region::cell_sources::random_free_cells;
 use sightline_region::{
     Budget, CellContext, GvsPlusPlus, GvsPlusPlusParams, RandomSampler, Sampler,
 };
 
+use super::demo_sections::{self as ds, FromPoint, Step};
 use crate::args::{default_eye, SceneArgs};
 use crate::output::{id_image, save_png, shaded_image};
+use crate::report::html::page;
+use crate::report::{pvs_report, PvsReportOptions};
 
 /// Arguments of `sightline demo`.
 #[derive(clap::Args, Debug)]
@@ -34,7 +41,7 @@ pub(crate) struct Args {
     /// Directory for the report.
     #[arg(short, long, default_value = "sightline-report")]
     output: PathBuf,
-    /// Image size (square) of the rendered views.
+    /// Image size (square) of the rendered views (the evaluation uses at most 256).
     #[arg(long, default_value_t = 512)]
     size: u32,
     /// View cells baked.
@@ -43,21 +50,24 @@ pub(crate) struct Args {
     /// GVS++ random rays per round (the paper uses 10M; the demo stays quick).
     #[arg(long, default_value_t = 500_000)]
     n_rand: u64,
+    /// Viewpoints per cell of the pixel-error evaluation (six cube faces each).
+    #[arg(long, default_value_t = 8)]
+    views: usize,
+    /// Frames of the culling camera path (30 per second).
+    #[arg(long, default_value_t = 90)]
+    frames: u32,
     /// Print the summary as JSON.
     #[arg(long)]
     json: bool,
 }
 
-struct Step {
-    name: String,
-    seconds: f64,
-    result: String,
-}
-
 pub(crate) fn run(args: Args) -> Result<()> {
+    if args.size == 0 || args.size > 4096 || args.frames == 0 || args.views == 0 {
+        anyhow::bail!("--size must be in 1..=4096, --frames and --views at least 1");
+    }
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("creating {}", args.output.display()))?;
-    let progress = ProgressBar::new(8).with_style(
+    let progress = ProgressBar::new(9).with_style(
         ProgressStyle::with_template("{spinner} [{bar:30}] {pos}/{len} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
@@ -100,11 +110,9 @@ pub(crate) fn run(args: Args) -> Result<()> {
     let near = bounds.diagonal().max(1e-6) * 1e-4;
     let overview = Camera::look_at(eye, center, up, 60.0, args.size, args.size, near)?;
     let frame = raster::render(&scene, &overview);
-    save_png(
-        &shaded_image(&frame, &scene, &overview),
-        &args.output.join("overview.png"),
-    )?;
-    save_png(&id_image(&frame), &args.output.join("overview_ids.png"))?;
+    let overview_images = [shaded_image(&frame, &scene, &overview), id_image(&frame)];
+    save_png(&overview_images[0], &args.output.join("overview.png"))?;
+    save_png(&overview_images[1], &args.output.join("overview_ids.png"))?;
     let visible = visible_set(&frame.ids, scene.triangle_count());
     step(
         "render overview",
@@ -131,16 +139,16 @@ pub(crate) fn run(args: Args) -> Result<()> {
     let t = Instant::now();
     let street_eye = center + up * (bounds.extent().dot(up) * 0.02 + 1.7);
     let mut cube_visible = TriangleSet::with_capacity(scene.triangle_count());
+    let mut cube_images = Vec::new();
     for (i, face) in Camera::cube_faces(street_eye, args.size / 2, near)?
         .iter()
         .enumerate()
     {
         let f = raster::render(&scene, face);
         cube_visible.union_with(&visible_set(&f.ids, scene.triangle_count()));
-        save_png(
-            &shaded_image(&f, &scene, face),
-            &args.output.join(format!("cube{i}.png")),
-        )?;
+        let img = shaded_image(&f, &scene, face);
+        save_png(&img, &args.output.join(format!("cube{i}.png")))?;
+        cube_images.push(img);
     }
     step(
         "cube map at street level",
@@ -156,27 +164,42 @@ pub(crate) fn run(args: Args) -> Result<()> {
     progress.set_message("exact and conservative visible sets from the overview point");
     let t = Instant::now();
     let small = Camera::look_at(eye, center, up, 60.0, 256, 256, near)?;
+    let ts = Instant::now();
+    let sampled = visible_set(&raster::render(&scene, &small).ids, scene.triangle_count());
+    let sampled_s = ts.elapsed().as_secs_f64();
+    let te = Instant::now();
     let exact = sightline_point::analytic::visible_fragments(
         &scene,
         &small,
         &sightline_point::analytic::AnalyticOptions::default(),
     )?;
+    let exact_s = te.elapsed().as_secs_f64();
+    let tc = Instant::now();
     let rv = sightline_point::rv::conservative_visible(
         &mut sightline_point::rv::SceneSource::new(&scene),
         &small,
         &sightline_point::rv::RvOptions::default(),
     )?;
-    let sampled = visible_set(&raster::render(&scene, &small).ids, scene.triangle_count());
+    let rv_s = tc.elapsed().as_secs_f64();
+    let from_point = FromPoint {
+        resolution: 256,
+        sampled: (sampled.count_ones(..), sampled_s),
+        exact: (exact.visible.count_ones(..), exact_s),
+        conservative: (rv.visible.count_ones(..), rv_s),
+        sampled_not_exact: sampled.difference(&exact.visible).count(),
+        exact_not_conservative: exact.visible.difference(&rv.visible).count(),
+        rv_peak_mib: rv.peak_memory_bytes as f64 / 1048576.0,
+    };
     step(
         "from-point: sampled / exact / conservative",
         t,
         format!(
             "{} / {} / {} triangles at 256² (exact ⊆ conservative: {}; RV peak memory {:.1} MiB)",
-            sampled.count_ones(..),
-            exact.visible.count_ones(..),
-            rv.visible.count_ones(..),
-            exact.visible.is_subset(&rv.visible),
-            rv.peak_memory_bytes as f64 / 1048576.0
+            from_point.sampled.0,
+            from_point.exact.0,
+            from_point.conservative.0,
+            from_point.exact_not_conservative == 0,
+            from_point.rv_peak_mib
         ),
     );
 
@@ -190,75 +213,175 @@ pub(crate) fn run(args: Args) -> Result<()> {
             ..GvsPlusPlusParams::default()
         },
     };
-    let mut pvs_rows = Vec::new();
-    for (i, cell) in cells.iter().enumerate() {
-        let ctx = CellContext {
-            scene: &scene,
-            caster: &bvh,
-            cell,
-            seed: i as u64,
-            free_space: None,
-        };
-        let ours = gvspp.sample(&ctx, &Budget::default(), &|_| {});
-        let rand = RandomSampler.sample(&ctx, &Budget::rays(ours.rays), &|_| {});
-        pvs_rows.push((*cell, ours, rand));
+    let seed = 1;
+    let mut per_cell = Vec::new();
+    let mut file = bake(
+        &scene,
+        &bvh,
+        &cells,
+        &gvspp,
+        &|_, _| true,
+        &Budget::default(),
+        seed,
+        serde_json::json!({"parameters": format!("{:?}", gvspp.params)}),
+        &|_, _| {},
+        &mut |_, r| per_cell.push((r.rays, r.convergence.clone())),
+    );
+    // Record the convergence curves where the bake did not (older bake drivers).
+    for (i, (_, curve)) in per_cell.iter().enumerate() {
+        let record = &mut file.metadata["cells"][i];
+        if record.get("convergence").is_none() && record.is_object() {
+            record["convergence"] = curve
+                .iter()
+                .map(|p| serde_json::json!([p.rays, p.pvs_size]))
+                .collect();
+        }
     }
-    let mean_pvs = pvs_rows
+    let rand_sets: Vec<Vec<TriangleSet>> = cells
         .iter()
-        .map(|r| r.1.visible.count_ones(..))
+        .enumerate()
+        .map(|(i, cell)| {
+            let ctx = CellContext {
+                scene: &scene,
+                caster: &bvh,
+                cell,
+                seed: cell_seed(seed, i),
+                free_space: None,
+            };
+            let rays = per_cell.get(i).map_or(0, |c| c.0).max(1);
+            vec![
+                RandomSampler
+                    .sample(&ctx, &Budget::rays(rays), &|_| {})
+                    .visible,
+            ]
+        })
+        .collect();
+    let pvs_path = args.output.join("demo.pvs");
+    file.save(&pvs_path)?;
+    let mean_pvs = file
+        .cells
+        .iter()
+        .map(|c| c.visible.count_ones(..))
         .sum::<usize>() as f64
-        / pvs_rows.len().max(1) as f64;
+        / file.cells.len().max(1) as f64;
     step(
         "PVS bake (GVS++, RAND)",
         t,
         format!(
             "{} view cells, mean PVS {:.0} triangles ({:.2}%), {} rays per cell",
-            pvs_rows.len(),
+            file.cells.len(),
             mean_pvs,
             100.0 * mean_pvs / scene.triangle_count().max(1) as f64,
-            pvs_rows.first().map_or(0, |r| r.1.rays)
+            per_cell.first().map_or(0, |c| c.0)
         ),
     );
 
     progress.set_message("evaluating the PVS (pixel error)");
     let t = Instant::now();
-    let eval_params = EvalParams {
-        viewpoints: 8,
-        resolution: 256,
-        ..EvalParams::default()
+    let options = PvsReportOptions {
+        params: EvalParams {
+            viewpoints: args.views,
+            resolution: args.size.min(256),
+            ..EvalParams::default()
+        },
+        worst_views: args.cells.min(6),
     };
-    let mut errors = (0.0, 0.0, 0usize, 0usize);
-    for (cell, ours, rand) in &pvs_rows {
-        let e = evaluate_cell(
-            &scene,
-            cell,
-            &[&ours.visible, &rand.visible],
-            &eval_params,
-            &|_, _| {},
-        );
-        errors.0 += e[0].avg_error_pixels;
-        errors.1 += e[1].avg_error_pixels;
-        errors.2 += e[0].false_negatives;
-        errors.3 += e[1].false_negatives;
-    }
-    let k = pvs_rows.len().max(1) as f64;
+    let pvs = pvs_report(
+        &scene,
+        &file,
+        &pvs_path.display().to_string(),
+        &options,
+        &rand_sets,
+        &|_, _, _| {},
+    )?;
+    let k = pvs.outcomes.len().max(1) as f64;
+    let mean_err = |f: &dyn Fn(&crate::report::CellOutcome) -> f64| {
+        pvs.outcomes.iter().map(f).sum::<f64>() / k
+    };
     step(
         "PVS pixel error (GVS++ vs RAND, equal rays)",
         t,
         format!(
-            "avg erroneous pixels per 256² view: GVS++ {:.2}, RAND {:.2}; missed seen triangles {} vs {}",
-            errors.0 / k,
-            errors.1 / k,
-            errors.2,
-            errors.3
+            "avg erroneous pixels per {r}² view: GVS++ {:.2}, RAND {:.2}; missed seen triangles {} vs {}",
+            mean_err(&|o| o.eval.avg_error_pixels),
+            mean_err(&|o| o.extra.first().map_or(0.0, |e| e.avg_error_pixels)),
+            pvs.outcomes.iter().map(|o| o.eval.false_negatives).sum::<usize>(),
+            pvs.outcomes
+                .iter()
+                .map(|o| o.extra.first().map_or(0, |e| e.false_negatives))
+                .sum::<usize>(),
+            r = options.params.resolution
         ),
     );
-    progress.finish_and_clear();
 
-    let html = report_html(&scene.source, &steps);
+    progress.set_message("culling along a camera path");
+    let t = Instant::now();
+    let cull_scene = animate(scene.clone());
+    let config = SimConfig {
+        frames: args.frames,
+        width: 320,
+        height: 180,
+        // The thesis' design reads query results a frame late, as hardware queries must.
+        latency: 1,
+        ..SimConfig::default()
+    };
+    let (start, end) = walk_keys(&bounds, up);
+    let dir = (end - start).normalize_or(Vec3::X);
+    let frames = args.frames;
+    // The default walk of `sightline cull` (start to end, looking around), in `frames` frames.
+    let camera_of = |f: u32| {
+        let s = if frames > 1 {
+            f as f32 / (frames - 1) as f32
+        } else {
+            0.0
+        };
+        let eye = start.lerp(end, s);
+        let yaw = 40f32.to_radians() * (std::f32::consts::TAU * f as f32 / 30.0 / 8.0).sin();
+        let look = eye + Quat::from_axis_angle(up, yaw) * dir;
+        Camera::look_at(eye, look, up, config.fov_y_deg, 320, 180, near).ok()
+    };
+    let mut backend = SoftwareBackend::new(config.width, config.height);
+    let culling =
+        simulate_methods_with_cameras(&cull_scene, &camera_of, &mut backend, &config, &Method::ALL)
+            .context("culling simulation")?;
+    let grid = &culling[0];
+    step(
+        "culling path (grid + baselines)",
+        t,
+        format!(
+            "{} frames, {} objects: grid draws {:.0} (exact {:.0}) with {:.0} queries, popping {:.4}% of pixels",
+            grid.frames.len(),
+            grid.objects,
+            grid.mean(|f| f.drawn as f64),
+            grid.mean(|f| f.exact_visible as f64),
+            grid.mean(|f| f.queries as f64),
+            100.0 * grid.mean(|f| f.popping_pixels as f64) / grid.pixels.max(1) as f64
+        ),
+    );
+
+    progress.set_message("writing the report");
+    let mut sections = vec![
+        ds::steps(&steps),
+        ds::overview(&overview_images, &cube_images)?,
+        ds::from_point(&from_point),
+    ];
+    sections.extend(pvs.sections);
+    sections.push(ds::gvspp_vs_rand(&pvs.outcomes));
+    sections.push(ds::culling(&culling)?);
+    let html = page(
+        "sightline demo",
+        &format!(
+            "The end-to-end job on {} ({} triangles).",
+            scene.source,
+            scene.triangle_count()
+        ),
+        &sections,
+    );
     let index = args.output.join("index.html");
     write_atomic(&index, |w| std::io::Write::write_all(w, html.as_bytes()))
         .with_context(|| format!("writing {}", index.display()))?;
+    progress.finish_and_clear();
+
     if args.json {
         let steps: Vec<_> = steps
             .iter()
@@ -267,6 +390,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         return crate::output::print_json(&serde_json::json!({
             "scene": scene.source,
             "report": index,
+            "pvs": pvs_path,
             "steps": steps,
         }));
     }
@@ -302,38 +426,4 @@ fn cross_check(caster: &dyn RayCaster, camera: &Camera, ids: &[u32]) -> (usize, 
         .filter(|(h, &id)| h.triangle == id)
         .count();
     (agree, rays.len())
-}
-
-fn report_html(source: &str, steps: &[Step]) -> String {
-    let mut rows = String::new();
-    for s in steps {
-        let _ = writeln!(
-            rows,
-            "<tr><td>{}</td><td>{:.3}</td><td>{}</td></tr>",
-            html_escape(&s.name),
-            s.seconds,
-            html_escape(&s.result)
-        );
-    }
-    let cube: String = (0..6)
-        .map(|i| format!("<img src=\"cube{i}.png\" width=\"160\">"))
-        .collect();
-    format!(
-        "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>sightline demo</title>\n\
-         <style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto;background:#fafafa}}\
-         table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:4px 8px}}</style>\
-         </head><body>\n<h1>sightline demo</h1>\n<p>Scene: <code>{}</code></p>\n\
-         <table><tr><th>step</th><th>seconds</th><th>result</th></tr>\n{rows}</table>\n\
-         <h2>Overview (reference rasterizer)</h2>\n<img src=\"overview.png\" width=\"512\"> \
-         <img src=\"overview_ids.png\" width=\"512\">\n<h2>Cube map at street level</h2>\n{cube}\n\
-         </body></html>\n",
-        html_escape(source)
-    )
-}
-
-fn html_escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
 }

@@ -1,0 +1,163 @@
+//! `sightline report`: a self-contained HTML report of a `.pvs` file for its scene: summary,
+//! per-cell PVS size and pixel error (the GVS++ paper's metric), the worst views with their
+//! error pixels highlighted, convergence plots and a map of the cells coloured by PVS size.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+use sightline_core::atomic_file::write_atomic;
+use sightline_core::scene::LoadOptions;
+use sightline_eval::{EvalParams, ViewMode};
+use sightline_region::PvsFile;
+
+use crate::args::SceneArgs;
+use crate::output::print_json;
+use crate::report::html::page;
+use crate::report::{pvs_report, PvsReportOptions};
+
+/// Arguments of `sightline report`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct Args {
+    /// Scene file or `procedural:NAME[?seed=S&size=N]` (the scene the .pvs was baked for).
+    #[arg(value_name = "SCENE")]
+    scene: String,
+    /// The .pvs file.
+    #[arg(value_name = "PVS")]
+    pvs: PathBuf,
+    /// Output directory; the report is DIR/index.html.
+    #[arg(short, long, value_name = "DIR", default_value = "sightline-report")]
+    output: PathBuf,
+    /// Viewpoints per cell for the pixel error (randomly shifted Halton points in the cell).
+    #[arg(long, value_name = "N", default_value_t = 16)]
+    views: usize,
+    /// Image resolution (square) of the evaluation and of the worst views.
+    #[arg(long, value_name = "PX", default_value_t = 256)]
+    size: u32,
+    /// Views per viewpoint: `cube` (six faces) or `random` (one 90-degree view).
+    #[arg(long, default_value = "cube", value_parser = ["cube", "random"])]
+    view_mode: String,
+    /// Worst views shown (one per cell, most erroneous pixels first).
+    #[arg(long, value_name = "K", default_value_t = 6)]
+    worst: usize,
+    /// Seed of the viewpoint sequence.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Quake 3 maps: bezier patch tessellation (as when baking).
+    #[arg(long, value_name = "N", default_value_t = LoadOptions::default().patch_subdivisions)]
+    patch_subdivisions: u32,
+    /// Print a JSON summary instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Serialize)]
+struct CellSummary {
+    cell: usize,
+    pvs_size: usize,
+    avg_error_pixels: f64,
+    max_error_pixels: usize,
+    avg_unconfirmed_pixels: f64,
+    false_negatives: usize,
+}
+
+#[derive(Serialize)]
+struct Summary {
+    report: PathBuf,
+    scene: String,
+    cells: Vec<CellSummary>,
+}
+
+pub(crate) fn run(args: Args) -> Result<()> {
+    if args.views == 0 || args.size == 0 || args.size > 4096 {
+        bail!("--views must be >= 1 and --size in 1..=4096");
+    }
+    let scene = SceneArgs {
+        scene: args.scene.clone(),
+        patch_subdivisions: args.patch_subdivisions,
+    }
+    .load()?;
+    let file =
+        PvsFile::load(&args.pvs).with_context(|| format!("reading {}", args.pvs.display()))?;
+    file.check_scene(&scene)
+        .with_context(|| format!("{}", args.pvs.display()))?;
+    let options = PvsReportOptions {
+        params: EvalParams {
+            viewpoints: args.views,
+            resolution: args.size,
+            views: if args.view_mode == "random" {
+                ViewMode::Random
+            } else {
+                ViewMode::CubeFaces
+            },
+            seed: args.seed,
+        },
+        worst_views: args.worst,
+    };
+    std::fs::create_dir_all(&args.output)
+        .with_context(|| format!("creating {}", args.output.display()))?;
+    let bar = ProgressBar::new(file.cells.len() as u64).with_style(
+        ProgressStyle::with_template("cell {pos}/{len} {bar:30} {msg} [{elapsed_precise} < {eta}]")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let label = args.pvs.display().to_string();
+    let report = pvs_report(
+        &scene,
+        &file,
+        &label,
+        &options,
+        &[],
+        &|cell, done, total| {
+            bar.set_position(cell as u64);
+            bar.set_message(format!("view {done}/{total}"));
+        },
+    )?;
+    bar.finish_and_clear();
+    let html = page(
+        "sightline PVS report",
+        &format!(
+            "{} view cells of {} ({} triangles), from {}.",
+            file.cells.len(),
+            scene.source,
+            scene.triangle_count(),
+            label
+        ),
+        &report.sections,
+    );
+    let index = args.output.join("index.html");
+    write_atomic(&index, |w| std::io::Write::write_all(w, html.as_bytes()))
+        .with_context(|| format!("writing {}", index.display()))?;
+    let cells: Vec<CellSummary> = report
+        .outcomes
+        .iter()
+        .enumerate()
+        .map(|(i, o)| CellSummary {
+            cell: i,
+            pvs_size: o.eval.pvs_size,
+            avg_error_pixels: o.eval.avg_error_pixels,
+            max_error_pixels: o.eval.max_error_pixels,
+            avg_unconfirmed_pixels: o.eval.avg_unconfirmed_pixels,
+            false_negatives: o.eval.false_negatives,
+        })
+        .collect();
+    if args.json {
+        return print_json(&Summary {
+            report: index,
+            scene: scene.source.clone(),
+            cells,
+        });
+    }
+    let k = cells.len().max(1) as f64;
+    println!(
+        "{} cells: mean PVS {:.0} triangles, {:.3} erroneous pixels per {}² view (max {}); \
+         report: {}",
+        cells.len(),
+        cells.iter().map(|c| c.pvs_size as f64).sum::<f64>() / k,
+        cells.iter().map(|c| c.avg_error_pixels).sum::<f64>() / k,
+        args.size,
+        cells.iter().map(|c| c.max_error_pixels).max().unwrap_or(0),
+        index.display()
+    );
+    Ok(())
+}

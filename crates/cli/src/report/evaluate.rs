@@ -1,0 +1,226 @@
+//! The pixel error of every cell of a `.pvs` file, with the GVS++ paper's metric
+//! (`sightline_eval::evaluate_cell_in`), and the worst views rendered with their error pixels
+//! highlighted.
+//!
+//! Based on: Koch, Wimmer. Guided Visibility Sampling++. 2021, section 6 (the error measures),
+//! as implemented in `sightline_eval::pixel_error`.
+
+use std::time::Instant;
+
+use glam::Vec3;
+use image::RgbImage;
+use sightline_core::trace::Bvh;
+use sightline_core::{Scene, TriangleSet};
+use sightline_eval::{evaluate_cell_in, view_errors, CellEvaluation, EvalParams, ViewErrors};
+use sightline_region::PvsFile;
+
+use crate::output::shaded_image;
+
+/// One cell's evaluation.
+pub(crate) struct CellOutcome {
+    /// The file's PVS.
+    pub eval: CellEvaluation,
+    /// Further sets of the same cell judged on the same views (e.g. a baseline method).
+    pub extra: Vec<CellEvaluation>,
+    /// Seconds the evaluation took.
+    pub seconds: f64,
+}
+
+/// Evaluates every cell of `file`; `extra[i]` (when present) are more sets for cell `i`.
+/// Cells of a Quake 3 leaf bake (`metadata["clusters"]`) take viewpoints only in their own
+/// cluster, as the bake took its ray origins. `progress(cell, view, views)` reports progress.
+pub(crate) fn evaluate_cells(
+    scene: &Scene,
+    file: &PvsFile,
+    params: &EvalParams,
+    extra: &[Vec<TriangleSet>],
+    progress: &dyn Fn(usize, usize, usize),
+) -> Vec<CellOutcome> {
+    let clusters: Option<Vec<u64>> = file.metadata["clusters"]
+        .as_array()
+        .and_then(|a| a.iter().map(|c| c.as_u64()).collect());
+    file.cells
+        .iter()
+        .enumerate()
+        .map(|(i, cell)| {
+            let start = Instant::now();
+            let cluster = clusters.as_ref().and_then(|c| c.get(i).copied());
+            let free = |p: Vec3| match (cluster, scene.bsp.as_deref()) {
+                (Some(c), Some(bsp)) => bsp.cluster_at(p).map(u64::from) == Some(c),
+                _ => true,
+            };
+            let mut sets: Vec<&TriangleSet> = vec![&cell.visible];
+            sets.extend(extra.get(i).into_iter().flatten());
+            let mut evals = evaluate_cell_in(scene, &cell.cell, &free, &sets, params, &|d, n| {
+                progress(i, d, n)
+            });
+            let eval = evals.remove(0);
+            CellOutcome {
+                eval,
+                extra: evals,
+                seconds: start.elapsed().as_secs_f64(),
+            }
+        })
+        .collect()
+}
+
+/// A worst view, rendered.
+pub(crate) struct WorstImage {
+    /// Cell index.
+    pub cell: usize,
+    /// Dimmed shaded render with error pixels red and snapping artefacts yellow.
+    pub image: RgbImage,
+    /// Erroneous pixels.
+    pub errors: usize,
+    /// Unconfirmed (snapping) pixels.
+    pub unconfirmed: usize,
+    /// Eye position.
+    pub eye: [f32; 3],
+    /// View direction.
+    pub forward: [f32; 3],
+}
+
+/// Colour of erroneous pixels.
+pub(crate) const ERROR_RED: [u8; 3] = [255, 24, 24];
+/// Colour of pixels only the rasterizer calls erroneous (snapping artefacts).
+pub(crate) const SNAP_YELLOW: [u8; 3] = [255, 214, 0];
+
+/// The `count` cells with the most erroneous pixels in one view (cells without errors are
+/// left out), each worst view rendered at the evaluation's resolution.
+pub(crate) fn worst_views(
+    scene: &Scene,
+    file: &PvsFile,
+    outcomes: &[CellOutcome],
+    resolution: u32,
+    count: usize,
+) -> Vec<WorstImage> {
+    let mut ranked: Vec<usize> = (0..outcomes.len())
+        .filter(|&i| outcomes[i].eval.worst_view.is_some())
+        .collect();
+    ranked.sort_by_key(|&i| std::cmp::Reverse(outcomes[i].eval.max_error_pixels));
+    ranked.truncate(count);
+    if ranked.is_empty() {
+        return Vec::new();
+    }
+    let bvh = Bvh::build(scene);
+    let near = scene.bounds().diagonal().max(1e-6) * 1e-5;
+    ranked
+        .into_iter()
+        .filter_map(|i| {
+            let worst = outcomes[i].eval.worst_view?;
+            let camera = worst.camera(resolution, near)?;
+            let v = view_errors(scene, &bvh, &camera, &file.cells[i].visible);
+            let base = shaded_image(&v.frame, scene, &camera);
+            Some(WorstImage {
+                cell: i,
+                image: highlight(&base, &v),
+                errors: v.error_count(),
+                unconfirmed: v.unconfirmed_count(),
+                eye: worst.eye,
+                forward: worst.forward,
+            })
+        })
+        .collect()
+}
+
+/// Pixels within this distance (Chebyshev) of an erroneous pixel are tinted red, so that a
+/// few scattered error pixels can be found in a large image.
+pub(crate) const HALO_PX: usize = 3;
+
+/// `mask` grown by `r` pixels in every direction (square neighbourhood; separable: rows, then
+/// columns).
+pub(crate) fn dilate(mask: &[bool], width: usize, height: usize, r: usize) -> Vec<bool> {
+    debug_assert_eq!(mask.len(), width * height);
+    let mut rows = vec![false; mask.len()];
+    for y in 0..height {
+        for x in 0..width {
+            let (lo, hi) = (x.saturating_sub(r), (x + r).min(width.saturating_sub(1)));
+            rows[y * width + x] = (lo..=hi).any(|k| mask[y * width + k]);
+        }
+    }
+    let mut out = vec![false; mask.len()];
+    for y in 0..height {
+        let (lo, hi) = (y.saturating_sub(r), (y + r).min(height.saturating_sub(1)));
+        for x in 0..width {
+            out[y * width + x] = (lo..=hi).any(|k| rows[k * width + x]);
+        }
+    }
+    out
+}
+
+/// `base` dimmed to 45 %, with erroneous pixels red, a red tint within [`HALO_PX`] of them,
+/// and unconfirmed pixels yellow.
+pub(crate) fn highlight(base: &RgbImage, v: &ViewErrors) -> RgbImage {
+    let (w, h) = (base.width() as usize, base.height() as usize);
+    let halo = if v.error.len() == w * h {
+        dilate(&v.error, w, h, HALO_PX)
+    } else {
+        vec![false; w * h]
+    };
+    RgbImage::from_fn(base.width(), base.height(), |x, y| {
+        let i = y as usize * w + x as usize;
+        let dim = base.get_pixel(x, y).0.map(|c| c as f32 * 0.45);
+        if v.error.get(i).copied().unwrap_or(false) {
+            image::Rgb(ERROR_RED)
+        } else if v.unconfirmed.get(i).copied().unwrap_or(false) {
+            image::Rgb(SNAP_YELLOW)
+        } else if halo[i] {
+            image::Rgb([0, 1, 2].map(|k| (0.5 * dim[k] + 0.5 * ERROR_RED[k] as f32) as u8))
+        } else {
+            image::Rgb(dim.map(|c| c as u8))
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sightline_core::raster::Frame;
+
+    #[test]
+    fn highlight_paints_errors_red_and_snaps_yellow_and_dims_the_rest() {
+        let base = RgbImage::from_pixel(3, 1, image::Rgb([200, 100, 0]));
+        let v = ViewErrors {
+            frame: Frame::new(3, 1),
+            error: vec![true, false, false],
+            unconfirmed: vec![false, true, false],
+        };
+        let h = highlight(&base, &v);
+        assert_eq!(h.get_pixel(0, 0).0, ERROR_RED);
+        assert_eq!(h.get_pixel(1, 0).0, SNAP_YELLOW);
+        // Within the halo of the error pixel: half dimmed colour, half red.
+        assert_eq!(h.get_pixel(2, 0).0, [172, 34, 12]);
+    }
+
+    #[test]
+    fn far_from_errors_pixels_are_only_dimmed() {
+        let w = 2 * HALO_PX as u32 + 3;
+        let base = RgbImage::from_pixel(w, 1, image::Rgb([200, 100, 0]));
+        let mut error = vec![false; w as usize];
+        error[0] = true;
+        let v = ViewErrors {
+            frame: Frame::new(w, 1),
+            error,
+            unconfirmed: vec![false; w as usize],
+        };
+        assert_eq!(highlight(&base, &v).get_pixel(w - 1, 0).0, [90, 45, 0]);
+    }
+
+    #[test]
+    fn dilate_of_empty_mask_is_empty() {
+        assert!(dilate(&[], 0, 0, 3).is_empty());
+        assert!(dilate(&[false; 12], 4, 3, 1).iter().all(|&b| !b));
+    }
+
+    #[test]
+    fn dilate_grows_a_pixel_into_a_square_clipped_at_the_border() {
+        let mut m = vec![false; 25];
+        m[0] = true; // (0, 0)
+        let d = dilate(&m, 5, 5, 1);
+        let on: Vec<usize> = (0..25).filter(|&i| d[i]).collect();
+        assert_eq!(on, vec![0, 1, 5, 6]);
+        let mut m = vec![false; 25];
+        m[12] = true; // centre
+        assert_eq!(dilate(&m, 5, 5, 1).iter().filter(|&&b| b).count(), 9);
+    }
+}

@@ -1,0 +1,147 @@
+//! Line plots as inline SVG (plotters' SVG backend writing into a string): PVS size against
+//! rays per cell (convergence), and per-frame culling numbers.
+
+use anyhow::{anyhow, Result};
+use plotters::prelude::*;
+
+/// One line of a plot.
+pub(crate) struct Series {
+    /// Legend text.
+    pub label: String,
+    /// Points `(x, y)`, x increasing.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// Most lines drawn in one plot (more would be an unreadable tangle; the caller says so).
+pub(crate) const MAX_LINES: usize = 48;
+
+/// The colour of line `i` (plotters' 99-colour palette), for legends written outside a plot.
+pub(crate) fn series_colour(i: usize) -> [u8; 3] {
+    let c = Palette99::pick(i).to_rgba();
+    [c.0, c.1, c.2]
+}
+
+/// A plot of `series` with axis descriptions, `width x height` pixels. With `legend`, a legend
+/// is drawn in the lower right when there are at most 12 lines (callers plotting curves that
+/// pass there write their own legend with [`series_colour`]).
+pub(crate) fn line_plot(
+    series: &[Series],
+    x_desc: &str,
+    y_desc: &str,
+    (width, height): (u32, u32),
+    legend: bool,
+) -> Result<String> {
+    let series = &series[..series.len().min(MAX_LINES)];
+    let xmax = series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.0))
+        .filter(|x| x.is_finite())
+        .fold(1.0, f64::max);
+    let ymax = series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.1))
+        .filter(|y| y.is_finite())
+        .fold(1.0, f64::max);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area();
+        let draw = || -> std::result::Result<(), Box<dyn std::error::Error>> {
+            root.fill(&WHITE)?;
+            let mut chart = ChartBuilder::on(&root)
+                .margin(10)
+                .x_label_area_size(36)
+                .y_label_area_size(64)
+                .build_cartesian_2d(0.0..xmax * 1.02, 0.0..ymax * 1.05)?;
+            chart
+                .configure_mesh()
+                .x_desc(x_desc)
+                .y_desc(y_desc)
+                .x_label_formatter(&|v| short_number(*v))
+                .y_label_formatter(&|v| short_number(*v))
+                .draw()?;
+            for (i, s) in series.iter().enumerate() {
+                let colour = Palette99::pick(i).to_rgba();
+                chart
+                    .draw_series(LineSeries::new(
+                        s.points
+                            .iter()
+                            .copied()
+                            .filter(|p| p.0.is_finite() && p.1.is_finite()),
+                        colour.stroke_width(2),
+                    ))?
+                    .label(s.label.clone())
+                    .legend(move |(x, y)| {
+                        PathElement::new([(x, y), (x + 16, y)], colour.stroke_width(2))
+                    });
+            }
+            if legend && series.len() <= 12 && !series.is_empty() {
+                chart
+                    .configure_series_labels()
+                    .position(SeriesLabelPosition::LowerRight)
+                    .background_style(WHITE.mix(0.85))
+                    .border_style(BLACK)
+                    .draw()?;
+            }
+            root.present()?;
+            Ok(())
+        };
+        draw().map_err(|e| anyhow!("drawing plot: {e}"))?;
+    }
+    Ok(svg)
+}
+
+/// `1234567` as `1.2M`, `25000` as `25k`, small numbers as they are.
+pub(crate) fn short_number(v: f64) -> String {
+    let a = v.abs();
+    if a >= 1e9 {
+        format!("{:.1}G", v / 1e9)
+    } else if a >= 1e6 {
+        format!("{:.1}M", v / 1e6)
+    } else if a >= 1e4 {
+        format!("{:.0}k", v / 1e3)
+    } else if v.fract() == 0.0 {
+        format!("{v:.0}")
+    } else {
+        format!("{v:.2}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn short_numbers() {
+        assert_eq!(short_number(0.0), "0");
+        assert_eq!(short_number(950.0), "950");
+        assert_eq!(short_number(25_000.0), "25k");
+        assert_eq!(short_number(2_500_000.0), "2.5M");
+        assert_eq!(short_number(0.25), "0.25");
+    }
+
+    #[test]
+    fn plot_of_no_series_is_an_empty_chart() {
+        let svg = line_plot(&[], "rays", "PVS", (300, 200), true).unwrap();
+        assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+    }
+
+    #[test]
+    fn plot_draws_one_polyline_per_series_with_legend() {
+        let s = |label: &str, k: f64| Series {
+            label: label.into(),
+            points: (0..5).map(|i| (i as f64 * 100.0, k * i as f64)).collect(),
+        };
+        let series = [s("cell 0", 1.0), s("cell <1>", 2.0)];
+        let svg = line_plot(&series, "rays", "PVS", (400, 300), true).unwrap();
+        assert!(svg.matches("<polyline").count() >= 2, "{svg}");
+        assert!(svg.contains("cell 0"));
+        assert!(!svg.contains("cell <1>"), "legend text must be escaped");
+        let bare = line_plot(&series, "rays", "PVS", (400, 300), false).unwrap();
+        assert!(!bare.contains("cell 0"));
+    }
+
+    #[test]
+    fn series_colours_differ() {
+        assert_ne!(series_colour(0), series_colour(1));
+    }
+}

@@ -1,0 +1,290 @@
+//! The sections of a PVS report: summary, per-cell table, worst views, convergence plots and
+//! the map of the cells.
+
+use std::fmt::Write as _;
+
+use anyhow::Result;
+use sightline_core::Scene;
+use sightline_eval::{EvalParams, ViewMode};
+use sightline_region::PvsFile;
+
+use super::evaluate::{CellOutcome, WorstImage};
+use super::html::{escape, img, key_value_table, Cell, Section, Table};
+use super::map::{map_svg, MapCell};
+use super::metadata::{budget, cell_bake, text};
+use super::plot::{line_plot, Series, MAX_LINES};
+
+/// "—" for a missing value.
+const MISSING: &str = "—";
+
+fn or_missing(v: Option<String>) -> String {
+    v.unwrap_or_else(|| MISSING.to_string())
+}
+
+/// What the views of the evaluation were, in words.
+pub(crate) fn eval_settings(params: &EvalParams) -> String {
+    let views = match params.views {
+        ViewMode::CubeFaces => "6 cube faces",
+        ViewMode::Random => "1 random 90° view",
+    };
+    format!(
+        "{} viewpoints per cell × {views}, {r}×{r} pixels, seed {}",
+        params.viewpoints,
+        params.seed,
+        r = params.resolution
+    )
+}
+
+/// The summary: what was baked, how, and the overall error.
+pub(crate) fn summary(
+    scene: &Scene,
+    file: &PvsFile,
+    pvs_label: &str,
+    params: &EvalParams,
+    outcomes: &[CellOutcome],
+) -> Section {
+    let m = &file.metadata;
+    let n = scene.triangle_count().max(1) as f64;
+    let k = outcomes.len().max(1) as f64;
+    let mean = |f: &dyn Fn(&CellOutcome) -> f64| outcomes.iter().map(f).sum::<f64>() / k;
+    let rows = [
+        ("scene", scene.source.clone()),
+        ("scene in the .pvs metadata", or_missing(text(m, "scene"))),
+        (".pvs file", pvs_label.to_string()),
+        ("triangles", scene.triangle_count().to_string()),
+        ("method", or_missing(text(m, "method"))),
+        ("seed", or_missing(text(m, "seed"))),
+        ("budget per cell", or_missing(budget(m))),
+        ("cells", file.cells.len().to_string()),
+        (
+            "bake time",
+            or_missing(m["seconds"].as_f64().map(|s| format!("{s:.2} s"))),
+        ),
+        (
+            "total rays",
+            or_missing(m["total_rays"].as_u64().map(|r| r.to_string())),
+        ),
+        ("baked by", or_missing(text(m, "tool"))),
+        (
+            "mean PVS",
+            format!(
+                "{:.1} triangles ({:.3} %)",
+                mean(&|o| o.eval.pvs_size as f64),
+                100.0 * mean(&|o| o.eval.pvs_size as f64) / n
+            ),
+        ),
+        (
+            "mean erroneous pixels per view",
+            format!("{:.3}", mean(&|o| o.eval.avg_error_pixels)),
+        ),
+        (
+            "largest erroneous pixels in one view",
+            outcomes
+                .iter()
+                .map(|o| o.eval.max_error_pixels)
+                .max()
+                .unwrap_or(0)
+                .to_string(),
+        ),
+        (
+            "seen triangles missing (all cells)",
+            outcomes
+                .iter()
+                .map(|o| o.eval.false_negatives)
+                .sum::<usize>()
+                .to_string(),
+        ),
+        ("evaluation", eval_settings(params)),
+    ];
+    Section::new(
+        "summary",
+        "Summary",
+        key_value_table("summary-table", &rows),
+    )
+}
+
+/// One row per cell: PVS size, bake cost, pixel error.
+pub(crate) fn cell_table(scene: &Scene, file: &PvsFile, outcomes: &[CellOutcome]) -> Section {
+    let n = scene.triangle_count().max(1) as f64;
+    let mut t = Table::new(
+        "cell-table",
+        &[
+            "cell",
+            "centre",
+            "half extents",
+            "PVS triangles",
+            "PVS %",
+            "rays",
+            "bake s",
+            "avg error px",
+            "max error px",
+            "avg unconfirmed px",
+            "avg error regions",
+            "max region px",
+            "seen",
+            "seen but missing",
+            "views",
+            "eval s",
+        ],
+    );
+    for (i, (c, o)) in file.cells.iter().zip(outcomes).enumerate() {
+        let bake = cell_bake(&file.metadata, i);
+        let pvs = c.visible.count_ones(..);
+        let e = &o.eval;
+        let v3 = |v: glam::Vec3| format!("{:.2}, {:.2}, {:.2}", v.x, v.y, v.z);
+        t.row(
+            vec![
+                Cell::Num(i.to_string()),
+                Cell::Text(v3(c.cell.center)),
+                Cell::Text(v3(c.cell.half_extents)),
+                Cell::Num(pvs.to_string()),
+                Cell::Num(format!("{:.3}", 100.0 * pvs as f64 / n)),
+                Cell::Num(or_missing(bake.rays.map(|r| r.to_string()))),
+                Cell::Num(or_missing(bake.seconds.map(|s| format!("{s:.3}")))),
+                Cell::Num(format!("{:.3}", e.avg_error_pixels)),
+                Cell::Num(e.max_error_pixels.to_string()),
+                Cell::Num(format!("{:.3}", e.avg_unconfirmed_pixels)),
+                Cell::Num(format!("{:.3}", e.avg_error_regions)),
+                Cell::Num(e.max_error_region_size.to_string()),
+                Cell::Num(e.ground_truth_size.to_string()),
+                Cell::Num(e.false_negatives.to_string()),
+                Cell::Num(e.images.to_string()),
+                Cell::Num(format!("{:.2}", o.seconds)),
+            ],
+            &[
+                ("cell", i.to_string()),
+                ("pvs", pvs.to_string()),
+                ("max-error", e.max_error_pixels.to_string()),
+            ],
+        );
+    }
+    let body = format!(
+        "<p>Error pixels as the GVS++ paper counts them: pixels whose triangle in the full-scene \
+         render is missing from the PVS, confirmed by casting the ray through the pixel centre; \
+         <em>unconfirmed</em> pixels are those the rasterizer alone calls wrong (vertex snapping \
+         artefacts of the reference). Click a column to sort.</p>\n{}",
+        t.html()
+    );
+    Section::new("cells", "Cells", body)
+}
+
+/// The worst views as images.
+pub(crate) fn worst_views(images: &[WorstImage], shown: usize) -> Result<Section> {
+    let mut body = String::new();
+    if shown == 0 {
+        body.push_str("<p class=\"note\">No worst views requested.</p>\n");
+    } else if images.is_empty() {
+        body.push_str(
+            "<p class=\"note\">No view of any cell has an erroneous pixel: nothing to show.</p>\n",
+        );
+    } else {
+        let _ = writeln!(
+            body,
+            "<p>The {} cells with the most erroneous pixels in one view, each in its worst view: \
+             the scene dimmed, <span style=\"color:#d00\">erroneous pixels red</span> with a faint \
+             red halo (so that a few scattered pixels can be found), snapping artefacts \
+             yellow.</p>",
+            images.len().min(shown)
+        );
+    }
+    for w in images {
+        let caption = format!(
+            "cell {}: {} erroneous pixels, {} unconfirmed; eye ({:.2}, {:.2}, {:.2}) looking \
+             ({:.2}, {:.2}, {:.2})",
+            w.cell,
+            w.errors,
+            w.unconfirmed,
+            w.eye[0],
+            w.eye[1],
+            w.eye[2],
+            w.forward[0],
+            w.forward[1],
+            w.forward[2]
+        );
+        let _ = writeln!(
+            body,
+            "<figure class=\"worst\" data-cell=\"{}\" data-errors=\"{}\">{}<figcaption>{}</figcaption></figure>",
+            w.cell,
+            w.errors,
+            img(&w.image, &caption, w.image.width().clamp(320, 400))?,
+            escape(&caption)
+        );
+    }
+    Ok(Section::new("worst-views", "Worst views", body))
+}
+
+/// PVS size against rays for every cell, from `metadata["cells"][i]["convergence"]`.
+pub(crate) fn convergence(file: &PvsFile) -> Result<Section> {
+    let series: Vec<Series> = (0..file.cells.len())
+        .filter_map(|i| {
+            let points = cell_bake(&file.metadata, i).convergence?;
+            Some(Series {
+                label: format!("cell {i}"),
+                points: std::iter::once((0.0, 0.0))
+                    .chain(points.iter().map(|&(r, p)| (r as f64, p as f64)))
+                    .collect(),
+            })
+        })
+        .collect();
+    let body = if series.is_empty() {
+        "<p class=\"note\" id=\"no-convergence\">This .pvs file has no convergence data \
+         (<code>metadata.cells[i].convergence</code> is absent: it was baked by a version that \
+         did not record it), so there is no convergence plot.</p>\n"
+            .to_string()
+    } else {
+        let mut b = format!(
+            "<p>PVS size after each batch of rays, one line per cell{}.</p>\n",
+            if series.len() > MAX_LINES {
+                format!(" (the first {MAX_LINES} of {} cells)", series.len())
+            } else {
+                String::new()
+            }
+        );
+        if series.len() < file.cells.len() {
+            let _ = writeln!(
+                b,
+                "<p class=\"note\">{} of {} cells have no convergence data.</p>",
+                file.cells.len() - series.len(),
+                file.cells.len()
+            );
+        }
+        b.push_str("<div id=\"convergence-plot\">");
+        b.push_str(&line_plot(
+            &series,
+            "rays",
+            "PVS size (triangles)",
+            (900, 420),
+            true,
+        )?);
+        b.push_str("</div>\n");
+        b
+    };
+    Ok(Section::new("convergence", "Convergence", body))
+}
+
+/// The map of the cells coloured by PVS size.
+pub(crate) fn cell_map(scene: &Scene, file: &PvsFile) -> Result<Section> {
+    let n = scene.triangle_count().max(1) as f64;
+    let cells: Vec<MapCell> = file
+        .cells
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            let pvs = c.visible.count_ones(..);
+            MapCell {
+                cell: c.cell,
+                value: pvs as f64,
+                title: format!(
+                    "cell {i}: PVS {pvs} triangles ({:.3} %)",
+                    100.0 * pvs as f64 / n
+                ),
+            }
+        })
+        .collect();
+    let body = format!(
+        "<p>The scene from above (grey: higher is darker) with the view cells coloured by PVS \
+         size; hover a cell for its numbers.</p>\n{}",
+        map_svg(scene, &cells, 900, "PVS size (triangles)")?
+    );
+    Ok(Section::new("map", "Map of the view cells", body))
+}

@@ -1,0 +1,347 @@
+//! End-to-end tests of `sightline report` (and the demo's page) in a real headless browser:
+//! Debian's `chromium` loads the page from disk, and the tests read back its DOM, its console
+//! and a screenshot. Chromium is required: without it these tests fail and say how to install
+//! it (`apt-get install -y chromium`; `.ci/run` does).
+
+// Test helpers panic on broken fixtures; that is the failure report we want.
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use common::{assert_fails_with, sightline, stderr};
+
+const SCENE: &str = "procedural:city?size=3000";
+
+/// The chromium binary (`$SIGHTLINE_CHROMIUM` or `chromium` on the PATH), or a loud failure.
+fn chromium() -> PathBuf {
+    let bin = std::env::var_os("SIGHTLINE_CHROMIUM")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("chromium"));
+    match Command::new(&bin).arg("--version").output() {
+        Ok(o) if o.status.success() => bin,
+        other => panic!(
+            "\n\n*** The report tests need a headless browser: `{}` could not be run ({other:?}).\n\
+             *** Install Debian's chromium: `sudo apt-get install -y chromium` (.ci/run does),\n\
+             *** or point SIGHTLINE_CHROMIUM at a chromium binary.\n\n",
+            bin.display()
+        ),
+    }
+}
+
+/// Runs headless chromium on `page` with `args` added, in a fresh profile, killing it after
+/// 90 s (a hung browser must fail the test, not hang it).
+fn run_chromium(page: &Path, args: &[&str]) -> Output {
+    let profile = tempfile::tempdir().unwrap();
+    let url = format!("file://{}", page.canonicalize().unwrap().display());
+    let logs = tempfile::tempdir().unwrap();
+    let (out_path, err_path) = (logs.path().join("stdout"), logs.path().join("stderr"));
+    let mut child = Command::new(chromium())
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--disable-quic",
+            "--enable-logging=stderr",
+            "--v=0",
+        ])
+        .arg(format!("--user-data-dir={}", profile.path().display()))
+        .args(args)
+        .arg(&url)
+        // To files, not pipes: a DOM larger than a pipe's buffer would block chromium while
+        // this thread polls for its exit.
+        .stdout(Stdio::from(std::fs::File::create(&out_path).unwrap()))
+        .stderr(Stdio::from(std::fs::File::create(&err_path).unwrap()))
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > Duration::from_secs(90) {
+            child.kill().unwrap();
+            panic!("chromium did not finish within 90 s on {url}");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let out = Output {
+        status: child.wait().unwrap(),
+        stdout: std::fs::read(&out_path).unwrap(),
+        stderr: std::fs::read(&err_path).unwrap(),
+    };
+    assert!(out.status.success(), "chromium failed: {}", stderr(&out));
+    out
+}
+
+/// The page's console messages and uncaught exceptions in chromium's `--enable-logging=stderr`
+/// output. Chromium logs every console call (log, warn, error) and every uncaught exception as
+/// an `INFO:CONSOLE` line without the level, so any such line counts: the report writes
+/// nothing to the console.
+fn console_messages(chromium_stderr: &str) -> Vec<&str> {
+    chromium_stderr
+        .lines()
+        .filter(|l| l.contains(":CONSOLE") || l.contains("Uncaught"))
+        .collect()
+}
+
+/// The DOM after load, with the console checked clean.
+fn dom_without_console_errors(page: &Path) -> String {
+    let out = run_chromium(page, &["--dump-dom"]);
+    let err = stderr(&out);
+    let messages = console_messages(&err);
+    assert!(messages.is_empty(), "console output: {messages:#?}");
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// Screenshot of the top 1200x1600 pixels; asserts the page is not blank.
+fn assert_screenshot_not_blank(page: &Path) {
+    let dir = tempfile::tempdir().unwrap();
+    let shot = dir.path().join("shot.png");
+    let out = run_chromium(
+        page,
+        &[
+            &format!("--screenshot={}", shot.display()),
+            "--window-size=1200,1600",
+        ],
+    );
+    assert!(console_messages(&stderr(&out)).is_empty());
+    let img = image::open(&shot).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (1200, 1600));
+    let mut counts = std::collections::HashMap::new();
+    for p in img.pixels() {
+        *counts.entry(p.0).or_insert(0usize) += 1;
+    }
+    let total = (img.width() * img.height()) as usize;
+    let background = counts.values().copied().max().unwrap();
+    let colourful = img
+        .pixels()
+        .filter(|p| {
+            let (lo, hi) = (p.0.iter().min().unwrap(), p.0.iter().max().unwrap());
+            hi - lo > 40
+        })
+        .count();
+    assert!(counts.len() > 200, "only {} distinct colours", counts.len());
+    assert!(
+        total - background > total / 20,
+        "{} of {total} pixels differ from the background",
+        total - background
+    );
+    assert!(colourful > total / 200, "only {colourful} colourful pixels");
+}
+
+/// Every `src` and `href` in `html` is inline data or an anchor in the page.
+fn assert_self_contained(html: &str) {
+    for attr in ["src=\"", "href=\""] {
+        for (i, _) in html.match_indices(attr) {
+            let value = &html[i + attr.len()..];
+            assert!(
+                value.starts_with("data:") || value.starts_with('#'),
+                "external reference: {}",
+                &value[..value.len().min(80)]
+            );
+        }
+    }
+    assert!(!html.contains("url(http") && !html.contains("@import"));
+}
+
+/// The `<tr>` of cell `i` in the per-cell table, and its `<td>` texts.
+fn cell_row(dom: &str, i: usize) -> Vec<String> {
+    let table = &dom[dom.find("id=\"cell-table\"").unwrap()..];
+    let start = table
+        .find(&format!("<tr data-cell=\"{i}\""))
+        .unwrap_or_else(|| panic!("no row for cell {i}"));
+    let row = &table[start..start + table[start..].find("</tr>").unwrap()];
+    row.split("<td")
+        .skip(1)
+        .map(|td| {
+            let text = &td[td.find('>').unwrap() + 1..];
+            text[..text.find("</td>").unwrap()].to_string()
+        })
+        .collect()
+}
+
+fn bake(dir: &Path) {
+    let o = sightline(
+        &[
+            "pvs",
+            "bake",
+            SCENE,
+            "--grid",
+            "3,2,1",
+            "--bounds=-150,-150,1,150,150,3",
+            "--n-rand",
+            "20000",
+            "--rays",
+            "60000",
+            "-o",
+            "a.pvs",
+        ],
+        dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+fn report_loads_in_chromium_with_the_pvs_numbers() {
+    let dir = tempfile::tempdir().unwrap();
+    bake(dir.path());
+    let o = sightline(&["pvs", "show", "a.pvs", "--json"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let pvs: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let o = sightline(
+        &[
+            "report", SCENE, "a.pvs", "-o", "out", "--views", "4", "--size", "128", "--json",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let summary: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let page = dir.path().join("out/index.html");
+
+    let dom = dom_without_console_errors(&page);
+    assert_self_contained(&dom);
+    for id in ["summary-table", "cell-table", "cell-map"] {
+        assert!(dom.contains(&format!("id=\"{id}\"")), "no #{id} in the DOM");
+    }
+    // One row per cell with the .pvs file's set sizes, shown and in data attributes.
+    let cells = pvs["cells"].as_array().unwrap();
+    assert_eq!(cells.len(), 6);
+    assert_eq!(dom.matches("<tr data-cell=").count(), cells.len());
+    for (i, c) in cells.iter().enumerate() {
+        let size = c["pvs_size"].as_u64().unwrap().to_string();
+        let row = cell_row(&dom, i);
+        assert_eq!(row[0], i.to_string());
+        assert_eq!(row[3], size, "cell {i}: {row:?}");
+        let rays = pvs["metadata"]["cells"][i]["rays"].as_u64().unwrap();
+        assert_eq!(row[5], rays.to_string());
+        let max_error = summary["cells"][i]["max_error_pixels"].as_u64().unwrap();
+        assert_eq!(row[8], max_error.to_string());
+        assert!(dom.contains(&format!("<tr data-cell=\"{i}\" data-pvs=\"{size}\"")));
+    }
+    assert!(
+        dom.contains("<td>gvs++</td>")
+            && dom.contains("<td>procedural:city?seed=1&amp;size=3000</td>")
+    );
+    // The map: one coloured cell each.
+    assert_eq!(dom.matches("<polygon class=\"cell\"").count(), cells.len());
+    // Worst views: the cells with errors, each image showing exactly the counted pixels.
+    let with_errors = (0..cells.len())
+        .filter(|&i| summary["cells"][i]["max_error_pixels"].as_u64().unwrap() > 0)
+        .count();
+    assert_eq!(
+        dom.matches("<figure class=\"worst\"").count(),
+        with_errors.min(6)
+    );
+    let figure = "<figure class=\"worst\" data-cell=\"";
+    for (i, _) in dom.match_indices(figure) {
+        let rest = &dom[i + figure.len()..];
+        let cell: usize = rest[..rest.find('"').unwrap()].parse().unwrap();
+        let errors = summary["cells"][cell]["max_error_pixels"].as_u64().unwrap();
+        assert!(
+            rest.contains(&format!("data-errors=\"{errors}\"")),
+            "cell {cell}"
+        );
+    }
+    // Convergence: a plot when the bake recorded curves, a notice when it did not.
+    let recorded = pvs["metadata"]["cells"][0].get("convergence").is_some();
+    if recorded {
+        assert!(dom.contains("id=\"convergence-plot\"") && dom.contains("<polyline"));
+    } else {
+        assert!(dom.contains("id=\"no-convergence\""));
+    }
+
+    assert_screenshot_not_blank(&page);
+}
+
+#[test]
+fn report_refuses_a_pvs_of_another_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    bake(dir.path());
+    let o = sightline(
+        &["report", "procedural:rooms?size=2000", "a.pvs", "-o", "out"],
+        dir.path(),
+    );
+    assert_fails_with(&o, "another scene");
+    assert!(!dir.path().join("out/index.html").exists());
+}
+
+#[test]
+fn demo_page_loads_in_chromium() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(
+        &[
+            "demo",
+            "procedural:city?size=3000",
+            "--size",
+            "128",
+            "--cells",
+            "2",
+            "--n-rand",
+            "50000",
+            "--views",
+            "2",
+            "--frames",
+            "20",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let page = dir.path().join("sightline-report/index.html");
+    let dom = dom_without_console_errors(&page);
+    assert_self_contained(&dom);
+    for id in [
+        "steps-table",
+        "from-point-table",
+        "cell-table",
+        "rand-table",
+        "culling-table",
+    ] {
+        assert!(dom.contains(&format!("id=\"{id}\"")), "no #{id} in the DOM");
+    }
+    // The demo records convergence itself, so its plot is always there; four culling methods.
+    assert!(dom.contains("id=\"convergence-plot\""));
+    assert_eq!(dom.matches("<tr data-method=").count(), 4);
+    assert_screenshot_not_blank(&page);
+}
+
+/// The console detector must see what chromium prints for a page with a broken script,
+/// or the checks above prove nothing.
+#[test]
+fn console_detector_catches_a_deliberate_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.html");
+    std::fs::write(
+        &bad,
+        "<!doctype html><html><body><p>x</p><script>console.error('deliberate console error');\
+         undefinedFunction();</script></body></html>",
+    )
+    .unwrap();
+    let out = run_chromium(&bad, &["--dump-dom"]);
+    let err = stderr(&out);
+    let messages = console_messages(&err);
+    assert!(
+        messages
+            .iter()
+            .any(|m| m.contains("deliberate console error")),
+        "{err}"
+    );
+    assert!(
+        messages.iter().any(|m| m.contains("undefinedFunction")),
+        "{err}"
+    );
+
+    let good = dir.path().join("good.html");
+    std::fs::write(
+        &good,
+        "<!doctype html><html><body><p>fine</p></body></html>",
+    )
+    .unwrap();
+    let out = run_chromium(&good, &["--dump-dom"]);
+    assert!(console_messages(&stderr(&out)).is_empty());
+    assert!(String::from_utf8_lossy(&out.stdout).contains("<p>fine</p>"));
+}
