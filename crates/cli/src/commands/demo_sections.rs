@@ -103,8 +103,10 @@ pub(crate) fn from_point(p: &FromPoint) -> Section {
     }
     let body = format!(
         "<p>Triangles visible from the overview point at {r}×{r}. Sampled but not in the exact \
-         set: {}; exact but not in the conservative set: {} (0 when RV is conservative, as it \
-         must be); RV peak memory {:.1} MiB.</p>\n{}",
+         set: {} (the rasterizer snaps vertices to 1/256 pixel, so a triangle seen almost \
+         edge-on can cover a pixel centre it does not really cover: the ray through that centre \
+         hits another triangle); exact but not in the conservative set: {} (0 when RV is \
+         conservative, as it must be); RV peak memory {:.1} MiB.</p>\n{}",
         p.sampled_not_exact,
         p.exact_not_conservative,
         p.rv_peak_mib,
