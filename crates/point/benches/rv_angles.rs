@@ -9,17 +9,19 @@
 //! walls, boxes with walls, a flat grid of detail behind large occluders), the city scenes,
 //! and every scene in `../shared/scenes` (skipped with a note when the directory is missing).
 //! Objects are orbited at 2.2 radii, 20° above the horizon; scenes one walks in (cities, Quake 3
-//! maps, buildings) are seen from a fixed eye at eye height near the centre, turning 3° per
-//! frame.
+//! maps, rooms) are seen from a fixed eye in free space (a random free view cell's centre),
+//! turning 3° per frame.
 
 use std::path::Path;
 use std::time::Instant;
 
 use glam::Vec3;
 use sightline_core::scene::{open, LoadOptions, SceneBuilder};
+use sightline_core::trace::Bvh;
 use sightline_core::{Camera, Scene};
 use sightline_point::analytic::{visible_fragments, AnalyticOptions};
 use sightline_point::rv::{conservative_visible, RvOptions, SceneSource};
+use sightline_region::cell_sources::random_free_cells;
 
 enum Placement {
     Orbit,
@@ -28,6 +30,22 @@ enum Placement {
 
 fn cameras(scene: &Scene, placement: &Placement, angles: usize, size: u32) -> Vec<Camera> {
     let b = scene.bounds();
+    // Walking eyes stand in free space: the centre of a small random free cell (at eye height
+    // over the ground on Z-up scenes, inside the map's empty space on Quake 3 maps).
+    let walk_eye = match placement {
+        Placement::Walk => {
+            let bvh = Bvh::build(scene);
+            let half = 0.002 * b.diagonal();
+            match random_free_cells(scene, &bvh, 1, half, 11).first() {
+                Some(cell) => Some(cell.center),
+                None => {
+                    println!("<!-- no free eye position found -->");
+                    return Vec::new();
+                }
+            }
+        }
+        Placement::Orbit => None,
+    };
     let (c, r) = (b.center(), 0.5 * b.diagonal());
     let up = scene.up.vector();
     let (e1, e2) = if up == Vec3::Z {
@@ -35,11 +53,10 @@ fn cameras(scene: &Scene, placement: &Placement, angles: usize, size: u32) -> Ve
     } else {
         (Vec3::Z, Vec3::X)
     };
-    // Eye height for walking: 1.7 % of the diagonal above the lowest point, at least a little.
-    let eye_height = (up.dot(b.min)) + 0.017 * 2.0 * r;
     (0..angles)
         .filter_map(|k| {
-            let a = (k as f32) * std::f32::consts::TAU / angles as f32;
+            // Half a degree off the axes, so no axis-aligned face is seen exactly edge-on.
+            let a = (k as f32 + 1.0 / 6.0) * std::f32::consts::TAU / angles as f32;
             let dir = e1 * a.cos() + e2 * a.sin();
             let (eye, target, near) = match placement {
                 Placement::Orbit => {
@@ -50,7 +67,7 @@ fn cameras(scene: &Scene, placement: &Placement, angles: usize, size: u32) -> Ve
                     (eye, c, r * 0.01)
                 }
                 Placement::Walk => {
-                    let eye = c - up * up.dot(c) + up * eye_height + e1 * 0.013 * r;
+                    let eye = walk_eye.unwrap_or(c);
                     (eye, eye + dir, r * 1e-4)
                 }
             };
@@ -137,20 +154,41 @@ fn scenes() -> Vec<(String, Scene, Placement)> {
     b.set_up(sightline_core::UpAxis::Z);
     add_walls(&mut b, 8, 40.0, 6.0);
     push("walls", Some(b.finish()), Placement::Orbit);
-    if let Ok(boxes) = open("procedural:boxes?seed=3&size=3000", &LoadOptions::default()) {
-        let mut b = SceneBuilder::new("boxes+walls");
-        b.set_up(sightline_core::UpAxis::Z);
-        for t in 0..boxes.triangle_count() {
-            // The boxes' 100³ volume scaled into the walls' 40 x 40 x 6 area.
-            let tri = boxes
-                .triangle(t as u32)
-                .map(|p| (p - Vec3::splat(50.0)) * Vec3::new(0.4, 0.4, 0.06) + Vec3::Z * 3.0);
-            let i = tri.map(|p| b.add_vertex(p));
-            b.add_triangle(i);
+    // Boxes of random size, one per lattice cell (so none intersect: the exact method assumes
+    // non-intersecting triangles), among walls standing in the lattice's gaps.
+    let mut b = SceneBuilder::new("boxes+walls");
+    b.set_up(sightline_core::UpAxis::Z);
+    let mut rng = sightline_core::random::SplitMix64::new(3);
+    for j in 0..16 {
+        for i in 0..16 {
+            let p = Vec3::new(i as f32 * 2.5 - 20.0, j as f32 * 2.5 - 20.0, 0.0);
+            let size = Vec3::new(
+                rng.range_f32(0.3, 2.0),
+                rng.range_f32(0.3, 2.0),
+                rng.range_f32(0.3, 4.0),
+            );
+            b.add_box(p, p + size);
         }
-        add_walls(&mut b, 8, 40.0, 6.0);
-        push("boxes with walls", Some(b.finish()), Placement::Orbit);
     }
+    for k in 0..4 {
+        // x = -20 + 2.5 i + 2.25 lies in the gap after lattice column i (boxes end by +2.0).
+        let x = -20.0 + 2.5 * (3 + 4 * k) as f32 + 2.25;
+        let (y0, y1) = if k % 2 == 0 {
+            (-20.0, 12.0)
+        } else {
+            (-12.0, 20.0)
+        };
+        add_quad(
+            &mut b,
+            [
+                Vec3::new(x, y0, 0.0),
+                Vec3::new(x, y1, 0.0),
+                Vec3::new(x, y1, 5.0),
+                Vec3::new(x, y0, 5.0),
+            ],
+        );
+    }
+    push("boxes with walls", Some(b.finish()), Placement::Orbit);
     // "flat": a few large polygons in front of much small detail.
     let mut b = SceneBuilder::new("flat");
     b.set_up(sightline_core::UpAxis::Z);
@@ -231,12 +269,12 @@ fn main() {
         ..RvOptions::default()
     };
     println!("RV against the exact analytic set, {angles} angles at {size}², 256 MiB budget\n");
-    println!("| scene | triangles | exact (mean) | RV (mean) | overestimation mean / max | false negatives | RV ms/frame | peak MiB |");
+    println!("| scene | triangles | exact (mean) | RV (mean) | overestimation mean / max | false negatives (sub-grid slivers) | RV ms/frame | peak MiB |");
     println!("|---|---|---|---|---|---|---|---|");
-    let mut total_fn = 0usize;
+    let (mut total_fn, mut total_slivers) = (0usize, 0usize);
     for (name, scene, placement) in scenes() {
-        let (mut exact_sum, mut rv_sum, mut fns, mut rv_secs, mut peak) =
-            (0usize, 0usize, 0usize, 0.0f64, 0usize);
+        let (mut exact_sum, mut rv_sum, mut fns, mut slivers, mut rv_secs, mut peak) =
+            (0usize, 0usize, 0usize, 0usize, 0.0f64, 0usize);
         let mut over = Vec::new();
         let cams = cameras(&scene, &placement, angles, size);
         for cam in &cams {
@@ -250,7 +288,17 @@ fn main() {
             rv_secs += t.elapsed().as_secs_f64();
             peak = peak.max(rv.peak_memory_bytes);
             let (e, v) = (exact.visible.count_ones(..), rv.visible.count_ones(..));
-            fns += exact.visible.difference(&rv.visible).count();
+            // A false negative whose exact visible area is below a grid unit of the exact
+            // method (2^-20 px) times a pixel is within that method's own snapping error (a
+            // sliver seen almost edge-on); counted apart, never hidden.
+            let area = exact.visible_area(scene.triangle_count());
+            for t in exact.visible.difference(&rv.visible) {
+                if area[t] >= 1e-6 {
+                    fns += 1;
+                } else {
+                    slivers += 1;
+                }
+            }
             exact_sum += e;
             rv_sum += v;
             if e > 0 {
@@ -258,11 +306,12 @@ fn main() {
             }
         }
         total_fn += fns;
+        total_slivers += slivers;
         let n = cams.len().max(1);
         let mean = over.iter().sum::<f64>() / over.len().max(1) as f64;
         let max = over.iter().copied().fold(0.0, f64::max);
         println!(
-            "| {name} | {} | {:.0} | {:.0} | {:.1} % / {:.1} % | {fns} | {:.1} | {:.1} |",
+            "| {name} | {} | {:.0} | {:.0} | {:.1} % / {:.1} % | {fns} ({slivers}) | {:.1} | {:.1} |",
             scene.triangle_count(),
             exact_sum as f64 / n as f64,
             rv_sum as f64 / n as f64,
@@ -272,5 +321,5 @@ fn main() {
             peak as f64 / (1 << 20) as f64,
         );
     }
-    println!("\nfalse negatives in all: {total_fn}");
+    println!("\nfalse negatives in all: {total_fn} (and {total_slivers} sub-grid slivers)");
 }
