@@ -1,0 +1,70 @@
+"""Distributed bakes on a local Ray cluster (2 worker processes): equal to the local bake, and
+still equal when a worker dies mid-bake."""
+
+import os
+
+import pytest
+
+import sightline as sl
+
+ray = pytest.importorskip("ray")
+import sightline.ray as slray  # noqa: E402
+
+METHOD = sl.Method("gvs++", n_rand=5_000)
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    yield
+    ray.shutdown()
+
+
+@pytest.fixture(scope="module")
+def local(city, city_cells):
+    return sl.bake(city, city_cells, METHOD, rays=30_000, seed=4)
+
+
+def test_ray_bake_equals_local_bake(cluster, tmp_path, city, city_cells, local):
+    out = tmp_path / "ray.pvs"
+    pvs = slray.bake(city, city_cells, METHOD, rays=30_000, seed=4, output=out, batch_size=2)
+    assert pvs == local
+    assert sl.Pvs.load(str(out)) == local
+    batches = pvs.metadata["distributed"]["batches"]
+    assert len(batches) == 3 and sum(b["cells"] for b in batches) == len(city_cells)
+
+
+def test_ray_bake_survives_a_worker_that_dies(cluster, tmp_path, city, city_cells, local):
+    marker = tmp_path / "crashed"
+    pvs = slray.bake(
+        city,
+        city_cells,
+        METHOD,
+        rays=30_000,
+        seed=4,
+        batch_size=3,
+        max_retries=2,
+        _crash_once_marker=str(marker),
+    )
+    # A worker process really exited (it wrote its pid into the marker, then died) ...
+    pid = int(marker.read_text())
+    with pytest.raises(ProcessLookupError):
+        os.kill(pid, 0)
+    # ... and the retried batch gave the same sets.
+    assert pid not in [b["pid"] for b in pvs.metadata["distributed"]["batches"]]
+    assert pvs == local
+
+
+def test_ray_bake_without_retries_fails_when_a_worker_dies(cluster, tmp_path, city, city_cells):
+    marker = tmp_path / "crashed"
+    with pytest.raises(ray.exceptions.RayError):
+        slray.bake(city, city_cells[:2], "rand", rays=1_000, max_retries=0,
+                   _crash_once_marker=str(marker))
+    assert marker.exists()
+
+
+def test_ray_bake_rejects_bad_arguments_before_submitting(cluster, city, city_cells):
+    with pytest.raises(ValueError, match="batch_size"):
+        slray.bake(city, city_cells, "rand", rays=10, batch_size=0)
+    with pytest.raises(ValueError, match="unknown method"):
+        slray.bake(city, city_cells, "magic", rays=10)
