@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use numpy::PyArray1;
+use numpy::{PyArray1, PyArrayDyn, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 use sightline_core::TriangleSet;
@@ -42,12 +42,13 @@ fn set_from_ids(
             "{what}: expected a 1-D integer array of triangle ids"
         )));
     }
-    let values: Vec<i64> = np
+    let wide = np
         .call_method1("ascontiguousarray", (arr, "int64"))?
-        .call_method0("tolist")?
-        .extract()?;
+        .cast_into::<PyArrayDyn<i64>>()?;
+    let wide = wide.readonly();
+    let values = wide.as_slice().map_err(value_error)?;
     let mut set = TriangleSet::with_capacity(triangle_count);
-    for v in values {
+    for &v in values {
         if v < 0 || v as u64 >= triangle_count as u64 {
             return Err(value_error(format!(
                 "{what}: triangle id {v} is outside 0..{triangle_count}"
