@@ -1,5 +1,9 @@
 """Shared fixtures: small procedural scenes and cell grids (the tests must stay quick)."""
 
+import os
+import shutil
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -7,6 +11,7 @@ import sightline as sl
 
 # A small city: a few thousand triangles, baked in milliseconds per cell.
 CITY = "procedural:city?seed=3&size=3000"
+REPO = Path(__file__).resolve().parents[3]
 
 
 @pytest.fixture(scope="session")
@@ -34,3 +39,15 @@ def two_boxes():
     vertices = np.concatenate([corners, corners + np.float32([3, 0, 0])])
     triangles = np.concatenate([tris, tris + 8])
     return vertices, triangles
+
+
+@pytest.fixture(scope="session")
+def cli():
+    """The sightline CLI: $SIGHTLINE_BIN, else a binary cargo built in target/."""
+    path = os.environ.get("SIGHTLINE_BIN")
+    if not path:
+        candidates = [REPO / "target" / p / "sightline" for p in ("debug", "release")]
+        found = [c for c in candidates if c.exists()]
+        path = str(found[0]) if found else shutil.which("sightline")
+    assert path, "build the CLI first (cargo build -p sightline-cli) or set SIGHTLINE_BIN"
+    return path

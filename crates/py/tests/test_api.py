@@ -1,17 +1,12 @@
 """The Python API: scenes from arrays, view cells, bakes, .pvs files, from-point visibility, and
 the errors bad input raises."""
 
-import os
-import shutil
 import subprocess
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import sightline as sl
-
-REPO = Path(__file__).resolve().parents[3]
 
 
 # --- scenes -------------------------------------------------------------------------------
@@ -155,18 +150,6 @@ def test_bad_bake_arguments_are_value_errors(city, city_cells):
         sl.Method("raster", raster_resolution=0)
 
 
-def sightline_cli():
-    """The sightline binary: $SIGHTLINE_BIN, else one built by cargo in target/."""
-    path = os.environ.get("SIGHTLINE_BIN")
-    if path:
-        return path
-    for profile in ("debug", "release"):
-        candidate = REPO / "target" / profile / "sightline"
-        if candidate.exists():
-            return str(candidate)
-    return shutil.which("sightline")
-
-
 @pytest.mark.parametrize(
     "method, options, python_method",
     [
@@ -174,9 +157,7 @@ def sightline_cli():
         ("gvs++", ["--n-rand", "5000"], sl.Method("gvs++", n_rand=5000)),
     ],
 )
-def test_local_bake_equals_cli_bake(tmp_path, city, method, options, python_method):
-    cli = sightline_cli()
-    assert cli is not None, "build the CLI first (cargo build -p sightline-cli) or set SIGHTLINE_BIN"
+def test_local_bake_equals_cli_bake(tmp_path, cli, city, method, options, python_method):
     out = tmp_path / "cli.pvs"
     cmd = [cli, "pvs", "bake", city.source, "--grid", "3,2,1", "--method", method]
     cmd += options + ["--rays", "20000", "--seed", "11", "-o", str(out)]

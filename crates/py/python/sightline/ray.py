@@ -98,6 +98,8 @@ def bake(
     threads: threads each task bakes with (and the CPUs it asks Ray for); ``None``: all cores
         of the worker's machine (and 1 CPU asked).
     max_retries: how often Ray reruns a task whose worker died.
+    _crash_once_marker: for tests only: a file path; the first task to find it absent creates
+        it and kills its own worker process (the retry then bakes the batch).
 
     Connects to Ray with ``ray.init()`` when it is not connected yet (set ``RAY_ADDRESS`` or
     call ``ray.init(address=...)`` first to use a cluster).
