@@ -41,6 +41,7 @@ def main():
 
     reference = sl.bake(scene, cells, method, threads=1, **bake_args)
     times = {k: [] for k in ("local, 1 thread", "local, 2 threads", "ray, 1 worker", "ray, 2 workers")}
+    busy = {k: [] for k in times}
     for _ in range(args.repeat):
         for threads in (1, 2):
             t = time.perf_counter()
@@ -53,7 +54,11 @@ def main():
             ray.get([ray.remote(lambda: os.getpid()).remote() for _ in range(workers)])
             t = time.perf_counter()
             pvs = slray.bake(scene, cells, method, batch_size=args.batch_size, threads=1, **bake_args)
-            times[f"ray, {workers} worker{'s' if workers > 1 else ''}"].append(time.perf_counter() - t)
+            wall = time.perf_counter() - t
+            name = f"ray, {workers} worker{'s' if workers > 1 else ''}"
+            times[name].append(wall)
+            task_seconds = sum(b["seconds"] for b in pvs.metadata["distributed"]["batches"])
+            busy[name].append(task_seconds / wall)
             ray.shutdown()
             assert pvs == reference, "distributed bake differs from the local bake"
 
@@ -62,11 +67,13 @@ def main():
           f"n_rand={args.n_rand}, {args.rays} rays per cell, batch size {args.batch_size}; "
           f"load average before: {load_before:.2f}, after: {os.getloadavg()[0]:.2f}")
     print()
-    print("| run | seconds (median) | cells per minute | speed-up over local, 1 thread |")
-    print("|---|---|---|---|")
+    print("| run | seconds (median) | cells per minute | speed-up over local, 1 thread "
+          "| tasks running at once (task seconds / wall) |")
+    print("|---|---|---|---|---|")
     for name, ts in times.items():
         m = statistics.median(ts)
-        print(f"| {name} | {m:.2f} | {60 * len(cells) / m:.0f} | {base / m:.2f}x |")
+        b = f"{statistics.median(busy[name]):.2f}" if busy[name] else "-"
+        print(f"| {name} | {m:.2f} | {60 * len(cells) / m:.0f} | {base / m:.2f}x | {b} |")
     print()
     print("every run's PVS equal to the in-process single-thread bake: yes")
 
