@@ -1,0 +1,53 @@
+"""sightline: which triangles of a 3D scene can be seen?
+
+Scenes (loaded from a file or procedural spec, or built from numpy arrays), view cells, PVS
+bakes of one cell or many (GVS++, GVS, RAND, RASTER), ``.pvs`` files, and exact / conservative
+from-point visibility. Triangle ids go in and out as numpy ``uint32`` arrays.
+
+Results equal the ``sightline`` CLI's: ``bake(scene, cells, method, rays=R, seed=S)`` gives the
+same cells and sets as ``sightline pvs bake SCENE ... --rays R --seed S``, because every cell's
+seed is ``cell_seed(S, index_of_the_cell)`` in both.
+
+``sightline.ray.bake`` runs the same bake as Ray tasks (``pip install ray``).
+
+Errors: ``ValueError`` for bad input (the message names what and where), ``OSError`` for files
+that cannot be read or written.
+"""
+
+from ._sightline import (
+    METHODS,
+    Method,
+    Pvs,
+    Scene,
+    ViewCell,
+    __version__,
+    bake,
+    bake_cell,
+    bake_cells,
+    cell_seed,
+    grid,
+    visible_conservative,
+    visible_exact,
+)
+
+__all__ = [
+    "METHODS",
+    "Method",
+    "Pvs",
+    "Scene",
+    "ViewCell",
+    "__version__",
+    "bake",
+    "bake_cell",
+    "bake_cells",
+    "cell_seed",
+    "grid",
+    "load",
+    "visible_conservative",
+    "visible_exact",
+]
+
+
+def load(spec: str, patch_subdivisions: int = 4) -> Scene:
+    """Loads a scene file or procedural spec (``Scene.load``)."""
+    return Scene.load(spec, patch_subdivisions)

@@ -1,0 +1,154 @@
+"""Type stubs of the native module (see the Rust sources in crates/py/src for the docs)."""
+
+from os import PathLike
+from typing import Any, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+METHODS: List[str]
+__version__: str
+
+_Vec3 = Union[Sequence[float], npt.NDArray[np.floating]]
+_Ids = npt.NDArray[np.uint32]
+
+class Scene:
+    @staticmethod
+    def load(spec: str, patch_subdivisions: int = 4) -> Scene: ...
+    @staticmethod
+    def from_arrays(
+        vertices: npt.ArrayLike, triangles: npt.ArrayLike, source: str = "arrays", up: str = "z"
+    ) -> Scene: ...
+    @property
+    def triangle_count(self) -> int: ...
+    @property
+    def vertex_count(self) -> int: ...
+    @property
+    def vertices(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def triangles(self) -> npt.NDArray[np.uint32]: ...
+    @property
+    def bounds(self) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]: ...
+    @property
+    def geometry_hash(self) -> int: ...
+    @property
+    def source(self) -> str: ...
+    @property
+    def up(self) -> str: ...
+    def __len__(self) -> int: ...
+
+class ViewCell:
+    def __init__(
+        self, center: _Vec3, axes: Sequence[_Vec3], half_extents: _Vec3
+    ) -> None: ...
+    @staticmethod
+    def box(min: _Vec3, max: _Vec3) -> ViewCell: ...
+    @staticmethod
+    def parse(spec: str) -> ViewCell: ...
+    @property
+    def center(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def axes(self) -> Tuple[Tuple[float, float, float], ...]: ...
+    @property
+    def half_extents(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def is_flat(self) -> bool: ...
+    def contains(self, point: _Vec3) -> bool: ...
+
+class Method:
+    def __init__(
+        self,
+        name: str = "gvs++",
+        *,
+        n_rand: Optional[int] = None,
+        n_abs_edge: Optional[int] = None,
+        delta_abs: Optional[float] = None,
+        n_rs_edge: Optional[int] = None,
+        n_rs_area: Optional[int] = None,
+        delta: Optional[float] = None,
+        termination: Optional[int] = None,
+        raster_resolution: Optional[int] = None,
+    ) -> None: ...
+    @property
+    def name(self) -> str: ...
+
+class Pvs:
+    def __init__(
+        self,
+        scene: Scene,
+        cells: Sequence[ViewCell],
+        sets: Sequence[npt.ArrayLike],
+        metadata: Any = None,
+    ) -> None: ...
+    @staticmethod
+    def load(path: Union[str, PathLike]) -> Pvs: ...
+    @staticmethod
+    def from_bytes(data: bytes) -> Pvs: ...
+    def save(self, path: Union[str, PathLike]) -> None: ...
+    def to_bytes(self) -> bytes: ...
+    def check_scene(self, scene: Scene) -> None: ...
+    @property
+    def scene_hash(self) -> int: ...
+    @property
+    def triangle_count(self) -> int: ...
+    @property
+    def metadata(self) -> Any: ...
+    @property
+    def cells(self) -> List[ViewCell]: ...
+    def visible(self, i: int) -> _Ids: ...
+    def sets(self) -> List[_Ids]: ...
+    def __len__(self) -> int: ...
+
+_MethodArg = Union[str, Method]
+
+def grid(min: _Vec3, max: _Vec3, counts: Tuple[int, int, int]) -> List[ViewCell]: ...
+def cell_seed(seed: int, index: int) -> int: ...
+def bake_cell(
+    scene: Scene,
+    cell: ViewCell,
+    method: _MethodArg = "gvs++",
+    rays: Optional[int] = None,
+    seed: int = 1,
+    index: int = 0,
+    time_ms: Optional[int] = None,
+    threads: Optional[int] = None,
+) -> _Ids: ...
+def bake_cells(
+    scene: Scene,
+    cells: Sequence[ViewCell],
+    method: _MethodArg = "gvs++",
+    rays: Optional[int] = None,
+    seed: int = 1,
+    indices: Optional[Sequence[int]] = None,
+    time_ms: Optional[int] = None,
+    threads: Optional[int] = None,
+) -> List[_Ids]: ...
+def bake(
+    scene: Scene,
+    cells: Sequence[ViewCell],
+    method: _MethodArg = "gvs++",
+    rays: Optional[int] = None,
+    seed: int = 1,
+    time_ms: Optional[int] = None,
+    threads: Optional[int] = None,
+) -> Pvs: ...
+def visible_exact(
+    scene: Scene,
+    eye: _Vec3,
+    look: _Vec3,
+    up: Optional[_Vec3] = None,
+    fov: float = 60.0,
+    size: Tuple[int, int] = (1024, 768),
+    near: Optional[float] = None,
+    bin_size: int = 16,
+) -> _Ids: ...
+def visible_conservative(
+    scene: Scene,
+    eye: _Vec3,
+    look: _Vec3,
+    up: Optional[_Vec3] = None,
+    fov: float = 60.0,
+    size: Tuple[int, int] = (1024, 768),
+    near: Optional[float] = None,
+    memory: int = 268435456,
+) -> _Ids: ...

@@ -1,0 +1,91 @@
+//! From-point visibility from Python: the exact set (analytic hidden-surface removal) and the
+//! conservative set (RV streaming visibility), for a camera given like the CLI's.
+
+use glam::Vec3;
+use numpy::PyArray1;
+use pyo3::prelude::*;
+use sightline_core::Camera;
+use sightline_point::analytic::{visible_fragments, AnalyticOptions};
+use sightline_point::rv::{conservative_visible, RvOptions, SceneSource};
+
+use crate::scene::{PyScene, SceneData};
+use crate::{ids_array, value_error};
+
+/// The camera of `sightline visible` from its options; defaults as the CLI's (up: the scene's
+/// up axis, near: 1e-4 of the bounds' diagonal).
+fn camera(
+    data: &SceneData,
+    eye: [f32; 3],
+    look: [f32; 3],
+    up: Option<[f32; 3]>,
+    fov: f32,
+    size: (u32, u32),
+    near: Option<f32>,
+) -> PyResult<Camera> {
+    let diagonal = data.scene.bounds().diagonal().max(1e-6);
+    let up = up.map_or(data.scene.up.vector(), Vec3::from_array);
+    let near = near.unwrap_or(diagonal * 1e-4);
+    Camera::look_at(
+        Vec3::from_array(eye),
+        Vec3::from_array(look),
+        up,
+        fov,
+        size.0,
+        size.1,
+        near,
+    )
+    .map_err(|e| value_error(format!("invalid camera: {e}")))
+}
+
+/// Triangles with a visible region of positive area from `eye` looking at `look` (exact).
+#[pyfunction]
+#[pyo3(signature = (scene, eye, look, up = None, fov = 60.0, size = (1024, 768), near = None,
+    bin_size = 16))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn visible_exact<'py>(
+    py: Python<'py>,
+    scene: &Bound<'py, PyScene>,
+    eye: [f32; 3],
+    look: [f32; 3],
+    up: Option<[f32; 3]>,
+    fov: f32,
+    size: (u32, u32),
+    near: Option<f32>,
+    bin_size: u32,
+) -> PyResult<Bound<'py, PyArray1<u32>>> {
+    let data = scene.get().data.clone();
+    let cam = camera(&data, eye, look, up, fov, size, near)?;
+    let result = py
+        .detach(|| visible_fragments(&data.scene, &cam, &AnalyticOptions { bin_size }))
+        .map_err(value_error)?;
+    Ok(ids_array(py, &result.visible))
+}
+
+/// A conservative visible set (never misses a visible triangle) computed in at most `memory`
+/// bytes.
+#[pyfunction]
+#[pyo3(signature = (scene, eye, look, up = None, fov = 60.0, size = (1024, 768), near = None,
+    memory = 256 << 20))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn visible_conservative<'py>(
+    py: Python<'py>,
+    scene: &Bound<'py, PyScene>,
+    eye: [f32; 3],
+    look: [f32; 3],
+    up: Option<[f32; 3]>,
+    fov: f32,
+    size: (u32, u32),
+    near: Option<f32>,
+    memory: usize,
+) -> PyResult<Bound<'py, PyArray1<u32>>> {
+    let data = scene.get().data.clone();
+    let cam = camera(&data, eye, look, up, fov, size, near)?;
+    let options = RvOptions {
+        memory_budget_bytes: memory,
+        ..RvOptions::default()
+    };
+    let result = py
+        .detach(|| conservative_visible(&mut SceneSource::new(&data.scene), &cam, &options))
+        .map_err(value_error)?;
+    Ok(ids_array(py, &result.visible))
+}

@@ -1,0 +1,207 @@
+//! `sightline.Pvs`: a `.pvs` file in memory (cells, per-cell triangle sets, metadata), read,
+//! written atomically, or assembled from id arrays (how distributed bakes merge their batches).
+
+use std::path::PathBuf;
+
+use numpy::{PyArray1, PyArrayDyn, PyArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyBytes;
+use sightline_core::TriangleSet;
+use sightline_region::{CellPvs, PvsError, PvsFile};
+
+use crate::cells::PyViewCell;
+use crate::scene::PyScene;
+use crate::{ids_array, io_error, value_error};
+
+/// The PVS of a list of view cells for one scene. Equality (`==`) compares the scene hash,
+/// triangle count, cells and sets, not the metadata (timings differ between runs).
+#[pyclass(module = "sightline", name = "Pvs", frozen)]
+pub(crate) struct PyPvs {
+    pub file: PvsFile,
+}
+
+fn pvs_error(e: PvsError) -> PyErr {
+    match e {
+        PvsError::Io { .. } => io_error(e),
+        _ => value_error(e),
+    }
+}
+
+/// A set over `triangle_count` ids from an id array; `what` names the array in errors.
+fn set_from_ids(
+    ids: &Bound<'_, PyAny>,
+    triangle_count: usize,
+    what: &str,
+) -> PyResult<TriangleSet> {
+    let np = ids.py().import("numpy")?;
+    let arr = np.call_method1("asarray", (ids,))?;
+    let kind: String = arr.getattr("dtype")?.getattr("kind")?.extract()?;
+    let ndim: usize = arr.getattr("ndim")?.extract()?;
+    if ndim != 1 || (kind != "i" && kind != "u") {
+        return Err(value_error(format!(
+            "{what}: expected a 1-D integer array of triangle ids"
+        )));
+    }
+    let wide = np
+        .call_method1("ascontiguousarray", (arr, "int64"))?
+        .cast_into::<PyArrayDyn<i64>>()?;
+    let wide = wide.readonly();
+    let values = wide.as_slice().map_err(value_error)?;
+    let mut set = TriangleSet::with_capacity(triangle_count);
+    for &v in values {
+        if v < 0 || v as u64 >= triangle_count as u64 {
+            return Err(value_error(format!(
+                "{what}: triangle id {v} is outside 0..{triangle_count}"
+            )));
+        }
+        set.insert(v as usize);
+    }
+    Ok(set)
+}
+
+#[pymethods]
+impl PyPvs {
+    /// A PVS for `scene` from cells and one id array per cell.
+    #[new]
+    #[pyo3(signature = (scene, cells, sets, metadata = None))]
+    fn new(
+        py: Python<'_>,
+        scene: &Bound<'_, PyScene>,
+        cells: Vec<PyViewCell>,
+        sets: Vec<Bound<'_, PyAny>>,
+        metadata: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        if cells.len() != sets.len() {
+            return Err(value_error(format!(
+                "{} cells but {} sets",
+                cells.len(),
+                sets.len()
+            )));
+        }
+        let metadata = match metadata {
+            None => serde_json::Value::Null,
+            Some(m) => {
+                let text: String = py.import("json")?.call_method1("dumps", (m,))?.extract()?;
+                serde_json::from_str(&text).map_err(value_error)?
+            }
+        };
+        let data = &scene.get().data;
+        let mut file = PvsFile::for_scene(&data.scene, metadata);
+        let n = data.scene.triangle_count();
+        for (i, (cell, ids)) in cells.into_iter().zip(&sets).enumerate() {
+            let visible = set_from_ids(ids, n, &format!("set of cell {i}"))?;
+            file.cells.push(CellPvs {
+                cell: cell.cell,
+                visible,
+            });
+        }
+        Ok(Self { file })
+    }
+
+    /// Reads a `.pvs` file (errors name the file and the byte offset of a problem).
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let file = py.detach(|| PvsFile::load(&path)).map_err(pvs_error)?;
+        Ok(Self { file })
+    }
+
+    /// Parses `.pvs` bytes.
+    #[staticmethod]
+    fn from_bytes(data: &[u8]) -> PyResult<Self> {
+        let file = PvsFile::read(data).map_err(pvs_error)?;
+        Ok(Self { file })
+    }
+
+    /// Writes the file atomically (a temporary file renamed into place).
+    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        py.detach(|| self.file.save(&path)).map_err(pvs_error)
+    }
+
+    /// The `.pvs` bytes.
+    fn to_bytes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
+        let mut out = Vec::new();
+        self.file.write(&mut out).map_err(pvs_error)?;
+        Ok(PyBytes::new(py, &out))
+    }
+
+    /// Raises `ValueError` when the file was made for another scene.
+    fn check_scene(&self, scene: &Bound<'_, PyScene>) -> PyResult<()> {
+        self.file
+            .check_scene(&scene.get().data.scene)
+            .map_err(value_error)
+    }
+
+    /// Geometry hash of the scene the sets index.
+    #[getter]
+    fn scene_hash(&self) -> u64 {
+        self.file.scene_hash
+    }
+
+    /// Triangle count of that scene.
+    #[getter]
+    fn triangle_count(&self) -> u32 {
+        self.file.triangle_count
+    }
+
+    /// The metadata (method, seed, budget, statistics) as Python objects.
+    #[getter]
+    fn metadata<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let text = serde_json::to_string(&self.file.metadata).map_err(value_error)?;
+        py.import("json")?.call_method1("loads", (text,))
+    }
+
+    /// The view cells.
+    #[getter]
+    fn cells(&self) -> Vec<PyViewCell> {
+        self.file
+            .cells
+            .iter()
+            .map(|c| PyViewCell { cell: c.cell })
+            .collect()
+    }
+
+    /// The triangle ids of cell `i` (uint32, increasing).
+    fn visible<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyArray1<u32>>> {
+        let c = self.file.cells.get(i).ok_or_else(|| {
+            value_error(format!(
+                "cell {i} does not exist (the file has {})",
+                self.file.cells.len()
+            ))
+        })?;
+        Ok(ids_array(py, &c.visible))
+    }
+
+    /// The triangle ids of every cell.
+    fn sets<'py>(&self, py: Python<'py>) -> Vec<Bound<'py, PyArray1<u32>>> {
+        self.file
+            .cells
+            .iter()
+            .map(|c| ids_array(py, &c.visible))
+            .collect()
+    }
+
+    fn __len__(&self) -> usize {
+        self.file.cells.len()
+    }
+
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        match other.cast::<PyPvs>() {
+            Ok(o) => {
+                let (a, b) = (&self.file, &o.get().file);
+                a.scene_hash == b.scene_hash
+                    && a.triangle_count == b.triangle_count
+                    && a.cells == b.cells
+            }
+            Err(_) => false,
+        }
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Pvs({} cells, scene {:016x} with {} triangles)",
+            self.file.cells.len(),
+            self.file.scene_hash,
+            self.file.triangle_count
+        )
+    }
+}

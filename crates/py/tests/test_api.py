@@ -1,0 +1,245 @@
+"""The Python API: scenes from arrays, view cells, bakes, .pvs files, from-point visibility, and
+the errors bad input raises."""
+
+import subprocess
+
+import numpy as np
+import pytest
+
+import sightline as sl
+
+
+# --- scenes -------------------------------------------------------------------------------
+
+
+def test_scene_from_arrays_round_trips(two_boxes):
+    vertices, triangles = two_boxes
+    scene = sl.Scene.from_arrays(vertices, triangles)
+    assert scene.triangle_count == len(triangles) == len(scene)
+    assert scene.vertices.dtype == np.float32 and scene.triangles.dtype == np.uint32
+    np.testing.assert_array_equal(scene.vertices, vertices)
+    np.testing.assert_array_equal(scene.triangles, triangles)
+    lo, hi = scene.bounds
+    np.testing.assert_array_equal(lo, [0, 0, 0])
+    np.testing.assert_array_equal(hi, [4, 1, 1])
+
+
+def test_loaded_scene_rebuilt_from_its_arrays_has_the_same_hash(city):
+    again = sl.Scene.from_arrays(city.vertices, city.triangles)
+    assert again.geometry_hash == city.geometry_hash
+    assert again.triangle_count == city.triangle_count
+
+
+def test_float64_and_int64_arrays_are_converted(two_boxes):
+    vertices, triangles = two_boxes
+    a = sl.Scene.from_arrays(vertices.astype(np.float64), triangles.astype(np.int64))
+    b = sl.Scene.from_arrays(vertices, triangles)
+    assert a.geometry_hash == b.geometry_hash
+
+
+def test_nan_vertex_is_rejected(two_boxes):
+    vertices, triangles = two_boxes
+    vertices = vertices.copy()
+    vertices[5, 1] = np.nan
+    with pytest.raises(ValueError, match="NaN or infinite.*vertex 5"):
+        sl.Scene.from_arrays(vertices, triangles)
+
+
+def test_out_of_range_index_is_rejected(two_boxes):
+    vertices, triangles = two_boxes
+    triangles = triangles.copy()
+    triangles[7, 2] = len(vertices)
+    with pytest.raises(ValueError, match="index past the 16 vertices, first: triangle 7"):
+        sl.Scene.from_arrays(vertices, triangles)
+
+
+def test_negative_index_is_rejected_not_wrapped(two_boxes):
+    vertices, triangles = two_boxes
+    triangles = triangles.astype(np.int64)
+    triangles[2, 0] = -1
+    with pytest.raises(ValueError, match="row 2 has index -1"):
+        sl.Scene.from_arrays(vertices, triangles)
+
+
+def test_wrong_shapes_and_dtypes_are_rejected(two_boxes):
+    vertices, triangles = two_boxes
+    with pytest.raises(ValueError, match=r"vertices: expected shape \(n, 3\)"):
+        sl.Scene.from_arrays(vertices[:, :2], triangles)
+    with pytest.raises(ValueError, match="triangles: expected an integer array"):
+        sl.Scene.from_arrays(vertices, triangles.astype(np.float32))
+    with pytest.raises(ValueError, match="no triangles"):
+        sl.Scene.from_arrays(vertices, np.zeros((0, 3), dtype=np.uint32))
+
+
+def test_missing_file_raises_oserror_naming_it():
+    with pytest.raises(OSError, match="/nonexistent/dir/scene.obj"):
+        sl.load("/nonexistent/dir/scene.obj")
+
+
+def test_bad_procedural_spec_is_value_error():
+    with pytest.raises(ValueError, match="procedural:nothing"):
+        sl.load("procedural:nothing")
+
+
+def test_scene_pickles_through_its_arrays(city):
+    import pickle
+
+    again = pickle.loads(pickle.dumps(city))
+    assert again.geometry_hash == city.geometry_hash
+    assert again.up == city.up
+
+
+# --- view cells ---------------------------------------------------------------------------
+
+
+def test_view_cells_from_box_parse_and_grid():
+    a = sl.ViewCell.box([0, 0, 0], [2, 2, 1])
+    b = sl.ViewCell.parse("box:0,0,0,2,2,1")
+    assert a == b
+    np.testing.assert_array_equal(a.center, [1, 1, 0.5])
+    cells = sl.grid([0, 0, 0], [4, 2, 1], (4, 2, 1))
+    assert len(cells) == 8
+    np.testing.assert_array_equal(cells[5].center, [1.5, 1.5, 0.5])
+    assert cells[5].contains([1.5, 1.5, 0.5]) and not cells[5].contains([3.5, 0.5, 0.5])
+
+
+def test_bad_view_cells_are_rejected():
+    with pytest.raises(ValueError, match="min .* must be <= max"):
+        sl.ViewCell.box([1, 1, 1], [0, 0, 0])
+    with pytest.raises(ValueError, match="non-finite"):
+        sl.ViewCell.box([0, 0, float("nan")], [1, 1, 1])
+    with pytest.raises(ValueError, match="unknown kind"):
+        sl.ViewCell.parse("cube:0,0,0,1,1,1")
+    with pytest.raises(ValueError, match="grid counts"):
+        sl.grid([0, 0, 0], [1, 1, 1], (0, 1, 1))
+
+
+# --- bakes --------------------------------------------------------------------------------
+
+
+def test_bake_cell_equals_its_cell_in_a_whole_bake(city, city_cells):
+    pvs = sl.bake(city, city_cells, "rand", rays=20_000, seed=5)
+    for i in (0, 4):
+        ids = sl.bake_cell(city, city_cells[i], "rand", rays=20_000, seed=5, index=i)
+        assert ids.dtype == np.uint32 and len(ids) > 0
+        np.testing.assert_array_equal(ids, pvs.visible(i))
+    # Another index is another seed, hence (almost surely) another sample.
+    other = sl.bake_cell(city, city_cells[4], "rand", rays=20_000, seed=5, index=0)
+    assert not np.array_equal(other, pvs.visible(4))
+
+
+def test_bake_does_not_depend_on_batching_or_threads(city, city_cells):
+    method = sl.Method("gvs++", n_rand=5_000)
+    whole = sl.bake(city, city_cells, method, rays=30_000, seed=2).sets()
+    tail = sl.bake_cells(
+        city, city_cells[3:], method, rays=30_000, seed=2, indices=[3, 4, 5], threads=1
+    )
+    head = sl.bake_cells(city, city_cells[:3], method, rays=30_000, seed=2, threads=2)
+    for a, b in zip(whole, head + tail):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_bad_bake_arguments_are_value_errors(city, city_cells):
+    with pytest.raises(ValueError, match="unknown method 'magic'"):
+        sl.bake_cell(city, city_cells[0], "magic")
+    with pytest.raises(ValueError, match="must be positive"):
+        sl.bake_cell(city, city_cells[0], "rand", rays=0)
+    with pytest.raises(ValueError, match="indices has 1 entries for 2 cells"):
+        sl.bake_cells(city, city_cells[:2], "rand", rays=10, indices=[0])
+    with pytest.raises(ValueError, match="raster resolution 0"):
+        sl.Method("raster", raster_resolution=0)
+
+
+@pytest.mark.parametrize(
+    "method, options, python_method",
+    [
+        ("rand", [], "rand"),
+        ("gvs++", ["--n-rand", "5000"], sl.Method("gvs++", n_rand=5000)),
+    ],
+)
+def test_local_bake_equals_cli_bake(tmp_path, cli, city, method, options, python_method):
+    out = tmp_path / "cli.pvs"
+    cmd = [cli, "pvs", "bake", city.source, "--grid", "3,2,1", "--method", method]
+    cmd += options + ["--rays", "20000", "--seed", "11", "-o", str(out)]
+    subprocess.run(cmd, check=True, capture_output=True)
+    from_cli = sl.Pvs.load(str(out))
+    lo, hi = city.bounds
+    local = sl.bake(city, sl.grid(lo, hi, (3, 2, 1)), python_method, rays=20_000, seed=11)
+    assert len(local) == 6
+    assert local == from_cli
+    assert from_cli.metadata["method"] == method and from_cli.metadata["seed"] == 11
+
+
+# --- .pvs files ---------------------------------------------------------------------------
+
+
+def test_pvs_write_read_round_trip(tmp_path, city, city_cells):
+    pvs = sl.bake(city, city_cells, "rand", rays=5_000, seed=1)
+    path = tmp_path / "city.pvs"
+    pvs.save(str(path))
+    back = sl.Pvs.load(str(path))
+    assert back == pvs and len(back) == len(city_cells)
+    assert back.cells == city_cells
+    assert back.metadata["method"] == "rand"
+    back.check_scene(city)
+    assert sl.Pvs.from_bytes(pvs.to_bytes()) == pvs
+    assert not list(tmp_path.glob("*.tmp")), "no temporary file left behind"
+
+
+def test_pvs_from_arrays_keeps_sets_and_metadata(tmp_path, city, city_cells):
+    sets = [np.array([0, 5, 9], dtype=np.uint32), np.array([], dtype=np.int64)]
+    pvs = sl.Pvs(city, city_cells[:2], sets, {"note": "hand-made"})
+    path = tmp_path / "hand.pvs"
+    pvs.save(str(path))
+    back = sl.Pvs.load(str(path))
+    np.testing.assert_array_equal(back.visible(0), [0, 5, 9])
+    assert len(back.visible(1)) == 0
+    assert back.metadata == {"note": "hand-made"}
+    assert back.scene_hash == city.geometry_hash and back.triangle_count == city.triangle_count
+
+
+def test_pvs_of_another_scene_is_rejected(city, city_cells, two_boxes):
+    pvs = sl.bake(city, city_cells[:1], "rand", rays=1_000)
+    boxes = sl.Scene.from_arrays(*two_boxes)
+    with pytest.raises(ValueError, match="computed for another scene"):
+        pvs.check_scene(boxes)
+
+
+def test_bad_pvs_input_is_rejected(tmp_path, city, city_cells):
+    with pytest.raises(ValueError, match=f"triangle id {city.triangle_count} is outside"):
+        sl.Pvs(city, city_cells[:1], [np.array([city.triangle_count])])
+    with pytest.raises(ValueError, match="2 cells but 1 sets"):
+        sl.Pvs(city, city_cells[:2], [np.array([1])])
+    with pytest.raises(ValueError, match="cell 3 does not exist"):
+        sl.Pvs(city, city_cells[:1], [np.array([1])]).visible(3)
+    with pytest.raises(OSError, match="missing.pvs"):
+        sl.Pvs.load(str(tmp_path / "missing.pvs"))
+    with pytest.raises(ValueError, match="bad magic"):
+        sl.Pvs.from_bytes(b"definitely not a pvs file")
+    data = bytearray(sl.bake(city, city_cells[:2], "rand", rays=2_000).to_bytes())
+    data[-3] ^= 0xFF
+    with pytest.raises(ValueError, match="corrupt|truncated"):
+        sl.Pvs.from_bytes(bytes(data))
+
+
+# --- from-point visibility ----------------------------------------------------------------
+
+
+@pytest.mark.parametrize("eye", [(-300.0, -250.0, 120.0), (10.0, -5.0, 2.0)])
+def test_exact_set_is_inside_conservative_set(city, eye):
+    lo, hi = city.bounds
+    look = [float(x) for x in (lo + hi) / 2]
+    exact = sl.visible_exact(city, eye, look, size=(128, 96))
+    conservative = sl.visible_conservative(city, eye, look, size=(128, 96))
+    assert exact.dtype == np.uint32 and conservative.dtype == np.uint32
+    assert len(exact) > 0
+    missing = np.setdiff1d(exact, conservative)
+    assert len(missing) == 0, f"RV missed visible triangles {missing[:10]}"
+    assert conservative.max() < city.triangle_count
+
+
+def test_bad_camera_is_value_error(city):
+    with pytest.raises(ValueError, match="invalid camera"):
+        sl.visible_exact(city, [1, 2, 3], [1, 2, 3])
+    with pytest.raises(ValueError, match="field of view"):
+        sl.visible_conservative(city, [0, 0, 0], [1, 0, 0], fov=200.0)
