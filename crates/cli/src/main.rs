@@ -46,6 +46,9 @@ enum Command {
     Visible(commands::visible::Args),
     /// Run the main job on the embedded default scene and write `sightline-report/`.
     Demo(commands::demo::Args),
+    /// Interactive viewer (fly camera, culling methods on keys 1..4, live popping counter), or
+    /// headless with --frames N --out DIR (PNG frames and frames.json).
+    View(commands::view::Args),
 }
 
 fn main() -> ExitCode {
@@ -60,6 +63,7 @@ fn main() -> ExitCode {
         Command::Eval(a) => commands::eval::run(a),
         Command::Visible(a) => commands::visible::run(a),
         Command::Demo(a) => commands::demo::run(a),
+        Command::View(a) => commands::view::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

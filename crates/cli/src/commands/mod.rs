@@ -8,4 +8,5 @@ pub(crate) mod eval;
 pub(crate) mod info;
 pub(crate) mod pvs;
 pub(crate) mod render;
+pub(crate) mod view;
 pub(crate) mod visible;
