@@ -1,7 +1,7 @@
+#![allow(clippy::unwrap_used)]
 //! Integration tests of sightline-view, one module per property. They run on whatever Vulkan
 //! adapter `sightline_gpu::vulkan_device` picks (lavapipe in CI) and FAIL, never skip, when
 //! there is none.
-#![allow(clippy::unwrap_used)]
 
 use std::sync::OnceLock;
 
@@ -50,6 +50,6 @@ fn street_camera(scene: &Scene, width: u32, height: u32) -> Camera {
     let b = scene.bounds();
     let c = b.center();
     let eye = Vec3::new(b.min.x + 0.1 * b.extent().x, c.y + 1.0, b.min.z + 2.0);
-    let look = Vec3::new(b.max.x, c.y + 0.5 * b.extent().y * 0.2, b.min.z + 2.0);
+    let look = Vec3::new(b.max.x, c.y + 0.1 * b.extent().y, b.min.z + 2.0);
     Camera::look_at(eye, look, Vec3::Z, 70.0, width, height, 0.05).unwrap()
 }
