@@ -18,6 +18,23 @@
 //! Devices: the headless driver and the tests take a device from
 //! `sightline_gpu::vulkan_device` (Vulkan only, Mesa's lavapipe in CI); the window asks for a
 //! Vulkan adapter compatible with its surface and checks it with `sightline_gpu::check_vulkan`.
+//!
+//! ```no_run
+//! use glam::Vec3;
+//! use sightline_core::{scene, Camera};
+//! use sightline_view::{Method, Offscreen, Viewer, ViewerOptions};
+//!
+//! let scene = scene::open("procedural:city", &Default::default()).unwrap();
+//! let camera = Camera::look_at(Vec3::new(-300.0, -20.0, 2.0), Vec3::new(0.0, -20.0, 5.0),
+//!     Vec3::Z, 60.0, 320, 180, 0.05).unwrap();
+//! let (device, queue, _) = sightline_gpu::vulkan_device().unwrap();
+//! let mut viewer = Viewer::new(scene, None, ViewerOptions::default()).unwrap();
+//! viewer.set_method(Method::Occlusion);
+//! let mut offscreen = Offscreen::new(&device, &queue, &viewer, 320, 180).unwrap();
+//! let frame = offscreen.frame(&mut viewer, &camera).unwrap();
+//! println!("{} triangles drawn, {} popping pixels", frame.triangles_drawn, frame.popping_pixels);
+//! offscreen.read_rgba().unwrap().save("frame.png").unwrap();
+//! ```
 #![deny(missing_docs)]
 
 mod camera_path;

@@ -106,7 +106,8 @@ pub struct FrameRecord {
     pub triangles_total: usize,
     /// Pixels that differ between the culled and the full image (computed on the GPU).
     pub popping_pixels: u32,
-    /// Pixels covered by the full image.
+    /// Pixels covered by the full image (counted by the compare pass, so 0 when the method
+    /// drew everything and no comparison was made).
     pub covered_pixels: u32,
     /// Milliseconds the method spent choosing the drawn set (CPU).
     pub cull_ms: f64,

@@ -68,3 +68,28 @@ fn no_culling_ids_match_the_reference_rasterizer_on_the_bunny() {
     eprintln!("bunny: {:.4}% of pixels agree", a * 100.0);
     assert!(a >= 0.99, "only {:.3}% of pixels agree", a * 100.0);
 }
+
+#[test]
+fn empty_scene_renders_background_without_popping() {
+    let (device, queue, _) = shared_device();
+    let scene = sightline_core::Scene::default();
+    let camera = sightline_core::Camera::look_at(
+        glam::Vec3::ZERO,
+        glam::Vec3::X,
+        glam::Vec3::Z,
+        60.0,
+        32,
+        24,
+        0.1,
+    )
+    .unwrap();
+    let mut viewer = Viewer::new(scene, None, ViewerOptions::default()).unwrap();
+    let mut off = Offscreen::new(device, queue, &viewer, 32, 24).unwrap();
+    for method in [Method::None, Method::Occlusion, Method::Exact] {
+        viewer.set_method(method);
+        let r = off.frame(&mut viewer, &camera).unwrap();
+        assert_eq!((r.triangles_drawn, r.popping_pixels), (0, 0));
+        let ids = off.renderer.read_ids(IdImage::Full).unwrap();
+        assert!(ids.iter().all(|&id| id == sightline_core::Hit::NONE));
+    }
+}
