@@ -13,9 +13,7 @@ use std::time::Instant;
 use sightline_gpu::check_vulkan;
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
-use winit::event::{
-    DeviceEvent, DeviceId, ElementState, MouseButton, MouseScrollDelta, WindowEvent,
-};
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
@@ -53,6 +51,8 @@ struct App {
     open: Option<Open>,
     keys: Movement,
     looking: bool,
+    /// The last cursor position in the window, in physical pixels.
+    cursor: Option<(f64, f64)>,
     last: Instant,
     error: Option<ViewError>,
 }
@@ -76,6 +76,7 @@ pub fn run_window(
         open: None,
         keys: Movement::default(),
         looking: false,
+        cursor: None,
         last: Instant::now(),
         error: None,
     };
@@ -250,6 +251,16 @@ impl ApplicationHandler for App {
                     self.key(code, event.state == ElementState::Pressed, event_loop);
                 }
             }
+            // Mouse look from cursor positions while a button is held (a drag), rather than
+            // raw device motion: it works the same on X11, Wayland, Xvfb and remote displays.
+            WindowEvent::CursorMoved { position, .. } => {
+                let p = (position.x, position.y);
+                if let (true, Some(last)) = (self.looking, self.cursor) {
+                    self.camera
+                        .rotate((p.0 - last.0) as f32, (p.1 - last.1) as f32);
+                }
+                self.cursor = Some(p);
+            }
             WindowEvent::MouseInput { state, button, .. } => {
                 if matches!(button, MouseButton::Right | MouseButton::Left) {
                     self.looking = state == ElementState::Pressed;
@@ -272,14 +283,6 @@ impl ApplicationHandler for App {
                 }
             }
             _ => {}
-        }
-    }
-
-    fn device_event(&mut self, _: &ActiveEventLoop, _: DeviceId, event: DeviceEvent) {
-        if let DeviceEvent::MouseMotion { delta } = event {
-            if self.looking {
-                self.camera.rotate(delta.0 as f32, delta.1 as f32);
-            }
         }
     }
 
