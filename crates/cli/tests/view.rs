@@ -133,3 +133,18 @@ fn bad_arguments_are_clean_errors() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("--out"), "{}", stderr(&o));
 }
+
+#[test]
+fn window_without_a_display_is_a_clean_error_pointing_to_headless_mode() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_sightline"))
+        .args(["view", CITY])
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("WAYLAND_SOCKET")
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert_fails_with(&o, "--frames N --out DIR");
+    assert!(stderr(&o).contains("DISPLAY"), "{}", stderr(&o));
+}
