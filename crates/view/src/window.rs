@@ -10,7 +10,7 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use sightline_gpu::check_vulkan;
+use sightline_gpu::{check_vulkan, pick_adapter};
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
@@ -106,13 +106,12 @@ impl App {
         let surface = instance
             .create_surface(window.clone())
             .map_err(|e| ViewError::Window(format!("creating a Vulkan surface: {e}")))?;
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: false,
-            compatible_surface: Some(&surface),
-            ..Default::default()
-        }))
-        .map_err(|_| sightline_gpu::GpuError::NoVulkanAdapter)?;
+        // The Vulkan adapters that can present to the window, chosen as sightline-gpu chooses.
+        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN))
+            .into_iter()
+            .filter(|a| a.is_surface_supported(&surface))
+            .collect();
+        let adapter = pick_adapter(adapters).ok_or(sightline_gpu::GpuError::NoVulkanAdapter)?;
         let info = adapter.get_info();
         check_vulkan(&info)?;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
