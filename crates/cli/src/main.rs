@@ -50,6 +50,9 @@ enum Command {
     Report(commands::report::Args),
     /// Run the main job on the embedded default scene and write `sightline-report/`.
     Demo(commands::demo::Args),
+    /// Interactive viewer (fly camera, culling methods on keys 1..4, live popping counter), or
+    /// headless with --frames N --out DIR (PNG frames and frames.json).
+    View(commands::view::Args),
 }
 
 fn main() -> ExitCode {
@@ -65,6 +68,7 @@ fn main() -> ExitCode {
         Command::Visible(a) => commands::visible::run(a),
         Command::Report(a) => commands::report::run(a),
         Command::Demo(a) => commands::demo::run(a),
+        Command::View(a) => commands::view::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -96,6 +96,13 @@ fn pick(adapters: Vec<Adapter>) -> Option<Adapter> {
     adapters.into_iter().next().map(|(_, a)| a)
 }
 
+/// Picks among `adapters` as [`vulkan_device`] does: the one named by `SIGHTLINE_GPU_ADAPTER`,
+/// else a real GPU before a CPU device (lavapipe). For callers that filter the adapters first,
+/// e.g. by support of a window's surface. `None` when `adapters` is empty.
+pub fn pick_adapter(adapters: Vec<Adapter>) -> Option<Adapter> {
+    pick(adapters)
+}
+
 /// Acquires a Vulkan device and its queue (blocking), with the adapter's description.
 ///
 /// Only `Backends::VULKAN` is enumerated and the chosen adapter's backend is checked with

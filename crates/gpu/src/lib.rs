@@ -48,5 +48,5 @@
 mod device;
 mod occlusion_query;
 
-pub use device::{check_vulkan, vulkan_device, GpuError};
+pub use device::{check_vulkan, pick_adapter, vulkan_device, GpuError};
 pub use occlusion_query::{GpuBackend, GpuFrameStats, MeshId, QueryOutcome};

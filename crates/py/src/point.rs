@@ -56,7 +56,16 @@ pub(crate) fn visible_exact<'py>(
     let data = scene.get().data.clone();
     let cam = camera(&data, eye, look, up, fov, size, near)?;
     let result = py
-        .detach(|| visible_fragments(&data.scene, &cam, &AnalyticOptions { bin_size }))
+        .detach(|| {
+            visible_fragments(
+                &data.scene,
+                &cam,
+                &AnalyticOptions {
+                    bin_size,
+                    ..AnalyticOptions::default()
+                },
+            )
+        })
         .map_err(value_error)?;
     Ok(ids_array(py, &result.visible))
 }

@@ -10,4 +10,5 @@ pub(crate) mod info;
 pub(crate) mod pvs;
 pub(crate) mod render;
 pub(crate) mod report;
+pub(crate) mod view;
 pub(crate) mod visible;

@@ -1,0 +1,166 @@
+//! `sightline view`: the interactive viewer (a window with a fly camera, the visibility methods
+//! on keys 1..4 and the popping counter in the title), or with `--frames N --out DIR` its
+//! headless mode, which renders N frames offscreen along a camera path and writes
+//! `DIR/frame_0000.png`, ... and `DIR/frames.json`. The work is in `sightline-view`.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use sightline_core::Camera;
+use sightline_region::PvsFile;
+use sightline_view::{
+    interpolate, orbit, read_camera_path, run_headless, run_window, FlyCamera, Lens, Method,
+    Viewer, ViewerOptions,
+};
+
+use crate::args::{CameraArgs, SceneArgs};
+use crate::output::print_json;
+
+/// Arguments of `sightline view`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct Args {
+    #[command(flatten)]
+    scene: SceneArgs,
+    #[command(flatten)]
+    camera: CameraArgs,
+    /// A .pvs file of the scene: its cells are drawn, the `pvs` method uses the set of the cell
+    /// containing the eye.
+    #[arg(long, value_name = "FILE")]
+    pvs: Option<PathBuf>,
+    /// The visibility method: none, pvs, occlusion or exact (default: pvs with --pvs, else
+    /// none). Keys 1..4 switch in the window.
+    #[arg(long)]
+    method: Option<String>,
+    /// Show the full image with culled triangles tinted red instead of hidden (key X).
+    #[arg(long)]
+    xray: bool,
+    /// The exact method renders its visible set at 1/N of the image size per axis.
+    #[arg(long, value_name = "N", default_value_t = 4)]
+    exact_divisor: u32,
+    /// Fly speed in scene units per second (default: 5% of the scene's diagonal).
+    #[arg(long)]
+    speed: Option<f32>,
+    /// Headless: render this many frames offscreen (no window) and write them to --out.
+    #[arg(long, value_name = "N", requires = "out")]
+    frames: Option<u32>,
+    /// Headless: the output folder for frame_0000.png... and frames.json.
+    #[arg(long, value_name = "DIR", requires = "frames")]
+    out: Option<PathBuf>,
+    /// Headless: camera path JSON `{"frames": [{"eye": [x,y,z], "look": [x,y,z]}, ...]}`
+    /// (keyframes spread over the frames); default: one orbit around the look point.
+    #[arg(long, value_name = "FILE", requires = "frames")]
+    path: Option<PathBuf>,
+    /// Headless: print the summary as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+pub(crate) fn run(args: Args) -> Result<()> {
+    let scene = args.scene.load()?;
+    let camera = args.camera.camera(&scene)?;
+    let look = args.camera.look.unwrap_or(scene.bounds().center());
+    let up = args.camera.up.unwrap_or(scene.up.vector());
+    let pvs = match &args.pvs {
+        Some(p) => Some(PvsFile::load(p).with_context(|| format!("reading {}", p.display()))?),
+        None => None,
+    };
+    let method = match &args.method {
+        Some(name) => Method::parse(name).with_context(|| {
+            format!("unknown method {name:?}: use none, pvs, occlusion or exact")
+        })?,
+        None if pvs.is_some() => Method::Pvs,
+        None => Method::None,
+    };
+    if method == Method::Pvs && pvs.is_none() {
+        bail!("--method pvs needs --pvs FILE");
+    }
+    if args.exact_divisor == 0 {
+        bail!("--exact-divisor must be at least 1");
+    }
+    let diagonal = scene.bounds().diagonal().max(1e-6);
+    let options = ViewerOptions {
+        exact_divisor: args.exact_divisor,
+        ..Default::default()
+    };
+    let source = args.scene.scene.clone();
+    let mut viewer = Viewer::new(scene, pvs, options).with_context(|| {
+        format!(
+            "{} does not go with {}",
+            args.pvs
+                .as_ref()
+                .map_or(String::new(), |p| p.display().to_string()),
+            source
+        )
+    })?;
+    viewer.set_method(method);
+    viewer.shading.xray = args.xray;
+
+    let (Some(frames), Some(out)) = (args.frames, &args.out) else {
+        let speed = args.speed.unwrap_or(diagonal * 0.05);
+        let fly = FlyCamera::new(camera.eye, look, up, speed).context("invalid camera")?;
+        let lens = Lens {
+            fov_y_deg: camera.fov_y_deg,
+            near: camera.near,
+        };
+        return run_window(viewer, fly, lens, camera.width, camera.height)
+            .context("the viewer window (headless: --frames N --out DIR)");
+    };
+    if frames == 0 {
+        bail!("--frames must be at least 1");
+    }
+    let n = frames as usize;
+    let poses = match &args.path {
+        Some(path) => {
+            let keys = read_camera_path(path)?;
+            (0..n).map(|f| interpolate(&keys, f, n)).collect()
+        }
+        None => orbit(camera.eye, look, up, n),
+    };
+    let cameras = poses
+        .into_iter()
+        .enumerate()
+        .map(|(f, (eye, look))| {
+            Camera::look_at(
+                eye,
+                look,
+                up,
+                camera.fov_y_deg,
+                camera.width,
+                camera.height,
+                camera.near,
+            )
+            .with_context(|| {
+                format!(
+                    "frame {f}: no camera from eye {eye} looking at {look} (eye equal to look, \
+                     or looking along the up axis?)"
+                )
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let (device, queue, info) = sightline_gpu::vulkan_device()?;
+    let report = run_headless(&device, &queue, &info.name, &mut viewer, &cameras, out)?;
+    if args.json {
+        return print_json(&report);
+    }
+    let drawn_mean = report
+        .frames
+        .iter()
+        .map(|f| f.triangles_drawn as f64)
+        .sum::<f64>()
+        / report.frames.len().max(1) as f64;
+    println!(
+        "wrote {} frames ({}x{}, method {}) and frames.json to {} on {}: {:.0} of {} triangles \
+         drawn on average, popping max {} px, mean {:.1} px per frame (GPU id-image compare)",
+        report.frames.len(),
+        report.width,
+        report.height,
+        method.name(),
+        out.display(),
+        report.adapter,
+        drawn_mean,
+        viewer.scene().triangle_count(),
+        report.popping.max,
+        report.popping_mean,
+    );
+    Ok(())
+}

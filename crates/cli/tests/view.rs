@@ -1,0 +1,150 @@
+#![allow(clippy::unwrap_used)]
+//! End-to-end tests of `sightline view` in its headless mode (the window cannot run in CI):
+//! frames and `frames.json` are written, a `.pvs` drives the `pvs` method, bad input is a
+//! clean error. Needs a Vulkan adapter (lavapipe in CI) and fails without one.
+
+mod common;
+
+use common::{assert_fails_with, sightline, stderr};
+
+const CITY: &str = "procedural:city?size=2000";
+
+#[test]
+fn headless_orbit_writes_frames_and_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(
+        &[
+            "view", CITY, "--frames", "2", "--out", "out", "--size", "64x48", "--method", "exact",
+            "--json",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    for f in ["frame_0000.png", "frame_0001.png"] {
+        let img = image::open(dir.path().join("out").join(f)).unwrap();
+        assert_eq!((img.width(), img.height()), (64, 48));
+    }
+    assert!(!dir.path().join("out/frame_0002.png").exists());
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("out/frames.json")).unwrap())
+            .unwrap();
+    let frames = json["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 2);
+    assert!(frames.iter().all(|f| f["method"] == "exact"));
+    // The printed summary is the same report.
+    let printed: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(printed["popping"], json["popping"]);
+}
+
+#[test]
+fn pvs_file_drives_the_pvs_method_along_a_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let bake = sightline(
+        &[
+            "pvs",
+            "bake",
+            CITY,
+            "--grid",
+            "2,2,1",
+            "--bounds=-150,-150,1,140,140,4",
+            "--method",
+            "rand",
+            "--rays",
+            "20000",
+            "-o",
+            "city.pvs",
+        ],
+        dir.path(),
+    );
+    assert!(bake.status.success(), "{}", stderr(&bake));
+    std::fs::write(
+        dir.path().join("path.json"),
+        r#"{"frames": [{"eye": [-100, -100, 2], "look": [100, -100, 10]},
+                       {"eye": [100, 100, 2], "look": [200, 100, 10]}]}"#,
+    )
+    .unwrap();
+    let o = sightline(
+        &[
+            "view",
+            CITY,
+            "--pvs",
+            "city.pvs",
+            "--path",
+            "path.json",
+            "--frames",
+            "3",
+            "--out",
+            "out",
+            "--size",
+            "80x60",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("out/frames.json")).unwrap())
+            .unwrap();
+    let frames = json["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 3);
+    // First and last frame are in opposite cells of the 2x2 grid; the PVS culls.
+    assert_eq!(frames[0]["method"], "pvs");
+    assert!(frames[0]["cell"].is_u64() && frames[2]["cell"].is_u64());
+    assert_ne!(frames[0]["cell"], frames[2]["cell"]);
+    for f in frames {
+        assert!(f["triangles_drawn"].as_u64() < f["triangles_total"].as_u64());
+    }
+}
+
+#[test]
+fn bad_arguments_are_clean_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(
+        &[
+            "view", CITY, "--method", "pvs", "--frames", "1", "--out", "o",
+        ],
+        dir.path(),
+    );
+    assert_fails_with(&o, "--method pvs needs --pvs");
+    let o = sightline(
+        &[
+            "view", CITY, "--method", "magic", "--frames", "1", "--out", "o",
+        ],
+        dir.path(),
+    );
+    assert_fails_with(&o, "unknown method \"magic\"");
+    std::fs::write(dir.path().join("bad.json"), "{\"frames\": []}").unwrap();
+    let o = sightline(
+        &[
+            "view", CITY, "--path", "bad.json", "--frames", "1", "--out", "o",
+        ],
+        dir.path(),
+    );
+    assert_fails_with(&o, "bad.json");
+    std::fs::write(dir.path().join("x.pvs"), b"not a pvs").unwrap();
+    let o = sightline(
+        &[
+            "view", CITY, "--pvs", "x.pvs", "--frames", "1", "--out", "o",
+        ],
+        dir.path(),
+    );
+    assert_fails_with(&o, "x.pvs");
+    // --frames without --out is refused by the argument parser.
+    let o = sightline(&["view", CITY, "--frames", "1"], dir.path());
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--out"), "{}", stderr(&o));
+}
+
+#[test]
+fn window_without_a_display_is_a_clean_error_pointing_to_headless_mode() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_sightline"))
+        .args(["view", CITY])
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("WAYLAND_SOCKET")
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert_fails_with(&o, "--frames N --out DIR");
+    assert!(stderr(&o).contains("DISPLAY"), "{}", stderr(&o));
+}

@@ -1,0 +1,293 @@
+//! The interactive window (`winit` + `wgpu` on Vulkan): a fly camera over the scene, the
+//! method chosen with the number keys, the popping counter in the window title.
+//!
+//! Controls: W/A/S/D move, E/Q up/down, hold the right (or left) mouse button and move the
+//! mouse to look around, scroll to change the speed, 1..4 choose the method (none, pvs,
+//! occlusion, exact), X toggles x-ray, P toggles the popping marks, C the cell wireframe,
+//! Escape quits. The title shows the method, the current cell, triangles drawn and the popping
+//! pixels of the frame with their maximum and mean since the last method change.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use sightline_gpu::{check_vulkan, pick_adapter};
+use winit::application::ApplicationHandler;
+use winit::dpi::PhysicalSize;
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::keyboard::{KeyCode, PhysicalKey};
+use winit::window::{Window, WindowId};
+
+use crate::error::ViewError;
+use crate::fly_camera::{FlyCamera, Movement};
+use crate::renderer::Renderer;
+use crate::viewer::{Method, Viewer};
+
+/// Lens settings of the window's camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lens {
+    /// Vertical field of view in degrees.
+    pub fov_y_deg: f32,
+    /// Near-plane distance.
+    pub near: f32,
+}
+
+/// Everything that exists once the window is open.
+struct Open {
+    window: Arc<Window>,
+    surface: wgpu::Surface<'static>,
+    config: wgpu::SurfaceConfiguration,
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    renderer: Renderer,
+    adapter_name: String,
+}
+
+struct App {
+    viewer: Viewer,
+    camera: FlyCamera,
+    lens: Lens,
+    size: (u32, u32),
+    open: Option<Open>,
+    keys: Movement,
+    looking: bool,
+    /// The last cursor position in the window, in physical pixels.
+    cursor: Option<(f64, f64)>,
+    last: Instant,
+    error: Option<ViewError>,
+}
+
+/// Opens a `width x height` window on `viewer`'s scene with the camera `camera` and runs until
+/// it is closed. Needs a display (X11 or Wayland) and a Vulkan driver.
+pub fn run_window(
+    viewer: Viewer,
+    camera: FlyCamera,
+    lens: Lens,
+    width: u32,
+    height: u32,
+) -> Result<(), ViewError> {
+    let event_loop = EventLoop::new().map_err(|e| ViewError::Window(e.to_string()))?;
+    event_loop.set_control_flow(ControlFlow::Poll);
+    let mut app = App {
+        viewer,
+        camera,
+        lens,
+        size: (width.max(1), height.max(1)),
+        open: None,
+        keys: Movement::default(),
+        looking: false,
+        cursor: None,
+        last: Instant::now(),
+        error: None,
+    };
+    event_loop
+        .run_app(&mut app)
+        .map_err(|e| ViewError::Window(e.to_string()))?;
+    match app.error {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+impl App {
+    fn open(&mut self, event_loop: &ActiveEventLoop) -> Result<Open, ViewError> {
+        let window = event_loop
+            .create_window(
+                Window::default_attributes()
+                    .with_title("sightline view")
+                    .with_inner_size(PhysicalSize::new(self.size.0, self.size.1)),
+            )
+            .map_err(|e| ViewError::Window(e.to_string()))?;
+        let window = Arc::new(window);
+        // Vulkan only, as in sightline-gpu.
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::VULKAN;
+        let instance = wgpu::Instance::new(desc);
+        let surface = instance
+            .create_surface(window.clone())
+            .map_err(|e| ViewError::Window(format!("creating a Vulkan surface: {e}")))?;
+        // The Vulkan adapters that can present to the window, chosen as sightline-gpu chooses.
+        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN))
+            .into_iter()
+            .filter(|a| a.is_surface_supported(&surface))
+            .collect();
+        let adapter = pick_adapter(adapters).ok_or(sightline_gpu::GpuError::NoVulkanAdapter)?;
+        let info = adapter.get_info();
+        check_vulkan(&info)?;
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("sightline-view"),
+            ..Default::default()
+        }))
+        .map_err(sightline_gpu::GpuError::from)?;
+        let inner = window.inner_size();
+        let (w, h) = (inner.width.max(1), inner.height.max(1));
+        let mut config = surface.get_default_config(&adapter, w, h).ok_or_else(|| {
+            ViewError::Window("the surface is not supported by the adapter".into())
+        })?;
+        // The resolve shader writes display values: prefer a non-sRGB format.
+        let caps = surface.get_capabilities(&adapter);
+        if let Some(f) = caps.formats.iter().find(|f| !f.is_srgb()) {
+            config.format = *f;
+        }
+        config.present_mode = wgpu::PresentMode::AutoVsync;
+        surface.configure(&device, &config);
+        let renderer = Renderer::new(&device, &queue, self.viewer.scene(), config.format, w, h)?;
+        Ok(Open {
+            window,
+            surface,
+            config,
+            device,
+            queue,
+            renderer,
+            adapter_name: info.name,
+        })
+    }
+
+    fn redraw(&mut self) -> Result<(), ViewError> {
+        let now = Instant::now();
+        let dt = (now - self.last).as_secs_f32().min(0.25);
+        self.last = now;
+        self.camera.update(&self.keys, dt);
+        let Some(open) = &mut self.open else {
+            return Ok(());
+        };
+        let frame = match open.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(t)
+            | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
+            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+                open.surface.configure(&open.device, &open.config);
+                return Ok(());
+            }
+            _ => return Ok(()),
+        };
+        let view = frame.texture.create_view(&Default::default());
+        let camera = self.camera.camera(
+            self.lens.fov_y_deg,
+            open.config.width,
+            open.config.height,
+            self.lens.near,
+        )?;
+        let record = self.viewer.frame(&mut open.renderer, &camera, &view)?;
+        open.window.pre_present_notify();
+        open.queue.present(frame);
+        let fps = if dt > 0.0 { 1.0 / dt } else { 0.0 };
+        open.window.set_title(&format!(
+            "sightline view | {} | {:.0} fps | speed {:.3} | {}",
+            self.viewer.status(&record),
+            fps,
+            self.camera.speed,
+            open.adapter_name
+        ));
+        Ok(())
+    }
+
+    fn key(&mut self, code: KeyCode, pressed: bool, event_loop: &ActiveEventLoop) {
+        let k = &mut self.keys;
+        match code {
+            KeyCode::KeyW => k.forward = pressed,
+            KeyCode::KeyS => k.back = pressed,
+            KeyCode::KeyA => k.left = pressed,
+            KeyCode::KeyD => k.right = pressed,
+            KeyCode::KeyE => k.up = pressed,
+            KeyCode::KeyQ => k.down = pressed,
+            _ if !pressed => {}
+            KeyCode::Escape => event_loop.exit(),
+            KeyCode::KeyX => self.viewer.shading.xray = !self.viewer.shading.xray,
+            KeyCode::KeyP => {
+                self.viewer.shading.mark_popping = !self.viewer.shading.mark_popping;
+            }
+            KeyCode::KeyC => self.viewer.show_cells = !self.viewer.show_cells,
+            KeyCode::Digit1 | KeyCode::Digit2 | KeyCode::Digit3 | KeyCode::Digit4 => {
+                let n = match code {
+                    KeyCode::Digit1 => 1,
+                    KeyCode::Digit2 => 2,
+                    KeyCode::Digit3 => 3,
+                    _ => 4,
+                };
+                if let Some(m) = Method::from_key(n) {
+                    self.viewer.set_method(m);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn fail(&mut self, event_loop: &ActiveEventLoop, e: ViewError) {
+        self.error = Some(e);
+        event_loop.exit();
+    }
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.open.is_some() {
+            return;
+        }
+        match self.open(event_loop) {
+            Ok(open) => {
+                open.window.request_redraw();
+                self.open = Some(open);
+                self.last = Instant::now();
+            }
+            Err(e) => self.fail(event_loop, e),
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _: WindowId, event: WindowEvent) {
+        match event {
+            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::Resized(size) => {
+                if let Some(open) = &mut self.open {
+                    let (w, h) = (size.width.max(1), size.height.max(1));
+                    open.config.width = w;
+                    open.config.height = h;
+                    open.surface.configure(&open.device, &open.config);
+                    open.renderer.resize(w, h);
+                }
+            }
+            WindowEvent::KeyboardInput { event, .. } => {
+                if let PhysicalKey::Code(code) = event.physical_key {
+                    self.key(code, event.state == ElementState::Pressed, event_loop);
+                }
+            }
+            // Mouse look from cursor positions while a button is held (a drag), rather than
+            // raw device motion: it works the same on X11, Wayland, Xvfb and remote displays.
+            WindowEvent::CursorMoved { position, .. } => {
+                let p = (position.x, position.y);
+                if let (true, Some(last)) = (self.looking, self.cursor) {
+                    self.camera
+                        .rotate((p.0 - last.0) as f32, (p.1 - last.1) as f32);
+                }
+                self.cursor = Some(p);
+            }
+            WindowEvent::MouseInput { state, button, .. } => {
+                if matches!(button, MouseButton::Right | MouseButton::Left) {
+                    self.looking = state == ElementState::Pressed;
+                }
+            }
+            WindowEvent::MouseWheel { delta, .. } => {
+                let steps = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y,
+                    MouseScrollDelta::PixelDelta(p) => (p.y / 40.0) as f32,
+                };
+                self.camera.scroll(steps);
+            }
+            WindowEvent::Focused(false) => {
+                self.keys = Movement::default();
+                self.looking = false;
+            }
+            WindowEvent::RedrawRequested => {
+                if let Err(e) = self.redraw() {
+                    self.fail(event_loop, e);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn about_to_wait(&mut self, _: &ActiveEventLoop) {
+        if let Some(open) = &self.open {
+            open.window.request_redraw();
+        }
+    }
+}
