@@ -30,7 +30,8 @@ use crate::viewcell::ViewCell;
 pub const MAGIC: [u8; 8] = *b"SLPVS\r\n\x1a";
 /// The format version this code writes and reads.
 pub const VERSION: u32 = 1;
-const CELL_RECORD_BYTES: usize = 76;
+/// Bytes of one cell record in the table (beside its payload).
+pub const CELL_RECORD_BYTES: usize = 76;
 const ENCODING_DELTA_VARINT: u8 = 0;
 const ENCODING_BITSET: u8 = 1;
 /// Refuse metadata blobs beyond this size: a corrupted length must not allocate gigabytes.
@@ -140,60 +141,22 @@ impl PvsFile {
     /// Serialises the file.
     pub fn write(&self, w: &mut impl Write) -> Result<(), PvsError> {
         let n = self.triangle_count as usize;
-        let metadata = serde_json::to_vec(&self.metadata)
-            .map_err(|e| PvsError::Invalid(format!("metadata: {e}")))?;
-        let mut header = Vec::with_capacity(40 + metadata.len());
-        header.extend_from_slice(&MAGIC);
-        header.extend_from_slice(&VERSION.to_le_bytes());
-        header.extend_from_slice(&0u32.to_le_bytes());
-        header.extend_from_slice(&self.scene_hash.to_le_bytes());
-        header.extend_from_slice(&self.triangle_count.to_le_bytes());
-        header.extend_from_slice(&(self.cells.len() as u32).to_le_bytes());
-        header.extend_from_slice(&(metadata.len() as u32).to_le_bytes());
-        header.extend_from_slice(&metadata);
-        header.extend_from_slice(&crc32fast::hash(&header).to_le_bytes());
-
-        let mut records = Vec::with_capacity(self.cells.len() * CELL_RECORD_BYTES);
-        let mut payloads = Vec::new();
+        let mut cells = Vec::with_capacity(self.cells.len());
         for (i, c) in self.cells.iter().enumerate() {
             if c.visible.ones().any(|id| id >= n) {
                 return Err(PvsError::Invalid(format!(
                     "cell {i} names a triangle id >= the scene's {n} triangles"
                 )));
             }
-            let (encoding, payload) = encode_set(&c.visible, n);
-            let mut record = Vec::with_capacity(CELL_RECORD_BYTES);
-            let floats = [
-                c.cell.center,
-                c.cell.axes[0],
-                c.cell.axes[1],
-                c.cell.axes[2],
-            ]
-            .into_iter()
-            .chain([c.cell.half_extents])
-            .flat_map(|v| v.to_array());
-            for f in floats {
-                record.extend_from_slice(&f.to_le_bytes());
-            }
-            record.push(encoding);
-            record.extend_from_slice(&[0; 3]);
-            record.extend_from_slice(&(c.visible.count_ones(..) as u32).to_le_bytes());
-            record.extend_from_slice(&(payload.len() as u32).to_le_bytes());
-            let mut crc = crc32fast::Hasher::new();
-            crc.update(&record);
-            crc.update(&payload);
-            record.extend_from_slice(&crc.finalize().to_le_bytes());
-            records.extend_from_slice(&record);
-            payloads.extend_from_slice(&payload);
+            cells.push((c.cell, EncodedSet::encode(&c.visible, n)));
         }
-        let io = |source| PvsError::Io {
-            path: PathBuf::from("<stream>"),
-            source,
-        };
-        w.write_all(&header).map_err(io)?;
-        w.write_all(&records).map_err(io)?;
-        w.write_all(&payloads).map_err(io)?;
-        Ok(())
+        write_encoded(
+            w,
+            self.scene_hash,
+            self.triangle_count,
+            &self.metadata,
+            cells.iter().map(|(c, s)| (c, s)),
+        )
     }
 
     /// Writes the file to `path` atomically (an existing file is replaced only on success).
@@ -312,6 +275,121 @@ impl PvsFile {
             cells,
         })
     }
+}
+
+/// A set in its file encoding (the smaller of delta varints and bitset): how a bake keeps
+/// finished cells in memory, and what it writes without decoding them again.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct EncodedSet {
+    encoding: u8,
+    size: u32,
+    payload: Vec<u8>,
+}
+
+impl EncodedSet {
+    /// Encodes `set` for a scene of `n` triangles (ids must be below `n`).
+    pub fn encode(set: &TriangleSet, n: usize) -> Self {
+        let (encoding, payload) = encode_set(set, n);
+        Self {
+            encoding,
+            size: set.count_ones(..) as u32,
+            payload,
+        }
+    }
+
+    /// The set, with capacity `n`.
+    pub fn decode(&self, n: usize) -> Result<TriangleSet, String> {
+        decode_set(self.encoding, &self.payload, n)
+    }
+
+    /// Number of ids in the set.
+    pub fn len(&self) -> usize {
+        self.size as usize
+    }
+
+    /// True when the set is empty.
+    pub fn is_empty(&self) -> bool {
+        self.size == 0
+    }
+
+    /// Bytes of the encoded payload (what the set costs in memory and on disk, beyond the
+    /// fixed 76-byte record).
+    pub fn payload_bytes(&self) -> usize {
+        self.payload.len()
+    }
+}
+
+/// Writes a `.pvs` stream from already encoded sets, so a bake of thousands of cells never
+/// holds them all decoded. The caller guarantees every set was encoded for `triangle_count`.
+pub fn write_encoded<'a>(
+    w: &mut impl Write,
+    scene_hash: u64,
+    triangle_count: u32,
+    metadata: &serde_json::Value,
+    cells: impl ExactSizeIterator<Item = (&'a ViewCell, &'a EncodedSet)>,
+) -> Result<(), PvsError> {
+    let metadata =
+        serde_json::to_vec(metadata).map_err(|e| PvsError::Invalid(format!("metadata: {e}")))?;
+    let cell_count = cells.len();
+    let mut header = Vec::with_capacity(40 + metadata.len());
+    header.extend_from_slice(&MAGIC);
+    header.extend_from_slice(&VERSION.to_le_bytes());
+    header.extend_from_slice(&0u32.to_le_bytes());
+    header.extend_from_slice(&scene_hash.to_le_bytes());
+    header.extend_from_slice(&triangle_count.to_le_bytes());
+    header.extend_from_slice(&(cell_count as u32).to_le_bytes());
+    header.extend_from_slice(&(metadata.len() as u32).to_le_bytes());
+    header.extend_from_slice(&metadata);
+    header.extend_from_slice(&crc32fast::hash(&header).to_le_bytes());
+
+    let mut records = Vec::with_capacity(cell_count * CELL_RECORD_BYTES);
+    let mut payloads: Vec<&[u8]> = Vec::with_capacity(cell_count);
+    for (cell, set) in cells {
+        let mut record = Vec::with_capacity(CELL_RECORD_BYTES);
+        let floats = [cell.center, cell.axes[0], cell.axes[1], cell.axes[2]]
+            .into_iter()
+            .chain([cell.half_extents])
+            .flat_map(|v| v.to_array());
+        for f in floats {
+            record.extend_from_slice(&f.to_le_bytes());
+        }
+        record.push(set.encoding);
+        record.extend_from_slice(&[0; 3]);
+        record.extend_from_slice(&set.size.to_le_bytes());
+        record.extend_from_slice(&(set.payload.len() as u32).to_le_bytes());
+        let mut crc = crc32fast::Hasher::new();
+        crc.update(&record);
+        crc.update(&set.payload);
+        record.extend_from_slice(&crc.finalize().to_le_bytes());
+        records.extend_from_slice(&record);
+        payloads.push(&set.payload);
+    }
+    let io = |source| PvsError::Io {
+        path: PathBuf::from("<stream>"),
+        source,
+    };
+    w.write_all(&header).map_err(io)?;
+    w.write_all(&records).map_err(io)?;
+    for p in payloads {
+        w.write_all(p).map_err(io)?;
+    }
+    Ok(())
+}
+
+/// [`write_encoded`] to `path`, atomically (an existing file is replaced only on success).
+pub fn save_encoded<'a>(
+    path: &Path,
+    scene_hash: u64,
+    triangle_count: u32,
+    metadata: &serde_json::Value,
+    cells: impl ExactSizeIterator<Item = (&'a ViewCell, &'a EncodedSet)>,
+) -> Result<(), PvsError> {
+    let mut bytes = Vec::new();
+    write_encoded(&mut bytes, scene_hash, triangle_count, metadata, cells)?;
+    write_atomic(path, |w| w.write_all(&bytes)).map_err(|source| PvsError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 fn le4(b: &[u8]) -> [u8; 4] {
@@ -485,6 +563,31 @@ mod tests {
     fn round_trip_is_identical() {
         let f = sample_file();
         assert_eq!(PvsFile::read(&bytes_of(&f)).unwrap(), f);
+    }
+
+    #[test]
+    fn encoded_sets_write_the_same_bytes_and_decode_back() {
+        let f = sample_file();
+        let encoded: Vec<EncodedSet> = f
+            .cells
+            .iter()
+            .map(|c| EncodedSet::encode(&c.visible, 24))
+            .collect();
+        for (e, c) in encoded.iter().zip(&f.cells) {
+            assert_eq!(e.decode(24).unwrap(), c.visible);
+            assert_eq!(e.len(), c.visible.count_ones(..));
+            assert!(e.payload_bytes() <= 3);
+        }
+        let mut b = Vec::new();
+        write_encoded(
+            &mut b,
+            f.scene_hash,
+            f.triangle_count,
+            &f.metadata,
+            f.cells.iter().map(|c| &c.cell).zip(&encoded),
+        )
+        .unwrap();
+        assert_eq!(b, bytes_of(&f));
     }
 
     #[test]
