@@ -22,15 +22,16 @@
 //! not detected. Closed scenes (Quake 3 maps, indoor levels) have no such rays; for open
 //! scenes rebake fully after adding geometry that sticks out above everything else.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 
 use glam::Vec3;
 use rayon::prelude::*;
 use sightline_core::geometry::Aabb;
 use sightline_core::{Scene, TriangleSet};
 
+use crate::bake::BakedCell;
 use crate::hull_box::hull_intersects_box;
-use crate::pvs_file::PvsFile;
+use crate::pvs_file::{EncodedSet, PvsFile};
 
 /// Most boxes the added triangles are grouped into (more connected pieces are merged).
 pub const MAX_ADDED_BOXES: usize = 64;
@@ -208,6 +209,39 @@ pub fn plan(old: &Scene, new: &Scene, old_file: &PvsFile) -> RebakePlan {
         boxes,
         reasons,
         rebake,
+    }
+}
+
+impl RebakePlan {
+    /// The cells of `old_file` that need no rebake, their sets remapped to the new scene's
+    /// `new_triangles` ids, keyed by cell index; their statistics are the old ones with
+    /// `"kept": true` and `"rays": 0` (no ray was cast for them).
+    pub fn kept_cells(
+        &self,
+        old_file: &PvsFile,
+        new_triangles: usize,
+    ) -> BTreeMap<usize, BakedCell> {
+        let mut kept = BTreeMap::new();
+        for (i, c) in old_file.cells.iter().enumerate() {
+            if self.rebake[i] {
+                continue;
+            }
+            let set = self.matching.remap(&c.visible, new_triangles);
+            let mut stats = old_file.metadata["cells"][i].clone();
+            if stats.is_object() {
+                stats["kept"] = serde_json::json!(true);
+                stats["rays"] = serde_json::json!(0);
+            }
+            kept.insert(
+                i,
+                BakedCell {
+                    index: i,
+                    set: EncodedSet::encode(&set, new_triangles),
+                    stats,
+                },
+            );
+        }
+        kept
     }
 }
 

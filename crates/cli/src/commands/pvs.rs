@@ -15,7 +15,7 @@ use sightline_region::checkpoint::{checkpoint_path, fingerprint, ResumableBake};
 use sightline_region::incremental;
 use sightline_region::methods::{sampler, MethodParams, METHODS};
 use sightline_region::shards::{merge, Shard};
-use sightline_region::{Budget, EncodedSet, GvsPlusPlusParams, PvsFile, ViewCell};
+use sightline_region::{Budget, GvsPlusPlusParams, PvsFile, ViewCell};
 
 use crate::args::SceneArgs;
 use crate::output::print_json;
@@ -601,26 +601,7 @@ fn plan_incremental(
         );
     }
     let plan = incremental::plan(&old, scene, &old_file);
-    let mut kept = BTreeMap::new();
-    for (i, c) in old_file.cells.iter().enumerate() {
-        if plan.rebake[i] {
-            continue;
-        }
-        let set = plan.matching.remap(&c.visible, scene.triangle_count());
-        let mut stats = old_file.metadata["cells"][i].clone();
-        if stats.is_object() {
-            stats["kept"] = serde_json::json!(true);
-            stats["rays"] = serde_json::json!(0);
-        }
-        kept.insert(
-            i,
-            BakedCell {
-                index: i,
-                set: EncodedSet::encode(&set, scene.triangle_count()),
-                stats,
-            },
-        );
-    }
+    let kept = plan.kept_cells(&old_file, scene.triangle_count());
     Ok((
         kept,
         IncrementalReport {
