@@ -308,7 +308,9 @@ impl ResumableBake<'_> {
             },
         )?;
         let complete = self.indices.iter().all(|i| done.contains_key(i));
-        if !complete || last_write.is_some() {
+        // A complete bake goes straight to the output (see `write_output`); an incomplete one
+        // leaves everything it finished in the checkpoint.
+        if !complete && baked > 0 {
             self.save_checkpoint(&done)?;
         }
         Ok(BakeProgress {

@@ -148,6 +148,8 @@ pub fn merge(files: &[(PathBuf, PvsFile)], allow_partial: bool) -> Result<PvsFil
         .get("fingerprint")
         .ok_or_else(|| MergeError::NoFingerprint(first_path.clone()))?;
     let mut by_index: BTreeMap<usize, (usize, &CellPvs, &serde_json::Value)> = BTreeMap::new();
+    // Per-cell lists beside `cells` (Quake 3 leaf bakes' `clusters`), by global index.
+    let mut clusters: BTreeMap<usize, &serde_json::Value> = BTreeMap::new();
     let mut total = None;
     for (k, (path, file)) in files.iter().enumerate() {
         if file.scene_hash != first.scene_hash || file.triangle_count != first.triangle_count {
@@ -185,6 +187,9 @@ pub fn merge(files: &[(PathBuf, PvsFile)], allow_partial: bool) -> Result<PvsFil
                 });
             }
             by_index.insert(g, (k, cell, &file.metadata["cells"][j]));
+            if let Some(c) = file.metadata["clusters"].as_array().and_then(|c| c.get(j)) {
+                clusters.insert(g, c);
+            }
         }
     }
     let total = total.unwrap_or(0);
@@ -230,6 +235,18 @@ pub fn merge(files: &[(PathBuf, PvsFile)], allow_partial: bool) -> Result<PvsFil
                 .map(|(p, _)| p.display().to_string())
                 .collect::<Vec<_>>()),
         );
+        if !m.get("clusters").is_none_or(serde_json::Value::is_null) {
+            if clusters.len() != by_index.len() {
+                return Err(MergeError::BadIndices {
+                    path: first_path.clone(),
+                    what: "some files have no cluster per cell".into(),
+                });
+            }
+            m.insert(
+                "clusters".into(),
+                json!(clusters.into_values().collect::<Vec<_>>()),
+            );
+        }
         if by_index.len() != total {
             m.insert(
                 "cell_indices".into(),
@@ -248,6 +265,47 @@ pub fn merge(files: &[(PathBuf, PvsFile)], allow_partial: bool) -> Result<PvsFil
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn shard_file(indices: &[usize], clusters: &[u32]) -> PvsFile {
+        use crate::viewcell::ViewCell;
+        use glam::Vec3;
+        let cells = indices
+            .iter()
+            .map(|&i| CellPvs {
+                cell: ViewCell::aabb(Vec3::splat(i as f32), Vec3::splat(i as f32 + 1.0)).unwrap(),
+                visible: fixedbitset::FixedBitSet::with_capacity(4),
+            })
+            .collect();
+        PvsFile {
+            scene_hash: 7,
+            triangle_count: 4,
+            metadata: json!({
+                "fingerprint": {"seed": 1},
+                "total_cells": 4,
+                "cell_indices": indices,
+                "clusters": clusters,
+                "cells": indices.iter().map(|i| json!({"rays": i})).collect::<Vec<_>>(),
+            }),
+            cells,
+        }
+    }
+
+    #[test]
+    fn merge_puts_cells_and_their_clusters_in_global_order() {
+        let files = [
+            (PathBuf::from("b"), shard_file(&[1, 3], &[11, 13])),
+            (PathBuf::from("a"), shard_file(&[0, 2], &[10, 12])),
+        ];
+        let m = merge(&files, false).unwrap();
+        let firsts: Vec<f32> = m.cells.iter().map(|c| c.cell.center.x).collect();
+        assert_eq!(firsts, vec![0.5, 1.5, 2.5, 3.5]);
+        assert_eq!(m.metadata["clusters"], json!([10, 11, 12, 13]));
+        assert_eq!(m.metadata["total_rays"], 6);
+        assert!(m.metadata.get("cell_indices").is_none());
+        let partial = merge(&files[..1], true).unwrap();
+        assert_eq!(partial.metadata["cell_indices"], json!([1, 3]));
+        assert_eq!(partial.metadata["clusters"], json!([11, 13]));
+    }
 
     #[test]
     fn shard_specs_parse_and_partition() {

@@ -88,7 +88,8 @@ pub(crate) struct BakeArgs {
     /// cube maps.
     #[arg(long)]
     rays: Option<u64>,
-    /// Time budget per cell in milliseconds.
+    /// Time budget per cell in milliseconds (wall clock: cells bake in parallel and share the
+    /// cores; results under a time budget are not reproducible, use --rays for that).
     #[arg(long, value_name = "MS")]
     time: Option<u64>,
     /// Seed of every random choice (same seed, same result).
@@ -301,8 +302,10 @@ struct BakeSummary {
     seconds: f64,
     mean_pvs_size: f64,
     mean_pvs_percent: f64,
-    /// Encoded bytes of the finished sets per cell (memory and file payload).
+    /// Bytes per finished cell kept in memory while baking (encoded set and bookkeeping).
     memory_bytes_per_cell: f64,
+    /// Bytes per cell of the written file (including its metadata).
+    file_bytes_per_cell: f64,
 }
 
 fn method_params(args: &BakeArgs) -> MethodParams {
@@ -497,6 +500,8 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
         mean_pvs_size: mean,
         mean_pvs_percent: 100.0 * mean / n,
         memory_bytes_per_cell: progress.set_bytes() as f64 / sizes.len().max(1) as f64,
+        file_bytes_per_cell: std::fs::metadata(&args.output).map_or(0.0, |m| m.len() as f64)
+            / sizes.len().max(1) as f64,
     };
     if args.json {
         return print_json(&summary);
