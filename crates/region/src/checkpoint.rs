@@ -14,10 +14,9 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use serde_json::json;
-use sightline_core::Scene;
 
 use crate::bake::{bake_cells, bake_metadata, BakeSetup, BakedCell};
-use crate::pvs_file::{save_encoded, EncodedSet, PvsError, PvsFile};
+use crate::pvs_file::{save_encoded, EncodedPvsFile, PvsError};
 use crate::sampler::{CellResult, ConvergencePoint};
 use crate::viewcell::ViewCell;
 
@@ -202,7 +201,7 @@ impl ResumableBake<'_> {
             path: path.clone(),
             what: what.into(),
         };
-        let file = PvsFile::load(path)?;
+        let file = EncodedPvsFile::load(path)?;
         if file.metadata["checkpoint"] != 1 {
             return Err(not("no checkpoint marker in its metadata"));
         }
@@ -229,18 +228,22 @@ impl ResumableBake<'_> {
         if indices.len() != file.cells.len() || stats.len() != file.cells.len() {
             return Err(not("cell_indices or cells do not match its cells"));
         }
-        let n = self.setup.scene.triangle_count();
-        for ((i, s), c) in indices.iter().zip(stats).zip(file.cells) {
+        if file.scene_hash != self.setup.scene.geometry_hash()
+            || file.triangle_count as usize != self.setup.scene.triangle_count()
+        {
+            return Err(not("it indexes another scene"));
+        }
+        for ((i, s), (cell, set)) in indices.iter().zip(stats).zip(file.cells) {
             let index = i
                 .as_u64()
                 .map(|i| i as usize)
-                .filter(|i| self.setup.cells.get(*i) == Some(&c.cell))
+                .filter(|i| self.setup.cells.get(*i) == Some(&cell))
                 .ok_or_else(|| not("a cell index does not name its cell"))?;
             out.insert(
                 index,
                 BakedCell {
                     index,
-                    set: EncodedSet::encode(&c.visible, n),
+                    set,
                     stats: s.clone(),
                 },
             );
@@ -379,21 +382,6 @@ impl ResumableBake<'_> {
         }
         Ok(())
     }
-}
-
-/// Encodes the cells of a loaded file as finished cells with global indices `indices`.
-pub fn baked_cells_of(file: &PvsFile, indices: &[usize], scene: &Scene) -> Vec<BakedCell> {
-    let n = scene.triangle_count();
-    file.cells
-        .iter()
-        .zip(indices)
-        .enumerate()
-        .map(|(k, (c, &index))| BakedCell {
-            index,
-            set: EncodedSet::encode(&c.visible, n),
-            stats: file.metadata["cells"][k].clone(),
-        })
-        .collect()
 }
 
 #[cfg(test)]

@@ -180,94 +180,10 @@ impl PvsFile {
 
     /// Parses a file from its bytes.
     pub fn read(bytes: &[u8]) -> Result<Self, PvsError> {
-        let mut r = Reader { bytes, pos: 0 };
-        if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
-            return Err(PvsError::BadMagic);
-        }
-        r.pos = MAGIC.len();
-        let version = r.u32("version")?;
-        if version != VERSION {
-            return Err(PvsError::UnsupportedVersion(version));
-        }
-        let _flags = r.u32("flags")?;
-        let scene_hash = r.u64("scene hash")?;
-        let triangle_count = r.u32("triangle count")?;
-        let cell_count = r.u32("cell count")? as usize;
-        let metadata_len = r.u32("metadata length")? as usize;
-        if metadata_len > MAX_METADATA_BYTES {
-            return Err(PvsError::Corrupt {
-                offset: r.pos - 4,
-                what: format!("metadata length {metadata_len} is implausible"),
-            });
-        }
-        let metadata_bytes = r.take(metadata_len, "metadata")?;
-        let header_end = r.pos;
-        let header_crc = r.u32("header checksum")?;
-        if crc32fast::hash(&bytes[..header_end]) != header_crc {
-            return Err(PvsError::Corrupt {
-                offset: header_end,
-                what: "header checksum".into(),
-            });
-        }
-        let metadata = serde_json::from_slice(metadata_bytes).map_err(|e| PvsError::Corrupt {
-            offset: header_end - metadata_len,
-            what: format!("metadata is not JSON: {e}"),
+        let mut cells = Vec::new();
+        let (scene_hash, triangle_count, metadata) = parse(bytes, &mut |cell, _, visible| {
+            cells.push(CellPvs { cell, visible })
         })?;
-        let table_start = r.pos;
-        let table_len = cell_count
-            .checked_mul(CELL_RECORD_BYTES)
-            .ok_or(PvsError::Corrupt {
-                offset: table_start,
-                what: "cell count overflows".into(),
-            })?;
-        let table = r.take(table_len, "view-cell table")?;
-        let n = triangle_count as usize;
-        let mut cells = Vec::with_capacity(cell_count);
-        for i in 0..cell_count {
-            let record = &table[i * CELL_RECORD_BYTES..(i + 1) * CELL_RECORD_BYTES];
-            let record_offset = table_start + i * CELL_RECORD_BYTES;
-            let f = |k: usize| f32::from_le_bytes(le4(&record[4 * k..]));
-            let v = |k: usize| Vec3::new(f(k), f(k + 1), f(k + 2));
-            let encoding = record[60];
-            let size = u32::from_le_bytes(le4(&record[64..])) as usize;
-            let payload_len = u32::from_le_bytes(le4(&record[68..])) as usize;
-            let crc = u32::from_le_bytes(le4(&record[72..]));
-            let payload_offset = r.pos;
-            let payload = r.take(payload_len, &format!("payload of cell {i}"))?;
-            let mut hasher = crc32fast::Hasher::new();
-            hasher.update(&record[..72]);
-            hasher.update(payload);
-            if hasher.finalize() != crc {
-                return Err(PvsError::Corrupt {
-                    offset: record_offset,
-                    what: format!("checksum of cell {i}"),
-                });
-            }
-            let corrupt = |what: String| PvsError::Corrupt {
-                offset: payload_offset,
-                what,
-            };
-            let visible =
-                decode_set(encoding, payload, n).map_err(|e| corrupt(format!("cell {i}: {e}")))?;
-            if visible.count_ones(..) != size {
-                return Err(corrupt(format!(
-                    "cell {i}: set size does not match its record"
-                )));
-            }
-            let cell = ViewCell::oriented(v(0), [v(3), v(6), v(9)], v(12)).map_err(|e| {
-                PvsError::Corrupt {
-                    offset: record_offset,
-                    what: format!("cell {i}: {e}"),
-                }
-            })?;
-            cells.push(CellPvs { cell, visible });
-        }
-        if r.pos != bytes.len() {
-            return Err(PvsError::Corrupt {
-                offset: r.pos,
-                what: format!("{} unexpected trailing bytes", bytes.len() - r.pos),
-            });
-        }
         Ok(Self {
             scene_hash,
             triangle_count,
@@ -275,6 +191,155 @@ impl PvsFile {
             cells,
         })
     }
+}
+
+/// A `.pvs` file with its sets left encoded: what tools handling many cells of large scenes
+/// (checkpoints, merges) read, so the sets are never all decoded at once.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EncodedPvsFile {
+    /// [`Scene::geometry_hash`] of the scene the sets index.
+    pub scene_hash: u64,
+    /// Triangle count of that scene.
+    pub triangle_count: u32,
+    /// Free-form JSON metadata.
+    pub metadata: serde_json::Value,
+    /// One entry per view cell.
+    pub cells: Vec<(ViewCell, EncodedSet)>,
+}
+
+impl EncodedPvsFile {
+    /// Parses and fully checks a file (every set is decoded once to validate it).
+    pub fn read(bytes: &[u8]) -> Result<Self, PvsError> {
+        let mut cells = Vec::new();
+        let (scene_hash, triangle_count, metadata) =
+            parse(bytes, &mut |cell, set, _| cells.push((cell, set)))?;
+        Ok(Self {
+            scene_hash,
+            triangle_count,
+            metadata,
+            cells,
+        })
+    }
+
+    /// Reads a file from `path`.
+    pub fn load(path: &Path) -> Result<Self, PvsError> {
+        let bytes = std::fs::read(path).map_err(|source| PvsError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::read(&bytes)
+    }
+
+    /// Writes the file to `path` atomically.
+    pub fn save(&self, path: &Path) -> Result<(), PvsError> {
+        save_encoded(
+            path,
+            self.scene_hash,
+            self.triangle_count,
+            &self.metadata,
+            self.cells.iter().map(|(c, s)| (c, s)),
+        )
+    }
+}
+
+/// Parses and checks a `.pvs` file, handing every cell to `keep` (its cell, encoded set and
+/// decoded set); returns the scene hash, triangle count and metadata.
+fn parse(
+    bytes: &[u8],
+    keep: &mut dyn FnMut(ViewCell, EncodedSet, TriangleSet),
+) -> Result<(u64, u32, serde_json::Value), PvsError> {
+    let mut r = Reader { bytes, pos: 0 };
+    if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
+        return Err(PvsError::BadMagic);
+    }
+    r.pos = MAGIC.len();
+    let version = r.u32("version")?;
+    if version != VERSION {
+        return Err(PvsError::UnsupportedVersion(version));
+    }
+    let _flags = r.u32("flags")?;
+    let scene_hash = r.u64("scene hash")?;
+    let triangle_count = r.u32("triangle count")?;
+    let cell_count = r.u32("cell count")? as usize;
+    let metadata_len = r.u32("metadata length")? as usize;
+    if metadata_len > MAX_METADATA_BYTES {
+        return Err(PvsError::Corrupt {
+            offset: r.pos - 4,
+            what: format!("metadata length {metadata_len} is implausible"),
+        });
+    }
+    let metadata_bytes = r.take(metadata_len, "metadata")?;
+    let header_end = r.pos;
+    let header_crc = r.u32("header checksum")?;
+    if crc32fast::hash(&bytes[..header_end]) != header_crc {
+        return Err(PvsError::Corrupt {
+            offset: header_end,
+            what: "header checksum".into(),
+        });
+    }
+    let metadata = serde_json::from_slice(metadata_bytes).map_err(|e| PvsError::Corrupt {
+        offset: header_end - metadata_len,
+        what: format!("metadata is not JSON: {e}"),
+    })?;
+    let table_start = r.pos;
+    let table_len = cell_count
+        .checked_mul(CELL_RECORD_BYTES)
+        .ok_or(PvsError::Corrupt {
+            offset: table_start,
+            what: "cell count overflows".into(),
+        })?;
+    let table = r.take(table_len, "view-cell table")?;
+    let n = triangle_count as usize;
+    for i in 0..cell_count {
+        let record = &table[i * CELL_RECORD_BYTES..(i + 1) * CELL_RECORD_BYTES];
+        let record_offset = table_start + i * CELL_RECORD_BYTES;
+        let f = |k: usize| f32::from_le_bytes(le4(&record[4 * k..]));
+        let v = |k: usize| Vec3::new(f(k), f(k + 1), f(k + 2));
+        let encoding = record[60];
+        let size = u32::from_le_bytes(le4(&record[64..])) as usize;
+        let payload_len = u32::from_le_bytes(le4(&record[68..])) as usize;
+        let crc = u32::from_le_bytes(le4(&record[72..]));
+        let payload_offset = r.pos;
+        let payload = r.take(payload_len, &format!("payload of cell {i}"))?;
+        let mut hasher = crc32fast::Hasher::new();
+        hasher.update(&record[..72]);
+        hasher.update(payload);
+        if hasher.finalize() != crc {
+            return Err(PvsError::Corrupt {
+                offset: record_offset,
+                what: format!("checksum of cell {i}"),
+            });
+        }
+        let corrupt = |what: String| PvsError::Corrupt {
+            offset: payload_offset,
+            what,
+        };
+        let visible =
+            decode_set(encoding, payload, n).map_err(|e| corrupt(format!("cell {i}: {e}")))?;
+        if visible.count_ones(..) != size {
+            return Err(corrupt(format!(
+                "cell {i}: set size does not match its record"
+            )));
+        }
+        let cell =
+            ViewCell::oriented(v(0), [v(3), v(6), v(9)], v(12)).map_err(|e| PvsError::Corrupt {
+                offset: record_offset,
+                what: format!("cell {i}: {e}"),
+            })?;
+        let encoded = EncodedSet {
+            encoding,
+            size: size as u32,
+            payload: payload.to_vec(),
+        };
+        keep(cell, encoded, visible);
+    }
+    if r.pos != bytes.len() {
+        return Err(PvsError::Corrupt {
+            offset: r.pos,
+            what: format!("{} unexpected trailing bytes", bytes.len() - r.pos),
+        });
+    }
+    Ok((scene_hash, triangle_count, metadata))
 }
 
 /// A set in its file encoding (the smaller of delta varints and bitset): how a bake keeps

@@ -12,7 +12,8 @@ use std::path::{Path, PathBuf};
 use serde_json::json;
 
 use crate::checkpoint::fingerprint_differences;
-use crate::pvs_file::{CellPvs, PvsFile};
+use crate::pvs_file::{EncodedPvsFile, EncodedSet};
+use crate::viewcell::ViewCell;
 
 /// A shard `index / count`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -110,7 +111,7 @@ pub enum MergeError {
 }
 
 /// The global index of each cell of `file` (all cells in order for an unsharded file).
-fn cell_indices(path: &Path, file: &PvsFile) -> Result<(Vec<usize>, usize), MergeError> {
+fn cell_indices(path: &Path, file: &EncodedPvsFile) -> Result<(Vec<usize>, usize), MergeError> {
     let bad = |what: &str| MergeError::BadIndices {
         path: path.to_path_buf(),
         what: what.into(),
@@ -141,13 +142,18 @@ fn cell_indices(path: &Path, file: &PvsFile) -> Result<(Vec<usize>, usize), Merg
 /// Merges shard files (path and contents) into one file with the cells in global order.
 /// Refuses different scenes or bakes, overlapping shards and, unless `allow_partial`, missing
 /// cells (a partial merge records `cell_indices`).
-pub fn merge(files: &[(PathBuf, PvsFile)], allow_partial: bool) -> Result<PvsFile, MergeError> {
+pub fn merge(
+    files: &[(PathBuf, EncodedPvsFile)],
+    allow_partial: bool,
+) -> Result<EncodedPvsFile, MergeError> {
     let (first_path, first) = files.first().ok_or(MergeError::Empty)?;
     let fp = first
         .metadata
         .get("fingerprint")
         .ok_or_else(|| MergeError::NoFingerprint(first_path.clone()))?;
-    let mut by_index: BTreeMap<usize, (usize, &CellPvs, &serde_json::Value)> = BTreeMap::new();
+    #[allow(clippy::type_complexity)]
+    let mut by_index: BTreeMap<usize, (usize, &(ViewCell, EncodedSet), &serde_json::Value)> =
+        BTreeMap::new();
     // Per-cell lists beside `cells` (Quake 3 leaf bakes' `clusters`), by global index.
     let mut clusters: BTreeMap<usize, &serde_json::Value> = BTreeMap::new();
     let mut total = None;
@@ -254,7 +260,7 @@ pub fn merge(files: &[(PathBuf, PvsFile)], allow_partial: bool) -> Result<PvsFil
             );
         }
     }
-    Ok(PvsFile {
+    Ok(EncodedPvsFile {
         scene_hash: first.scene_hash,
         triangle_count: first.triangle_count,
         metadata,
@@ -266,17 +272,18 @@ pub fn merge(files: &[(PathBuf, PvsFile)], allow_partial: bool) -> Result<PvsFil
 mod tests {
     use super::*;
 
-    fn shard_file(indices: &[usize], clusters: &[u32]) -> PvsFile {
-        use crate::viewcell::ViewCell;
+    fn shard_file(indices: &[usize], clusters: &[u32]) -> EncodedPvsFile {
         use glam::Vec3;
         let cells = indices
             .iter()
-            .map(|&i| CellPvs {
-                cell: ViewCell::aabb(Vec3::splat(i as f32), Vec3::splat(i as f32 + 1.0)).unwrap(),
-                visible: fixedbitset::FixedBitSet::with_capacity(4),
+            .map(|&i| {
+                (
+                    ViewCell::aabb(Vec3::splat(i as f32), Vec3::splat(i as f32 + 1.0)).unwrap(),
+                    EncodedSet::encode(&fixedbitset::FixedBitSet::with_capacity(4), 4),
+                )
             })
             .collect();
-        PvsFile {
+        EncodedPvsFile {
             scene_hash: 7,
             triangle_count: 4,
             metadata: json!({
@@ -297,7 +304,7 @@ mod tests {
             (PathBuf::from("a"), shard_file(&[0, 2], &[10, 12])),
         ];
         let m = merge(&files, false).unwrap();
-        let firsts: Vec<f32> = m.cells.iter().map(|c| c.cell.center.x).collect();
+        let firsts: Vec<f32> = m.cells.iter().map(|c| c.0.center.x).collect();
         assert_eq!(firsts, vec![0.5, 1.5, 2.5, 3.5]);
         assert_eq!(m.metadata["clusters"], json!([10, 11, 12, 13]));
         assert_eq!(m.metadata["total_rays"], 6);

@@ -15,6 +15,7 @@ use sightline_core::{Scene, UpAxis};
 use sightline_region::bake::{BakeSetup, BakedCell};
 use sightline_region::checkpoint::{checkpoint_path, fingerprint, BakeError, ResumableBake};
 use sightline_region::incremental;
+use sightline_region::pvs_file::EncodedPvsFile;
 use sightline_region::shards::{merge, MergeError, Shard};
 use sightline_region::{Budget, GvsPlusPlus, GvsPlusPlusParams, PvsFile, RandomSampler, ViewCell};
 
@@ -201,11 +202,13 @@ fn shards_merge_into_the_unsharded_bake_and_bad_merges_are_refused() {
             bake_to(&job, &path)
         });
         assert_eq!(f.metadata["total_cells"], 8);
-        shards.push((path, f));
+        shards.push((path.clone(), EncodedPvsFile::load(&path).unwrap()));
     }
     // Merge order does not matter.
     shards.reverse();
-    let merged = merge(&shards, false).unwrap();
+    let merged_path = dir.path().join("merged.pvs");
+    merge(&shards, false).unwrap().save(&merged_path).unwrap();
+    let merged = PvsFile::load(&merged_path).unwrap();
     assert_eq!(merged.cells, full.cells);
     assert_eq!(sets(&merged), sets(&full));
     assert!(merged.metadata.get("cell_indices").is_none());
@@ -218,13 +221,14 @@ fn shards_merge_into_the_unsharded_bake_and_bad_merges_are_refused() {
         merge(&overlapping, false),
         Err(MergeError::Overlap { .. })
     ));
-    let other_seed = with_job(&scene, &cells, 3, 20_000, |mut job| {
+    let other = dir.path().join("other.pvs");
+    with_job(&scene, &cells, 3, 20_000, |mut job| {
         job.indices = vec![0, 3, 6];
-        bake_to(&job, &dir.path().join("other.pvs"))
+        bake_to(&job, &other)
     });
     let mixed = [
         shards[0].clone(),
-        (dir.path().join("other.pvs"), other_seed),
+        (other.clone(), EncodedPvsFile::load(&other).unwrap()),
     ];
     let e = merge(&mixed, true).unwrap_err();
     assert!(e.to_string().contains("seed"), "{e}");

@@ -14,6 +14,7 @@ use sightline_region::cell_sources::{inside_solid, q3_leaf_cells, read_cells_fil
 use sightline_region::checkpoint::{checkpoint_path, fingerprint, ResumableBake};
 use sightline_region::incremental;
 use sightline_region::methods::{sampler, MethodParams, METHODS};
+use sightline_region::pvs_file::EncodedPvsFile;
 use sightline_region::shards::{merge, Shard};
 use sightline_region::{Budget, GvsPlusPlusParams, PvsFile, ViewCell};
 
@@ -631,7 +632,7 @@ struct MergeSummary {
 fn run_merge(args: MergeArgs) -> Result<()> {
     let mut files = Vec::with_capacity(args.files.len());
     for p in &args.files {
-        let f = PvsFile::load(p).with_context(|| format!("reading {}", p.display()))?;
+        let f = EncodedPvsFile::load(p).with_context(|| format!("reading {}", p.display()))?;
         files.push((p.clone(), f));
     }
     let merged = merge(&files, args.allow_partial)?;
