@@ -247,3 +247,56 @@ fn since_rebakes_only_cells_that_can_see_the_edit() {
     );
     assert_fails_with(&o, "seed");
 }
+
+#[test]
+fn q3_cluster_cells_shard_and_merge_keep_their_clusters() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/q3dm6ish.bsp");
+    let bake = |out: &str, shard: &str| {
+        run_ok(
+            &[
+                "pvs",
+                "bake",
+                map,
+                "--q3-clusters",
+                "--clusters",
+                "0,1,2,3,4",
+                "--method",
+                "rand",
+                "--rays",
+                "30000",
+                "--shard",
+                shard,
+                "-o",
+                out,
+                "--json",
+            ],
+            dir.path(),
+        )
+    };
+    assert_eq!(bake("a.pvs", "0/2")["cells"], 3);
+    assert_eq!(bake("b.pvs", "1/2")["cells"], 2);
+    let meta = run_ok(&["pvs", "show", "b.pvs", "--json"], dir.path())["metadata"].clone();
+    assert_eq!(meta["clusters"], serde_json::json!([1, 3]));
+    run_ok(
+        &["pvs", "merge", "b.pvs", "a.pvs", "-o", "m.pvs", "--json"],
+        dir.path(),
+    );
+    let o = sightline(&["pvs", "compare-q3", map, "m.pvs", "--json"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 5);
+    for (k, r) in rows.iter().enumerate() {
+        assert_eq!(r["cluster"], k);
+        assert_eq!(r["leaves"], 1, "one cell per cluster");
+        assert!(r["ours"].as_u64().unwrap() > 0);
+        // Origins stay inside the cluster, so what we see lies (almost) inside q3map2's
+        // conservative cluster PVS.
+        let (ours, outside) = (
+            r["ours"].as_u64().unwrap(),
+            r["ours_not_q3map2"].as_u64().unwrap(),
+        );
+        assert!(outside * 50 <= ours, "{r}");
+    }
+}

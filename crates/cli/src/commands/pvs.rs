@@ -10,7 +10,9 @@ use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use serde::Serialize;
 use sightline_core::trace::Bvh;
 use sightline_region::bake::{BakeSetup, BakedCell};
-use sightline_region::cell_sources::{inside_solid, q3_leaf_cells, read_cells_file};
+use sightline_region::cell_sources::{
+    inside_solid, q3_cluster_cells, q3_leaf_cells, read_cells_file,
+};
 use sightline_region::checkpoint::{checkpoint_path, fingerprint, ResumableBake};
 use sightline_region::incremental;
 use sightline_region::methods::{sampler, MethodParams, METHODS};
@@ -70,7 +72,11 @@ pub(crate) struct CellArgs {
     /// Quake 3 maps: one cell per BSP leaf box (cells of a cluster together form it).
     #[arg(long)]
     q3_leaves: bool,
-    /// With --q3-leaves: only these clusters (comma-separated).
+    /// Quake 3 maps: one cell per cluster (the bounding box of its leaves; ray origins stay
+    /// inside the cluster).
+    #[arg(long)]
+    q3_clusters: bool,
+    /// With --q3-leaves or --q3-clusters: only these clusters (comma-separated).
     #[arg(long, value_name = "C1,C2,..", value_delimiter = ',')]
     clusters: Vec<u32>,
 }
@@ -240,9 +246,10 @@ fn collect_cells(
     let sources = usize::from(args.cells.is_some())
         + usize::from(!args.cell.is_empty())
         + usize::from(args.grid.is_some())
-        + usize::from(args.q3_leaves);
+        + usize::from(args.q3_leaves)
+        + usize::from(args.q3_clusters);
     if sources != 1 {
-        bail!("give exactly one cell source: --cells FILE, --cell SPEC, --grid NX,NY,NZ or --q3-leaves");
+        bail!("give exactly one cell source: --cells FILE, --cell SPEC, --grid NX,NY,NZ, --q3-leaves or --q3-clusters");
     }
     if let Some(path) = &args.cells {
         return Ok((read_cells_file(path)?, None));
@@ -277,10 +284,14 @@ fn collect_cells(
         return Ok((cells, None));
     }
     let Some(bsp) = scene.bsp.as_deref() else {
-        bail!("--q3-leaves needs a Quake 3 map (.bsp) as the scene");
+        bail!("--q3-leaves and --q3-clusters need a Quake 3 map (.bsp) as the scene");
     };
     let filter = (!args.clusters.is_empty()).then_some(args.clusters.as_slice());
-    let leaves = q3_leaf_cells(bsp, filter);
+    let leaves = if args.q3_clusters {
+        q3_cluster_cells(bsp, filter)
+    } else {
+        q3_leaf_cells(bsp, filter)
+    };
     let clusters = leaves.iter().map(|(c, _)| *c).collect();
     Ok((
         leaves.into_iter().map(|(_, cell)| cell).collect(),
