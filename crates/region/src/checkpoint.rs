@@ -207,16 +207,14 @@ impl ResumableBake<'_> {
         }
         let key = self.key();
         if file.metadata["key"] != key {
+            let mut differences =
+                fingerprint_differences(&file.metadata["key"]["fingerprint"], &key["fingerprint"]);
+            if differences.is_empty() {
+                differences = "the cells this run bakes (--shard or --since)".into();
+            }
             return Err(BakeError::CheckpointMismatch {
                 path: path.clone(),
-                differences: fingerprint_differences(
-                    &file.metadata["key"]["fingerprint"],
-                    &key["fingerprint"],
-                )
-                .replace(
-                    "(whole fingerprint)",
-                    "the cells this run bakes (shard or --since)",
-                ),
+                differences,
             });
         }
         let indices = file.metadata["cell_indices"]

@@ -177,6 +177,13 @@ fn a_checkpoint_of_another_bake_is_refused() {
         text.contains("seed 8 vs 9") && text.contains("--restart"),
         "{text}"
     );
+    // Same bake, other cells (a shard): refused too.
+    let e = with_job(&scene, &cells, 8, 20_000, |mut job| {
+        job.checkpoint = Some(ckpt.clone());
+        job.indices = vec![1, 3, 5];
+        job.run(&|_, _| {}, &mut |_, _| {}).err().unwrap()
+    });
+    assert!(e.to_string().contains("--shard"), "{e}");
     // --restart discards it.
     let p = with_job(&scene, &cells, 9, 20_000, |mut job| {
         job.checkpoint = Some(ckpt.clone());
