@@ -58,9 +58,37 @@ pub struct BakedCell {
     pub index: usize,
     /// Its PVS.
     pub set: EncodedSet,
-    /// Its statistics (`rays`, `seconds`, `pvs_size`, `found_by`, `convergence`), as stored in
-    /// the file's `metadata.cells`.
-    pub stats: serde_json::Value,
+    /// Rays cast for it.
+    pub rays: u64,
+    /// Seconds spent on it.
+    pub seconds: f64,
+    /// Its statistics as compact JSON text (a parsed `serde_json::Value` with a 64-point
+    /// convergence curve takes several KB; the text a tenth of that).
+    stats: Box<str>,
+}
+
+impl BakedCell {
+    /// A finished cell with its statistics (`rays`, `seconds`, `pvs_size`, `found_by`,
+    /// `convergence`, as stored in the file's `metadata.cells`).
+    pub fn new(index: usize, set: EncodedSet, stats: &serde_json::Value) -> Self {
+        Self {
+            index,
+            set,
+            rays: stats["rays"].as_u64().unwrap_or(0),
+            seconds: stats["seconds"].as_f64().unwrap_or(0.0),
+            stats: stats.to_string().into_boxed_str(),
+        }
+    }
+
+    /// Its statistics.
+    pub fn stats(&self) -> serde_json::Value {
+        serde_json::from_str(&self.stats).unwrap_or(serde_json::Value::Null)
+    }
+
+    /// Bytes it takes in memory: the encoded set, the statistics text and the struct.
+    pub fn memory_bytes(&self) -> usize {
+        std::mem::size_of::<Self>() + self.set.payload_bytes() + self.stats.len()
+    }
 }
 
 /// At most `max` points of a convergence curve as `[rays, pvs_size]` pairs: evenly spaced by
@@ -135,11 +163,11 @@ pub fn bake_cells<E: Send>(
             return;
         }
         let result = bake_one(setup, index, on_progress);
-        let baked = BakedCell {
+        let baked = BakedCell::new(
             index,
-            set: EncodedSet::encode(&result.visible, n),
-            stats: cell_stats(&result),
-        };
+            EncodedSet::encode(&result.visible, n),
+            &cell_stats(&result),
+        );
         let mut guard = sink.lock().unwrap_or_else(PoisonError::into_inner);
         if guard.1.is_none() {
             if let Err(e) = (guard.0)(baked, &result) {
@@ -225,7 +253,7 @@ pub fn bake(
                     cell: cells[baked.index],
                     visible: result.visible.clone(),
                 },
-                baked.stats,
+                baked.stats(),
                 result.rays,
             ));
             Ok(())

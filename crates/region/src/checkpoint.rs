@@ -169,13 +169,14 @@ pub struct BakeProgress {
 }
 
 impl BakeProgress {
-    /// Bytes the finished cells take in memory: encoded payloads plus the per-cell bookkeeping
-    /// (statistics JSON excluded).
+    /// Bytes the finished cells take in memory ([`BakedCell::memory_bytes`]).
+    pub fn memory_bytes(&self) -> usize {
+        self.done.values().map(BakedCell::memory_bytes).sum()
+    }
+
+    /// Bytes of the finished cells' encoded sets alone.
     pub fn set_bytes(&self) -> usize {
-        self.done
-            .values()
-            .map(|c| c.set.payload_bytes() + std::mem::size_of::<BakedCell>())
-            .sum()
+        self.done.values().map(|c| c.set.payload_bytes()).sum()
     }
 }
 
@@ -237,14 +238,7 @@ impl ResumableBake<'_> {
                 .map(|i| i as usize)
                 .filter(|i| self.setup.cells.get(*i) == Some(&cell))
                 .ok_or_else(|| not("a cell index does not name its cell"))?;
-            out.insert(
-                index,
-                BakedCell {
-                    index,
-                    set,
-                    stats: s.clone(),
-                },
-            );
+            out.insert(index, BakedCell::new(index, set, s));
         }
         Ok(out)
     }
@@ -257,7 +251,7 @@ impl ResumableBake<'_> {
             "checkpoint": 1,
             "key": self.key(),
             "cell_indices": done.keys().collect::<Vec<_>>(),
-            "cells": done.values().map(|c| &c.stats).collect::<Vec<_>>(),
+            "cells": done.values().map(BakedCell::stats).collect::<Vec<_>>(),
         });
         save_encoded(
             path,
@@ -337,14 +331,8 @@ impl ResumableBake<'_> {
             .iter()
             .filter_map(|i| progress.done.get(i))
             .collect();
-        let total_rays = cells
-            .iter()
-            .map(|c| c.stats["rays"].as_u64().unwrap_or(0))
-            .sum();
-        let seconds: f64 = cells
-            .iter()
-            .map(|c| c.stats["seconds"].as_f64().unwrap_or(0.0))
-            .sum();
+        let total_rays = cells.iter().map(|c| c.rays).sum();
+        let seconds: f64 = cells.iter().map(|c| c.seconds).sum();
         let mut extra_all = json!({
             "fingerprint": self.fingerprint,
             "total_cells": self.setup.cells.len(),
@@ -363,7 +351,7 @@ impl ResumableBake<'_> {
             &self.setup.budget,
             total_rays,
             progress.seconds,
-            cells.iter().map(|c| c.stats.clone()).collect(),
+            cells.iter().map(|c| c.stats()).collect(),
             extra_all,
         );
         save_encoded(

@@ -234,11 +234,7 @@ impl RebakePlan {
             }
             kept.insert(
                 i,
-                BakedCell {
-                    index: i,
-                    set: EncodedSet::encode(&set, new_triangles),
-                    stats,
-                },
+                BakedCell::new(i, EncodedSet::encode(&set, new_triangles), &stats),
             );
         }
         kept

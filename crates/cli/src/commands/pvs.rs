@@ -314,8 +314,11 @@ struct BakeSummary {
     seconds: f64,
     mean_pvs_size: f64,
     mean_pvs_percent: f64,
-    /// Bytes per finished cell kept in memory while baking (encoded set and bookkeeping).
+    /// Bytes per finished cell kept in memory while baking (encoded set, statistics text,
+    /// bookkeeping).
     memory_bytes_per_cell: f64,
+    /// Bytes per cell of the encoded sets alone.
+    set_bytes_per_cell: f64,
     /// Bytes per cell of the written file (including its metadata).
     file_bytes_per_cell: f64,
 }
@@ -503,15 +506,12 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
         resumed_cells: progress.resumed,
         baked_cells: progress.baked,
         kept_cells: kept_count,
-        total_rays: progress
-            .done
-            .values()
-            .map(|c| c.stats["rays"].as_u64().unwrap_or(0))
-            .sum(),
+        total_rays: progress.done.values().map(|c| c.rays).sum(),
         seconds: progress.seconds,
         mean_pvs_size: mean,
         mean_pvs_percent: 100.0 * mean / n,
-        memory_bytes_per_cell: progress.set_bytes() as f64 / sizes.len().max(1) as f64,
+        memory_bytes_per_cell: progress.memory_bytes() as f64 / sizes.len().max(1) as f64,
+        set_bytes_per_cell: progress.set_bytes() as f64 / sizes.len().max(1) as f64,
         file_bytes_per_cell: std::fs::metadata(&args.output).map_or(0.0, |m| m.len() as f64)
             / sizes.len().max(1) as f64,
     };
