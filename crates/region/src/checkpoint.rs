@@ -271,6 +271,17 @@ impl ResumableBake<'_> {
         on_progress: &(dyn Fn(usize, &ConvergencePoint) + Sync),
         on_cell: &mut (dyn FnMut(usize, &CellResult) + Send),
     ) -> Result<BakeProgress, BakeError> {
+        self.run_with(&mut |_| {}, on_progress, on_cell)
+    }
+
+    /// [`ResumableBake::run`], telling `on_start` how many of the cells are already done
+    /// (resumed or kept) before baking the others, e.g. to start a progress bar there.
+    pub fn run_with(
+        &self,
+        on_start: &mut dyn FnMut(usize),
+        on_progress: &(dyn Fn(usize, &ConvergencePoint) + Sync),
+        on_cell: &mut (dyn FnMut(usize, &CellResult) + Send),
+    ) -> Result<BakeProgress, BakeError> {
         let start = Instant::now();
         let mut done = self.load_checkpoint()?;
         done.retain(|i, _| self.indices.binary_search(i).is_ok());
@@ -284,6 +295,7 @@ impl ResumableBake<'_> {
             .copied()
             .filter(|i| !done.contains_key(i))
             .collect();
+        on_start(self.indices.len() - todo.len());
         let mut last_write: Option<Instant> = None;
         let mut baked = 0usize;
         bake_cells(

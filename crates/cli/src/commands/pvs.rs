@@ -459,7 +459,8 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
     );
     let cell_bar = multi.add(ProgressBar::new_spinner());
     let n = scene.triangle_count().max(1) as f64;
-    let progress = job.run(
+    let progress = job.run_with(
+        &mut |done| cells_bar.set_position(done as u64),
         &|cell, p| {
             cell_bar.set_message(format!(
                 "cell {cell}: {} rays, PVS {} ({:.2}%)",
