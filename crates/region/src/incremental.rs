@@ -186,6 +186,24 @@ pub fn plan(old: &Scene, new: &Scene, old_file: &PvsFile) -> RebakePlan {
             if boxes.iter().any(|b| hull_intersects_box(&corners, b)) {
                 return Some(RebakeReason::AddedInCell);
             }
+            // Early out: every hull(cell, T) lies in the hull of the cell and the box around
+            // all of the old set's triangles; boxes missing that need no per-triangle test.
+            let all =
+                c.visible
+                    .ones()
+                    .flat_map(|t| old.triangle(t as u32))
+                    .fold(cell_box, |mut b, p| {
+                        b.grow(p);
+                        b
+                    });
+            let outer: Vec<Vec3> = corners.iter().copied().chain(box_corners(&all)).collect();
+            let boxes: Vec<&Aabb> = boxes
+                .iter()
+                .filter(|b| hull_intersects_box(&outer, b))
+                .collect();
+            if boxes.is_empty() {
+                return None;
+            }
             let mut hull = corners.clone();
             for t in c.visible.ones() {
                 let tri = old.triangle(t as u32);
@@ -239,6 +257,16 @@ impl RebakePlan {
         }
         kept
     }
+}
+
+fn box_corners(b: &Aabb) -> [Vec3; 8] {
+    std::array::from_fn(|i| {
+        Vec3::new(
+            if i & 1 == 0 { b.min.x } else { b.max.x },
+            if i & 2 == 0 { b.min.y } else { b.max.y },
+            if i & 4 == 0 { b.min.z } else { b.max.z },
+        )
+    })
 }
 
 fn overlaps(a: &Aabb, b: &Aabb) -> bool {
