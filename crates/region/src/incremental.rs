@@ -15,23 +15,31 @@
 //!     the cell, or the hull of the cell and some T of its old set ([`hull_intersects_box`],
 //!     exact GJK, after a cheap box-overlap rejection).
 //!
+//! (c) added geometry may be seen against the empty background. A ray that left the old scene
+//!     without hitting anything has no T, so (b) cannot catch it (a tower rising above the
+//!     roofs, seen only against the sky). [`plan_with_sky`] probes each cell: it casts rays
+//!     from random points of the cell in the old scene and marks the cube-map bins (6 x 16 x 16)
+//!     of the directions that escape; for each marked bin, the hull of the cell and a far quad
+//!     spanning the bin's directions (slightly widened) is tested against B like (b).
+//!
 //! Limits, stated honestly: (b) trusts the old set to hold every triangle visible from the
-//! cell (a sampled PVS can miss a few; the pixel-error evaluation measures how many), and a ray
-//! that left the old scene without hitting anything (open sky) has no T: added geometry seen
-//! from a cell *only* against empty background, with nothing of the old scene behind it, is
-//! not detected. Closed scenes (Quake 3 maps, indoor levels) have no such rays; for open
-//! scenes rebake fully after adding geometry that sticks out above everything else.
+//! cell, and (c) finds escape directions by sampling: both can miss what sampling missed (a
+//! sampled PVS can miss a few triangles; the pixel-error evaluation measures how many). Closed
+//! scenes (Quake 3 maps, indoor levels) have no escaping rays, so (c) adds nothing there.
 
 use std::collections::{BTreeMap, HashMap};
 
 use glam::Vec3;
 use rayon::prelude::*;
 use sightline_core::geometry::Aabb;
-use sightline_core::{Scene, TriangleSet};
+use sightline_core::random::SplitMix64;
+use sightline_core::trace::RayCaster;
+use sightline_core::{Hit, Ray, Scene, TriangleSet};
 
 use crate::bake::BakedCell;
 use crate::hull_box::hull_intersects_box;
 use crate::pvs_file::{EncodedSet, PvsFile};
+use crate::viewcell::ViewCell;
 
 /// Most boxes the added triangles are grouped into (more connected pieces are merged).
 pub const MAX_ADDED_BOXES: usize = 64;
@@ -147,6 +155,79 @@ pub enum RebakeReason {
     AddedInCell,
     /// Added geometry lies between the cell and a triangle of its old set.
     AddedInView,
+    /// Added geometry lies in a direction in which rays from the cell escape the old scene.
+    AddedAgainstSky,
+}
+
+/// Directions bins per cube face side for the sky probe of [`plan_with_sky`].
+pub const SKY_BINS: usize = 16;
+
+/// The escape directions of a cell in the old scene: which cube-map bins (face, u, v) rays
+/// from the cell leave the scene through.
+fn sky_bins(
+    cell: &ViewCell,
+    caster: &dyn RayCaster,
+    rays: usize,
+    seed: u64,
+) -> Vec<(usize, usize, usize)> {
+    let mut rng = SplitMix64::new(seed);
+    let batch: Vec<Ray> = (0..rays)
+        .map(|_| {
+            let origin = cell.interior_point([rng.next_f32(), rng.next_f32(), rng.next_f32()]);
+            let z = 1.0 - 2.0 * rng.next_f32();
+            let phi = std::f32::consts::TAU * rng.next_f32();
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            Ray::new(origin, Vec3::new(r * phi.cos(), r * phi.sin(), z))
+        })
+        .collect();
+    let mut hits = vec![Hit::MISS; batch.len()];
+    caster.cast(&batch, &mut hits);
+    let mut marked = vec![false; 6 * SKY_BINS * SKY_BINS];
+    for (ray, hit) in batch.iter().zip(&hits) {
+        if hit.is_hit() {
+            continue;
+        }
+        let d = ray.dir.to_array();
+        let a = (0..3)
+            .max_by(|&i, &j| d[i].abs().total_cmp(&d[j].abs()))
+            .unwrap_or(0);
+        let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+        let face = 2 * a + usize::from(d[a] < 0.0);
+        let m = d[a].abs().max(f32::MIN_POSITIVE);
+        let bin = |x: f32| (((x / m + 1.0) * 0.5 * SKY_BINS as f32) as usize).min(SKY_BINS - 1);
+        marked[(face * SKY_BINS + bin(d[b])) * SKY_BINS + bin(d[c])] = true;
+    }
+    marked
+        .iter()
+        .enumerate()
+        .filter(|(_, &m)| m)
+        .map(|(i, _)| {
+            (
+                i / (SKY_BINS * SKY_BINS),
+                (i / SKY_BINS) % SKY_BINS,
+                i % SKY_BINS,
+            )
+        })
+        .collect()
+}
+
+/// The far quad of bin (face, u, v) seen from `center` at distance `far`, widened by `widen`
+/// in face coordinates (so that rays from any point of the cell, not only its centre, in the
+/// bin's directions stay inside the hull of the cell and the quad).
+fn sky_quad(center: Vec3, (face, u, v): (usize, usize, usize), far: f32, widen: f32) -> [Vec3; 4] {
+    let a = face / 2;
+    let sign = if face % 2 == 0 { 1.0 } else { -1.0 };
+    let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+    let edge = |k: usize| -1.0 + 2.0 * k as f32 / SKY_BINS as f32;
+    let (u0, u1) = (edge(u) - widen, edge(u + 1) + widen);
+    let (v0, v1) = (edge(v) - widen, edge(v + 1) + widen);
+    [(u0, v0), (u1, v0), (u1, v1), (u0, v1)].map(|(x, y)| {
+        let mut f = [0.0f32; 3];
+        f[a] = sign;
+        f[b] = x;
+        f[c] = y;
+        center + Vec3::from_array(f) * far
+    })
 }
 
 /// Which cells of an old bake to rebake after an edit.
@@ -162,8 +243,30 @@ pub struct RebakePlan {
     pub rebake: Vec<bool>,
 }
 
-/// Plans the rebake of `old_file` (baked on `old`) for the edited scene `new`.
+/// Plans the rebake of `old_file` (baked on `old`) for the edited scene `new` from the old
+/// sets alone (rules (a) and (b); no sky probe).
 pub fn plan(old: &Scene, new: &Scene, old_file: &PvsFile) -> RebakePlan {
+    plan_impl(old, new, old_file, None)
+}
+
+/// [`plan`] plus rule (c): `sky_rays` probe rays per cell cast with `old_caster` (a ray caster
+/// over `old`) find the directions in which a cell sees empty background.
+pub fn plan_with_sky(
+    old: &Scene,
+    new: &Scene,
+    old_file: &PvsFile,
+    old_caster: &dyn RayCaster,
+    sky_rays: usize,
+) -> RebakePlan {
+    plan_impl(old, new, old_file, Some((old_caster, sky_rays)))
+}
+
+fn plan_impl(
+    old: &Scene,
+    new: &Scene,
+    old_file: &PvsFile,
+    sky: Option<(&dyn RayCaster, usize)>,
+) -> RebakePlan {
     let matching = TriangleMatching::new(old, new);
     let margin = 1e-5 * new.bounds().union(&old.bounds()).diagonal();
     let boxes = added_boxes(new, &matching.added, MAX_ADDED_BOXES, margin);
@@ -171,10 +274,12 @@ pub fn plan(old: &Scene, new: &Scene, old_file: &PvsFile) -> RebakePlan {
     for &o in &matching.removed {
         removed.insert(o as usize);
     }
+    let world = new.bounds().union(&old.bounds());
     let reasons: Vec<Option<RebakeReason>> = old_file
         .cells
         .par_iter()
-        .map(|c| {
+        .enumerate()
+        .map(|(index, c)| {
             if !c.visible.is_disjoint(&removed) {
                 return Some(RebakeReason::Removed);
             }
@@ -197,25 +302,40 @@ pub fn plan(old: &Scene, new: &Scene, old_file: &PvsFile) -> RebakePlan {
                         b
                     });
             let outer: Vec<Vec3> = corners.iter().copied().chain(box_corners(&all)).collect();
-            let boxes: Vec<&Aabb> = boxes
+            let near: Vec<&Aabb> = boxes
                 .iter()
                 .filter(|b| hull_intersects_box(&outer, b))
                 .collect();
-            if boxes.is_empty() {
-                return None;
-            }
             let mut hull = corners.clone();
             for t in c.visible.ones() {
+                if near.is_empty() {
+                    break;
+                }
                 let tri = old.triangle(t as u32);
                 let mut reach = cell_box;
                 tri.iter().for_each(|p| reach.grow(*p));
                 hull.truncate(corners.len());
                 hull.extend_from_slice(&tri);
-                let hit = boxes
+                let hit = near
                     .iter()
                     .any(|b| overlaps(&reach, b) && hull_intersects_box(&hull, b));
                 if hit {
                     return Some(RebakeReason::AddedInView);
+                }
+            }
+            if let Some((caster, rays)) = sky {
+                // Far enough that every box is nearer than the far quads, whatever the bin.
+                let span = world.union(&cell_box);
+                let far = 4.0 * span.diagonal().max(1e-3);
+                let radius = c.cell.half_extents.length();
+                let widen = 4.0 * radius / far + 1e-4;
+                let seed = 0x0073_6b79_u64 ^ (index as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+                for bin in sky_bins(&c.cell, caster, rays, seed) {
+                    let mut hull = corners.clone();
+                    hull.extend_from_slice(&sky_quad(c.cell.center, bin, far, widen));
+                    if boxes.iter().any(|b| hull_intersects_box(&hull, b)) {
+                        return Some(RebakeReason::AddedAgainstSky);
+                    }
                 }
             }
             None
@@ -291,6 +411,47 @@ mod tests {
             b.add_box(lo, hi);
         }
         b.finish()
+    }
+
+    #[test]
+    fn a_tower_seen_only_against_the_sky_is_caught_by_the_sky_probe() {
+        use sightline_core::trace::Bvh;
+        // A wall in front of the cell (x 5..6) and, in `room`, a closed room around it all.
+        let build = |tower: Option<f32>, room: bool| {
+            let mut b = SceneBuilder::new("sky");
+            b.add_box(Vec3::new(5.0, -10.0, 0.0), Vec3::new(6.0, 10.0, 4.0));
+            if room {
+                b.add_box(Vec3::splat(-40.0), Vec3::splat(40.0));
+            }
+            if let Some(x) = tower {
+                b.add_box(Vec3::new(x, -1.0, 0.0), Vec3::new(x + 1.0, 1.0, 30.0));
+            }
+            b.finish()
+        };
+        let cell = ViewCell::aabb(Vec3::new(0.0, -1.0, 1.0), Vec3::new(1.0, 1.0, 2.0)).unwrap();
+        // Open scene: a tower behind the wall rising above it, seen against the sky. Closed
+        // room: a tower outside the room, which no ray from the cell can reach.
+        for (room, tower_x, expected) in [
+            (false, 10.0, Some(RebakeReason::AddedAgainstSky)),
+            (true, 50.0, None),
+        ] {
+            let old = build(None, room);
+            let new = build(Some(tower_x), room);
+            // The old set: the wall's face towards the cell and the room's walls.
+            let mut visible = TriangleSet::with_capacity(old.triangle_count());
+            for t in 0..old.triangle_count() {
+                if old.triangle(t as u32).iter().all(|p| p.x == 5.0) || t >= 12 {
+                    visible.insert(t);
+                }
+            }
+            let mut file = PvsFile::for_scene(&old, serde_json::Value::Null);
+            file.cells.push(CellPvs { cell, visible });
+            // No old triangle lies behind the tower: the old sets alone cannot see it.
+            assert_eq!(plan(&old, &new, &file).reasons, vec![None], "room: {room}");
+            let bvh = Bvh::build(&old);
+            let with_sky = plan_with_sky(&old, &new, &file, &bvh, 4096);
+            assert_eq!(with_sky.reasons, vec![expected], "room: {room}");
+        }
     }
 
     #[test]

@@ -149,6 +149,11 @@ pub(crate) struct BakeArgs {
     /// With --since: the scene the earlier .pvs was baked for (file or procedural spec).
     #[arg(long, value_name = "SCENE", requires = "since")]
     old_scene: Option<String>,
+    /// With --since: rays per cell probing, in the old scene, the directions in which the cell
+    /// sees empty background (added geometry there is seen against the sky, with no old
+    /// triangle behind it); 0 skips the probe (then only closed scenes are safe).
+    #[arg(long, default_value_t = 16384, value_name = "N")]
+    sky_rays: usize,
     /// Worker threads (default: all cores). Results do not depend on it.
     #[arg(long)]
     threads: Option<usize>,
@@ -618,7 +623,12 @@ fn plan_incremental(
             cells.len()
         );
     }
-    let plan = incremental::plan(&old, scene, &old_file);
+    let plan = if args.sky_rays > 0 {
+        let old_bvh = Bvh::build(&old);
+        incremental::plan_with_sky(&old, scene, &old_file, &old_bvh, args.sky_rays)
+    } else {
+        incremental::plan(&old, scene, &old_file)
+    };
     let kept = plan.kept_cells(&old_file, scene.triangle_count());
     Ok((
         kept,
