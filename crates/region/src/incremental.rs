@@ -15,17 +15,17 @@
 //!     the cell, or the hull of the cell and some T of its old set ([`hull_intersects_box`],
 //!     exact GJK, after a cheap box-overlap rejection).
 //!
-//! (c) added geometry may be seen against the empty background. A ray that left the old scene
-//!     without hitting anything has no T, so (b) cannot catch it (a tower rising above the
-//!     roofs, seen only against the sky). [`plan_with_sky`] probes each cell: it casts rays
-//!     from random points of the cell in the old scene and marks the cube-map bins (6 x 16 x 16)
-//!     of the directions that escape; for each marked bin, the hull of the cell and a far quad
-//!     spanning the bin's directions (slightly widened) is tested against B like (b).
+//! (c) a probe sees B from the cell in the old scene. Rule (b) has no T for a ray that left
+//!     the old scene without hitting anything (a tower rising above the roofs, seen only
+//!     against the sky), nor for a triangle behind B that sampling left out of the old set.
+//!     [`plan_with_probe`] casts rays from random points of the cell through random points of
+//!     B in the old scene; when one reaches its point of B unblocked (it hits nothing before
+//!     it, or nothing at all), that point was visible from the cell, and the cell is rebaked.
 //!
-//! Limits, stated honestly: (b) trusts the old set to hold every triangle visible from the
-//! cell, and (c) finds escape directions by sampling: both can miss what sampling missed (a
-//! sampled PVS can miss a few triangles; the pixel-error evaluation measures how many). Closed
-//! scenes (Quake 3 maps, indoor levels) have no escaping rays, so (c) adds nothing there.
+//! Limits, stated honestly: (a) and (b) are exact given the old sets, but the old sets are
+//! sampled, and (c) is a sampled visibility test: what both samplings miss (B seen through a
+//! gap no probe ray finds, with no triangle of the old set behind it) is missed, as a sampled
+//! PVS misses a few triangles (the pixel-error evaluation measures how many).
 
 use std::collections::{BTreeMap, HashMap};
 
@@ -155,79 +155,33 @@ pub enum RebakeReason {
     AddedInCell,
     /// Added geometry lies between the cell and a triangle of its old set.
     AddedInView,
-    /// Added geometry lies in a direction in which rays from the cell escape the old scene.
-    AddedAgainstSky,
+    /// A probe ray from the cell reached a point of added geometry unblocked in the old scene.
+    AddedSeenByProbe,
 }
 
-/// Directions bins per cube face side for the sky probe of [`plan_with_sky`].
-pub const SKY_BINS: usize = 16;
-
-/// The escape directions of a cell in the old scene: which cube-map bins (face, u, v) rays
-/// from the cell leave the scene through.
-fn sky_bins(
+/// True when one of `rays` rays from random points of `cell` through random points of `b`
+/// reaches its point of `b` without hitting anything of the old scene before it. Rays aim at
+/// their target with `t = 1`.
+fn probe_sees_box(
     cell: &ViewCell,
+    b: &Aabb,
     caster: &dyn RayCaster,
     rays: usize,
     seed: u64,
-) -> Vec<(usize, usize, usize)> {
+) -> bool {
     let mut rng = SplitMix64::new(seed);
+    let size = b.max - b.min;
     let batch: Vec<Ray> = (0..rays)
         .map(|_| {
             let origin = cell.interior_point([rng.next_f32(), rng.next_f32(), rng.next_f32()]);
-            let z = 1.0 - 2.0 * rng.next_f32();
-            let phi = std::f32::consts::TAU * rng.next_f32();
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            Ray::new(origin, Vec3::new(r * phi.cos(), r * phi.sin(), z))
+            let target = b.min + size * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            Ray::new(origin, target - origin)
         })
+        .filter(|r| r.dir.length_squared() > 0.0)
         .collect();
     let mut hits = vec![Hit::MISS; batch.len()];
     caster.cast(&batch, &mut hits);
-    let mut marked = vec![false; 6 * SKY_BINS * SKY_BINS];
-    for (ray, hit) in batch.iter().zip(&hits) {
-        if hit.is_hit() {
-            continue;
-        }
-        let d = ray.dir.to_array();
-        let a = (0..3)
-            .max_by(|&i, &j| d[i].abs().total_cmp(&d[j].abs()))
-            .unwrap_or(0);
-        let (b, c) = ((a + 1) % 3, (a + 2) % 3);
-        let face = 2 * a + usize::from(d[a] < 0.0);
-        let m = d[a].abs().max(f32::MIN_POSITIVE);
-        let bin = |x: f32| (((x / m + 1.0) * 0.5 * SKY_BINS as f32) as usize).min(SKY_BINS - 1);
-        marked[(face * SKY_BINS + bin(d[b])) * SKY_BINS + bin(d[c])] = true;
-    }
-    marked
-        .iter()
-        .enumerate()
-        .filter(|(_, &m)| m)
-        .map(|(i, _)| {
-            (
-                i / (SKY_BINS * SKY_BINS),
-                (i / SKY_BINS) % SKY_BINS,
-                i % SKY_BINS,
-            )
-        })
-        .collect()
-}
-
-/// The far quad of bin (face, u, v) seen from `center` at distance `far`, widened by `widen`
-/// in face coordinates (so that rays from any point of the cell, not only its centre, in the
-/// bin's directions stay inside the hull of the cell and the quad).
-fn sky_quad(center: Vec3, (face, u, v): (usize, usize, usize), far: f32, widen: f32) -> [Vec3; 4] {
-    let a = face / 2;
-    let sign = if face % 2 == 0 { 1.0 } else { -1.0 };
-    let (b, c) = ((a + 1) % 3, (a + 2) % 3);
-    let edge = |k: usize| -1.0 + 2.0 * k as f32 / SKY_BINS as f32;
-    let (u0, u1) = (edge(u) - widen, edge(u + 1) + widen);
-    let (v0, v1) = (edge(v) - widen, edge(v + 1) + widen);
-    [(u0, v0), (u1, v0), (u1, v1), (u0, v1)].map(|(x, y)| {
-        let mut f = [0.0f32; 3];
-        f[a] = sign;
-        f[b] = x;
-        f[c] = y;
-        center + Vec3::from_array(f) * far
-    })
+    hits.iter().any(|h| !h.is_hit() || h.t >= 1.0)
 }
 
 /// Which cells of an old bake to rebake after an edit.
@@ -244,28 +198,28 @@ pub struct RebakePlan {
 }
 
 /// Plans the rebake of `old_file` (baked on `old`) for the edited scene `new` from the old
-/// sets alone (rules (a) and (b); no sky probe).
+/// sets alone (rules (a) and (b); no probe).
 pub fn plan(old: &Scene, new: &Scene, old_file: &PvsFile) -> RebakePlan {
     plan_impl(old, new, old_file, None)
 }
 
-/// [`plan`] plus rule (c): `sky_rays` probe rays per cell cast with `old_caster` (a ray caster
-/// over `old`) find the directions in which a cell sees empty background.
-pub fn plan_with_sky(
+/// [`plan`] plus rule (c): `probe_rays` rays per cell and added box, cast with `old_caster` (a
+/// ray caster over `old`), look for a point of the box visible from the cell.
+pub fn plan_with_probe(
     old: &Scene,
     new: &Scene,
     old_file: &PvsFile,
     old_caster: &dyn RayCaster,
-    sky_rays: usize,
+    probe_rays: usize,
 ) -> RebakePlan {
-    plan_impl(old, new, old_file, Some((old_caster, sky_rays)))
+    plan_impl(old, new, old_file, Some((old_caster, probe_rays)))
 }
 
 fn plan_impl(
     old: &Scene,
     new: &Scene,
     old_file: &PvsFile,
-    sky: Option<(&dyn RayCaster, usize)>,
+    probe: Option<(&dyn RayCaster, usize)>,
 ) -> RebakePlan {
     let matching = TriangleMatching::new(old, new);
     let margin = 1e-5 * new.bounds().union(&old.bounds()).diagonal();
@@ -274,7 +228,6 @@ fn plan_impl(
     for &o in &matching.removed {
         removed.insert(o as usize);
     }
-    let world = new.bounds().union(&old.bounds());
     let reasons: Vec<Option<RebakeReason>> = old_file
         .cells
         .par_iter()
@@ -323,18 +276,13 @@ fn plan_impl(
                     return Some(RebakeReason::AddedInView);
                 }
             }
-            if let Some((caster, rays)) = sky {
-                // Far enough that every box is nearer than the far quads, whatever the bin.
-                let span = world.union(&cell_box);
-                let far = 4.0 * span.diagonal().max(1e-3);
-                let radius = c.cell.half_extents.length();
-                let widen = 4.0 * radius / far + 1e-4;
-                let seed = 0x0073_6b79_u64 ^ (index as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
-                for bin in sky_bins(&c.cell, caster, rays, seed) {
-                    let mut hull = corners.clone();
-                    hull.extend_from_slice(&sky_quad(c.cell.center, bin, far, widen));
-                    if boxes.iter().any(|b| hull_intersects_box(&hull, b)) {
-                        return Some(RebakeReason::AddedAgainstSky);
+            if let Some((caster, rays)) = probe {
+                for (k, b) in boxes.iter().enumerate() {
+                    let seed = (index as u64)
+                        .wrapping_mul(0x9e37_79b9_7f4a_7c15)
+                        .wrapping_add(k as u64);
+                    if probe_sees_box(&c.cell, b, caster, rays, seed) {
+                        return Some(RebakeReason::AddedSeenByProbe);
                     }
                 }
             }
@@ -414,7 +362,7 @@ mod tests {
     }
 
     #[test]
-    fn a_tower_seen_only_against_the_sky_is_caught_by_the_sky_probe() {
+    fn a_tower_seen_only_against_the_sky_is_caught_by_the_probe() {
         use sightline_core::trace::Bvh;
         // A wall in front of the cell (x 5..6) and, in `room`, a closed room around it all.
         let build = |tower: Option<f32>, room: bool| {
@@ -432,7 +380,7 @@ mod tests {
         // Open scene: a tower behind the wall rising above it, seen against the sky. Closed
         // room: a tower outside the room, which no ray from the cell can reach.
         for (room, tower_x, expected) in [
-            (false, 10.0, Some(RebakeReason::AddedAgainstSky)),
+            (false, 10.0, Some(RebakeReason::AddedSeenByProbe)),
             (true, 50.0, None),
         ] {
             let old = build(None, room);
@@ -449,8 +397,8 @@ mod tests {
             // No old triangle lies behind the tower: the old sets alone cannot see it.
             assert_eq!(plan(&old, &new, &file).reasons, vec![None], "room: {room}");
             let bvh = Bvh::build(&old);
-            let with_sky = plan_with_sky(&old, &new, &file, &bvh, 4096);
-            assert_eq!(with_sky.reasons, vec![expected], "room: {room}");
+            let probed = plan_with_probe(&old, &new, &file, &bvh, 4096);
+            assert_eq!(probed.reasons, vec![expected], "room: {room}");
         }
     }
 

@@ -300,7 +300,7 @@ fn incremental_rebake_redoes_every_cell_that_can_see_the_edit_and_skips_others()
     // ground is one quad per 92 m block, and a box standing on a quad is inside the hull of any
     // cell that sees part of that quad, so cells seeing its ground tile are rebaked too.) Then
     // a 300 m tower in the same place, which far cells see over the roofs against the sky
-    // only (no old triangle behind it): the sky probe must catch those.
+    // only (no old triangle behind it): the probe must catch those.
     for (height, some_skipped) in [(6.0, true), (300.0, false)] {
         let new = with_box(
             &old,
@@ -325,7 +325,7 @@ fn check_incremental(
     some_skipped: bool,
 ) {
     let cells = old_file.cells.len();
-    let plan = incremental::plan_with_sky(old, new, old_file, &Bvh::build(old), 16384);
+    let plan = incremental::plan_with_probe(old, new, old_file, &Bvh::build(old), 4096);
     assert_eq!(plan.matching.removed.len(), 0);
     assert_eq!(plan.matching.added.len(), 12);
     let (fresh, _) = bake_file(new, BTreeMap::new(), "fresh.pvs");

@@ -149,11 +149,12 @@ pub(crate) struct BakeArgs {
     /// With --since: the scene the earlier .pvs was baked for (file or procedural spec).
     #[arg(long, value_name = "SCENE", requires = "since")]
     old_scene: Option<String>,
-    /// With --since: rays per cell probing, in the old scene, the directions in which the cell
-    /// sees empty background (added geometry there is seen against the sky, with no old
-    /// triangle behind it); 0 skips the probe (then only closed scenes are safe).
-    #[arg(long, default_value_t = 16384, value_name = "N")]
-    sky_rays: usize,
+    /// With --since: rays per cell and added object cast in the old scene from the cell
+    /// through the added geometry's box; one that gets there unblocked rebakes the cell
+    /// (catches geometry seen only against the sky, with no old triangle behind it). 0 skips
+    /// the probe.
+    #[arg(long, default_value_t = 4096, value_name = "N")]
+    probe_rays: usize,
     /// Worker threads (default: all cores). Results do not depend on it.
     #[arg(long)]
     threads: Option<usize>,
@@ -623,9 +624,9 @@ fn plan_incremental(
             cells.len()
         );
     }
-    let plan = if args.sky_rays > 0 {
+    let plan = if args.probe_rays > 0 {
         let old_bvh = Bvh::build(&old);
-        incremental::plan_with_sky(&old, scene, &old_file, &old_bvh, args.sky_rays)
+        incremental::plan_with_probe(&old, scene, &old_file, &old_bvh, args.probe_rays)
     } else {
         incremental::plan(&old, scene, &old_file)
     };
