@@ -39,7 +39,7 @@ use sightline_core::{Hit, Ray, Scene, TriangleSet};
 use crate::bake::BakedCell;
 use crate::hull_box::hull_intersects_box;
 use crate::pvs_file::{EncodedSet, PvsFile};
-use crate::viewcell::ViewCell;
+use crate::viewcell::{CellSurface, ViewCell};
 
 /// Most boxes the added triangles are grouped into (more connected pieces are merged).
 pub const MAX_ADDED_BOXES: usize = 64;
@@ -159,9 +159,11 @@ pub enum RebakeReason {
     AddedSeenByProbe,
 }
 
-/// True when one of `rays` rays from random points of `cell` through random points of `b`
-/// reaches its point of `b` without hitting anything of the old scene before it. Rays aim at
-/// their target with `t = 1`.
+/// True when one of `rays` rays from random points on the surface of `cell` to random points
+/// on the surface of `b` reaches its target without hitting anything of the old scene before
+/// it. Surfaces suffice: if a point inside the cell sees a point of `b`, the segment between
+/// them leaves the cell and enters `b` through their surfaces, and that part is unblocked too.
+/// Rays aim at their target with `t = 1`.
 fn probe_sees_box(
     cell: &ViewCell,
     b: &Aabb,
@@ -170,18 +172,34 @@ fn probe_sees_box(
     seed: u64,
 ) -> bool {
     let mut rng = SplitMix64::new(seed);
+    let mut unit = || [rng.next_f32(), rng.next_f32(), rng.next_f32()];
+    let from = CellSurface::new(cell);
+    // A box flat in two axes has no area; then sample its volume (a segment) instead.
+    let to = ViewCell::aabb(b.min, b.max)
+        .ok()
+        .filter(|v| v.area() > 0.0)
+        .map(|v| CellSurface::new(&v));
     let size = b.max - b.min;
     let batch: Vec<Ray> = (0..rays)
         .map(|_| {
-            let origin = cell.interior_point([rng.next_f32(), rng.next_f32(), rng.next_f32()]);
-            let target = b.min + size * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            let origin = if cell.area() > 0.0 {
+                from.sample(unit()).0
+            } else {
+                cell.interior_point(unit())
+            };
+            let target = match &to {
+                Some(surface) => surface.sample(unit()).0,
+                None => b.min + size * Vec3::from_array(unit()),
+            };
             Ray::new(origin, target - origin)
         })
         .filter(|r| r.dir.length_squared() > 0.0)
         .collect();
     let mut hits = vec![Hit::MISS; batch.len()];
     caster.cast(&batch, &mut hits);
-    hits.iter().any(|h| !h.is_hit() || h.t >= 1.0)
+    // A hit at t within a hair of 1 is the target's own surface in the old scene (e.g. the
+    // ground a new box stands on), not something in front of it.
+    hits.iter().any(|h| !h.is_hit() || h.t >= 1.0 - 1e-4)
 }
 
 /// Which cells of an old bake to rebake after an edit.

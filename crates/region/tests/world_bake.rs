@@ -325,7 +325,7 @@ fn check_incremental(
     some_skipped: bool,
 ) {
     let cells = old_file.cells.len();
-    let plan = incremental::plan_with_probe(old, new, old_file, &Bvh::build(old), 4096);
+    let plan = incremental::plan_with_probe(old, new, old_file, &Bvh::build(old), 16384);
     assert_eq!(plan.matching.removed.len(), 0);
     assert_eq!(plan.matching.added.len(), 12);
     let (fresh, _) = bake_file(new, BTreeMap::new(), "fresh.pvs");

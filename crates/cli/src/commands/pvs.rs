@@ -153,7 +153,7 @@ pub(crate) struct BakeArgs {
     /// through the added geometry's box; one that gets there unblocked rebakes the cell
     /// (catches geometry seen only against the sky, with no old triangle behind it). 0 skips
     /// the probe.
-    #[arg(long, default_value_t = 4096, value_name = "N")]
+    #[arg(long, default_value_t = 16384, value_name = "N")]
     probe_rays: usize,
     /// Worker threads (default: all cores). Results do not depend on it.
     #[arg(long)]
