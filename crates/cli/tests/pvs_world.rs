@@ -56,10 +56,18 @@ fn cell_sets(file: &str, dir: &Path) -> Vec<serde_json::Value> {
 #[test]
 fn a_killed_bake_resumes_from_its_checkpoint_to_the_same_file() {
     let dir = tempfile::tempdir().unwrap();
-    run_ok(&bake_args("full.pvs", &[]), dir.path());
+    // Cells heavy enough (400k rays each) that the 15 after the first take far longer than
+    // the poll below needs to see the checkpoint and kill, even on a loaded machine.
+    let args = |out: &'static str, extra: &[&'static str]| {
+        let mut a = bake_args(out, extra);
+        let k = a.iter().position(|a| *a == "--rays").unwrap();
+        a[k + 1] = "400000";
+        a
+    };
+    run_ok(&args("full.pvs", &[]), dir.path());
     // One thread, so cells finish one by one; kill as soon as the first checkpoint appears.
     let mut child = Command::new(env!("CARGO_BIN_EXE_sightline"))
-        .args(bake_args("out.pvs", &["--threads", "1"]))
+        .args(args("out.pvs", &["--threads", "1"]))
         .current_dir(dir.path())
         .stdout(Stdio::null())
         .stderr(Stdio::null())
@@ -84,7 +92,7 @@ fn a_killed_bake_resumes_from_its_checkpoint_to_the_same_file() {
         "{partial} cells in the checkpoint"
     );
 
-    let v = run_ok(&bake_args("out.pvs", &[]), dir.path());
+    let v = run_ok(&args("out.pvs", &[]), dir.path());
     assert_eq!(v["resumed_cells"].as_u64().unwrap() as usize, partial);
     assert_eq!(v["baked_cells"].as_u64().unwrap() as usize, 16 - partial);
     assert!(!checkpoint.exists());
