@@ -18,9 +18,9 @@
 //! (c) a probe sees B from the cell in the old scene. Rule (b) has no T for a ray that left
 //!     the old scene without hitting anything (a tower rising above the roofs, seen only
 //!     against the sky), nor for a triangle behind B that sampling left out of the old set.
-//!     [`plan_with_probe`] casts rays from random points of the cell through random points of
-//!     B in the old scene; when one reaches its point of B unblocked (it hits nothing before
-//!     it, or nothing at all), that point was visible from the cell, and the cell is rebaked.
+//!     [`plan_with_probe`] casts rays from random points on the cell's surface to random points
+//!     on B's surface in the old scene; when one reaches its target unblocked (it hits nothing
+//!     before it), that point of B was visible from the cell, and the cell is rebaked.
 //!
 //! Limits, stated honestly: (a) and (b) are exact given the old sets, but the old sets are
 //! sampled, and (c) is a sampled visibility test: what both samplings miss (B seen through a
