@@ -233,6 +233,26 @@ pub fn q3_leaf_cells(bsp: &BspData, clusters: Option<&[u32]>) -> Vec<(u32, ViewC
         .collect()
 }
 
+/// A cell per cluster: the bounding box of the cluster's [`q3_leaf_cells`], in cluster order.
+/// The box reaches into other clusters and solid space, so bakes should only use origins whose
+/// cluster is the cell's (`BspData::cluster_at`), as for leaves.
+pub fn q3_cluster_cells(bsp: &BspData, clusters: Option<&[u32]>) -> Vec<(u32, ViewCell)> {
+    let mut boxes: std::collections::BTreeMap<u32, (Vec3, Vec3)> = Default::default();
+    for (c, cell) in q3_leaf_cells(bsp, clusters) {
+        let (lo, hi) = (
+            cell.center - cell.half_extents,
+            cell.center + cell.half_extents,
+        );
+        let e = boxes.entry(c).or_insert((lo, hi));
+        e.0 = e.0.min(lo);
+        e.1 = e.1.max(hi);
+    }
+    boxes
+        .into_iter()
+        .filter_map(|(c, (lo, hi))| Some((c, ViewCell::aabb(lo, hi).ok()?)))
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -5,19 +5,23 @@
 pub mod bake;
 mod border;
 pub mod cell_sources;
+pub mod checkpoint;
 pub mod gvs;
 pub mod gvspp;
+pub mod hull_box;
+pub mod incremental;
 pub mod methods;
 pub mod pvs_file;
 pub mod rand;
 pub mod raster_sampler;
 mod rays;
 pub mod sampler;
+pub mod shards;
 pub mod viewcell;
 
 pub use gvs::{Gvs, GvsParams};
 pub use gvspp::{GvsPlusPlus, GvsPlusPlusParams};
-pub use pvs_file::{CellPvs, PvsError, PvsFile};
+pub use pvs_file::{CellPvs, EncodedSet, PvsError, PvsFile};
 pub use rand::RandomSampler;
 pub use raster_sampler::RasterSampler;
 pub use sampler::{Budget, CellContext, CellResult, ConvergencePoint, Sampler};

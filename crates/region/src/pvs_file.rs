@@ -30,7 +30,8 @@ use crate::viewcell::ViewCell;
 pub const MAGIC: [u8; 8] = *b"SLPVS\r\n\x1a";
 /// The format version this code writes and reads.
 pub const VERSION: u32 = 1;
-const CELL_RECORD_BYTES: usize = 76;
+/// Bytes of one cell record in the table (beside its payload).
+pub const CELL_RECORD_BYTES: usize = 76;
 const ENCODING_DELTA_VARINT: u8 = 0;
 const ENCODING_BITSET: u8 = 1;
 /// Refuse metadata blobs beyond this size: a corrupted length must not allocate gigabytes.
@@ -140,60 +141,22 @@ impl PvsFile {
     /// Serialises the file.
     pub fn write(&self, w: &mut impl Write) -> Result<(), PvsError> {
         let n = self.triangle_count as usize;
-        let metadata = serde_json::to_vec(&self.metadata)
-            .map_err(|e| PvsError::Invalid(format!("metadata: {e}")))?;
-        let mut header = Vec::with_capacity(40 + metadata.len());
-        header.extend_from_slice(&MAGIC);
-        header.extend_from_slice(&VERSION.to_le_bytes());
-        header.extend_from_slice(&0u32.to_le_bytes());
-        header.extend_from_slice(&self.scene_hash.to_le_bytes());
-        header.extend_from_slice(&self.triangle_count.to_le_bytes());
-        header.extend_from_slice(&(self.cells.len() as u32).to_le_bytes());
-        header.extend_from_slice(&(metadata.len() as u32).to_le_bytes());
-        header.extend_from_slice(&metadata);
-        header.extend_from_slice(&crc32fast::hash(&header).to_le_bytes());
-
-        let mut records = Vec::with_capacity(self.cells.len() * CELL_RECORD_BYTES);
-        let mut payloads = Vec::new();
+        let mut cells = Vec::with_capacity(self.cells.len());
         for (i, c) in self.cells.iter().enumerate() {
             if c.visible.ones().any(|id| id >= n) {
                 return Err(PvsError::Invalid(format!(
                     "cell {i} names a triangle id >= the scene's {n} triangles"
                 )));
             }
-            let (encoding, payload) = encode_set(&c.visible, n);
-            let mut record = Vec::with_capacity(CELL_RECORD_BYTES);
-            let floats = [
-                c.cell.center,
-                c.cell.axes[0],
-                c.cell.axes[1],
-                c.cell.axes[2],
-            ]
-            .into_iter()
-            .chain([c.cell.half_extents])
-            .flat_map(|v| v.to_array());
-            for f in floats {
-                record.extend_from_slice(&f.to_le_bytes());
-            }
-            record.push(encoding);
-            record.extend_from_slice(&[0; 3]);
-            record.extend_from_slice(&(c.visible.count_ones(..) as u32).to_le_bytes());
-            record.extend_from_slice(&(payload.len() as u32).to_le_bytes());
-            let mut crc = crc32fast::Hasher::new();
-            crc.update(&record);
-            crc.update(&payload);
-            record.extend_from_slice(&crc.finalize().to_le_bytes());
-            records.extend_from_slice(&record);
-            payloads.extend_from_slice(&payload);
+            cells.push((c.cell, EncodedSet::encode(&c.visible, n)));
         }
-        let io = |source| PvsError::Io {
-            path: PathBuf::from("<stream>"),
-            source,
-        };
-        w.write_all(&header).map_err(io)?;
-        w.write_all(&records).map_err(io)?;
-        w.write_all(&payloads).map_err(io)?;
-        Ok(())
+        write_encoded(
+            w,
+            self.scene_hash,
+            self.triangle_count,
+            &self.metadata,
+            cells.iter().map(|(c, s)| (c, s)),
+        )
     }
 
     /// Writes the file to `path` atomically (an existing file is replaced only on success).
@@ -217,94 +180,10 @@ impl PvsFile {
 
     /// Parses a file from its bytes.
     pub fn read(bytes: &[u8]) -> Result<Self, PvsError> {
-        let mut r = Reader { bytes, pos: 0 };
-        if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
-            return Err(PvsError::BadMagic);
-        }
-        r.pos = MAGIC.len();
-        let version = r.u32("version")?;
-        if version != VERSION {
-            return Err(PvsError::UnsupportedVersion(version));
-        }
-        let _flags = r.u32("flags")?;
-        let scene_hash = r.u64("scene hash")?;
-        let triangle_count = r.u32("triangle count")?;
-        let cell_count = r.u32("cell count")? as usize;
-        let metadata_len = r.u32("metadata length")? as usize;
-        if metadata_len > MAX_METADATA_BYTES {
-            return Err(PvsError::Corrupt {
-                offset: r.pos - 4,
-                what: format!("metadata length {metadata_len} is implausible"),
-            });
-        }
-        let metadata_bytes = r.take(metadata_len, "metadata")?;
-        let header_end = r.pos;
-        let header_crc = r.u32("header checksum")?;
-        if crc32fast::hash(&bytes[..header_end]) != header_crc {
-            return Err(PvsError::Corrupt {
-                offset: header_end,
-                what: "header checksum".into(),
-            });
-        }
-        let metadata = serde_json::from_slice(metadata_bytes).map_err(|e| PvsError::Corrupt {
-            offset: header_end - metadata_len,
-            what: format!("metadata is not JSON: {e}"),
+        let mut cells = Vec::new();
+        let (scene_hash, triangle_count, metadata) = parse(bytes, &mut |cell, _, visible| {
+            cells.push(CellPvs { cell, visible })
         })?;
-        let table_start = r.pos;
-        let table_len = cell_count
-            .checked_mul(CELL_RECORD_BYTES)
-            .ok_or(PvsError::Corrupt {
-                offset: table_start,
-                what: "cell count overflows".into(),
-            })?;
-        let table = r.take(table_len, "view-cell table")?;
-        let n = triangle_count as usize;
-        let mut cells = Vec::with_capacity(cell_count);
-        for i in 0..cell_count {
-            let record = &table[i * CELL_RECORD_BYTES..(i + 1) * CELL_RECORD_BYTES];
-            let record_offset = table_start + i * CELL_RECORD_BYTES;
-            let f = |k: usize| f32::from_le_bytes(le4(&record[4 * k..]));
-            let v = |k: usize| Vec3::new(f(k), f(k + 1), f(k + 2));
-            let encoding = record[60];
-            let size = u32::from_le_bytes(le4(&record[64..])) as usize;
-            let payload_len = u32::from_le_bytes(le4(&record[68..])) as usize;
-            let crc = u32::from_le_bytes(le4(&record[72..]));
-            let payload_offset = r.pos;
-            let payload = r.take(payload_len, &format!("payload of cell {i}"))?;
-            let mut hasher = crc32fast::Hasher::new();
-            hasher.update(&record[..72]);
-            hasher.update(payload);
-            if hasher.finalize() != crc {
-                return Err(PvsError::Corrupt {
-                    offset: record_offset,
-                    what: format!("checksum of cell {i}"),
-                });
-            }
-            let corrupt = |what: String| PvsError::Corrupt {
-                offset: payload_offset,
-                what,
-            };
-            let visible =
-                decode_set(encoding, payload, n).map_err(|e| corrupt(format!("cell {i}: {e}")))?;
-            if visible.count_ones(..) != size {
-                return Err(corrupt(format!(
-                    "cell {i}: set size does not match its record"
-                )));
-            }
-            let cell = ViewCell::oriented(v(0), [v(3), v(6), v(9)], v(12)).map_err(|e| {
-                PvsError::Corrupt {
-                    offset: record_offset,
-                    what: format!("cell {i}: {e}"),
-                }
-            })?;
-            cells.push(CellPvs { cell, visible });
-        }
-        if r.pos != bytes.len() {
-            return Err(PvsError::Corrupt {
-                offset: r.pos,
-                what: format!("{} unexpected trailing bytes", bytes.len() - r.pos),
-            });
-        }
         Ok(Self {
             scene_hash,
             triangle_count,
@@ -312,6 +191,270 @@ impl PvsFile {
             cells,
         })
     }
+}
+
+/// A `.pvs` file with its sets left encoded: what tools handling many cells of large scenes
+/// (checkpoints, merges) read, so the sets are never all decoded at once.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EncodedPvsFile {
+    /// [`Scene::geometry_hash`] of the scene the sets index.
+    pub scene_hash: u64,
+    /// Triangle count of that scene.
+    pub triangle_count: u32,
+    /// Free-form JSON metadata.
+    pub metadata: serde_json::Value,
+    /// One entry per view cell.
+    pub cells: Vec<(ViewCell, EncodedSet)>,
+}
+
+impl EncodedPvsFile {
+    /// Parses and fully checks a file (every set is decoded once to validate it).
+    pub fn read(bytes: &[u8]) -> Result<Self, PvsError> {
+        let mut cells = Vec::new();
+        let (scene_hash, triangle_count, metadata) =
+            parse(bytes, &mut |cell, set, _| cells.push((cell, set)))?;
+        Ok(Self {
+            scene_hash,
+            triangle_count,
+            metadata,
+            cells,
+        })
+    }
+
+    /// Reads a file from `path`.
+    pub fn load(path: &Path) -> Result<Self, PvsError> {
+        let bytes = std::fs::read(path).map_err(|source| PvsError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::read(&bytes)
+    }
+
+    /// Writes the file to `path` atomically.
+    pub fn save(&self, path: &Path) -> Result<(), PvsError> {
+        save_encoded(
+            path,
+            self.scene_hash,
+            self.triangle_count,
+            &self.metadata,
+            self.cells.iter().map(|(c, s)| (c, s)),
+        )
+    }
+}
+
+/// Parses and checks a `.pvs` file, handing every cell to `keep` (its cell, encoded set and
+/// decoded set); returns the scene hash, triangle count and metadata.
+fn parse(
+    bytes: &[u8],
+    keep: &mut dyn FnMut(ViewCell, EncodedSet, TriangleSet),
+) -> Result<(u64, u32, serde_json::Value), PvsError> {
+    let mut r = Reader { bytes, pos: 0 };
+    if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
+        return Err(PvsError::BadMagic);
+    }
+    r.pos = MAGIC.len();
+    let version = r.u32("version")?;
+    if version != VERSION {
+        return Err(PvsError::UnsupportedVersion(version));
+    }
+    let _flags = r.u32("flags")?;
+    let scene_hash = r.u64("scene hash")?;
+    let triangle_count = r.u32("triangle count")?;
+    let cell_count = r.u32("cell count")? as usize;
+    let metadata_len = r.u32("metadata length")? as usize;
+    if metadata_len > MAX_METADATA_BYTES {
+        return Err(PvsError::Corrupt {
+            offset: r.pos - 4,
+            what: format!("metadata length {metadata_len} is implausible"),
+        });
+    }
+    let metadata_bytes = r.take(metadata_len, "metadata")?;
+    let header_end = r.pos;
+    let header_crc = r.u32("header checksum")?;
+    if crc32fast::hash(&bytes[..header_end]) != header_crc {
+        return Err(PvsError::Corrupt {
+            offset: header_end,
+            what: "header checksum".into(),
+        });
+    }
+    let metadata = serde_json::from_slice(metadata_bytes).map_err(|e| PvsError::Corrupt {
+        offset: header_end - metadata_len,
+        what: format!("metadata is not JSON: {e}"),
+    })?;
+    let table_start = r.pos;
+    let table_len = cell_count
+        .checked_mul(CELL_RECORD_BYTES)
+        .ok_or(PvsError::Corrupt {
+            offset: table_start,
+            what: "cell count overflows".into(),
+        })?;
+    let table = r.take(table_len, "view-cell table")?;
+    let n = triangle_count as usize;
+    for i in 0..cell_count {
+        let record = &table[i * CELL_RECORD_BYTES..(i + 1) * CELL_RECORD_BYTES];
+        let record_offset = table_start + i * CELL_RECORD_BYTES;
+        let f = |k: usize| f32::from_le_bytes(le4(&record[4 * k..]));
+        let v = |k: usize| Vec3::new(f(k), f(k + 1), f(k + 2));
+        let encoding = record[60];
+        let size = u32::from_le_bytes(le4(&record[64..])) as usize;
+        let payload_len = u32::from_le_bytes(le4(&record[68..])) as usize;
+        let crc = u32::from_le_bytes(le4(&record[72..]));
+        let payload_offset = r.pos;
+        let payload = r.take(payload_len, &format!("payload of cell {i}"))?;
+        let mut hasher = crc32fast::Hasher::new();
+        hasher.update(&record[..72]);
+        hasher.update(payload);
+        if hasher.finalize() != crc {
+            return Err(PvsError::Corrupt {
+                offset: record_offset,
+                what: format!("checksum of cell {i}"),
+            });
+        }
+        let corrupt = |what: String| PvsError::Corrupt {
+            offset: payload_offset,
+            what,
+        };
+        let visible =
+            decode_set(encoding, payload, n).map_err(|e| corrupt(format!("cell {i}: {e}")))?;
+        if visible.count_ones(..) != size {
+            return Err(corrupt(format!(
+                "cell {i}: set size does not match its record"
+            )));
+        }
+        let cell =
+            ViewCell::oriented(v(0), [v(3), v(6), v(9)], v(12)).map_err(|e| PvsError::Corrupt {
+                offset: record_offset,
+                what: format!("cell {i}: {e}"),
+            })?;
+        let encoded = EncodedSet {
+            encoding,
+            size: size as u32,
+            payload: payload.to_vec(),
+        };
+        keep(cell, encoded, visible);
+    }
+    if r.pos != bytes.len() {
+        return Err(PvsError::Corrupt {
+            offset: r.pos,
+            what: format!("{} unexpected trailing bytes", bytes.len() - r.pos),
+        });
+    }
+    Ok((scene_hash, triangle_count, metadata))
+}
+
+/// A set in its file encoding (the smaller of delta varints and bitset): how a bake keeps
+/// finished cells in memory, and what it writes without decoding them again.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct EncodedSet {
+    encoding: u8,
+    size: u32,
+    payload: Vec<u8>,
+}
+
+impl EncodedSet {
+    /// Encodes `set` for a scene of `n` triangles (ids must be below `n`).
+    pub fn encode(set: &TriangleSet, n: usize) -> Self {
+        let (encoding, payload) = encode_set(set, n);
+        Self {
+            encoding,
+            size: set.count_ones(..) as u32,
+            payload,
+        }
+    }
+
+    /// The set, with capacity `n`.
+    pub fn decode(&self, n: usize) -> Result<TriangleSet, String> {
+        decode_set(self.encoding, &self.payload, n)
+    }
+
+    /// Number of ids in the set.
+    pub fn len(&self) -> usize {
+        self.size as usize
+    }
+
+    /// True when the set is empty.
+    pub fn is_empty(&self) -> bool {
+        self.size == 0
+    }
+
+    /// Bytes of the encoded payload (what the set costs in memory and on disk, beyond the
+    /// fixed 76-byte record).
+    pub fn payload_bytes(&self) -> usize {
+        self.payload.len()
+    }
+}
+
+/// Writes a `.pvs` stream from already encoded sets, so a bake of thousands of cells never
+/// holds them all decoded. The caller guarantees every set was encoded for `triangle_count`.
+pub fn write_encoded<'a>(
+    w: &mut impl Write,
+    scene_hash: u64,
+    triangle_count: u32,
+    metadata: &serde_json::Value,
+    cells: impl ExactSizeIterator<Item = (&'a ViewCell, &'a EncodedSet)>,
+) -> Result<(), PvsError> {
+    let metadata =
+        serde_json::to_vec(metadata).map_err(|e| PvsError::Invalid(format!("metadata: {e}")))?;
+    let cell_count = cells.len();
+    let mut header = Vec::with_capacity(40 + metadata.len());
+    header.extend_from_slice(&MAGIC);
+    header.extend_from_slice(&VERSION.to_le_bytes());
+    header.extend_from_slice(&0u32.to_le_bytes());
+    header.extend_from_slice(&scene_hash.to_le_bytes());
+    header.extend_from_slice(&triangle_count.to_le_bytes());
+    header.extend_from_slice(&(cell_count as u32).to_le_bytes());
+    header.extend_from_slice(&(metadata.len() as u32).to_le_bytes());
+    header.extend_from_slice(&metadata);
+    header.extend_from_slice(&crc32fast::hash(&header).to_le_bytes());
+
+    let mut records = Vec::with_capacity(cell_count * CELL_RECORD_BYTES);
+    let mut payloads: Vec<&[u8]> = Vec::with_capacity(cell_count);
+    for (cell, set) in cells {
+        let mut record = Vec::with_capacity(CELL_RECORD_BYTES);
+        let floats = [cell.center, cell.axes[0], cell.axes[1], cell.axes[2]]
+            .into_iter()
+            .chain([cell.half_extents])
+            .flat_map(|v| v.to_array());
+        for f in floats {
+            record.extend_from_slice(&f.to_le_bytes());
+        }
+        record.push(set.encoding);
+        record.extend_from_slice(&[0; 3]);
+        record.extend_from_slice(&set.size.to_le_bytes());
+        record.extend_from_slice(&(set.payload.len() as u32).to_le_bytes());
+        let mut crc = crc32fast::Hasher::new();
+        crc.update(&record);
+        crc.update(&set.payload);
+        record.extend_from_slice(&crc.finalize().to_le_bytes());
+        records.extend_from_slice(&record);
+        payloads.push(&set.payload);
+    }
+    let io = |source| PvsError::Io {
+        path: PathBuf::from("<stream>"),
+        source,
+    };
+    w.write_all(&header).map_err(io)?;
+    w.write_all(&records).map_err(io)?;
+    for p in payloads {
+        w.write_all(p).map_err(io)?;
+    }
+    Ok(())
+}
+
+/// [`write_encoded`] to `path`, atomically (an existing file is replaced only on success).
+pub fn save_encoded<'a>(
+    path: &Path,
+    scene_hash: u64,
+    triangle_count: u32,
+    metadata: &serde_json::Value,
+    cells: impl ExactSizeIterator<Item = (&'a ViewCell, &'a EncodedSet)>,
+) -> Result<(), PvsError> {
+    let mut bytes = Vec::new();
+    write_encoded(&mut bytes, scene_hash, triangle_count, metadata, cells)?;
+    write_atomic(path, |w| w.write_all(&bytes)).map_err(|source| PvsError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 fn le4(b: &[u8]) -> [u8; 4] {
@@ -485,6 +628,31 @@ mod tests {
     fn round_trip_is_identical() {
         let f = sample_file();
         assert_eq!(PvsFile::read(&bytes_of(&f)).unwrap(), f);
+    }
+
+    #[test]
+    fn encoded_sets_write_the_same_bytes_and_decode_back() {
+        let f = sample_file();
+        let encoded: Vec<EncodedSet> = f
+            .cells
+            .iter()
+            .map(|c| EncodedSet::encode(&c.visible, 24))
+            .collect();
+        for (e, c) in encoded.iter().zip(&f.cells) {
+            assert_eq!(e.decode(24).unwrap(), c.visible);
+            assert_eq!(e.len(), c.visible.count_ones(..));
+            assert!(e.payload_bytes() <= 3);
+        }
+        let mut b = Vec::new();
+        write_encoded(
+            &mut b,
+            f.scene_hash,
+            f.triangle_count,
+            &f.metadata,
+            f.cells.iter().map(|c| &c.cell).zip(&encoded),
+        )
+        .unwrap();
+        assert_eq!(b, bytes_of(&f));
     }
 
     #[test]

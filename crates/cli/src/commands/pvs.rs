@@ -1,6 +1,7 @@
 //! `sightline pvs`: bake, show, diff and compare potentially visible sets.
 
-use std::path::PathBuf;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use anyhow::{bail, Context, Result};
@@ -8,9 +9,15 @@ use glam::Vec3;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use serde::Serialize;
 use sightline_core::trace::Bvh;
-use sightline_region::bake::bake;
-use sightline_region::cell_sources::{inside_solid, q3_leaf_cells, read_cells_file};
+use sightline_region::bake::{BakeSetup, BakedCell};
+use sightline_region::cell_sources::{
+    inside_solid, q3_cluster_cells, q3_leaf_cells, read_cells_file,
+};
+use sightline_region::checkpoint::{checkpoint_path, fingerprint, ResumableBake};
+use sightline_region::incremental;
 use sightline_region::methods::{sampler, MethodParams, METHODS};
+use sightline_region::pvs_file::EncodedPvsFile;
+use sightline_region::shards::{merge, Shard};
 use sightline_region::{Budget, GvsPlusPlusParams, PvsFile, ViewCell};
 
 use crate::args::SceneArgs;
@@ -29,6 +36,8 @@ enum What {
     Bake(Box<BakeArgs>),
     /// Print a .pvs file's header, metadata and per-cell set sizes.
     Show(ShowArgs),
+    /// Join the shard files of a bake (`pvs bake --shard I/N`) into one .pvs, cells in order.
+    Merge(MergeArgs),
     /// Compare two .pvs files of the same scene cell by cell.
     Diff(DiffArgs),
     /// Compare a PVS baked on a Quake 3 map's leaves (--q3-leaves) with the map's own compiled
@@ -63,7 +72,11 @@ pub(crate) struct CellArgs {
     /// Quake 3 maps: one cell per BSP leaf box (cells of a cluster together form it).
     #[arg(long)]
     q3_leaves: bool,
-    /// With --q3-leaves: only these clusters (comma-separated).
+    /// Quake 3 maps: one cell per cluster (the bounding box of its leaves; ray origins stay
+    /// inside the cluster).
+    #[arg(long)]
+    q3_clusters: bool,
+    /// With --q3-leaves or --q3-clusters: only these clusters (comma-separated).
     #[arg(long, value_name = "C1,C2,..", value_delimiter = ',')]
     clusters: Vec<u32>,
 }
@@ -82,7 +95,8 @@ pub(crate) struct BakeArgs {
     /// cube maps.
     #[arg(long)]
     rays: Option<u64>,
-    /// Time budget per cell in milliseconds.
+    /// Time budget per cell in milliseconds (wall clock: cells bake in parallel and share the
+    /// cores; results under a time budget are not reproducible, use --rays for that).
     #[arg(long, value_name = "MS")]
     time: Option<u64>,
     /// Seed of every random choice (same seed, same result).
@@ -112,9 +126,55 @@ pub(crate) struct BakeArgs {
     /// RASTER: cube-map face resolution (default 512).
     #[arg(long)]
     raster_resolution: Option<u32>,
+    /// Output .pvs file (written atomically). While baking, finished cells are kept in
+    /// OUTPUT.checkpoint; rerunning the same command resumes from it.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Discard an existing checkpoint of OUTPUT instead of resuming from it.
+    #[arg(long)]
+    restart: bool,
+    /// Least seconds between checkpoint writes (the first finished cell and the end are always
+    /// written).
+    #[arg(long, default_value_t = 2.0, value_name = "S")]
+    checkpoint_every: f64,
+    /// Bake only shard I of N: the cells whose index modulo N is I. Join the shard files with
+    /// `sightline pvs merge`.
+    #[arg(long, value_name = "I/N")]
+    shard: Option<String>,
+    /// Incremental rebake: reuse the sets of this earlier .pvs (baked with the same cells,
+    /// method, parameters, seed and budget on --old-scene) for every cell the scene edit cannot
+    /// change, and rebake only the others.
+    #[arg(long, value_name = "OLD.pvs", requires = "old_scene")]
+    since: Option<PathBuf>,
+    /// With --since: the scene the earlier .pvs was baked for (file or procedural spec).
+    #[arg(long, value_name = "SCENE", requires = "since")]
+    old_scene: Option<String>,
+    /// With --since: rays per cell and added object cast in the old scene from the cell
+    /// through the added geometry's box; one that gets there unblocked rebakes the cell
+    /// (catches geometry seen only against the sky, with no old triangle behind it). 0 skips
+    /// the probe.
+    #[arg(long, default_value_t = 16384, value_name = "N")]
+    probe_rays: usize,
+    /// Worker threads (default: all cores). Results do not depend on it.
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Print a JSON summary.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub(crate) struct MergeArgs {
+    /// The shard files (from `pvs bake --shard I/N` with otherwise identical arguments).
+    #[arg(required = true)]
+    files: Vec<PathBuf>,
     /// Output .pvs file (written atomically).
     #[arg(short, long)]
     output: PathBuf,
+    /// Write the merge even when some cells are in none of the files (the result lists its
+    /// cells' global indices in `cell_indices`).
+    #[arg(long)]
+    allow_partial: bool,
     /// Print a JSON summary.
     #[arg(long)]
     json: bool,
@@ -165,6 +225,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
     match args.what {
         What::Bake(a) => run_bake(*a),
         What::Show(a) => run_show(a),
+        What::Merge(a) => run_merge(a),
         What::Diff(a) => run_diff(a),
         What::CompareQ3(a) => run_compare_q3(a),
     }
@@ -191,9 +252,10 @@ fn collect_cells(
     let sources = usize::from(args.cells.is_some())
         + usize::from(!args.cell.is_empty())
         + usize::from(args.grid.is_some())
-        + usize::from(args.q3_leaves);
+        + usize::from(args.q3_leaves)
+        + usize::from(args.q3_clusters);
     if sources != 1 {
-        bail!("give exactly one cell source: --cells FILE, --cell SPEC, --grid NX,NY,NZ or --q3-leaves");
+        bail!("give exactly one cell source: --cells FILE, --cell SPEC, --grid NX,NY,NZ, --q3-leaves or --q3-clusters");
     }
     if let Some(path) = &args.cells {
         return Ok((read_cells_file(path)?, None));
@@ -228,10 +290,14 @@ fn collect_cells(
         return Ok((cells, None));
     }
     let Some(bsp) = scene.bsp.as_deref() else {
-        bail!("--q3-leaves needs a Quake 3 map (.bsp) as the scene");
+        bail!("--q3-leaves and --q3-clusters need a Quake 3 map (.bsp) as the scene");
     };
     let filter = (!args.clusters.is_empty()).then_some(args.clusters.as_slice());
-    let leaves = q3_leaf_cells(bsp, filter);
+    let leaves = if args.q3_clusters {
+        q3_cluster_cells(bsp, filter)
+    } else {
+        q3_leaf_cells(bsp, filter)
+    };
     let clusters = leaves.iter().map(|(c, _)| *c).collect();
     Ok((
         leaves.into_iter().map(|(_, cell)| cell).collect(),
@@ -244,19 +310,26 @@ struct BakeSummary {
     output: PathBuf,
     method: String,
     cells: usize,
+    /// Cells taken from the checkpoint of an interrupted run.
+    resumed_cells: usize,
+    /// Cells baked by this run.
+    baked_cells: usize,
+    /// With --since: cells whose sets were kept (remapped) from the earlier .pvs.
+    kept_cells: usize,
     total_rays: u64,
     seconds: f64,
     mean_pvs_size: f64,
     mean_pvs_percent: f64,
+    /// Bytes per finished cell kept in memory while baking (encoded set, statistics text,
+    /// bookkeeping).
+    memory_bytes_per_cell: f64,
+    /// Bytes per cell of the encoded sets alone.
+    set_bytes_per_cell: f64,
+    /// Bytes per cell of the written file (including its metadata).
+    file_bytes_per_cell: f64,
 }
 
-fn run_bake(args: BakeArgs) -> Result<()> {
-    let scene = args.scene.load()?;
-    let bvh = Bvh::build(&scene);
-    let (cells, clusters) = collect_cells(&args.cells, &scene, &bvh)?;
-    if cells.is_empty() {
-        bail!("no view cells to bake (all filtered out?)");
-    }
+fn method_params(args: &BakeArgs) -> MethodParams {
     let mut params = MethodParams {
         gvspp: GvsPlusPlusParams::default(),
         raster_resolution: args.raster_resolution,
@@ -287,43 +360,113 @@ fn run_bake(args: BakeArgs) -> Result<()> {
         params.gvspp.termination_threshold = v;
         params.gvs.termination_threshold = v;
     }
+    params
+}
+
+fn run_bake(args: BakeArgs) -> Result<()> {
+    match args.threads {
+        Some(0) => bail!("--threads must be at least 1"),
+        Some(t) => rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build()
+            .context("starting the worker threads")?
+            .install(|| bake_command(&args)),
+        None => bake_command(&args),
+    }
+}
+
+fn bake_command(args: &BakeArgs) -> Result<()> {
+    let scene = args.scene.load()?;
+    let bvh = Bvh::build(&scene);
+    let (cells, clusters) = collect_cells(&args.cells, &scene, &bvh)?;
+    if cells.is_empty() {
+        bail!("no view cells to bake (all filtered out?)");
+    }
+    let params = method_params(args);
     let sampler = sampler(&args.method, &params).map_err(anyhow::Error::msg)?;
     if args.rays == Some(0) || args.time == Some(0) {
         bail!("--rays and --time must be positive");
     }
+    if !(args.checkpoint_every.is_finite() && args.checkpoint_every >= 0.0) {
+        bail!("--checkpoint-every must be a non-negative number of seconds");
+    }
+    let shard = args
+        .shard
+        .as_deref()
+        .map(Shard::parse)
+        .transpose()
+        .map_err(|e| anyhow::anyhow!("--shard: {e}"))?;
     let budget = Budget {
         max_rays: args.rays,
         max_time: args.time.map(Duration::from_millis),
     };
-
-    let multi = MultiProgress::new();
-    let cells_bar = multi.add(
-        ProgressBar::new(cells.len() as u64).with_style(
-            ProgressStyle::with_template("cells {bar:30} {pos}/{len} [{elapsed_precise} < {eta}]")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        ),
-    );
-    let cell_bar = multi.add(ProgressBar::new_spinner());
-    let extra = serde_json::json!({
-        "parameters": format!("{params:?}"),
-        "clusters": clusters,
-    });
-    let n = scene.triangle_count().max(1) as f64;
     // Quake 3 leaf boxes are bounding boxes of convex leaves and reach into solid space: only
     // points whose BSP cluster is the leaf's own serve as origins.
     let free_space = |cell: usize, p: Vec3| match (&clusters, scene.bsp.as_deref()) {
         (Some(c), Some(bsp)) => bsp.cluster_at(p) == Some(c[cell]),
         _ => true,
     };
-    let file = bake(
-        &scene,
-        &bvh,
-        &cells,
-        sampler.as_ref(),
-        &free_space,
-        &budget,
-        args.seed,
-        extra,
+    let setup = BakeSetup {
+        scene: &scene,
+        caster: &bvh,
+        cells: &cells,
+        sampler: sampler.as_ref(),
+        free_space: &free_space,
+        budget,
+        seed: args.seed,
+    };
+    let parameters = format!("{params:?}");
+    let fp = fingerprint(
+        &setup,
+        &parameters,
+        serde_json::json!({ "clusters": clusters }),
+    );
+    let indices = match shard {
+        Some(s) => s.indices(cells.len()),
+        None => (0..cells.len()).collect(),
+    };
+    if indices.is_empty() {
+        bail!(
+            "shard {} has no cells (the bake has only {} cells)",
+            args.shard.as_deref().unwrap_or(""),
+            cells.len()
+        );
+    }
+    let (kept, run_key, incremental) = match (&args.since, &args.old_scene) {
+        (Some(old_pvs), Some(old_scene)) => {
+            let (kept, report) = plan_incremental(args, old_pvs, old_scene, &scene, &cells, &fp)?;
+            let key = serde_json::json!({
+                "since": old_pvs.display().to_string(),
+                "since_scene_hash": format!("{:016x}", report.old_scene_hash),
+            });
+            (kept, key, Some(report))
+        }
+        _ => (BTreeMap::new(), serde_json::Value::Null, None),
+    };
+    let kept_count = indices.iter().filter(|i| kept.contains_key(i)).count();
+    let job = ResumableBake {
+        setup,
+        indices,
+        kept,
+        fingerprint: fp,
+        run_key,
+        checkpoint: Some(checkpoint_path(&args.output)),
+        restart: args.restart,
+        checkpoint_interval: Duration::from_secs_f64(args.checkpoint_every),
+        max_new_cells: None,
+    };
+
+    let multi = MultiProgress::new();
+    let cells_bar = multi.add(
+        ProgressBar::new(job.indices.len() as u64).with_style(
+            ProgressStyle::with_template("cells {bar:30} {pos}/{len} [{elapsed_precise} < {eta}]")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        ),
+    );
+    let cell_bar = multi.add(ProgressBar::new_spinner());
+    let n = scene.triangle_count().max(1) as f64;
+    let progress = job.run_with(
+        &mut |done| cells_bar.set_position(done as u64),
         &|cell, p| {
             cell_bar.set_message(format!(
                 "cell {cell}: {} rays, PVS {} ({:.2}%)",
@@ -334,37 +477,203 @@ fn run_bake(args: BakeArgs) -> Result<()> {
             cell_bar.tick();
         },
         &mut |_, _| cells_bar.inc(1),
-    );
+    )?;
     cell_bar.finish_and_clear();
     cells_bar.finish_and_clear();
-    file.save(&args.output)?;
-    let sizes: Vec<usize> = file
-        .cells
-        .iter()
-        .map(|c| c.visible.count_ones(..))
-        .collect();
-    let mean = sizes.iter().sum::<usize>() as f64 / sizes.len() as f64;
+    let mut extra = serde_json::json!({
+        "parameters": parameters,
+        "clusters": clusters,
+    });
+    if let Some(s) = shard {
+        extra["shard"] = serde_json::json!({"index": s.index, "count": s.count});
+        // Each shard file carries only its cells' clusters.
+        if let Some(c) = &clusters {
+            extra["clusters"] =
+                serde_json::json!(job.indices.iter().map(|&i| c[i]).collect::<Vec<_>>());
+        }
+    }
+    if let Some(r) = &incremental {
+        extra["incremental"] = serde_json::json!({
+            "since": r.since.display().to_string(),
+            "old_scene": r.old_scene,
+            "removed_triangles": r.removed,
+            "added_triangles": r.added,
+            "added_boxes": r.boxes,
+            "kept_cells": kept_count,
+            "rebaked_cells": job.indices.len() - kept_count,
+        });
+    }
+    job.write_output(&args.output, &progress, extra)?;
+    let sizes: Vec<usize> = progress.done.values().map(|c| c.set.len()).collect();
+    let mean = sizes.iter().sum::<usize>() as f64 / sizes.len().max(1) as f64;
     let summary = BakeSummary {
         output: args.output.clone(),
         method: sampler.name().to_string(),
-        cells: cells.len(),
-        total_rays: file.metadata["total_rays"].as_u64().unwrap_or(0),
-        seconds: file.metadata["seconds"].as_f64().unwrap_or(0.0),
+        cells: job.indices.len(),
+        resumed_cells: progress.resumed,
+        baked_cells: progress.baked,
+        kept_cells: kept_count,
+        total_rays: progress.done.values().map(|c| c.rays).sum(),
+        seconds: progress.seconds,
         mean_pvs_size: mean,
         mean_pvs_percent: 100.0 * mean / n,
+        memory_bytes_per_cell: progress.memory_bytes() as f64 / sizes.len().max(1) as f64,
+        set_bytes_per_cell: progress.set_bytes() as f64 / sizes.len().max(1) as f64,
+        file_bytes_per_cell: std::fs::metadata(&args.output).map_or(0.0, |m| m.len() as f64)
+            / sizes.len().max(1) as f64,
+    };
+    if args.json {
+        return print_json(&summary);
+    }
+    if let Some(r) = &incremental {
+        println!(
+            "incremental: {} triangles removed, {} added in {} groups; rebaked {} of {} cells, kept {}",
+            r.removed,
+            r.added,
+            r.boxes,
+            job.indices.len() - kept_count,
+            job.indices.len(),
+            kept_count
+        );
+    }
+    println!(
+        "baked {} cells with {} in {:.2} s ({} resumed from the checkpoint, {} rays): mean PVS {:.0} \
+         triangles ({:.2}% of {}), {:.0} bytes per cell in memory, wrote {}",
+        summary.cells,
+        summary.method,
+        summary.seconds,
+        summary.resumed_cells,
+        summary.total_rays,
+        summary.mean_pvs_size,
+        summary.mean_pvs_percent,
+        scene.triangle_count(),
+        summary.memory_bytes_per_cell,
+        summary.output.display()
+    );
+    Ok(())
+}
+
+/// What the incremental planner found.
+struct IncrementalReport {
+    since: PathBuf,
+    old_scene: String,
+    old_scene_hash: u64,
+    removed: usize,
+    added: usize,
+    boxes: usize,
+}
+
+/// The cells of `old_pvs` whose sets the edit from `old_scene` to `scene` cannot change,
+/// remapped to the new triangle ids.
+fn plan_incremental(
+    args: &BakeArgs,
+    old_pvs: &Path,
+    old_scene: &str,
+    scene: &sightline_core::Scene,
+    cells: &[ViewCell],
+    fp: &serde_json::Value,
+) -> Result<(BTreeMap<usize, BakedCell>, IncrementalReport)> {
+    let old_scene_args = SceneArgs {
+        scene: old_scene.to_string(),
+        patch_subdivisions: args.scene.patch_subdivisions,
+    };
+    let old = old_scene_args.load()?;
+    let old_file =
+        PvsFile::load(old_pvs).with_context(|| format!("reading {}", old_pvs.display()))?;
+    old_file
+        .check_scene(&old)
+        .with_context(|| format!("{} and --old-scene {old_scene}", old_pvs.display()))?;
+    let Some(old_fp) = old_file.metadata.get("fingerprint") else {
+        bail!(
+            "{} has no bake fingerprint (baked by an older sightline); rebake it fully",
+            old_pvs.display()
+        );
+    };
+    if old_file.metadata.get("cell_indices").is_some() {
+        bail!(
+            "{} holds only some cells (a shard); merge the shards first",
+            old_pvs.display()
+        );
+    }
+    let differs: Vec<&str> = [
+        "method",
+        "parameters",
+        "seed",
+        "budget",
+        "cell_count",
+        "cells_hash",
+        "extra",
+    ]
+    .into_iter()
+    .filter(|k| old_fp.get(*k) != fp.get(*k))
+    .collect();
+    if !differs.is_empty() {
+        bail!(
+            "{} was baked differently (it differs in: {}); --since needs the same cells, method, \
+             parameters, seed and budget (with --grid, pass the same --bounds: the default is \
+             the scene bounds, which an edit can change)",
+            old_pvs.display(),
+            differs.join(", ")
+        );
+    }
+    if old_file.cells.len() != cells.len() {
+        bail!(
+            "{} has {} cells, this bake {}",
+            old_pvs.display(),
+            old_file.cells.len(),
+            cells.len()
+        );
+    }
+    let plan = if args.probe_rays > 0 {
+        let old_bvh = Bvh::build(&old);
+        incremental::plan_with_probe(&old, scene, &old_file, &old_bvh, args.probe_rays)
+    } else {
+        incremental::plan(&old, scene, &old_file)
+    };
+    let kept = plan.kept_cells(&old_file, scene.triangle_count());
+    Ok((
+        kept,
+        IncrementalReport {
+            since: old_pvs.to_path_buf(),
+            old_scene: old_scene.to_string(),
+            old_scene_hash: old.geometry_hash(),
+            removed: plan.matching.removed.len(),
+            added: plan.matching.added.len(),
+            boxes: plan.boxes.len(),
+        },
+    ))
+}
+
+#[derive(Serialize)]
+struct MergeSummary {
+    output: PathBuf,
+    files: usize,
+    cells: usize,
+    total_cells: u64,
+}
+
+fn run_merge(args: MergeArgs) -> Result<()> {
+    let mut files = Vec::with_capacity(args.files.len());
+    for p in &args.files {
+        let f = EncodedPvsFile::load(p).with_context(|| format!("reading {}", p.display()))?;
+        files.push((p.clone(), f));
+    }
+    let merged = merge(&files, args.allow_partial)?;
+    merged.save(&args.output)?;
+    let summary = MergeSummary {
+        output: args.output.clone(),
+        files: files.len(),
+        cells: merged.cells.len(),
+        total_cells: merged.metadata["total_cells"].as_u64().unwrap_or(0),
     };
     if args.json {
         return print_json(&summary);
     }
     println!(
-        "baked {} cells with {} in {:.2} s ({} rays): mean PVS {:.0} triangles ({:.2}% of {}), wrote {}",
+        "merged {} files: {} of {} cells, wrote {}",
+        summary.files,
         summary.cells,
-        summary.method,
-        summary.seconds,
-        summary.total_rays,
-        summary.mean_pvs_size,
-        summary.mean_pvs_percent,
-        scene.triangle_count(),
+        summary.total_cells,
         summary.output.display()
     );
     Ok(())

@@ -1,0 +1,330 @@
+//! Splitting a bake into shards and merging the shard files back into one `.pvs`.
+//!
+//! Shard `i` of `n` holds the cells whose global index `g` has `g % n == i` (interleaved, so
+//! every shard gets a similar mix of cheap and expensive cells). A shard file records
+//! `shard: {index, count}`, `total_cells`, `cell_indices` (the global index of each of its
+//! cells) and the bake's `fingerprint`; the merge checks them all and writes the cells in
+//! global order, so merging all shards gives the same cells and sets as the unsharded bake.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde_json::json;
+
+use crate::checkpoint::fingerprint_differences;
+use crate::pvs_file::{EncodedPvsFile, EncodedSet};
+use crate::viewcell::ViewCell;
+
+/// A shard `index / count`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    /// Which shard, `0..count`.
+    pub index: usize,
+    /// Number of shards.
+    pub count: usize,
+}
+
+impl Shard {
+    /// Parses `I/N` (`0 <= I < N`).
+    pub fn parse(s: &str) -> Result<Self, String> {
+        let bad = || format!("shard '{s}': expected I/N with 0 <= I < N, e.g. 0/4");
+        let (i, n) = s.split_once('/').ok_or_else(bad)?;
+        let index: usize = i.trim().parse().map_err(|_| bad())?;
+        let count: usize = n.trim().parse().map_err(|_| bad())?;
+        if count == 0 || index >= count {
+            return Err(bad());
+        }
+        Ok(Self { index, count })
+    }
+
+    /// The global indices of this shard's cells among `total` cells.
+    pub fn indices(&self, total: usize) -> Vec<usize> {
+        (self.index..total).step_by(self.count).collect()
+    }
+}
+
+/// Why shard files could not be merged.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum MergeError {
+    /// Nothing to merge.
+    #[error("no files to merge")]
+    Empty,
+    /// Two files index different scenes.
+    #[error("{a} and {b} were baked for different scenes (hash {ha:016x} vs {hb:016x})")]
+    DifferentScenes {
+        /// First file.
+        a: PathBuf,
+        /// Second file.
+        b: PathBuf,
+        /// Scene hash of `a`.
+        ha: u64,
+        /// Scene hash of `b`.
+        hb: u64,
+    },
+    /// A file has no fingerprint (not written by a sharded or resumable bake).
+    #[error(
+        "{0} has no bake fingerprint in its metadata (bake it with this version of sightline)"
+    )]
+    NoFingerprint(PathBuf),
+    /// Two files come from different bakes.
+    #[error("{a} and {b} come from different bakes (they differ in: {differences})")]
+    DifferentBakes {
+        /// First file.
+        a: PathBuf,
+        /// Second file.
+        b: PathBuf,
+        /// The differing fingerprint keys.
+        differences: String,
+    },
+    /// A file's cell indices are missing or inconsistent.
+    #[error("{path}: {what}")]
+    BadIndices {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        what: String,
+    },
+    /// Two files hold the same cell.
+    #[error("{a} and {b} overlap: both hold cell {cell}")]
+    Overlap {
+        /// First file.
+        a: PathBuf,
+        /// Second file.
+        b: PathBuf,
+        /// The cell's global index.
+        cell: usize,
+    },
+    /// Some cells are in no file.
+    #[error(
+        "{missing} of {total} cells are in none of the files (first missing: {first}); \
+         merge the other shards too, or pass --allow-partial"
+    )]
+    Missing {
+        /// How many are missing.
+        missing: usize,
+        /// Cells of the whole bake.
+        total: usize,
+        /// The first missing global index.
+        first: usize,
+    },
+}
+
+/// The global index of each cell of `file` (all cells in order for an unsharded file).
+fn cell_indices(path: &Path, file: &EncodedPvsFile) -> Result<(Vec<usize>, usize), MergeError> {
+    let bad = |what: &str| MergeError::BadIndices {
+        path: path.to_path_buf(),
+        what: what.into(),
+    };
+    let total = file.metadata["total_cells"]
+        .as_u64()
+        .map(|t| t as usize)
+        .ok_or_else(|| bad("no total_cells in its metadata"))?;
+    let indices: Vec<usize> = match file.metadata.get("cell_indices") {
+        None => (0..file.cells.len()).collect(),
+        Some(v) => v
+            .as_array()
+            .ok_or_else(|| bad("cell_indices is not a list"))?
+            .iter()
+            .map(|i| i.as_u64().map(|i| i as usize))
+            .collect::<Option<_>>()
+            .ok_or_else(|| bad("cell_indices holds a non-number"))?,
+    };
+    if indices.len() != file.cells.len() {
+        return Err(bad("cell_indices does not list one index per cell"));
+    }
+    if indices.iter().any(|&i| i >= total) || !indices.windows(2).all(|w| w[0] < w[1]) {
+        return Err(bad("cell_indices is not ascending within total_cells"));
+    }
+    Ok((indices, total))
+}
+
+/// Merges shard files (path and contents) into one file with the cells in global order.
+/// Refuses different scenes or bakes, overlapping shards and, unless `allow_partial`, missing
+/// cells (a partial merge records `cell_indices`).
+pub fn merge(
+    files: &[(PathBuf, EncodedPvsFile)],
+    allow_partial: bool,
+) -> Result<EncodedPvsFile, MergeError> {
+    let (first_path, first) = files.first().ok_or(MergeError::Empty)?;
+    let fp = first
+        .metadata
+        .get("fingerprint")
+        .ok_or_else(|| MergeError::NoFingerprint(first_path.clone()))?;
+    #[allow(clippy::type_complexity)]
+    let mut by_index: BTreeMap<usize, (usize, &(ViewCell, EncodedSet), &serde_json::Value)> =
+        BTreeMap::new();
+    // Per-cell lists beside `cells` (Quake 3 leaf bakes' `clusters`), by global index.
+    let mut clusters: BTreeMap<usize, &serde_json::Value> = BTreeMap::new();
+    let mut total = None;
+    for (k, (path, file)) in files.iter().enumerate() {
+        if file.scene_hash != first.scene_hash || file.triangle_count != first.triangle_count {
+            return Err(MergeError::DifferentScenes {
+                a: first_path.clone(),
+                b: path.clone(),
+                ha: first.scene_hash,
+                hb: file.scene_hash,
+            });
+        }
+        let f = file
+            .metadata
+            .get("fingerprint")
+            .ok_or_else(|| MergeError::NoFingerprint(path.clone()))?;
+        if f != fp {
+            return Err(MergeError::DifferentBakes {
+                a: first_path.clone(),
+                b: path.clone(),
+                differences: fingerprint_differences(fp, f),
+            });
+        }
+        let (indices, t) = cell_indices(path, file)?;
+        if *total.get_or_insert(t) != t {
+            return Err(MergeError::BadIndices {
+                path: path.clone(),
+                what: format!("total_cells {t} differs from {}", total.unwrap_or(0)),
+            });
+        }
+        for (j, (&g, cell)) in indices.iter().zip(&file.cells).enumerate() {
+            if let Some((other, _, _)) = by_index.get(&g) {
+                return Err(MergeError::Overlap {
+                    a: files[*other].0.clone(),
+                    b: path.clone(),
+                    cell: g,
+                });
+            }
+            by_index.insert(g, (k, cell, &file.metadata["cells"][j]));
+            if let Some(c) = file.metadata["clusters"].as_array().and_then(|c| c.get(j)) {
+                clusters.insert(g, c);
+            }
+        }
+    }
+    let total = total.unwrap_or(0);
+    if by_index.len() != total && !allow_partial {
+        let first_missing = (0..total).find(|i| !by_index.contains_key(i)).unwrap_or(0);
+        return Err(MergeError::Missing {
+            missing: total - by_index.len(),
+            total,
+            first: first_missing,
+        });
+    }
+    let mut metadata = first.metadata.clone();
+    if let Some(m) = metadata.as_object_mut() {
+        m.remove("shard");
+        m.remove("cell_indices");
+        let sum = |key: &str| -> serde_json::Value {
+            let s: f64 = files
+                .iter()
+                .map(|(_, f)| f.metadata[key].as_f64().unwrap_or(0.0))
+                .sum();
+            json!(s)
+        };
+        m.insert(
+            "total_rays".into(),
+            json!(by_index
+                .values()
+                .map(|(_, _, s)| s["rays"].as_u64().unwrap_or(0))
+                .sum::<u64>()),
+        );
+        m.insert("seconds".into(), sum("seconds"));
+        m.insert("cell_seconds".into(), sum("cell_seconds"));
+        m.insert(
+            "cells".into(),
+            json!(by_index
+                .values()
+                .map(|(_, _, s)| (*s).clone())
+                .collect::<Vec<_>>()),
+        );
+        m.insert(
+            "merged_from".into(),
+            json!(files
+                .iter()
+                .map(|(p, _)| p.display().to_string())
+                .collect::<Vec<_>>()),
+        );
+        if !m.get("clusters").is_none_or(serde_json::Value::is_null) {
+            if clusters.len() != by_index.len() {
+                return Err(MergeError::BadIndices {
+                    path: first_path.clone(),
+                    what: "some files have no cluster per cell".into(),
+                });
+            }
+            m.insert(
+                "clusters".into(),
+                json!(clusters.into_values().collect::<Vec<_>>()),
+            );
+        }
+        if by_index.len() != total {
+            m.insert(
+                "cell_indices".into(),
+                json!(by_index.keys().collect::<Vec<_>>()),
+            );
+        }
+    }
+    Ok(EncodedPvsFile {
+        scene_hash: first.scene_hash,
+        triangle_count: first.triangle_count,
+        metadata,
+        cells: by_index.values().map(|(_, c, _)| (*c).clone()).collect(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn shard_file(indices: &[usize], clusters: &[u32]) -> EncodedPvsFile {
+        use glam::Vec3;
+        let cells = indices
+            .iter()
+            .map(|&i| {
+                (
+                    ViewCell::aabb(Vec3::splat(i as f32), Vec3::splat(i as f32 + 1.0)).unwrap(),
+                    EncodedSet::encode(&fixedbitset::FixedBitSet::with_capacity(4), 4),
+                )
+            })
+            .collect();
+        EncodedPvsFile {
+            scene_hash: 7,
+            triangle_count: 4,
+            metadata: json!({
+                "fingerprint": {"seed": 1},
+                "total_cells": 4,
+                "cell_indices": indices,
+                "clusters": clusters,
+                "cells": indices.iter().map(|i| json!({"rays": i})).collect::<Vec<_>>(),
+            }),
+            cells,
+        }
+    }
+
+    #[test]
+    fn merge_puts_cells_and_their_clusters_in_global_order() {
+        let files = [
+            (PathBuf::from("b"), shard_file(&[1, 3], &[11, 13])),
+            (PathBuf::from("a"), shard_file(&[0, 2], &[10, 12])),
+        ];
+        let m = merge(&files, false).unwrap();
+        let firsts: Vec<f32> = m.cells.iter().map(|c| c.0.center.x).collect();
+        assert_eq!(firsts, vec![0.5, 1.5, 2.5, 3.5]);
+        assert_eq!(m.metadata["clusters"], json!([10, 11, 12, 13]));
+        assert_eq!(m.metadata["total_rays"], 6);
+        assert!(m.metadata.get("cell_indices").is_none());
+        let partial = merge(&files[..1], true).unwrap();
+        assert_eq!(partial.metadata["cell_indices"], json!([1, 3]));
+        assert_eq!(partial.metadata["clusters"], json!([11, 13]));
+    }
+
+    #[test]
+    fn shard_specs_parse_and_partition() {
+        assert_eq!(Shard::parse("1/3").unwrap(), Shard { index: 1, count: 3 });
+        for bad in ["3/3", "1", "a/2", "0/0", "-1/2"] {
+            assert!(Shard::parse(bad).is_err(), "{bad}");
+        }
+        let mut all: Vec<usize> = (0..3)
+            .flat_map(|i| Shard { index: i, count: 3 }.indices(10))
+            .collect();
+        all.sort_unstable();
+        assert_eq!(all, (0..10).collect::<Vec<_>>());
+        assert_eq!(Shard { index: 2, count: 3 }.indices(10), vec![2, 5, 8]);
+    }
+}
