@@ -31,6 +31,9 @@ pub enum ViewError {
         /// The renderer's size.
         renderer: (u32, u32),
     },
+    /// The exact method's analytic visibility failed (an invalid camera).
+    #[error("exact visibility: {0}")]
+    Exact(String),
     /// Reading a GPU buffer back failed.
     #[error("reading GPU results back failed: {0}")]
     Readback(String),

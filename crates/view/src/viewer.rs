@@ -7,16 +7,18 @@
 //!    outside every cell nothing is known and everything is drawn.
 //! 3. `occlusion`: per-frame occlusion culling of scene chunks with the software occlusion
 //!    buffer ([`OcclusionCuller`]).
-//! 4. `exact`: the visible set of the frame computed by the reference rasterizer
-//!    (`sightline_core::raster`) at a reduced resolution (1/[`ViewerOptions::exact_divisor`] of
-//!    the image per axis): exact at that resolution, so the popping it shows at full
-//!    resolution is what sampling the visible set coarsely misses.
+//! 4. `exact`: the exact visible set of the frame (`sightline_point::analytic`, every triangle
+//!    with a visible region however small), computed for a camera with the same frustum at a
+//!    reduced resolution (1/[`ViewerOptions::exact_divisor`] of the image per axis) to save
+//!    time: the analytic set does not depend on the resolution beyond its 2^-20-pixel
+//!    snapping, so what popping remains is where the GPU's and the analytic method's edge
+//!    and tie rules differ.
 
 use std::time::Instant;
 
 use glam::Vec3;
 use serde::Serialize;
-use sightline_core::raster::{Frame, Rasterizer};
+use sightline_point::analytic::{visible_fragments, AnalyticOptions};
 use sightline_core::{Camera, Scene, TriangleSet};
 use sightline_region::PvsFile;
 
@@ -159,7 +161,6 @@ pub struct Viewer {
     pub show_cells: bool,
     occlusion: Option<OcclusionCuller>,
     drawn: TriangleSet,
-    exact_frame: Frame,
     popping: PoppingStats,
     frames: u32,
     /// The wireframe last given to the renderer: (current cell, shown).
@@ -188,7 +189,6 @@ impl Viewer {
             show_cells: true,
             occlusion: None,
             drawn: TriangleSet::new(),
-            exact_frame: Frame::new(1, 1),
             popping: PoppingStats::default(),
             frames: 0,
             lines_for: None,
@@ -264,8 +264,10 @@ impl Viewer {
                     (camera.height / d).max(1),
                     camera.near,
                 )?;
-                Rasterizer::new(&self.scene).render(&small, None, &mut self.exact_frame);
-                self.drawn = self.exact_frame.visible_set(n);
+                let exact = visible_fragments(&self.scene, &small, &AnalyticOptions::default())
+                    .map_err(|e| ViewError::Exact(e.to_string()))?;
+                self.drawn = exact.visible;
+                self.drawn.grow(n);
                 Ok(Some(self.drawn.count_ones(..)))
             }
         }

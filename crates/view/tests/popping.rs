@@ -122,8 +122,9 @@ fn culling_methods_cull_at_street_level_with_little_popping() {
     let scene = small_scene("procedural:city?size=3000");
     let camera = street_camera(&scene, W, H);
     let n = scene.triangle_count();
+    // The exact method at a quarter of the resolution: the analytic set does not depend on it.
     let options = ViewerOptions {
-        exact_divisor: 1,
+        exact_divisor: 4,
         ..Default::default()
     };
     let mut viewer = Viewer::new(scene, None, options).unwrap();
@@ -140,8 +141,8 @@ fn culling_methods_cull_at_street_level_with_little_popping() {
         );
         assert!(r.triangles_drawn < n, "{} culled nothing", method.name());
         // The occlusion buffer has the image's resolution and is conservative for it; the
-        // exact method at full resolution differs from the GPU only on edge pixels (see
-        // reference.rs): both stay under 1% of the covered pixels.
+        // exact (analytic) set differs from the GPU only where their edge and tie rules do
+        // (see reference.rs): both stay under 1% of the covered pixels.
         assert!(
             f64::from(r.popping_pixels) <= 0.01 * f64::from(r.covered_pixels),
             "{}: {} popping pixels",
