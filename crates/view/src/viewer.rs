@@ -18,8 +18,8 @@ use std::time::Instant;
 
 use glam::Vec3;
 use serde::Serialize;
-use sightline_point::analytic::{visible_fragments, AnalyticOptions};
 use sightline_core::{Camera, Scene, TriangleSet};
+use sightline_point::analytic::{visible_fragments, AnalyticOptions};
 use sightline_region::PvsFile;
 
 use crate::error::ViewError;
