@@ -168,11 +168,7 @@ fn run_from_region(args: &Args, spec: &str, start: Instant) -> Result<()> {
         missed: check.map(|c| c.1),
     };
     if let Some(path) = &args.output {
-        let text: String = r.visible.ones().map(|id| format!("{id}\n")).collect();
-        sightline_core::atomic_file::write_atomic(path, |w| {
-            std::io::Write::write_all(w, text.as_bytes())
-        })
-        .with_context(|| format!("writing {}", path.display()))?;
+        write_ids(path, &r.visible)?;
     }
     if args.json {
         return print_json(&summary);
@@ -192,6 +188,15 @@ fn run_from_region(args: &Args, spec: &str, start: Instant) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// Writes the ids of `set`, one per line (atomically: an existing file survives a failure).
+fn write_ids(path: &std::path::Path, set: &TriangleSet) -> Result<()> {
+    let text: String = set.ones().map(|id| format!("{id}\n")).collect();
+    sightline_core::atomic_file::write_atomic(path, |w| {
+        std::io::Write::write_all(w, text.as_bytes())
+    })
+    .with_context(|| format!("writing {}", path.display()))
 }
 
 /// Triangles hit by `rays` rays from random points of `cell` in random directions.
@@ -308,11 +313,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         }
     }
     if let Some(path) = &args.output {
-        let text: String = visible.ones().map(|id| format!("{id}\n")).collect();
-        sightline_core::atomic_file::write_atomic(path, |w| {
-            std::io::Write::write_all(w, text.as_bytes())
-        })
-        .with_context(|| format!("writing {}", path.display()))?;
+        write_ids(path, &visible)?;
     }
     if args.json {
         return print_json(&summary);

@@ -367,20 +367,27 @@ mod tests {
         assert!(conservative_from_region(&mut src, &cell(Vec3::ZERO, Vec3::ONE), &zero).is_err());
     }
 
-    #[test]
-    fn big_wall_hides_a_box_behind_it_but_not_one_beside_it() {
+    /// A wall at x = 5 spanning `-half_width..half_width` in y and -10..10 in z (two
+    /// triangles forming a quad, ids 0 and 1), with a small box behind it (ids 2..14).
+    fn wall_and_box(half_width: f32) -> SceneBuilder {
         let mut b = SceneBuilder::new("wall");
-        // A 20 x 20 wall at x = 5 (two triangles forming a quad), a small box behind it and a
-        // small box far to the side, seen past the wall's edge.
         let w = [
-            b.add_vertex(Vec3::new(5.0, -10.0, -10.0)),
-            b.add_vertex(Vec3::new(5.0, 10.0, -10.0)),
-            b.add_vertex(Vec3::new(5.0, 10.0, 10.0)),
-            b.add_vertex(Vec3::new(5.0, -10.0, 10.0)),
+            b.add_vertex(Vec3::new(5.0, -half_width, -10.0)),
+            b.add_vertex(Vec3::new(5.0, half_width, -10.0)),
+            b.add_vertex(Vec3::new(5.0, half_width, 10.0)),
+            b.add_vertex(Vec3::new(5.0, -half_width, 10.0)),
         ];
         b.add_triangle([w[0], w[1], w[2]]);
         b.add_triangle([w[0], w[2], w[3]]);
         b.add_box(Vec3::new(8.0, -0.5, -0.5), Vec3::new(9.0, 0.5, 0.5));
+        b
+    }
+
+    #[test]
+    fn big_wall_hides_a_box_behind_it_but_not_one_beside_it() {
+        // A 20 x 20 wall, the box behind it and a small box far to the side, seen past the
+        // wall's edge.
+        let mut b = wall_and_box(10.0);
         b.add_box(Vec3::new(8.0, 30.0, -0.5), Vec3::new(9.0, 31.0, 0.5));
         let scene = b.finish();
         let r = conservative_from_region(
@@ -401,17 +408,7 @@ mod tests {
     fn a_wall_split_in_two_triangles_hides_via_its_quad() {
         // Without merging the two triangles into a quad, a box behind the diagonal is hidden by
         // neither triangle alone.
-        let mut b = SceneBuilder::new("wall");
-        let w = [
-            b.add_vertex(Vec3::new(5.0, -10.0, -10.0)),
-            b.add_vertex(Vec3::new(5.0, 10.0, -10.0)),
-            b.add_vertex(Vec3::new(5.0, 10.0, 10.0)),
-            b.add_vertex(Vec3::new(5.0, -10.0, 10.0)),
-        ];
-        b.add_triangle([w[0], w[1], w[2]]);
-        b.add_triangle([w[0], w[2], w[3]]);
-        b.add_box(Vec3::new(8.0, -0.5, -0.5), Vec3::new(9.0, 0.5, 0.5));
-        let scene = b.finish();
+        let scene = wall_and_box(10.0).finish();
         let r = conservative_from_region(
             &mut SceneSource::new(&scene),
             &cell(Vec3::new(-1.0, -1.0, -1.0), Vec3::new(1.0, 1.0, 1.0)),
@@ -427,17 +424,7 @@ mod tests {
 
     #[test]
     fn a_cell_reaching_past_the_wall_edge_sees_behind_it() {
-        let mut b = SceneBuilder::new("wall");
-        let w = [
-            b.add_vertex(Vec3::new(5.0, -2.0, -10.0)),
-            b.add_vertex(Vec3::new(5.0, 2.0, -10.0)),
-            b.add_vertex(Vec3::new(5.0, 2.0, 10.0)),
-            b.add_vertex(Vec3::new(5.0, -2.0, 10.0)),
-        ];
-        b.add_triangle([w[0], w[1], w[2]]);
-        b.add_triangle([w[0], w[2], w[3]]);
-        b.add_box(Vec3::new(8.0, -0.5, -0.5), Vec3::new(9.0, 0.5, 0.5));
-        let scene = b.finish();
+        let scene = wall_and_box(2.0).finish();
         // From y = 3..4 the box is seen past the wall's edge (y = 2).
         let r = conservative_from_region(
             &mut SceneSource::new(&scene),
