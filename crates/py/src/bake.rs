@@ -12,7 +12,7 @@ use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use sightline_core::TriangleSet;
-use sightline_region::methods::{sampler, MethodParams};
+use sightline_region::methods::{sampler, MethodOverrides, MethodParams};
 use sightline_region::{Budget, CellContext, PvsFile, Sampler, ViewCell};
 
 use crate::cells::PyViewCell;
@@ -47,36 +47,17 @@ struct MethodOptions {
 impl MethodOptions {
     /// The same mapping from options to parameters as the CLI's `pvs bake`.
     fn params(&self) -> MethodParams {
-        let mut p = MethodParams {
+        MethodOverrides {
+            n_rand: self.n_rand,
+            n_abs_edge: self.n_abs_edge,
+            delta_abs: self.delta_abs,
+            n_rs_edge: self.n_rs_edge,
+            n_rs_area: self.n_rs_area,
+            delta: self.delta,
+            termination: self.termination,
             raster_resolution: self.raster_resolution,
-            ..MethodParams::default()
-        };
-        if let Some(v) = self.n_rand {
-            p.gvspp.n_rand = v;
-            p.gvs.n_rand = v;
         }
-        if let Some(v) = self.n_abs_edge {
-            p.gvspp.n_abs_edge = v;
-        }
-        if let Some(v) = self.delta_abs {
-            p.gvspp.delta_abs = v;
-            p.gvs.delta_abs = v;
-        }
-        if let Some(v) = self.n_rs_edge {
-            p.gvspp.n_rs_edge = v;
-        }
-        if let Some(v) = self.n_rs_area {
-            p.gvspp.n_rs_area = v;
-        }
-        if let Some(v) = self.delta {
-            p.gvspp.delta_discontinuity = v;
-            p.gvs.delta_discontinuity = v;
-        }
-        if let Some(v) = self.termination {
-            p.gvspp.termination_threshold = v;
-            p.gvs.termination_threshold = v;
-        }
-        p
+        .params()
     }
 }
 

@@ -20,6 +20,64 @@ pub struct MethodParams {
     pub raster_resolution: Option<u32>,
 }
 
+/// Optional overrides of the default parameters, as the command line and the Python package
+/// take them; one value may set the same parameter of several methods.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MethodOverrides {
+    /// Random rays per round (GVS++ and GVS).
+    pub n_rand: Option<u64>,
+    /// Samples along each long edge of the ABS border polygon (GVS++).
+    pub n_abs_edge: Option<u32>,
+    /// Border polygon offset as a fraction of the scene diagonal (GVS++ and GVS).
+    pub delta_abs: Option<f32>,
+    /// Reverse-sampling samples per edge (GVS++).
+    pub n_rs_edge: Option<u32>,
+    /// Reverse-sampling samples per area (GVS++).
+    pub n_rs_area: Option<u32>,
+    /// Discontinuity threshold as a fraction of the scene diagonal (GVS++ and GVS).
+    pub delta: Option<f32>,
+    /// Rounds without news before stopping (GVS++ and GVS).
+    pub termination: Option<usize>,
+    /// RASTER cube-map resolution.
+    pub raster_resolution: Option<u32>,
+}
+
+impl MethodOverrides {
+    /// The default parameters with these overrides applied.
+    pub fn params(&self) -> MethodParams {
+        let mut p = MethodParams {
+            raster_resolution: self.raster_resolution,
+            ..MethodParams::default()
+        };
+        if let Some(v) = self.n_rand {
+            p.gvspp.n_rand = v;
+            p.gvs.n_rand = v;
+        }
+        if let Some(v) = self.n_abs_edge {
+            p.gvspp.n_abs_edge = v;
+        }
+        if let Some(v) = self.delta_abs {
+            p.gvspp.delta_abs = v;
+            p.gvs.delta_abs = v;
+        }
+        if let Some(v) = self.n_rs_edge {
+            p.gvspp.n_rs_edge = v;
+        }
+        if let Some(v) = self.n_rs_area {
+            p.gvspp.n_rs_area = v;
+        }
+        if let Some(v) = self.delta {
+            p.gvspp.delta_discontinuity = v;
+            p.gvs.delta_discontinuity = v;
+        }
+        if let Some(v) = self.termination {
+            p.gvspp.termination_threshold = v;
+            p.gvs.termination_threshold = v;
+        }
+        p
+    }
+}
+
 /// The sampler called `name` with `params`.
 pub fn sampler(name: &str, params: &MethodParams) -> Result<Box<dyn Sampler>, String> {
     match name {

@@ -15,10 +15,10 @@ use sightline_region::cell_sources::{
 };
 use sightline_region::checkpoint::{checkpoint_path, fingerprint, ResumableBake};
 use sightline_region::incremental;
-use sightline_region::methods::{sampler, MethodParams, METHODS};
+use sightline_region::methods::{sampler, MethodOverrides, MethodParams, METHODS};
 use sightline_region::pvs_file::EncodedPvsFile;
 use sightline_region::shards::{merge, Shard};
-use sightline_region::{Budget, GvsPlusPlusParams, PvsFile, ViewCell};
+use sightline_region::{Budget, PvsFile, ViewCell};
 
 use crate::args::SceneArgs;
 use crate::output::print_json;
@@ -330,37 +330,17 @@ struct BakeSummary {
 }
 
 fn method_params(args: &BakeArgs) -> MethodParams {
-    let mut params = MethodParams {
-        gvspp: GvsPlusPlusParams::default(),
+    MethodOverrides {
+        n_rand: args.n_rand,
+        n_abs_edge: args.n_abs_edge,
+        delta_abs: args.delta_abs,
+        n_rs_edge: args.n_rs_edge,
+        n_rs_area: args.n_rs_area,
+        delta: args.delta,
+        termination: args.termination,
         raster_resolution: args.raster_resolution,
-        ..MethodParams::default()
-    };
-    if let Some(v) = args.n_rand {
-        params.gvspp.n_rand = v;
-        params.gvs.n_rand = v;
     }
-    if let Some(v) = args.n_abs_edge {
-        params.gvspp.n_abs_edge = v;
-    }
-    if let Some(v) = args.delta_abs {
-        params.gvspp.delta_abs = v;
-        params.gvs.delta_abs = v;
-    }
-    if let Some(v) = args.n_rs_edge {
-        params.gvspp.n_rs_edge = v;
-    }
-    if let Some(v) = args.n_rs_area {
-        params.gvspp.n_rs_area = v;
-    }
-    if let Some(v) = args.delta {
-        params.gvspp.delta_discontinuity = v;
-        params.gvs.delta_discontinuity = v;
-    }
-    if let Some(v) = args.termination {
-        params.gvspp.termination_threshold = v;
-        params.gvs.termination_threshold = v;
-    }
-    params
+    .params()
 }
 
 fn run_bake(args: BakeArgs) -> Result<()> {
