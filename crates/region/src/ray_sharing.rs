@@ -50,11 +50,14 @@ use crate::viewcell::ViewCell;
 pub struct ShareParams {
     /// The per-cell GVS++ parameters (`n_rand` is the random rays per cell and round).
     pub gvspp: GvsPlusPlusParams,
-    /// Also cast every ray backward from its origin, doubling the free segment it yields for
-    /// two casts (the backward cast is counted in the rays).
+    /// Also cast every random ray backward from its origin, doubling the free segment it yields
+    /// for two casts (the backward cast is counted in the rays). Guided rays (ABS, RS) are cast
+    /// forward only: their backward half would be an untargeted ray at the price of a targeted
+    /// one.
     pub backward: bool,
     /// Triangles a cell receives from other cells' rays enter its exploration queue (ABS and RS
-    /// around them, from the crossing point); when false they only enter its PVS.
+    /// around them, from the crossing point); when false they only enter its PVS, and the cell
+    /// explores exactly the triangles its own rays hit, as an independent GVS++ bake would.
     pub explore_shared: bool,
 }
 
@@ -63,7 +66,7 @@ impl Default for ShareParams {
         Self {
             gvspp: GvsPlusPlusParams::default(),
             backward: true,
-            explore_shared: true,
+            explore_shared: false,
         }
     }
 }
@@ -178,6 +181,8 @@ struct CellState {
     rs_round: u64,
     pvs: TriangleSet,
     pvs_size: usize,
+    /// Triangles queued for exploration (a subset of `pvs`).
+    explored: TriangleSet,
     queue: Vec<Discovery>,
     head: usize,
     rays: u64,
@@ -253,6 +258,7 @@ pub fn bake_shared(
             rs_round: 0,
             pvs: TriangleSet::with_capacity(scene.triangle_count()),
             pvs_size: 0,
+            explored: TriangleSet::with_capacity(scene.triangle_count()),
             queue: Vec::new(),
             head: 0,
             rays: 0,
@@ -307,8 +313,8 @@ pub fn bake_shared(
 }
 
 impl Bake<'_> {
-    /// Rays one cast of a ray costs.
-    fn cost(&self) -> u64 {
+    /// Rays one cast of a random ray costs (two with the backward cast).
+    fn random_cost(&self) -> u64 {
         if self.params.backward {
             2
         } else {
@@ -322,7 +328,7 @@ impl Bake<'_> {
 
     /// True when cell `i` may cast no more rays.
     fn exhausted(&self, i: usize) -> bool {
-        self.rays_left(i) < self.cost() || self.out_of_time()
+        self.rays_left(i) == 0 || self.out_of_time()
     }
 
     fn rays_left(&self, i: usize) -> u64 {
@@ -376,7 +382,7 @@ impl Bake<'_> {
             if self.states[i].converged {
                 continue;
             }
-            let mut remaining = n_rand.min(self.rays_left(i) / self.cost());
+            let mut remaining = n_rand.min(self.rays_left(i) / self.random_cost());
             while remaining > 0 && !self.out_of_time() {
                 let n = remaining.min(SHARED_BATCH as u64) as usize;
                 let s = &mut self.states[i];
@@ -418,58 +424,82 @@ impl Bake<'_> {
             if active.is_empty() {
                 return;
             }
-            // About SHARED_BATCH ABS rays per step, spread over the active cells.
-            let per_ray = 9 + 3 * p.n_abs_edge as usize;
-            let per_cell = (SHARED_BATCH / per_ray / active.len()).clamp(4, ABS_CHUNK);
-            let mut owners = Vec::new();
-            let mut rays = Vec::new();
-            let mut targets = Vec::new();
-            let mut ranges = Vec::with_capacity(active.len());
-            for &i in &active {
-                let s = &mut self.states[i];
-                let end = (s.head + per_cell).min(s.queue.len());
-                let (r, t) = abs_rays(
-                    &self.contexts[i],
-                    &s.queue[s.head..end],
-                    delta_abs,
-                    p.n_abs_edge,
-                );
-                s.head = end;
-                ranges.push((i, rays.len(), rays.len() + r.len()));
-                owners.extend(std::iter::repeat_n(i as u32, r.len()));
-                rays.extend(r);
-                targets.extend(t);
-            }
-            let hits = self.cast_and_share(&owners, &rays, Phase::Abs);
-            // Reverse sampling of each cell's discontinuities from its own origins.
-            let mut rs_owners = Vec::new();
-            let mut rs_rays = Vec::new();
-            for (i, a, b) in ranges {
-                let found = find_discontinuities(&rays[a..b], &hits[a..b], &targets[a..b], delta);
-                let group_size = self.states[i].reverse.group_size();
-                // RS rays of this cell generated but not yet cast (the budget counts them).
-                let mut pending = 0u64;
-                for group in found.chunks(group_size) {
-                    if self.rays_left(i) / self.cost() <= pending || self.out_of_time() {
-                        break;
+            // Each active cell takes the next ABS_CHUNK triangles of its queue, as GVS++ does
+            // (all their ABS rays, then RS of their discontinuities); cells are grouped so that
+            // a group casts about SHARED_BATCH ABS rays at once.
+            let mut k = 0;
+            while k < active.len() {
+                let mut owners = Vec::new();
+                let mut rays = Vec::new();
+                let mut targets = Vec::new();
+                let mut ranges = Vec::new();
+                while k < active.len() && rays.len() < SHARED_BATCH {
+                    let i = active[k];
+                    k += 1;
+                    // Earlier groups' rays may have used up the time budget.
+                    if self.exhausted(i) {
+                        continue;
                     }
                     let s = &mut self.states[i];
-                    let r = s.reverse.rays(&self.contexts[i], group, s.rs_round);
-                    s.rs_round += 1;
-                    pending += r.len() as u64;
-                    rs_owners.extend(std::iter::repeat_n(i as u32, r.len()));
-                    rs_rays.extend(r);
-                    if rs_rays.len() >= SHARED_BATCH {
-                        self.cast_and_share(&rs_owners, &rs_rays, Phase::Rs);
-                        rs_owners.clear();
-                        rs_rays.clear();
-                        pending = 0;
-                    }
+                    let end = (s.head + ABS_CHUNK).min(s.queue.len());
+                    let (r, t) = abs_rays(
+                        &self.contexts[i],
+                        &s.queue[s.head..end],
+                        delta_abs,
+                        p.n_abs_edge,
+                    );
+                    s.head = end;
+                    ranges.push((i, rays.len(), rays.len() + r.len()));
+                    owners.extend(std::iter::repeat_n(i as u32, r.len()));
+                    rays.extend(r);
+                    targets.extend(t);
+                }
+                if rays.is_empty() {
+                    continue;
+                }
+                let hits = self.cast_and_share(&owners, &rays, Phase::Abs);
+                self.reverse_sampling(&ranges, &rays, &hits, &targets, delta);
+            }
+        }
+    }
+
+    /// Reverse sampling (4.3) of the discontinuities of each cell's ABS rays `rays[a..b]`
+    /// (`ranges` holds `(cell, a, b)`), from the cell's own reverse origins, within its budget.
+    fn reverse_sampling(
+        &mut self,
+        ranges: &[(usize, usize, usize)],
+        rays: &[Ray],
+        hits: &[Hit],
+        targets: &[Option<Vec3>],
+        delta: f32,
+    ) {
+        let mut rs_owners = Vec::new();
+        let mut rs_rays = Vec::new();
+        for &(i, a, b) in ranges {
+            let found = find_discontinuities(&rays[a..b], &hits[a..b], &targets[a..b], delta);
+            let group_size = self.states[i].reverse.group_size();
+            // RS rays of this cell generated but not yet cast (the budget counts them).
+            let mut pending = 0u64;
+            for group in found.chunks(group_size) {
+                if self.rays_left(i) <= pending || self.out_of_time() {
+                    break;
+                }
+                let s = &mut self.states[i];
+                let r = s.reverse.rays(&self.contexts[i], group, s.rs_round);
+                s.rs_round += 1;
+                pending += r.len() as u64;
+                rs_owners.extend(std::iter::repeat_n(i as u32, r.len()));
+                rs_rays.extend(r);
+                if rs_rays.len() >= SHARED_BATCH {
+                    self.cast_and_share(&rs_owners, &rs_rays, Phase::Rs);
+                    rs_owners.clear();
+                    rs_rays.clear();
+                    pending = 0;
                 }
             }
-            if !rs_rays.is_empty() {
-                self.cast_and_share(&rs_owners, &rs_rays, Phase::Rs);
-            }
+        }
+        if !rs_rays.is_empty() {
+            self.cast_and_share(&rs_owners, &rs_rays, Phase::Rs);
         }
     }
 
@@ -478,13 +508,13 @@ impl Bake<'_> {
     /// the forward hits.
     fn cast_and_share(&mut self, owners: &[u32], rays: &[Ray], phase: Phase) -> Vec<Hit> {
         let forward = cast(self.caster, rays);
-        let backward = if self.params.backward {
+        let backward = if self.params.backward && phase == Phase::Random {
             let reversed: Vec<Ray> = rays.iter().map(|r| Ray::new(r.origin, -r.dir)).collect();
             Some(cast(self.caster, &reversed))
         } else {
             None
         };
-        let cost = self.cost();
+        let cost = if backward.is_some() { 2 } else { 1 };
         for &o in owners {
             self.states[o as usize].rays += cost;
         }
@@ -503,20 +533,20 @@ impl Bake<'_> {
             .map(|(s, list)| {
                 let mut shared = 0u64;
                 for c in list {
-                    let t = c.discovery.triangle;
-                    if s.pvs.contains(t as usize) {
-                        continue;
+                    let t = c.discovery.triangle as usize;
+                    if !s.pvs.contains(t) {
+                        s.pvs.insert(t);
+                        s.pvs_size += 1;
+                        s.round_new += 1;
+                        if c.own {
+                            s.found[phase as usize] += 1;
+                        } else {
+                            s.found[SHARED] += 1;
+                            shared += 1;
+                        }
                     }
-                    s.pvs.insert(t as usize);
-                    s.pvs_size += 1;
-                    s.round_new += 1;
-                    if c.own {
-                        s.found[phase as usize] += 1;
-                    } else {
-                        s.found[SHARED] += 1;
-                        shared += 1;
-                    }
-                    if c.own || explore_shared {
+                    if (c.own || explore_shared) && !s.explored.contains(t) {
+                        s.explored.insert(t);
                         s.queue.push(c.discovery);
                     }
                 }
@@ -545,8 +575,17 @@ impl Bake<'_> {
         backward: Option<&[Hit]>,
     ) -> Vec<Contribution> {
         const CHUNK: usize = 1024;
-        let known =
-            |cell: u32, triangle: u32| self.states[cell as usize].pvs.contains(triangle as usize);
+        // A cell's own rays report triangles it has not explored yet; other cells' rays, those
+        // not in its PVS yet (or not explored, when it explores what it receives).
+        let explore_shared = self.params.explore_shared;
+        let known = |cell: u32, triangle: u32, own: bool| {
+            let s = &self.states[cell as usize];
+            if own || explore_shared {
+                s.explored.contains(triangle as usize)
+            } else {
+                s.pvs.contains(triangle as usize)
+            }
+        };
         let chunks: Vec<Vec<Contribution>> = rays
             .par_chunks(CHUNK)
             .enumerate()
@@ -579,13 +618,13 @@ impl Bake<'_> {
 
 /// The triangles that `ray`'s free segment shows to its owner (from the ray's origin) and to
 /// every cell it crosses (from a point of the crossing in the cell's free space), skipping those
-/// `known(cell, triangle)` says the cell has; appended to `out`. The segment runs from the
+/// `known(cell, triangle, own)` says the cell needs no more; appended to `out`. The segment runs from the
 /// backward hit (the origin without `backward`) to the forward hit (infinity on a miss).
 #[allow(clippy::too_many_arguments)]
 fn ray_contributions(
     index: &SegmentCells,
     free_space: &(dyn Fn(usize, Vec3) -> bool + Sync),
-    known: &dyn Fn(u32, u32) -> bool,
+    known: &dyn Fn(u32, u32, bool) -> bool,
     owner: u32,
     ray: &Ray,
     forward: Hit,
@@ -604,7 +643,7 @@ fn ray_contributions(
     let fwd_end = forward.triangle().map(|t| (t, o + d * t_fwd));
     let back_end = backward.and_then(|b| b.triangle().map(|t| (t, o - d * b.t)));
     let mut push = |cell: u32, own: bool, origin: Vec3, end: (u32, Vec3)| {
-        if !known(cell, end.0) {
+        if !known(cell, end.0, own) {
             out.push(Contribution {
                 cell,
                 own,
@@ -625,6 +664,12 @@ fn ray_contributions(
         if c.cell == owner {
             continue;
         }
+        let fwd_new = fwd_end.filter(|e| !known(c.cell, e.0, false));
+        let back_new = back_end.filter(|e| !known(c.cell, e.0, false));
+        if fwd_new.is_none() && back_new.is_none() {
+            // Nothing new for this cell: skip the free-space test (it may cost rays).
+            continue;
+        }
         // A point of the crossing in the cell's free space: its middle, else a quarter in.
         let Some(t) = [0.5f32, 0.25, 0.75].iter().find_map(|&f| {
             let t = c.t_enter + (c.t_exit - c.t_enter) * f;
@@ -633,10 +678,10 @@ fn ray_contributions(
             continue;
         };
         let p = o + d * t;
-        if let Some(end) = fwd_end.filter(|_| t < t_fwd) {
+        if let Some(end) = fwd_new.filter(|_| t < t_fwd) {
             push(c.cell, false, p, end);
         }
-        if let Some(end) = back_end.filter(|_| t > t_back) {
+        if let Some(end) = back_new.filter(|_| t > t_back) {
             push(c.cell, false, p, end);
         }
     }
@@ -709,7 +754,7 @@ mod tests {
             ray_contributions(
                 &index,
                 &|_, _| true,
-                &|_, _| false,
+                &|_, _, _| false,
                 *owner,
                 ray,
                 forward[k],
@@ -797,11 +842,16 @@ mod tests {
         let free = |cell: usize, p: Vec3| {
             cell == 0 || (p.x > 4.01 && p.x < 5.99 && p.y.abs() < 0.99 && p.z.abs() < 0.99)
         };
+        // B explores what it receives (from points inside it, its only free space).
+        let params = ShareParams {
+            explore_shared: true,
+            ..small_params()
+        };
         let result = bake_shared(
             &scene,
             &bvh,
             &cells,
-            &small_params(),
+            &params,
             &Budget::rays(400_000),
             5,
             &free,
@@ -914,5 +964,53 @@ mod tests {
         assert_eq!(file.cells.len(), 4);
         assert_eq!(file.metadata["x"], 1);
         assert_eq!(file.cells[2].visible, r.cells[2].visible);
+    }
+
+    #[test]
+    fn forward_only_sharing_contains_the_independent_bake_at_equal_rays() {
+        use crate::sampler::Sampler;
+        // Without backward casts and without exploring what it receives, a cell casts exactly
+        // the rays of its independent GVS++ bake: sharing can only add to its set.
+        let scene = small_city();
+        let bvh = Bvh::build(&scene);
+        let cells = city_cells(&scene, 4);
+        let params = ShareParams {
+            backward: false,
+            explore_shared: false,
+            ..small_params()
+        };
+        let budget = Budget::rays(60_000);
+        let shared = bake_shared(
+            &scene,
+            &bvh,
+            &cells,
+            &params,
+            &budget,
+            3,
+            &|_, _| true,
+            &|_| {},
+        );
+        let independent = crate::GvsPlusPlus {
+            params: params.gvspp.clone(),
+        };
+        let mut added = 0;
+        for (k, cell) in cells.iter().enumerate() {
+            let ctx = CellContext {
+                scene: &scene,
+                caster: &bvh,
+                cell,
+                seed: cell_seed(3, k),
+                free_space: None,
+            };
+            let alone = independent.sample(&ctx, &budget, &|_| {});
+            let s = &shared.cells[k];
+            assert_eq!(alone.rays, s.rays, "cell {k}");
+            assert!(
+                alone.visible.is_subset(&s.visible),
+                "cell {k} lost triangles"
+            );
+            added += s.visible.count_ones(..) - alone.visible.count_ones(..);
+        }
+        assert!(added > 0);
     }
 }

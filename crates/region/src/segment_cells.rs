@@ -60,6 +60,42 @@ pub fn segment_in_cell(
     Some((lo, hi))
 }
 
+/// When `cells` are a regular grid of equal axis-aligned boxes: the grid's box, its counts and
+/// the cell of every bin. Without padding, a segment lying exactly on a face two cells share is
+/// handed to one of them only (sharing may skip a contribution, never invent one).
+fn regular_layout(cells: &[ViewCell], boxes: &[Aabb]) -> Option<(Aabb, [usize; 3], Vec<u32>)> {
+    let size = boxes.first()?.extent();
+    if size.min_element() <= 0.0 || cells.iter().any(|c| c.axes != [Vec3::X, Vec3::Y, Vec3::Z]) {
+        return None;
+    }
+    let tolerance = size.max_element() * 1e-4;
+    if boxes
+        .iter()
+        .any(|b| (b.extent() - size).abs().max_element() > tolerance)
+    {
+        return None;
+    }
+    let union = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(b));
+    let dims: [usize; 3] = std::array::from_fn(|a| (union.extent()[a] / size[a]).round() as usize);
+    if dims.iter().product::<usize>() != cells.len() {
+        return None;
+    }
+    let mut cell_of_bin = vec![u32::MAX; cells.len()];
+    for (id, b) in boxes.iter().enumerate() {
+        let at = (b.min - union.min) / size;
+        let index: [usize; 3] = std::array::from_fn(|a| at[a].round().max(0.0) as usize);
+        if (0..3).any(|a| (at[a] - index[a] as f32).abs() > 1e-3 || index[a] >= dims[a]) {
+            return None;
+        }
+        let bin = index[0] + dims[0] * (index[1] + dims[1] * index[2]);
+        if cell_of_bin[bin] != u32::MAX {
+            return None;
+        }
+        cell_of_bin[bin] = id as u32;
+    }
+    Some((union, dims, cell_of_bin))
+}
+
 /// The cells crossed by a segment, for many segments against a fixed list of cells.
 #[derive(Clone, Debug)]
 pub struct SegmentCells {
@@ -77,12 +113,25 @@ const MAX_BINS_PER_AXIS: usize = 512;
 const MAX_BINS: usize = 1 << 22;
 
 impl SegmentCells {
-    /// An index over `cells`. Bins are about the median cell size along each axis.
+    /// An index over `cells`. Bins are about the median cell size along each axis; a regular
+    /// grid of axis-aligned boxes (as [`ViewCell::grid`] makes) gets exactly one bin per cell.
     pub fn new(cells: &[ViewCell]) -> Self {
         let boxes: Vec<Aabb> = cells
             .iter()
             .map(|c| Aabb::from_points(c.corners()))
             .collect();
+        if let Some((bounds, dims, cell_of_bin)) = regular_layout(cells, &boxes) {
+            let bin_size =
+                bounds.extent() / Vec3::new(dims[0] as f32, dims[1] as f32, dims[2] as f32);
+            return Self {
+                cells: cells.to_vec(),
+                bounds,
+                dims,
+                bin_size,
+                offsets: (0..=cell_of_bin.len() as u32).collect(),
+                ids: cell_of_bin,
+            };
+        }
         let mut bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(b));
         if cells.is_empty() {
             bounds = Aabb::new(Vec3::ZERO, Vec3::ZERO);
@@ -369,7 +418,11 @@ mod tests {
 
     #[test]
     fn axis_parallel_segment_on_a_shared_face_finds_both_neighbours() {
-        let cells = ViewCell::grid(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.0), [2, 1, 1]).unwrap();
+        // Two cells of different sizes (not a regular grid): the binned path pads.
+        let cells = [
+            ViewCell::aabb(Vec3::ZERO, Vec3::ONE).unwrap(),
+            ViewCell::aabb(Vec3::new(1.0, 0.0, 0.0), Vec3::new(3.0, 1.0, 1.0)).unwrap(),
+        ];
         let index = SegmentCells::new(&cells);
         let (mut scratch, mut out) = (Vec::new(), Vec::new());
         // Along the face x = 1 that both cells share.
@@ -383,5 +436,16 @@ mod tests {
         );
         assert_eq!(out.iter().map(|c| c.cell).collect::<Vec<_>>(), vec![0, 1]);
         assert_eq!((out[0].t_enter, out[0].t_exit), (1.0, 2.0));
+    }
+
+    #[test]
+    fn regular_grid_gets_one_bin_per_cell() {
+        let cells = ViewCell::grid(Vec3::ZERO, Vec3::new(16.0, 16.0, 4.0), [16, 16, 2]).unwrap();
+        let index = SegmentCells::new(&cells);
+        assert_eq!(index.ids.len(), cells.len());
+        // A grid with one cell left out is not regular: the padded bins are used.
+        let partial = SegmentCells::new(&cells[1..]);
+        assert!(partial.ids.len() > cells.len());
+        check_against_brute_force(&cells[1..], 13, 1000);
     }
 }

@@ -118,6 +118,10 @@ pub(crate) struct BakeArgs {
     /// Print a JSON summary.
     #[arg(long)]
     json: bool,
+    /// GVS++ only: bake all cells together, every ray also counting for every other cell it
+    /// crosses (ray sharing); --rays and --time stay per cell.
+    #[arg(long)]
+    share_rays: bool,
 }
 
 #[derive(clap::Args, Debug)]
@@ -315,6 +319,20 @@ fn run_bake(args: BakeArgs) -> Result<()> {
         (Some(c), Some(bsp)) => bsp.cluster_at(p) == Some(c[cell]),
         _ => true,
     };
+    if args.share_rays {
+        cell_bar.finish_and_clear();
+        cells_bar.finish_and_clear();
+        return bake_with_shared_rays(
+            &args,
+            &scene,
+            &bvh,
+            &cells,
+            &params,
+            &budget,
+            &free_space,
+            extra,
+        );
+    }
     let file = bake(
         &scene,
         &bvh,
@@ -362,6 +380,86 @@ fn run_bake(args: BakeArgs) -> Result<()> {
         summary.method,
         summary.seconds,
         summary.total_rays,
+        summary.mean_pvs_size,
+        summary.mean_pvs_percent,
+        scene.triangle_count(),
+        summary.output.display()
+    );
+    Ok(())
+}
+
+/// `pvs bake --share-rays`: all cells at once with ray sharing (GVS++ only); writes the file
+/// and prints the summary like the independent bake.
+#[allow(clippy::too_many_arguments)]
+fn bake_with_shared_rays(
+    args: &BakeArgs,
+    scene: &sightline_core::Scene,
+    bvh: &Bvh,
+    cells: &[ViewCell],
+    params: &MethodParams,
+    budget: &Budget,
+    free_space: &(dyn Fn(usize, Vec3) -> bool + Sync),
+    extra: serde_json::Value,
+) -> Result<()> {
+    use sightline_region::ray_sharing::{bake_shared, ShareParams};
+    if !matches!(args.method.as_str(), "gvs++" | "gvspp") {
+        bail!(
+            "--share-rays works with --method gvs++ only (got '{}')",
+            args.method
+        );
+    }
+    let share = ShareParams {
+        gvspp: params.gvspp.clone(),
+        ..ShareParams::default()
+    };
+    let bar = ProgressBar::new_spinner();
+    let result = bake_shared(
+        scene,
+        bvh,
+        cells,
+        &share,
+        budget,
+        args.seed,
+        free_space,
+        &|p| {
+            bar.set_message(format!(
+                "round {}: {} rays, {} cells sampling, mean PVS {:.0}",
+                p.round,
+                p.rays,
+                p.sampling_cells,
+                p.total_pvs as f64 / cells.len().max(1) as f64
+            ));
+            bar.tick();
+        },
+    );
+    bar.finish_and_clear();
+    let file = result.to_pvs_file(scene, cells, &share, budget, args.seed, extra);
+    file.save(&args.output)?;
+    let n = scene.triangle_count().max(1) as f64;
+    let mean = file
+        .cells
+        .iter()
+        .map(|c| c.visible.count_ones(..))
+        .sum::<usize>() as f64
+        / file.cells.len().max(1) as f64;
+    let summary = BakeSummary {
+        output: args.output.clone(),
+        method: "gvs++ shared".into(),
+        cells: cells.len(),
+        total_rays: result.total_rays,
+        seconds: result.seconds,
+        mean_pvs_size: mean,
+        mean_pvs_percent: 100.0 * mean / n,
+    };
+    if args.json {
+        return print_json(&summary);
+    }
+    println!(
+        "baked {} cells with GVS++ and ray sharing in {:.2} s ({} rays, {} triangles handed from cell to cell): mean PVS {:.0} triangles ({:.2}% of {}), wrote {}",
+        summary.cells,
+        summary.seconds,
+        summary.total_rays,
+        result.shared_insertions,
         summary.mean_pvs_size,
         summary.mean_pvs_percent,
         scene.triangle_count(),
