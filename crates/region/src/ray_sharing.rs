@@ -6,22 +6,29 @@
 //! GVS++ in Koch, Wimmer. Guided Visibility Sampling++. 2021, section 7; the per-cell phases are
 //! GVS++'s (sections 4.1–4.4, see `gvspp.rs`).
 //!
-//! Every ray is cast forward to its closest hit and backward (reversed direction) to the closest
-//! hit behind its origin. The segment between the two hits is empty, so from every point `P` of
-//! it both end triangles are visible (the path from `P` to either end lies inside the segment).
-//! For every cell whose volume the segment crosses (found with `segment_cells.rs`), a point `P`
-//! of the crossing that lies in the cell's free space becomes the origin of a discovery for that
-//! cell: both end triangles enter its PVS *by construction*, never by proximity or guesswork.
-//! A hit-nothing end makes the segment unbounded on that side and contributes no triangle.
+//! A ray is cast forward to its closest hit and (random rays, see below) also backward, in the
+//! reversed direction, to the closest hit behind its origin. The segment between the two hits is
+//! empty, so from every point `P` of it both end triangles are visible (the path from `P` to
+//! either end lies inside the segment). For every cell whose volume the segment crosses (found
+//! with `segment_cells.rs`), a point `P` of the crossing that lies in the cell's free space
+//! becomes the origin of a discovery for that cell: both end triangles enter its PVS *by
+//! construction*, never by proximity or guesswork. A hit-nothing end makes the segment unbounded
+//! on that side and contributes no triangle.
 //!
 //! Schedule, in rounds as GVS++: (1) random sampling, `n_rand` rays from each cell that has not
-//! converged, shared; (2) exploration: all cells' queues are drained together, a few triangles
-//! per cell per step — ABS rays from the discovery's origin (which lies in the exploring cell),
-//! discontinuities from the cell's own border-vertex rays, RS rays from the cell's own reverse
-//! origins — and every one of these rays is shared too; (3) termination per cell: a cell whose
-//! round found fewer than `T` new triangles (from any cell's rays) stops random sampling but
-//! still explores what others hand it. With a budget (per cell, counted on the rays a cell casts
-//! itself, forward and backward), cells sample until their own budget is spent and still receive
+//! converged, each also cast backward (a second random-like ray through the cell for one more
+//! cast); (2) exploration: every cell takes the next `ABS_CHUNK` triangles of its queue, casts
+//! their ABS rays from the discovery's origin (which lies in the cell), then RS rays from its
+//! own reverse origins for the discontinuities of its own border-vertex rays — exactly what
+//! `gvspp.rs` does for one cell; guided rays are cast forward only (their backward half would be
+//! an untargeted ray at the price of a targeted one) and shared too; (3) termination per cell:
+//! a cell whose round found fewer than `T` new triangles (from any cell's rays) stops random
+//! sampling but still explores what its own rays hit. By default a cell explores the triangles
+//! its own rays hit (once each) and only *adds* those it receives to its PVS, so with
+//! `backward = false` every cell casts exactly the rays of its independent GVS++ bake and its
+//! set can only grow by sharing (tested); `explore_shared` also explores received triangles,
+//! from their crossing point. With a budget (per cell, counted on the rays a cell casts itself,
+//! backward casts included), cells sample until their own budget is spent and still receive
 //! other cells' rays for free.
 //!
 //! Determinism: rays are generated, cast and turned into contributions in parallel but collected
@@ -659,6 +666,13 @@ fn ray_contributions(
         push(owner, true, o, end);
     }
     crossings.clear();
+    if index.is_regular() && t_fwd.is_finite() && t_back.is_finite() {
+        // Both ends inside the owner's box: the segment crosses no other cell of a grid.
+        let cell = &index.cells()[owner as usize];
+        if cell.contains(o + d * t_fwd) && cell.contains(o + d * t_back) {
+            return;
+        }
+    }
     index.crossings(o, d, t_back, t_fwd, scratch, crossings);
     for c in crossings.iter() {
         if c.cell == owner {

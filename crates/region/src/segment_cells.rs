@@ -106,6 +106,8 @@ pub struct SegmentCells {
     /// Bin `b` lists `ids[offsets[b]..offsets[b + 1]]`.
     offsets: Vec<u32>,
     ids: Vec<u32>,
+    /// Built by `regular_layout`: one bin per cell.
+    regular: bool,
 }
 
 /// The most bins per axis, and in all (a bound on memory for odd cell layouts).
@@ -130,6 +132,7 @@ impl SegmentCells {
                 bin_size,
                 offsets: (0..=cell_of_bin.len() as u32).collect(),
                 ids: cell_of_bin,
+                regular: true,
             };
         }
         let mut bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(b));
@@ -164,6 +167,7 @@ impl SegmentCells {
             bin_size,
             offsets: Vec::new(),
             ids: Vec::new(),
+            regular: false,
         };
         // Each cell goes into every bin its (slightly grown) box overlaps, so rounding in the
         // walk never skips it.
@@ -203,6 +207,11 @@ impl SegmentCells {
         index
     }
 
+    /// True when the cells form a regular grid of equal axis-aligned boxes (no two overlap).
+    pub fn is_regular(&self) -> bool {
+        self.regular
+    }
+
     /// The cells of the index.
     pub fn cells(&self) -> &[ViewCell] {
         &self.cells
@@ -238,8 +247,25 @@ impl SegmentCells {
         scratch: &mut Vec<u32>,
         out: &mut Vec<Crossing>,
     ) {
+        if self.regular {
+            // One cell per bin and no bin twice: the walk's own intervals are the crossings.
+            let start = out.len();
+            self.walk(origin, dir, t_min, t_max, &mut |bin, t_enter, t_exit| {
+                out.push(Crossing {
+                    cell: self.ids[bin],
+                    t_enter,
+                    t_exit,
+                });
+            });
+            out[start..].sort_unstable_by_key(|c| c.cell);
+            return;
+        }
         scratch.clear();
-        self.candidates(origin, dir, t_min, t_max, scratch);
+        self.walk(origin, dir, t_min, t_max, &mut |bin, _, _| {
+            scratch.extend_from_slice(
+                &self.ids[self.offsets[bin] as usize..self.offsets[bin + 1] as usize],
+            );
+        });
         scratch.sort_unstable();
         scratch.dedup();
         for &id in scratch.iter() {
@@ -255,8 +281,15 @@ impl SegmentCells {
         }
     }
 
-    /// The cells listed in the bins the segment passes (with repeats).
-    fn candidates(&self, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32, out: &mut Vec<u32>) {
+    /// Calls `visit(bin, t_enter, t_exit)` for every bin the segment passes, in order along it.
+    fn walk(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_min: f32,
+        t_max: f32,
+        visit: &mut dyn FnMut(usize, f32, f32),
+    ) {
         // Clip to the grid's box.
         let (mut lo, mut hi) = (t_min, t_max);
         for i in 0..3 {
@@ -296,11 +329,9 @@ impl SegmentCells {
                 t_delta[i] = -self.bin_size[i] / v;
             }
         }
+        let mut t_enter = lo;
         loop {
             let b = bin[0] + self.dims[0] * (bin[1] + self.dims[1] * bin[2]);
-            out.extend_from_slice(
-                &self.ids[self.offsets[b] as usize..self.offsets[b + 1] as usize],
-            );
             // The axis whose boundary comes first.
             let axis = if t_next[0] <= t_next[1] && t_next[0] <= t_next[2] {
                 0
@@ -309,9 +340,12 @@ impl SegmentCells {
             } else {
                 2
             };
+            let t_exit = t_next[axis].min(hi).max(t_enter);
+            visit(b, t_enter, t_exit);
             if t_next[axis] > hi || step[axis] == 0 {
                 break;
             }
+            t_enter = t_exit;
             let next = bin[axis] as isize + step[axis];
             if next < 0 || next >= self.dims[axis] as isize {
                 break;

@@ -52,24 +52,21 @@ struct ShareArgs {
     #[arg(long, value_name = "BOTTOM,TOP", default_value = "0.5,10")]
     layer: String,
     /// Per-cell ray budgets of the independent GVS++ bakes.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        default_value = "125000,250000,500000,1000000,2000000"
-    )]
+    #[arg(long, value_delimiter = ',', default_value = "100000,400000,1600000")]
     budgets: Vec<u64>,
     /// Per-cell ray budgets of the shared bakes (rays each cell casts itself, backward casts
     /// included).
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "15625,31250,62500,125000,250000,500000"
+        default_value = "50000,100000,200000,400000,800000"
     )]
     share_budgets: Vec<u64>,
     /// GVS++ random rays per round of the independent bakes.
     #[arg(long, default_value_t = 50_000)]
     n_rand: u64,
-    /// Random rays per cell and round of the shared bakes (default: --n-rand).
+    /// Random rays per cell and round of the shared bakes (default: half of --n-rand, as
+    /// each is also cast backward).
     #[arg(long)]
     share_n_rand: Option<u64>,
     /// Shared bakes: cast rays forward only.
@@ -91,10 +88,11 @@ struct ShareArgs {
     /// Seed.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Bake with ray origins anywhere in the cells, also inside buildings (by default both
-    /// bakes, like the evaluation, only use points outside solid geometry).
+    /// Both bakes only use ray origins (and shared crossing points) outside solid geometry, as
+    /// the evaluation's viewpoints are (6 rays per test, not counted; slow). By default
+    /// origins may lie anywhere in the cells, as in `pvs bake --grid`.
     #[arg(long)]
-    no_free_space: bool,
+    free_space: bool,
     /// Print JSON instead of Markdown.
     #[arg(long)]
     json: bool,
@@ -741,7 +739,7 @@ fn share(args: ShareArgs) -> Result<()> {
     };
     let share_params = ShareParams {
         gvspp: GvsPlusPlusParams {
-            n_rand: args.share_n_rand.unwrap_or(args.n_rand),
+            n_rand: args.share_n_rand.unwrap_or((args.n_rand / 2).max(1)),
             ..GvsPlusPlusParams::default()
         },
         backward: !args.no_backward,
@@ -749,8 +747,8 @@ fn share(args: ShareArgs) -> Result<()> {
     };
     let n_tri = scene.triangle_count().max(1) as f64;
     // Origins inside buildings see only the building's inside, which no evaluation viewpoint
-    // does: both bakes skip them (6 rays per test, not counted in the budgets).
-    let use_free = !args.no_free_space;
+    // does: with --free-space both bakes skip them.
+    let use_free = args.free_space;
     let bake_free = |_: usize, p: glam::Vec3| !use_free || !inside_solid(&scene, &bvh, p);
     // Per run: its row and the sets of the evaluated cells.
     let mut runs: Vec<(ShareRow, Vec<sightline_core::TriangleSet>)> = Vec::new();
