@@ -699,7 +699,7 @@ fn share(args: ShareArgs) -> Result<()> {
         .map(|v| v.trim().parse::<f32>())
         .collect::<Result<_, _>>()
         .map_err(|_| anyhow::anyhow!("--layer '{}': expected BOTTOM,TOP", args.layer))?;
-    if layer.len() != 2 || !(layer[0] < layer[1]) {
+    if layer.len() != 2 || layer[0] >= layer[1] || layer.iter().any(|v| !v.is_finite()) {
         anyhow::bail!(
             "--layer '{}': expected BOTTOM,TOP with BOTTOM < TOP",
             args.layer
