@@ -914,3 +914,44 @@ fn share(args: ShareArgs) -> Result<()> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(rays: u64, seconds: f64, error: f64) -> ShareRow {
+        ShareRow {
+            method: "GVS++ shared".into(),
+            budget_per_cell: rays,
+            total_rays: rays,
+            seconds,
+            avg_error_pixels: error,
+            max_error_pixels: 0,
+            false_negatives: 0,
+            pvs_percent: 0.0,
+            shared_percent: 0.0,
+        }
+    }
+
+    #[test]
+    fn cost_at_error_interpolates_and_bounds() {
+        assert_eq!(cost_at_error(&[], 1.0), (None, "no shared run"));
+        // A noisy curve: the 400 run is worse than the 200 run; the envelope keeps 2.0.
+        let curve = [
+            row(100, 1.0, 8.0),
+            row(200, 2.0, 2.0),
+            row(400, 4.0, 3.0),
+            row(800, 8.0, 0.5),
+        ];
+        assert_eq!(cost_at_error(&curve, 9.0), (Some((100.0, 1.0)), "at least"));
+        let (cost, bound) = cost_at_error(&curve, 5.0);
+        let (rays, seconds) = cost.unwrap();
+        assert_eq!(bound, "");
+        // Halfway in error between 8 and 2: halfway between 100 and 200 in log(rays).
+        assert!((rays - 100.0 * 2f64.sqrt()).abs() < 1e-9 && (seconds - 2f64.sqrt()).abs() < 1e-12);
+        // 1.0 lies between the envelope's 2.0 (at 400) and 0.5 (at 800).
+        let (cost, _) = cost_at_error(&curve, 1.0);
+        assert!(cost.unwrap().0 > 400.0 && cost.unwrap().0 < 800.0);
+        assert_eq!(cost_at_error(&curve, 0.1), (None, "not reached"));
+    }
+}
