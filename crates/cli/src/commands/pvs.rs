@@ -408,8 +408,10 @@ fn bake_with_shared_rays(
             args.method
         );
     }
+    // As measured by `bench share` (docs/BENCHMARKS.md): received triangles are explored too.
     let share = ShareParams {
         gvspp: params.gvspp.clone(),
+        explore_shared: true,
         ..ShareParams::default()
     };
     let bar = ProgressBar::new_spinner();
