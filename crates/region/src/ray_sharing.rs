@@ -1027,4 +1027,26 @@ mod tests {
         }
         assert!(added > 0);
     }
+
+    #[test]
+    fn without_a_budget_every_cell_stops_by_the_termination_rule() {
+        let (scene, cells) = two_cell_scene();
+        let bvh = Bvh::build(&scene);
+        let r = bake_shared(
+            &scene,
+            &bvh,
+            &cells,
+            &small_params(),
+            &Budget::default(),
+            2,
+            &|_, _| true,
+            &|_| {},
+        );
+        for (k, c) in r.cells.iter().enumerate() {
+            // Enclosure and the blocker's face toward the cell; at least two random rounds.
+            assert!(c.visible.count_ones(..) >= 14, "cell {k}: {:?}", c.found_by);
+            assert!(c.rays >= 2 * 2 * 20_000, "cell {k}: {} rays", c.rays);
+            assert!(c.convergence.len() >= 2);
+        }
+    }
 }
