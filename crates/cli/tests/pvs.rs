@@ -237,3 +237,41 @@ fn q3_leaf_bake_stays_inside_q3map2_pvs() {
         assert!(r["ours_avg_error_pixels"].as_f64().unwrap() < 5.0, "{r}");
     }
 }
+
+#[test]
+fn share_rays_bake_writes_a_file_and_rejects_other_methods() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = |method: &'static str| -> Vec<&'static str> {
+        vec![
+            "pvs",
+            "bake",
+            SCENE,
+            "--grid",
+            "2,2,1",
+            "--bounds=0,0,1,12,12,2",
+            "--n-rand",
+            "5000",
+            "--rays",
+            "30000",
+            "--method",
+            method,
+            "--share-rays",
+            "-o",
+            "s.pvs",
+            "--json",
+        ]
+    };
+    let o = sightline(&args("gvs++"), dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["cells"], 4);
+    assert!(v["mean_pvs_size"].as_f64().unwrap() > 10.0);
+    let o = sightline(&["pvs", "show", "s.pvs", "--json"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["metadata"]["method"], "gvs++ shared");
+    assert_eq!(v["cells"].as_array().unwrap().len(), 4);
+    let before = std::fs::read(dir.path().join("s.pvs")).unwrap();
+    assert_fails_with(&sightline(&args("rand"), dir.path()), "gvs++ only");
+    assert_eq!(std::fs::read(dir.path().join("s.pvs")).unwrap(), before);
+}

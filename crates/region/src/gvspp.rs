@@ -99,11 +99,11 @@ pub struct GvsPlusPlus {
 }
 
 /// Triangles processed per ABS batch (each gives 9 + 3 n_ABSEdge rays).
-const ABS_CHUNK: usize = 1024;
+pub(crate) const ABS_CHUNK: usize = 1024;
 
 /// A border vertex whose ray hit something closer than it, or nothing.
 #[derive(Clone, Copy, Debug)]
-struct Discontinuity {
+pub(crate) struct Discontinuity {
     target: Vec3,
     occluder: Option<u32>,
 }
@@ -180,7 +180,7 @@ impl Sampler for GvsPlusPlus {
 
 /// ABS rays for a chunk of discoveries, and for each ray that aims at a border *vertex*, its
 /// target (rays at edge samples get `None`).
-fn abs_rays(
+pub(crate) fn abs_rays(
     ctx: &CellContext<'_>,
     chunk: &[Discovery],
     delta_abs: f32,
@@ -210,7 +210,7 @@ fn abs_rays(
 
 /// Border-vertex rays whose hit is closer than the target by more than `delta` (an occluder in
 /// front) or that hit nothing (section 4.3). Rays aim at their target with `t = 1`.
-fn find_discontinuities(
+pub(crate) fn find_discontinuities(
     rays: &[Ray],
     hits: &[Hit],
     targets: &[Option<Vec3>],
@@ -239,7 +239,7 @@ fn find_discontinuities(
 /// The origins of reverse sampling on the view cell: its corners, `n_rs_edge` points on each
 /// edge (fixed), and `n_rs_area` Halton points on its surface (a fresh stretch of the sequence
 /// for every group of discontinuities, so repeated discontinuities are sampled from new places).
-struct ReverseOrigins {
+pub(crate) struct ReverseOrigins {
     fixed: Vec<Vec3>,
     surface: CellSurface,
     halton: ShiftedHalton<3>,
@@ -247,7 +247,7 @@ struct ReverseOrigins {
 }
 
 impl ReverseOrigins {
-    fn new(ctx: &CellContext<'_>, n_edge: u32, n_area: u32) -> Self {
+    pub(crate) fn new(ctx: &CellContext<'_>, n_edge: u32, n_area: u32) -> Self {
         let mut fixed = ctx.cell.distinct_corners();
         for (a, b) in ctx.cell.edges() {
             for k in 0..n_edge {
@@ -267,11 +267,16 @@ impl ReverseOrigins {
     }
 
     /// Discontinuities per RS batch, so that a batch is about [`BATCH`] rays.
-    fn group_size(&self) -> usize {
+    pub(crate) fn group_size(&self) -> usize {
         (BATCH / self.origins_per_discontinuity().max(1)).max(1)
     }
 
-    fn rays(&self, ctx: &CellContext<'_>, group: &[Discontinuity], round: u64) -> Vec<Ray> {
+    pub(crate) fn rays(
+        &self,
+        ctx: &CellContext<'_>,
+        group: &[Discontinuity],
+        round: u64,
+    ) -> Vec<Ray> {
         let area: Vec<Vec3> = (0..u64::from(self.n_area))
             .map(|j| {
                 self.surface

@@ -14,8 +14,10 @@ pub mod methods;
 pub mod pvs_file;
 pub mod rand;
 pub mod raster_sampler;
+pub mod ray_sharing;
 mod rays;
 pub mod sampler;
+pub mod segment_cells;
 pub mod shards;
 pub mod viewcell;
 

@@ -32,6 +32,70 @@ enum What {
     /// From-region PVS: the GVS++ paper's table 1 — GVS++ (converged) against RAND at equal
     /// rays and at equal time, GVS and RASTER at equal rays; pixel error on shared views.
     Pvs(PvsArgs),
+    /// Ray sharing between view cells: a grid of cells baked independently with GVS++ and
+    /// with shared rays at several budgets; pixel error on a fixed subset of cells and the
+    /// speed-up at equal error.
+    Share(ShareArgs),
+}
+
+/// Arguments of `sightline bench share`.
+#[derive(clap::Args, Debug)]
+struct ShareArgs {
+    /// Scene.
+    #[arg(value_name = "SCENE", default_value = "procedural:city")]
+    scene: String,
+    /// Cells per side of the grid over the scene's ground plane.
+    #[arg(long, default_value_t = 16)]
+    grid: u32,
+    /// Bottom and top of the cell layer above the scene's lowest point along its up axis, in
+    /// scene units.
+    #[arg(long, value_name = "BOTTOM,TOP", default_value = "0.5,10")]
+    layer: String,
+    /// Per-cell ray budgets of the independent GVS++ bakes.
+    #[arg(long, value_delimiter = ',', default_value = "100000,400000,1600000")]
+    budgets: Vec<u64>,
+    /// Per-cell ray budgets of the shared bakes (rays each cell casts itself, backward casts
+    /// included).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "50000,100000,200000,400000,800000"
+    )]
+    share_budgets: Vec<u64>,
+    /// GVS++ random rays per round of the independent bakes.
+    #[arg(long, default_value_t = 50_000)]
+    n_rand: u64,
+    /// Random rays per cell and round of the shared bakes (default: half of --n-rand, as
+    /// each is also cast backward).
+    #[arg(long)]
+    share_n_rand: Option<u64>,
+    /// Shared bakes: cast rays forward only.
+    #[arg(long)]
+    no_backward: bool,
+    /// Shared bakes: triangles received from other cells' rays are explored too (ABS and RS
+    /// from the crossing point), not only entered into the PVS.
+    #[arg(long)]
+    explore_shared: bool,
+    /// Cells evaluated (a fixed random subset of the grid).
+    #[arg(long, default_value_t = 16)]
+    eval_cells: usize,
+    /// Evaluation viewpoints per cell (in free space, six cube faces each).
+    #[arg(long, default_value_t = 16)]
+    viewpoints: usize,
+    /// Evaluation resolution.
+    #[arg(long, default_value_t = 256)]
+    resolution: u32,
+    /// Seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Both bakes only use ray origins (and shared crossing points) outside solid geometry, as
+    /// the evaluation's viewpoints are (6 rays per test, not counted; slow). By default
+    /// origins may lie anywhere in the cells, as in `pvs bake --grid`.
+    #[arg(long)]
+    free_space: bool,
+    /// Print JSON instead of Markdown.
+    #[arg(long)]
+    json: bool,
 }
 
 /// Arguments of `sightline bench pvs`.
@@ -109,6 +173,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         What::Trace(a) => trace(a),
         What::Raster(a) => raster(a),
         What::Pvs(a) => pvs(a),
+        What::Share(a) => share(a),
     }
 }
 
@@ -555,4 +620,338 @@ fn convergence_plot(
         std::io::Write::write_all(w, svg.as_bytes())
     })
     .map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))
+}
+
+#[derive(Serialize, Clone)]
+struct ShareRow {
+    method: String,
+    budget_per_cell: u64,
+    total_rays: u64,
+    seconds: f64,
+    avg_error_pixels: f64,
+    max_error_pixels: usize,
+    false_negatives: usize,
+    pvs_percent: f64,
+    shared_percent: f64,
+}
+
+#[derive(Serialize)]
+struct ShareSpeedup {
+    budget_per_cell: u64,
+    avg_error_pixels: f64,
+    /// Shared rays needed for the same error (interpolated), `None` when no shared budget
+    /// reached it; `bound` says whether the value is only a bound.
+    shared_rays: Option<f64>,
+    shared_seconds: Option<f64>,
+    rays_speedup: Option<f64>,
+    time_speedup: Option<f64>,
+    bound: &'static str,
+}
+
+#[derive(Serialize)]
+struct ShareReport {
+    scene: String,
+    triangles: usize,
+    cells: usize,
+    evaluated_cells: Vec<usize>,
+    rows: Vec<ShareRow>,
+    speedups: Vec<ShareSpeedup>,
+}
+
+/// The cost (rays, seconds) at which the shared curve reaches `error`, interpolating
+/// log(cost) linearly in the error between the two shared runs around it; the bound kind when
+/// `error` lies outside the shared curve.
+fn cost_at_error(shared: &[ShareRow], error: f64) -> (Option<(f64, f64)>, &'static str) {
+    // The best error reached with at most each budget (the curve made monotone).
+    let mut curve: Vec<(f64, f64, f64)> = Vec::new();
+    for r in shared {
+        let e = curve
+            .last()
+            .map_or(r.avg_error_pixels, |c| c.2.min(r.avg_error_pixels));
+        curve.push((r.total_rays as f64, r.seconds, e));
+    }
+    let Some(first) = curve.first() else {
+        return (None, "no shared run");
+    };
+    if error >= first.2 {
+        return (Some((first.0, first.1)), "at least");
+    }
+    for w in curve.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        if error >= b.2 && error < a.2 {
+            let f = (a.2 - error) / (a.2 - b.2);
+            let lerp = |x: f64, y: f64| (x.ln() + (y.ln() - x.ln()) * f).exp();
+            return (Some((lerp(a.0, b.0), lerp(a.1, b.1))), "");
+        }
+    }
+    (None, "not reached")
+}
+
+fn share(args: ShareArgs) -> Result<()> {
+    use sightline_region::bake::bake;
+    use sightline_region::cell_sources::inside_solid;
+    use sightline_region::ray_sharing::{bake_shared, ShareParams};
+    use sightline_region::{Budget, GvsPlusPlus, GvsPlusPlusParams, ViewCell};
+
+    let layer: Vec<f32> = args
+        .layer
+        .split(',')
+        .map(|v| v.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| anyhow::anyhow!("--layer '{}': expected BOTTOM,TOP", args.layer))?;
+    if layer.len() != 2 || layer[0] >= layer[1] || layer.iter().any(|v| !v.is_finite()) {
+        anyhow::bail!(
+            "--layer '{}': expected BOTTOM,TOP with BOTTOM < TOP",
+            args.layer
+        );
+    }
+    if args.grid == 0 || args.grid > 1024 {
+        anyhow::bail!("--grid {} must be in 1..=1024", args.grid);
+    }
+    if args.budgets.contains(&0) || args.share_budgets.contains(&0) || args.n_rand == 0 {
+        anyhow::bail!("budgets and --n-rand must be positive");
+    }
+    let scene = load(&args.scene)?;
+    let bvh = Bvh::build(&scene);
+    let b = scene.bounds();
+    let up = scene.up.vector();
+    let up_axis = if up == glam::Vec3::Z { 2 } else { 1 };
+    let mut min = b.min;
+    let mut max = b.max;
+    min[up_axis] = b.min[up_axis] + layer[0];
+    max[up_axis] = b.min[up_axis] + layer[1];
+    let mut n = [args.grid; 3];
+    n[up_axis] = 1;
+    let cells = ViewCell::grid(min, max, n)?;
+    let mut rng = sightline_core::random::SplitMix64::new(args.seed ^ 0x5348_4152);
+    let mut order: Vec<usize> = (0..cells.len()).collect();
+    for i in (1..order.len()).rev() {
+        order.swap(i, (rng.next_u64() % (i as u64 + 1)) as usize);
+    }
+    let mut evaluated: Vec<usize> = order.into_iter().take(args.eval_cells).collect();
+    evaluated.sort_unstable();
+
+    let independent = GvsPlusPlus {
+        params: GvsPlusPlusParams {
+            n_rand: args.n_rand,
+            ..GvsPlusPlusParams::default()
+        },
+    };
+    let share_params = ShareParams {
+        gvspp: GvsPlusPlusParams {
+            n_rand: args.share_n_rand.unwrap_or((args.n_rand / 2).max(1)),
+            ..GvsPlusPlusParams::default()
+        },
+        backward: !args.no_backward,
+        explore_shared: args.explore_shared,
+    };
+    let n_tri = scene.triangle_count().max(1) as f64;
+    // Origins inside buildings see only the building's inside, which no evaluation viewpoint
+    // does: with --free-space both bakes skip them.
+    let use_free = args.free_space;
+    let bake_free = |_: usize, p: glam::Vec3| !use_free || !inside_solid(&scene, &bvh, p);
+    // Per run: its row and the sets of the evaluated cells.
+    let mut runs: Vec<(ShareRow, Vec<sightline_core::TriangleSet>)> = Vec::new();
+    for &budget in &args.budgets {
+        eprintln!("independent GVS++, {budget} rays per cell ...");
+        let t = Instant::now();
+        let file = bake(
+            &scene,
+            &bvh,
+            &cells,
+            &independent,
+            &bake_free,
+            &Budget::rays(budget),
+            args.seed,
+            serde_json::Value::Null,
+            &|_, _| {},
+            &mut |_, _| {},
+        );
+        let seconds = t.elapsed().as_secs_f64();
+        let total_rays = file.metadata["total_rays"].as_u64().unwrap_or(0);
+        let sets = evaluated
+            .iter()
+            .map(|&i| file.cells[i].visible.clone())
+            .collect();
+        let row = ShareRow {
+            method: "GVS++ independent".into(),
+            budget_per_cell: budget,
+            total_rays,
+            seconds,
+            pvs_percent: 0.0,
+            avg_error_pixels: 0.0,
+            max_error_pixels: 0,
+            false_negatives: 0,
+            shared_percent: 0.0,
+        };
+        runs.push((row, sets));
+    }
+    for &budget in &args.share_budgets {
+        eprintln!("GVS++ with ray sharing, {budget} rays per cell ...");
+        let r = bake_shared(
+            &scene,
+            &bvh,
+            &cells,
+            &share_params,
+            &Budget::rays(budget),
+            args.seed,
+            &bake_free,
+            &|_| {},
+        );
+        let found: usize = r.cells.iter().map(|c| c.visible.count_ones(..)).sum();
+        let row = ShareRow {
+            method: "GVS++ shared".into(),
+            budget_per_cell: budget,
+            total_rays: r.total_rays,
+            seconds: r.seconds,
+            pvs_percent: 0.0,
+            avg_error_pixels: 0.0,
+            max_error_pixels: 0,
+            false_negatives: 0,
+            shared_percent: 100.0 * r.shared_insertions as f64 / found.max(1) as f64,
+        };
+        let sets = evaluated
+            .iter()
+            .map(|&i| r.cells[i].visible.clone())
+            .collect();
+        runs.push((row, sets));
+    }
+    let eval = sightline_eval::EvalParams {
+        viewpoints: args.viewpoints,
+        resolution: args.resolution,
+        seed: args.seed,
+        ..sightline_eval::EvalParams::default()
+    };
+    let free = |p: glam::Vec3| !inside_solid(&scene, &bvh, p);
+    for (k, &cell) in evaluated.iter().enumerate() {
+        eprintln!("evaluating cell {cell} ({}/{})", k + 1, evaluated.len());
+        let sets: Vec<&sightline_core::TriangleSet> = runs.iter().map(|(_, s)| &s[k]).collect();
+        let evaluations =
+            sightline_eval::evaluate_cell_in(&scene, &cells[cell], &free, &sets, &eval, &|_, _| {});
+        for ((row, _), e) in runs.iter_mut().zip(&evaluations) {
+            row.avg_error_pixels += e.avg_error_pixels / evaluated.len() as f64;
+            row.max_error_pixels = row.max_error_pixels.max(e.max_error_pixels);
+            row.false_negatives += e.false_negatives;
+            row.pvs_percent += 100.0 * e.pvs_size as f64 / n_tri / evaluated.len() as f64;
+        }
+    }
+    let rows: Vec<ShareRow> = runs.into_iter().map(|(r, _)| r).collect();
+    let (indep, shared): (Vec<ShareRow>, Vec<ShareRow>) = rows
+        .iter()
+        .cloned()
+        .partition(|r| r.method == "GVS++ independent");
+    let speedups: Vec<ShareSpeedup> = indep
+        .iter()
+        .map(|r| {
+            let (cost, bound) = cost_at_error(&shared, r.avg_error_pixels);
+            ShareSpeedup {
+                budget_per_cell: r.budget_per_cell,
+                avg_error_pixels: r.avg_error_pixels,
+                shared_rays: cost.map(|c| c.0),
+                shared_seconds: cost.map(|c| c.1),
+                rays_speedup: cost.map(|c| r.total_rays as f64 / c.0),
+                time_speedup: cost.map(|c| r.seconds / c.1),
+                bound,
+            }
+        })
+        .collect();
+    let report = ShareReport {
+        scene: args.scene.clone(),
+        triangles: scene.triangle_count(),
+        cells: cells.len(),
+        evaluated_cells: evaluated,
+        rows,
+        speedups,
+    };
+    if args.json {
+        return print_json(&report);
+    }
+    println!(
+        "`{}` ({} triangles), {} cells ({}x{} over the ground, layer {}), pixel error on {} cells x {} viewpoints x 6 faces at {}²",
+        report.scene,
+        report.triangles,
+        report.cells,
+        args.grid,
+        args.grid,
+        args.layer,
+        report.evaluated_cells.len(),
+        args.viewpoints,
+        args.resolution
+    );
+    println!();
+    println!("| method | rays/cell budget | total rays | s | avg err px | max err px | false neg (sum) | PVS % | first found via another cell's ray % |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for r in &report.rows {
+        println!(
+            "| {} | {} | {:.3e} | {:.1} | {:.3} | {} | {} | {:.2} | {:.1} |",
+            r.method,
+            r.budget_per_cell,
+            r.total_rays as f64,
+            r.seconds,
+            r.avg_error_pixels,
+            r.max_error_pixels,
+            r.false_negatives,
+            r.pvs_percent,
+            r.shared_percent
+        );
+    }
+    println!();
+    println!("| independent rays/cell | its avg err px | shared rays for that error | speed-up (rays) | speed-up (time) |");
+    println!("|---:|---:|---:|---:|---:|");
+    for s in &report.speedups {
+        let prefix = if s.bound == "at least" { ">= " } else { "" };
+        let fmt =
+            |v: Option<f64>| v.map_or_else(|| s.bound.to_string(), |v| format!("{prefix}{v:.1}x"));
+        println!(
+            "| {} | {:.3} | {} | {} | {} |",
+            s.budget_per_cell,
+            s.avg_error_pixels,
+            s.shared_rays
+                .map_or_else(|| s.bound.to_string(), |v| format!("{v:.3e}")),
+            fmt(s.rays_speedup),
+            fmt(s.time_speedup)
+        );
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(rays: u64, seconds: f64, error: f64) -> ShareRow {
+        ShareRow {
+            method: "GVS++ shared".into(),
+            budget_per_cell: rays,
+            total_rays: rays,
+            seconds,
+            avg_error_pixels: error,
+            max_error_pixels: 0,
+            false_negatives: 0,
+            pvs_percent: 0.0,
+            shared_percent: 0.0,
+        }
+    }
+
+    #[test]
+    fn cost_at_error_interpolates_and_bounds() {
+        assert_eq!(cost_at_error(&[], 1.0), (None, "no shared run"));
+        // A noisy curve: the 400 run is worse than the 200 run; the envelope keeps 2.0.
+        let curve = [
+            row(100, 1.0, 8.0),
+            row(200, 2.0, 2.0),
+            row(400, 4.0, 3.0),
+            row(800, 8.0, 0.5),
+        ];
+        assert_eq!(cost_at_error(&curve, 9.0), (Some((100.0, 1.0)), "at least"));
+        let (cost, bound) = cost_at_error(&curve, 5.0);
+        let (rays, seconds) = cost.unwrap();
+        assert_eq!(bound, "");
+        // Halfway in error between 8 and 2: halfway between 100 and 200 in log(rays).
+        assert!((rays - 100.0 * 2f64.sqrt()).abs() < 1e-9 && (seconds - 2f64.sqrt()).abs() < 1e-12);
+        // 1.0 lies between the envelope's 2.0 (at 400) and 0.5 (at 800).
+        let (cost, _) = cost_at_error(&curve, 1.0);
+        assert!(cost.unwrap().0 > 400.0 && cost.unwrap().0 < 800.0);
+        assert_eq!(cost_at_error(&curve, 0.1), (None, "not reached"));
+    }
 }

@@ -161,6 +161,10 @@ pub(crate) struct BakeArgs {
     /// Print a JSON summary.
     #[arg(long)]
     json: bool,
+    /// GVS++ only: bake all cells together, every ray also counting for every other cell it
+    /// crosses (ray sharing); --rays and --time stay per cell.
+    #[arg(long)]
+    share_rays: bool,
 }
 
 #[derive(clap::Args, Debug)]
@@ -178,6 +182,10 @@ pub(crate) struct MergeArgs {
     /// Print a JSON summary.
     #[arg(long)]
     json: bool,
+    /// GVS++ only: bake all cells together, every ray also counting for every other cell it
+    /// crosses (ray sharing); --rays and --time stay per cell.
+    #[arg(long)]
+    share_rays: bool,
 }
 
 #[derive(clap::Args, Debug)]
@@ -386,6 +394,27 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
         (Some(c), Some(bsp)) => bsp.cluster_at(p) == Some(c[cell]),
         _ => true,
     };
+    if args.share_rays {
+        // All cells are baked together, so the per-cell machinery (shards, checkpoints,
+        // incremental rebakes) does not apply.
+        if args.shard.is_some() || args.since.is_some() || args.restart {
+            bail!("--share-rays bakes all cells at once: it cannot be combined with --shard, --since or --restart");
+        }
+        let extra = serde_json::json!({
+            "parameters": format!("{params:?}"),
+            "clusters": clusters,
+        });
+        return bake_with_shared_rays(
+            args,
+            &scene,
+            &bvh,
+            &cells,
+            &params,
+            &budget,
+            &free_space,
+            extra,
+        );
+    }
     let setup = BakeSetup {
         scene: &scene,
         caster: &bvh,
@@ -654,6 +683,104 @@ fn run_merge(args: MergeArgs) -> Result<()> {
         summary.files,
         summary.cells,
         summary.total_cells,
+        summary.output.display()
+    );
+    Ok(())
+}
+
+/// `pvs bake --share-rays`: all cells at once with ray sharing (GVS++ only); writes the file
+/// and prints the summary like the independent bake.
+#[allow(clippy::too_many_arguments)]
+fn bake_with_shared_rays(
+    args: &BakeArgs,
+    scene: &sightline_core::Scene,
+    bvh: &Bvh,
+    cells: &[ViewCell],
+    params: &MethodParams,
+    budget: &Budget,
+    free_space: &(dyn Fn(usize, Vec3) -> bool + Sync),
+    extra: serde_json::Value,
+) -> Result<()> {
+    use sightline_region::ray_sharing::{bake_shared, ShareParams};
+    if !matches!(args.method.as_str(), "gvs++" | "gvspp") {
+        bail!(
+            "--share-rays works with --method gvs++ only (got '{}')",
+            args.method
+        );
+    }
+    // As measured by `bench share` (docs/BENCHMARKS.md): received triangles are explored too.
+    let share = ShareParams {
+        gvspp: params.gvspp.clone(),
+        explore_shared: true,
+        ..ShareParams::default()
+    };
+    let bar = ProgressBar::new_spinner();
+    let result = bake_shared(
+        scene,
+        bvh,
+        cells,
+        &share,
+        budget,
+        args.seed,
+        free_space,
+        &|p| {
+            bar.set_message(format!(
+                "round {}: {} rays, {} cells sampling, mean PVS {:.0}",
+                p.round,
+                p.rays,
+                p.sampling_cells,
+                p.total_pvs as f64 / cells.len().max(1) as f64
+            ));
+            bar.tick();
+        },
+    );
+    bar.finish_and_clear();
+    let file = result.to_pvs_file(scene, cells, &share, budget, args.seed, extra);
+    file.save(&args.output)?;
+    let n = scene.triangle_count().max(1) as f64;
+    let mean = file
+        .cells
+        .iter()
+        .map(|c| c.visible.count_ones(..))
+        .sum::<usize>() as f64
+        / file.cells.len().max(1) as f64;
+    // Sets are held decoded while the shared bake runs (all cells advance together).
+    let set_bytes: usize = file
+        .cells
+        .iter()
+        .map(|c| {
+            sightline_region::EncodedSet::encode(&c.visible, scene.triangle_count()).payload_bytes()
+        })
+        .sum();
+    let per_cell = |bytes: f64| bytes / file.cells.len().max(1) as f64;
+    let file_bytes = std::fs::metadata(&args.output).map_or(0, |m| m.len());
+    let summary = BakeSummary {
+        output: args.output.clone(),
+        method: "gvs++ shared".into(),
+        cells: cells.len(),
+        resumed_cells: 0,
+        baked_cells: cells.len(),
+        kept_cells: 0,
+        total_rays: result.total_rays,
+        seconds: result.seconds,
+        mean_pvs_size: mean,
+        mean_pvs_percent: 100.0 * mean / n,
+        memory_bytes_per_cell: scene.triangle_count().div_ceil(8) as f64,
+        set_bytes_per_cell: per_cell(set_bytes as f64),
+        file_bytes_per_cell: per_cell(file_bytes as f64),
+    };
+    if args.json {
+        return print_json(&summary);
+    }
+    println!(
+        "baked {} cells with GVS++ and ray sharing in {:.2} s ({} rays, {} triangles handed from cell to cell): mean PVS {:.0} triangles ({:.2}% of {}), wrote {}",
+        summary.cells,
+        summary.seconds,
+        summary.total_rays,
+        result.shared_insertions,
+        summary.mean_pvs_size,
+        summary.mean_pvs_percent,
+        scene.triangle_count(),
         summary.output.display()
     );
     Ok(())
