@@ -18,6 +18,7 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use super::integrate::BinRange;
+use super::polygon::clip_to_rect;
 use super::VisiblePolygon;
 
 /// Gauss–Legendre nodes and weights on [-1, 1], 8 points.
@@ -75,9 +76,7 @@ impl Gauss {
     }
 
     /// `∫ g(x) g(y) dA` over the convex polygon `poly` (coordinates relative to the pixel
-    /// centre, counter-clockwise in the y-down sense, already inside the window), normalised by
-    /// the window's mass: the plain form, the tests' reference for [`Gauss::windowed_integral`].
-    #[cfg(test)]
+    /// centre, counter-clockwise in the y-down sense), normalised by the window's mass.
     pub(crate) fn integral(&self, poly: &[DVec2]) -> f64 {
         let n = poly.len();
         let mut sum = 0.0;
@@ -99,66 +98,6 @@ impl Gauss {
                     for xx in [mid - half * x, mid + half * x] {
                         let y = a.y + slope * (xx - a.x);
                         sum += wt * half * self.density(xx) * self.cdf(y);
-                    }
-                }
-            }
-        }
-        -sum / (self.mass_1d * self.mass_1d)
-    }
-
-    /// The same integral over `poly ∩ [c - radius, c + radius]²` without clipping the polygon:
-    /// with the truncated density `g_W(x) = g(x) [|x| <= radius]` and its CDF `Φ_W(y) =
-    /// Φ(clamp(y, ±radius)) - Φ(-radius)`, `∂/∂y (g_W(x) Φ_W(y)) = g_W(x) g_W(y)`, so Green's
-    /// theorem over the whole polygon's edges gives the windowed integral. Each edge is cut to
-    /// the window's x range and at the points where it crosses `y = ±radius` (the kinks of
-    /// `Φ_W`), so every Gauss–Legendre piece integrates a smooth function. No allocation.
-    pub(crate) fn windowed_integral(&self, poly: &[DVec2], c: DVec2, radius: f64) -> f64 {
-        let n = poly.len();
-        let lo_cdf = self.cdf(-radius);
-        let mut sum = 0.0;
-        for i in 0..n {
-            let (a, b) = (poly[i] - c, poly[(i + 1) % n] - c);
-            let w = b.x - a.x;
-            if w == 0.0 {
-                continue;
-            }
-            let slope = (b.y - a.y) / w;
-            let (x_lo, x_hi) = (a.x.min(b.x).max(-radius), a.x.max(b.x).min(radius));
-            if x_lo >= x_hi {
-                continue;
-            }
-            // Breakpoints: the window's x range and the crossings of y = ±radius.
-            let mut cuts = [x_lo, x_hi, x_hi, x_hi];
-            let mut k = 2;
-            if slope != 0.0 {
-                for yy in [-radius, radius] {
-                    let x = a.x + (yy - a.y) / slope;
-                    if x > x_lo && x < x_hi {
-                        cuts[k] = x;
-                        k += 1;
-                    }
-                }
-            }
-            let cuts = &mut cuts[..k.max(2)];
-            cuts.sort_by(f64::total_cmp);
-            // The edge runs from a.x to b.x: integrating over increasing x and flipping the
-            // sign for edges that run backwards gives the oriented line integral.
-            let dir = w.signum();
-            for seg in cuts.windows(2) {
-                let (s0, s1) = (seg[0], seg[1]);
-                if s1 <= s0 {
-                    continue;
-                }
-                let pieces = (((s1 - s0) / self.sigma).ceil() as usize).max(1);
-                let h = (s1 - s0) / pieces as f64;
-                for p in 0..pieces {
-                    let mid = s0 + h * (p as f64 + 0.5);
-                    let half = 0.5 * h;
-                    for (&x, &wt) in GL_X.iter().zip(&GL_W) {
-                        for xx in [mid - half * x, mid + half * x] {
-                            let y = (a.y + slope * (xx - a.x)).clamp(-radius, radius);
-                            sum += dir * wt * half * self.density(xx) * (self.cdf(y) - lo_cdf);
-                        }
                     }
                 }
             }
@@ -202,10 +141,13 @@ pub(crate) fn gauss_image(
                 for py in y0..=y1 {
                     for px in x0..=x1 {
                         let c = DVec2::new(px as f64 + 0.5, py as f64 + 0.5);
-                        let value = filter.windowed_integral(&poly.points, c, radius);
-                        if value != 0.0 {
-                            acc.push(((py * w + px) as usize, v * value));
+                        let window = [c.x - radius, c.y - radius, c.x + radius, c.y + radius];
+                        let clipped = clip_to_rect(&poly.points, window);
+                        if clipped.len() < 3 {
+                            continue;
                         }
+                        let local: Vec<DVec2> = clipped.iter().map(|p| *p - c).collect();
+                        acc.push(((py * w + px) as usize, v * filter.integral(&local)));
                     }
                 }
             }
@@ -223,7 +165,6 @@ pub(crate) fn gauss_image(
 
 #[cfg(test)]
 mod tests {
-    use super::super::polygon::clip_to_rect;
     use super::*;
 
     fn square(h: f64) -> Vec<DVec2> {
@@ -261,39 +202,6 @@ mod tests {
         ];
         let v = g.integral(&half);
         assert!((v - 0.5).abs() < 1e-6, "{v}");
-    }
-
-    #[test]
-    fn windowed_integral_equals_clipping_then_integrating() {
-        let g = Gauss::new(2.3);
-        let mut rng = sightline_core::random::SplitMix64::new(5);
-        for _ in 0..300 {
-            // A random triangle near the pixel, made counter-clockwise in the y-down sense.
-            let mut t: Vec<DVec2> = (0..3)
-                .map(|_| {
-                    DVec2::new(
-                        rng.range_f32(-5.0, 5.0) as f64,
-                        rng.range_f32(-5.0, 5.0) as f64,
-                    )
-                })
-                .collect();
-            let cross = (t[1] - t[0]).perp_dot(t[2] - t[0]);
-            if cross.abs() < 1e-3 {
-                continue;
-            }
-            if cross < 0.0 {
-                t.swap(1, 2);
-            }
-            let c = DVec2::new(0.5, 0.5);
-            let clipped = clip_to_rect(&t, [c.x - 2.3, c.y - 2.3, c.x + 2.3, c.y + 2.3]);
-            let want = if clipped.len() < 3 {
-                0.0
-            } else {
-                g.integral(&clipped.iter().map(|p| *p - c).collect::<Vec<_>>())
-            };
-            let got = g.windowed_integral(&t, c, 2.3);
-            assert!((got - want).abs() < 1e-7, "{t:?}: {got} vs {want}");
-        }
     }
 
     #[test]
