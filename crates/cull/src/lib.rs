@@ -30,7 +30,7 @@ pub use hzb::Hzb;
 pub use occlusion_buffer::{Kernel, OcclusionBuffer, DEPTH_SLACK, TILE_H, TILE_W};
 pub use scheduler::{DepthClass, Scheduler, SchedulerConfig};
 pub use simulate::{
-    simulate, simulate_methods, simulate_methods_with_cameras, FrameStats, Method, SimConfig,
-    SimReport,
+    simulate, simulate_methods, simulate_methods_with_cameras, simulate_viewports, FrameStats,
+    Method, SimConfig, SimReport,
 };
 pub use traversal::{can_occlude, frustum_corners, Traversal};

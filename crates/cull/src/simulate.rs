@@ -476,6 +476,34 @@ pub fn simulate_methods_with_cameras(
     config: &SimConfig,
     methods: &[Method],
 ) -> Result<Vec<SimReport>, GridError> {
+    let views: Vec<(Method, usize)> = methods.iter().map(|&m| (m, 0)).collect();
+    simulate_views(scene, &[camera_of], backend, config, &views)
+}
+
+/// Several viewports (split screen, a shadow view, ...) culling one moving scene through one
+/// shared uniform grid, each with its own query scheduler, traversal and popping measurement
+/// (the thesis, section 4.4): viewport `v` sees the camera `cameras[v](frame)`. Every viewport
+/// runs the grid method; the backend is used by one viewport after the other within a frame
+/// (so it must answer a viewport's queries before the next one begins, as the software backend
+/// does). Frames where a viewport has no camera are skipped for all. One report per viewport.
+pub fn simulate_viewports(
+    scene: &CullScene,
+    cameras: &[&dyn Fn(u32) -> Option<Camera>],
+    backend: &mut dyn OcclusionBackend,
+    config: &SimConfig,
+) -> Result<Vec<SimReport>, GridError> {
+    let views: Vec<(Method, usize)> = (0..cameras.len()).map(|v| (Method::Grid, v)).collect();
+    simulate_views(scene, cameras, backend, config, &views)
+}
+
+/// The simulation core: one state per `(method, viewport)` in `views`, all over one world.
+fn simulate_views(
+    scene: &CullScene,
+    cameras: &[&dyn Fn(u32) -> Option<Camera>],
+    backend: &mut dyn OcclusionBackend,
+    config: &SimConfig,
+    views: &[(Method, usize)],
+) -> Result<Vec<SimReport>, GridError> {
     let base = &scene.scene;
     let n_obj = base.objects.len();
     let shape = GridShape::with_cell_size(&scene.bounds, scene.cell_size)?;
@@ -510,9 +538,9 @@ pub fn simulate_methods_with_cameras(
         }
     }
 
-    let mut states: Vec<MethodState> = methods
+    let mut states: Vec<MethodState> = views
         .iter()
-        .map(|&method| MethodState {
+        .map(|&(method, _)| MethodState {
             method,
             scheduler: Scheduler::new(shape.cell_count(), config.scheduler),
             traversal: Traversal::new(),
@@ -548,7 +576,11 @@ pub fn simulate_methods_with_cameras(
 
     for f in 0..config.frames {
         let t = f as f32 / config.fps;
-        let Some(camera) = camera_of(f) else {
+        let Some(frame_cameras) = cameras
+            .iter()
+            .map(|c| c(f))
+            .collect::<Option<Vec<Camera>>>()
+        else {
             continue;
         };
         // Move objects (vertices, boxes and grid entries), then gather their corners: the
@@ -577,26 +609,29 @@ pub fn simulate_methods_with_cameras(
             }
             world.ranges[o] = (a, world.corners.len());
         }
-        frustum_cells.clear();
-        frustum_traversal.visit(&shape, &camera, config.far, &mut frustum_cells);
-        frustum_objs.clear();
-        world.frustum_objects(&frustum_cells, &mut frustum_objs);
-
         let mut frame_stats = Vec::with_capacity(states.len());
-        for st in &mut states {
+        for (st, &(_, view)) in states.iter_mut().zip(views) {
+            let camera = &frame_cameras[view];
+            frustum_cells.clear();
+            frustum_traversal.visit(&shape, camera, config.far, &mut frustum_cells);
+            frustum_objs.clear();
+            world.frustum_objects(&frustum_cells, &mut frustum_objs);
             st.drawn.clear();
             let mut stats = FrameStats::default();
             let start = Instant::now();
-            st.cull(&mut world, &camera, backend, config, &mut stats);
+            st.cull(&mut world, camera, backend, config, &mut stats);
             stats.cull_ms = start.elapsed().as_secs_f64() * 1e3;
             stats.drawn = st.drawn.len() as u32;
             stats.frustum = frustum_objs.len() as u32;
             frame_stats.push(stats);
         }
 
-        // --- Ground truth and popping, once for every method ---
-        if config.measure_popping {
-            Rasterizer::new(&moved).render(&camera, None, &mut frame_img);
+        // --- Ground truth and popping, once per viewport for every method ---
+        for (view, camera) in frame_cameras.iter().enumerate() {
+            if !config.measure_popping {
+                break;
+            }
+            Rasterizer::new(&moved).render(camera, None, &mut frame_img);
             visible.fill(false);
             let ids: Vec<usize> = frame_img
                 .ids
@@ -608,7 +643,8 @@ pub fn simulate_methods_with_cameras(
                 visible[o] = true;
             }
             let exact = visible.iter().filter(|&&v| v).count() as u32;
-            for (st, stats) in states.iter_mut().zip(&mut frame_stats) {
+            let of_view = states.iter_mut().zip(&mut frame_stats).zip(views);
+            for ((st, stats), _) in of_view.filter(|(_, &(_, v))| v == view) {
                 for &o in &st.drawn {
                     st.drawn_flag[o as usize] = true;
                 }
