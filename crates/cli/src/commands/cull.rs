@@ -17,13 +17,14 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use glam::{Quat, Vec3};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use sightline_core::scene::{self, LoadOptions};
 use sightline_core::Camera;
 use sightline_cull::scenes::{animate, graveyard, the_grid, walk_keys, CullScene};
 use sightline_cull::{
     simulate_methods_with_cameras, FrameStats, Method, SimConfig, SimReport, SoftwareBackend,
 };
+use sightline_view::{interpolate, read_camera_path};
 
 use crate::args::parse_size;
 use crate::output::print_json;
@@ -53,21 +54,6 @@ pub(crate) struct Args {
     /// Write an SVG plot of objects drawn, queries and popping pixels per frame.
     #[arg(long, value_name = "FILE")]
     plot: Option<PathBuf>,
-}
-
-/// One keyframe of a camera path file.
-#[derive(Deserialize, Debug, Clone, Copy)]
-#[serde(deny_unknown_fields)]
-struct Key {
-    eye: [f32; 3],
-    look: [f32; 3],
-}
-
-/// A camera path file.
-#[derive(Deserialize, Debug)]
-#[serde(deny_unknown_fields)]
-struct PathFile {
-    frames: Vec<Key>,
 }
 
 /// Per-method summary of a run.
@@ -264,7 +250,8 @@ fn cameras(args: &Args, scene: &CullScene, config: &SimConfig) -> Result<Vec<Cam
     };
     let n = config.frames as usize;
     if let Some(path) = &args.path {
-        let keys = read_path(path)?;
+        // The viewer reads the same path files (`sightline view --path`).
+        let keys = read_camera_path(path)?;
         return (0..n)
             .map(|f| {
                 let (eye, look) = interpolate(&keys, f, n);
@@ -307,46 +294,6 @@ fn cameras(args: &Args, scene: &CullScene, config: &SimConfig) -> Result<Vec<Cam
             Camera::look_at(eye, look, up, fov, w, h, near).context("default camera path")
         })
         .collect()
-}
-
-fn read_path(path: &Path) -> Result<Vec<Key>> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("reading camera path {}", path.display()))?;
-    let file: PathFile = serde_json::from_str(&text).with_context(|| {
-        format!(
-            "{}: expected {{\"frames\": [{{\"eye\": [x, y, z], \"look\": [x, y, z]}}, ...]}}",
-            path.display()
-        )
-    })?;
-    if file.frames.is_empty() {
-        bail!("{}: \"frames\" is empty", path.display());
-    }
-    for (i, k) in file.frames.iter().enumerate() {
-        if !k.eye.iter().chain(&k.look).all(|v| v.is_finite()) {
-            bail!(
-                "{}: keyframe {i} has a non-finite coordinate",
-                path.display()
-            );
-        }
-    }
-    Ok(file.frames)
-}
-
-/// Eye and look of frame `f` of `n`: the keyframes spread evenly over the frames, linear in
-/// between (frame `f` is keyframe `f` when there are as many keyframes as frames).
-fn interpolate(keys: &[Key], f: usize, n: usize) -> (Vec3, Vec3) {
-    let at = |i: usize| (Vec3::from(keys[i].eye), Vec3::from(keys[i].look));
-    if keys.len() == 1 || n <= 1 {
-        return at(0);
-    }
-    if keys.len() >= n {
-        return at(f.min(keys.len() - 1));
-    }
-    let u = f as f32 / (n - 1) as f32 * (keys.len() - 1) as f32;
-    let i = (u.floor() as usize).min(keys.len() - 2);
-    let s = u - i as f32;
-    let ((e0, l0), (e1, l1)) = (at(i), at(i + 1));
-    (e0.lerp(e1, s), l0.lerp(l1, s))
 }
 
 fn summarize(r: &SimReport) -> Summary {
@@ -436,9 +383,10 @@ fn write_plot(path: &Path, reports: &[SimReport], title: &str) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use sightline_view::Keyframe;
 
-    fn key(x: f32) -> Key {
-        Key {
+    fn key(x: f32) -> Keyframe {
+        Keyframe {
             eye: [x, 0.0, 1.0],
             look: [x + 1.0, 0.0, 1.0],
         }
