@@ -36,7 +36,7 @@ use rustc_hash::FxHashMap;
 
 use super::intersect::DEPTH_TOL;
 use super::predicates::Pt;
-use super::project::{ScreenPoly, GRID};
+use super::project::{ScreenPoly, GRID, MAX_CLIPPED};
 
 /// Grid units by which a polygon's pixel footprint is grown.
 const TOUCH_MARGIN: f64 = 1.0;
@@ -165,14 +165,13 @@ fn patches(polys: &[ScreenPoly]) -> (Vec<u32>, Vec<(u32, u32)>) {
     let mut keys: Vec<(u64, u32, u32)> = Vec::with_capacity(polys.len() * 3);
     for (k, p) in polys.iter().enumerate() {
         let n = p.verts.len();
-        let ids: Vec<u32> = p
-            .verts
-            .iter()
-            .map(|v| {
-                let next = vertex_id.len() as u32;
-                *vertex_id.entry(*v).or_insert(next)
-            })
-            .collect();
+        // A clipped polygon has at most MAX_CLIPPED vertices: no allocation per polygon.
+        debug_assert!(n <= MAX_CLIPPED);
+        let mut ids = [0u32; MAX_CLIPPED];
+        for (id, v) in ids.iter_mut().zip(&p.verts) {
+            let next = vertex_id.len() as u32;
+            *id = *vertex_id.entry(*v).or_insert(next);
+        }
         for i in 0..n {
             let (a, b) = (ids[i], ids[(i + 1) % n]);
             let forward = a < b;
