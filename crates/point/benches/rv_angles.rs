@@ -3,7 +3,9 @@
 //! |RV| / |exact| - 1, and RV time per frame. Prints a markdown table (one row per scene).
 //!
 //! Run: `cargo bench -p sightline-point --bench rv_angles` (a few minutes on 2 cores).
-//! `RV_ANGLES=N` changes the number of angles, `RV_SIZE=PX` the image size (default 256).
+//! `RV_ANGLES=N` changes the number of angles, `RV_SIZE=PX` the image size (default 256),
+//! `RV_SCENES=cube,bunny` runs only the scenes whose names contain one of the words. Each
+//! angle runs RV under both guarantees (positive area, the default, and any rasterizer sample).
 //!
 //! Scenes: the thesis' scene types re-created (cube, bunny, bunny+box, a low-poly model,
 //! walls, boxes with walls, a flat grid of detail behind large occluders), the city scenes,
@@ -20,7 +22,7 @@ use sightline_core::scene::{open, LoadOptions, SceneBuilder};
 use sightline_core::trace::Bvh;
 use sightline_core::{Camera, Scene};
 use sightline_point::analytic::{visible_fragments, AnalyticOptions};
-use sightline_point::rv::{conservative_visible, RvOptions, SceneSource};
+use sightline_point::rv::{conservative_visible, Guarantee, RvOptions, SceneSource};
 use sightline_region::cell_sources::random_free_cells;
 
 enum Placement {
@@ -264,62 +266,99 @@ fn main() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(256);
-    let options = RvOptions {
-        bins: (16, 16),
-        ..RvOptions::default()
-    };
-    println!("RV against the exact analytic set, {angles} angles at {size}², 256 MiB budget\n");
-    println!("| scene | triangles | exact (mean) | RV (mean) | overestimation mean / max | false negatives (sub-grid slivers) | RV ms/frame | peak MiB |");
-    println!("|---|---|---|---|---|---|---|---|");
+    let only = std::env::var("RV_SCENES").ok();
+    let guarantees = [Guarantee::PositiveArea, Guarantee::AnySample];
+    println!(
+        "RV against the exact analytic set, {angles} angles at {size}², 256 MiB budget; \
+         both guarantees side by side (area = positive-area, default; samples = any \
+         rasterizer sample)\n"
+    );
+    println!("| scene | triangles | exact (mean) | RV area (mean) | overestimation area mean / max | RV samples (mean) | overestimation samples mean / max | false negatives area / samples (sub-grid slivers) | RV ms/frame (area) | peak MiB |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     let (mut total_fn, mut total_slivers) = (0usize, 0usize);
     for (name, scene, placement) in scenes() {
-        let (mut exact_sum, mut rv_sum, mut fns, mut slivers, mut rv_secs, mut peak) =
-            (0usize, 0usize, 0usize, 0usize, 0.0f64, 0usize);
-        let mut over = Vec::new();
+        if only
+            .as_deref()
+            .is_some_and(|o| !o.split(',').any(|w| name.contains(w)))
+        {
+            continue;
+        }
+        let mut exact_sum = 0usize;
+        // Per guarantee: RV sum, false negatives, slivers, overestimation per angle, seconds.
+        let mut rv_sum = [0usize; 2];
+        let mut fns = [0usize; 2];
+        let mut slivers = [0usize; 2];
+        let mut over = [Vec::new(), Vec::new()];
+        let mut rv_secs = [0.0f64; 2];
+        let mut peak = 0usize;
+        let mut sliver_max = [0.0f64; 2];
         let cams = cameras(&scene, &placement, angles, size);
         for cam in &cams {
             let Ok(exact) = visible_fragments(&scene, cam, &AnalyticOptions::default()) else {
                 continue;
             };
-            let t = Instant::now();
-            let Ok(rv) = conservative_visible(&mut SceneSource::new(&scene), cam, &options) else {
-                continue;
-            };
-            rv_secs += t.elapsed().as_secs_f64();
-            peak = peak.max(rv.peak_memory_bytes);
-            let (e, v) = (exact.visible.count_ones(..), rv.visible.count_ones(..));
-            // A false negative whose exact visible area is below a grid unit of the exact
-            // method (2^-20 px) times a pixel is within that method's own snapping error (a
-            // sliver seen almost edge-on); counted apart, never hidden.
+            let e = exact.visible.count_ones(..);
+            exact_sum += e;
             let area = exact.visible_area(scene.triangle_count());
-            for t in exact.visible.difference(&rv.visible) {
-                if area[t] >= 1e-6 {
-                    fns += 1;
-                } else {
-                    slivers += 1;
+            for (g, guarantee) in guarantees.iter().enumerate() {
+                let options = RvOptions {
+                    bins: (16, 16),
+                    guarantee: *guarantee,
+                    ..RvOptions::default()
+                };
+                let t = Instant::now();
+                let Ok(rv) = conservative_visible(&mut SceneSource::new(&scene), cam, &options)
+                else {
+                    continue;
+                };
+                rv_secs[g] += t.elapsed().as_secs_f64();
+                peak = peak.max(rv.peak_memory_bytes);
+                let v = rv.visible.count_ones(..);
+                // A false negative whose exact visible area is below a grid unit of the exact
+                // method (2^-20 px) times a pixel is within that method's own snapping error (a
+                // sliver seen almost edge-on); counted apart, never hidden.
+                for t in exact.visible.difference(&rv.visible) {
+                    if area[t] >= 1e-6 {
+                        fns[g] += 1;
+                    } else {
+                        slivers[g] += 1;
+                        sliver_max[g] = sliver_max[g].max(area[t]);
+                    }
+                }
+                rv_sum[g] += v;
+                if e > 0 {
+                    over[g].push(v as f64 / e as f64 - 1.0);
                 }
             }
-            exact_sum += e;
-            rv_sum += v;
-            if e > 0 {
-                over.push(v as f64 / e as f64 - 1.0);
-            }
         }
-        total_fn += fns;
-        total_slivers += slivers;
-        let n = cams.len().max(1);
-        let mean = over.iter().sum::<f64>() / over.len().max(1) as f64;
-        let max = over.iter().copied().fold(0.0, f64::max);
+        total_fn += fns[0] + fns[1];
+        total_slivers += slivers[0] + slivers[1];
+        let n = cams.len().max(1) as f64;
+        let mean = |o: &Vec<f64>| 100.0 * o.iter().sum::<f64>() / o.len().max(1) as f64;
+        let max = |o: &Vec<f64>| 100.0 * o.iter().copied().fold(0.0, f64::max);
         println!(
-            "| {name} | {} | {:.0} | {:.0} | {:.1} % / {:.1} % | {fns} ({slivers}) | {:.1} | {:.1} |",
+            "| {name} | {} | {:.0} | {:.0} | {:.1} % / {:.1} % | {:.0} | {:.1} % / {:.1} % | {} / {} ({} / {}) | {:.1} | {:.1} |",
             scene.triangle_count(),
-            exact_sum as f64 / n as f64,
-            rv_sum as f64 / n as f64,
-            100.0 * mean,
-            100.0 * max,
-            1000.0 * rv_secs / n as f64,
+            exact_sum as f64 / n,
+            rv_sum[0] as f64 / n,
+            mean(&over[0]),
+            max(&over[0]),
+            rv_sum[1] as f64 / n,
+            mean(&over[1]),
+            max(&over[1]),
+            fns[0],
+            fns[1],
+            slivers[0],
+            slivers[1],
+            1000.0 * rv_secs[0] / n,
             peak as f64 / (1 << 20) as f64,
         );
+        if sliver_max.iter().any(|&a| a > 0.0) {
+            println!(
+                "<!-- {name}: largest sub-grid sliver area, area / samples: {:.2e} / {:.2e} px² -->",
+                sliver_max[0], sliver_max[1]
+            );
+        }
     }
     println!("\nfalse negatives in all: {total_fn} (and {total_slivers} sub-grid slivers)");
 }

@@ -12,8 +12,8 @@ use sightline_core::scene::SceneSpec;
 use sightline_core::trace::{Bvh, RayCaster};
 use sightline_core::TriangleSet;
 use sightline_point::rv::{
-    conservative_from_region, conservative_visible, RegionOptions, RvOptions, SceneSource,
-    StreamingCity,
+    conservative_from_region, conservative_visible, Guarantee, RegionOptions, RvOptions,
+    SceneSource, StreamingCity,
 };
 use sightline_region::ViewCell;
 
@@ -40,6 +40,12 @@ pub(crate) struct Args {
     /// generator without ever holding the scene in memory.
     #[arg(long, requires = "conservative")]
     stream: bool,
+    /// With --conservative (from a point): what may never be missed. `area`: every triangle
+    /// with a visible region of positive area (the --exact set). `samples`: also every triangle
+    /// the reference rasterizer could show at a pixel centre on a silhouette it only touches
+    /// (back faces along a closed object's outline; larger sets).
+    #[arg(long, default_value = "area", value_parser = ["area", "samples"], requires = "conservative")]
+    guarantee: String,
     /// With --conservative: visibility from a whole view cell instead of a point: every
     /// triangle seen from any point of the cell is kept (umbrae of the largest convex
     /// occluders, two passes over the scene). Syntax as `pvs bake --cell`:
@@ -85,8 +91,10 @@ struct Summary {
     visible: usize,
     seconds: f64,
     peak_memory_bytes: Option<usize>,
-    /// For --conservative on a materialised scene: the reference rasterizer's set at 8x
-    /// resolution, the overestimation against it, and triangles it sees that RV missed (must be 0).
+    /// For --conservative on a materialised scene: the reference set of the guarantee (the
+    /// exact analytic set for `area`, the reference rasterizer's set at 8x resolution for
+    /// `samples`), the overestimation against it, and triangles of it that RV missed (must be 0).
+    reference: Option<&'static str>,
     reference_visible: Option<usize>,
     overestimation: Option<f64>,
     missed: Option<usize>,
@@ -163,6 +171,7 @@ fn run_from_region(args: &Args, spec: &str, start: Instant) -> Result<()> {
         visible: n,
         seconds,
         peak_memory_bytes: None,
+        reference: check.map(|_| "200000 rays from inside the cell"),
         reference_visible: check.map(|c| c.0),
         overestimation: check.map(|c| n as f64 / c.0.max(1) as f64 - 1.0),
         missed: check.map(|c| c.1),
@@ -233,6 +242,11 @@ pub(crate) fn run(args: Args) -> Result<()> {
     }
     let options = RvOptions {
         memory_budget_bytes: args.memory,
+        guarantee: if args.guarantee == "samples" {
+            Guarantee::AnySample
+        } else {
+            Guarantee::PositiveArea
+        },
         ..RvOptions::default()
     };
     let summary;
@@ -270,6 +284,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
             visible: visible.count_ones(..),
             seconds: start.elapsed().as_secs_f64(),
             peak_memory_bytes: Some(r.peak_memory_bytes),
+            reference: None,
             reference_visible: None,
             overestimation: None,
             missed: None,
@@ -280,11 +295,30 @@ pub(crate) fn run(args: Args) -> Result<()> {
         if args.conservative {
             let r = conservative_visible(&mut SceneSource::new(&scene), &camera, &options)?;
             let seconds = start.elapsed().as_secs_f64();
-            // Cross-check with the reference rasterizer at 8x resolution: RV must contain it.
-            let mut fine = camera;
-            fine.width = (camera.width * 8).min(16384);
-            fine.height = (camera.height * 8).min(16384);
-            let reference = render(&scene, &fine).visible_set(scene.triangle_count());
+            // Cross-check with the reference of the guarantee: RV must contain it.
+            let reference = match options.guarantee {
+                Guarantee::PositiveArea => {
+                    use sightline_point::analytic::{visible_fragments, AnalyticOptions};
+                    let exact = visible_fragments(&scene, &camera, &AnalyticOptions::default())?;
+                    if exact.stats.warnings.intersecting_overlaps > 0 {
+                        eprintln!(
+                            "warning: the scene has interpenetrating triangles; the exact set \
+                             used as the reference assumes none (see `visible --exact`)"
+                        );
+                    }
+                    // Pieces under 1e-6 px² are the exact method's rounding on shared edges.
+                    let area = exact.visible_area(scene.triangle_count());
+                    let mut set = TriangleSet::with_capacity(scene.triangle_count());
+                    set.extend(exact.visible.ones().filter(|&t| area[t] >= 1e-6));
+                    set
+                }
+                Guarantee::AnySample => {
+                    let mut fine = camera;
+                    fine.width = (camera.width * 8).min(16384);
+                    fine.height = (camera.height * 8).min(16384);
+                    render(&scene, &fine).visible_set(scene.triangle_count())
+                }
+            };
             let missed = reference.difference(&r.visible).count();
             let n_ref = reference.count_ones(..);
             visible = r.visible;
@@ -294,6 +328,10 @@ pub(crate) fn run(args: Args) -> Result<()> {
                 visible: visible.count_ones(..),
                 seconds,
                 peak_memory_bytes: Some(r.peak_memory_bytes),
+                reference: Some(match options.guarantee {
+                    Guarantee::PositiveArea => "exact analytic set",
+                    Guarantee::AnySample => "reference rasterizer at 8x",
+                }),
                 reference_visible: Some(n_ref),
                 overestimation: Some(visible.count_ones(..) as f64 / n_ref.max(1) as f64 - 1.0),
                 missed: Some(missed),
@@ -306,6 +344,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
                 visible: visible.count_ones(..),
                 seconds: start.elapsed().as_secs_f64(),
                 peak_memory_bytes: None,
+                reference: None,
                 reference_visible: None,
                 overestimation: None,
                 missed: None,
@@ -333,13 +372,14 @@ pub(crate) fn run(args: Args) -> Result<()> {
             args.memory as f64 / 1048576.0
         );
     }
-    if let (Some(n), Some(o), Some(m)) = (
+    if let (Some(name), Some(n), Some(o), Some(m)) = (
+        summary.reference,
         summary.reference_visible,
         summary.overestimation,
         summary.missed,
     ) {
         println!(
-            "reference (rasterizer at 8x): {n} triangles; overestimation {:.1}%; visible triangles missed: {m}",
+            "reference ({name}): {n} triangles; overestimation {:.1}%; visible triangles missed: {m}",
             100.0 * o
         );
     }

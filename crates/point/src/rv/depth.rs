@@ -45,13 +45,13 @@ pub(crate) fn eye_plane(a: DVec3, b: DVec3, c: DVec3) -> Option<[f64; 4]> {
 
 /// True when `v` is behind `plane` by the relative margin.
 #[inline]
-fn behind(plane: &[f64; 4], v: DVec3) -> bool {
+pub(crate) fn behind(plane: &[f64; 4], v: DVec3) -> bool {
     plane[3] + (1.0 - DEPTH_EPS) * (plane[0] * v.x + plane[1] * v.y + plane[2] * v.z) < 0.0
 }
 
 /// True when `v` is in front of (nearer than) `plane` by the relative margin.
 #[inline]
-fn in_front(plane: &[f64; 4], v: DVec3) -> bool {
+pub(crate) fn in_front(plane: &[f64; 4], v: DVec3) -> bool {
     plane[3] + (1.0 + DEPTH_EPS) * (plane[0] * v.x + plane[1] * v.y + plane[2] * v.z) > 0.0
 }
 

@@ -14,10 +14,18 @@
 //! (`occlusion_test.rs`). A triangle is visible when it is visible in any bin.
 //!
 //! # Guarantee
-//! Never misses a triangle that the reference rasterizer (`sightline_core::raster`) shows at any
-//! resolution of the same camera: every predicate errs towards "overlaps" by a screen margin and
-//! towards "in front" by a relative depth margin (see `overlap.rs`, `depth.rs`), coplanar and
-//! intersecting triangles are never called occluded, and full pools keep triangles visible.
+//! With [`Guarantee::PositiveArea`] (the default) RV never misses a triangle with a visible
+//! region of positive area (the exact set of [`crate::analytic`]); with
+//! [`Guarantee::AnySample`] it never misses a triangle that the reference rasterizer
+//! (`sightline_core::raster`) shows at any resolution of the same camera, which adds the
+//! triangles that touch the visible image only along a line (a back face meeting a closed
+//! object's silhouette on a shared edge can win a pixel-centre depth tie there). Either way
+//! every predicate errs towards "overlaps" by a screen margin and towards "in front" by a
+//! relative depth margin (see `overlap.rs`, `depth.rs`), coplanar and intersecting triangles are
+//! never called occluded, and full pools keep triangles visible. The only difference: under
+//! positive-area semantics a silhouette edge that *is* an edge of the occludee, or leaves one of
+//! its corners outwards, may touch it, and an occluder triangle that shares corners with the
+//! occludee may meet it there in depth (`occlusion_test.rs`); both touch a set of zero area.
 //! Triangles are double-sided, as in the rasterizer. Degenerate (zero-area or non-finite)
 //! triangles are never reported visible.
 //!
@@ -110,6 +118,22 @@ pub struct RvOptions {
     /// then found hidden, which an unsorted stream otherwise reports visible. Doubles the
     /// streaming work; the memory is the same.
     pub retest_pass: bool,
+    /// What "visible" means for the guarantee (see [`Guarantee`]).
+    pub guarantee: Guarantee,
+}
+
+/// The reference a conservative set never misses a triangle of.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Guarantee {
+    /// Every triangle with a visible region of positive area (the exact analytic set,
+    /// `sightline_point::analytic`). A triangle that touches the visible part of the image only
+    /// along a line or at a point — a back face meeting a closed object's silhouette along a
+    /// shared edge — has no visible area and may be dropped.
+    #[default]
+    PositiveArea,
+    /// Every triangle the reference rasterizer could show at any resolution: also those that
+    /// win a pixel-centre depth tie on a shared silhouette edge (stricter, larger sets).
+    AnySample,
 }
 
 impl Default for RvOptions {
@@ -126,6 +150,7 @@ impl Default for RvOptions {
             max_edges_per_bin: 8192,
             sort_batches: true,
             retest_pass: true,
+            guarantee: Guarantee::PositiveArea,
         }
     }
 }
@@ -307,6 +332,7 @@ impl Pass<'_> {
                                     max: glam::DVec2::new(x1 + margin, y1 + margin),
                                 },
                                 margin,
+                                area: options.guarantee == Guarantee::PositiveArea,
                                 limits,
                                 pool,
                                 visible,

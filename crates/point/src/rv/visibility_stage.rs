@@ -40,6 +40,8 @@ pub(crate) struct BinContext<'a> {
     /// The bin's screen rectangle, grown by the margin (the same region as `planes`).
     pub(crate) bin_rect: Rect,
     pub(crate) margin: f64,
+    /// Positive-area semantics ([`super::Guarantee::PositiveArea`]).
+    pub(crate) area: bool,
     pub(crate) limits: &'a Limits,
     pub(crate) pool: &'a Pool,
     pub(crate) visible: &'a AtomicTriangleSet,
@@ -88,6 +90,9 @@ pub(crate) fn process(
         zmin,
         zmax,
         plane: t.plane.as_ref(),
+        corners: &t.corners,
+        tri_screen: t.whole_front.then_some(&t.screen),
+        area: ctx.area,
     };
     if !state.occluders.is_empty() {
         if is_occluded(&p, state, ctx.proj, ctx.margin, &mut st.counters) {
