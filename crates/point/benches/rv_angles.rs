@@ -1,6 +1,8 @@
 //! RV on the full scene set, 120 camera angles each (3° steps, as in the thesis' appendix),
 //! against the exact analytic visible set: false negatives (must be 0), overestimation
-//! |RV| / |exact| - 1, and RV time per frame. Prints a markdown table (one row per scene).
+//! |RV| / |exact| - 1, the thesis' own metric (table A.1: false positives in % of the scene's
+//! triangles, min and max over the angles), and RV time per frame. Prints a markdown table
+//! (one row per scene).
 //!
 //! Run: `cargo bench -p sightline-point --bench rv_angles` (a few minutes on 2 cores).
 //! `RV_ANGLES=N` changes the number of angles, `RV_SIZE=PX` the image size (default 256),
@@ -273,8 +275,8 @@ fn main() {
          both guarantees side by side (area = positive-area, default; samples = any \
          rasterizer sample)\n"
     );
-    println!("| scene | triangles | exact (mean) | RV area (mean) | overestimation area mean / max | RV samples (mean) | overestimation samples mean / max | false negatives area / samples (sub-grid slivers) | RV ms/frame (area) | peak MiB |");
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("| scene | triangles | exact (mean) | RV area (mean) | overestimation area mean / max | false positives area, % of scene min / max | RV samples (mean) | overestimation samples mean / max | false positives samples, % of scene min / max | false negatives area / samples (sub-grid slivers) | RV ms/frame (area) | peak MiB |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     let (mut total_fn, mut total_slivers) = (0usize, 0usize);
     for (name, scene, placement) in scenes() {
         if only
@@ -289,6 +291,8 @@ fn main() {
         let mut fns = [0usize; 2];
         let mut slivers = [0usize; 2];
         let mut over = [Vec::new(), Vec::new()];
+        // The thesis' metric (table A.1): false positives in % of the scene's triangles.
+        let mut false_pos = [Vec::new(), Vec::new()];
         let mut rv_secs = [0.0f64; 2];
         let mut peak = 0usize;
         let mut sliver_max = [0.0f64; 2];
@@ -329,6 +333,8 @@ fn main() {
                 if e > 0 {
                     over[g].push(v as f64 / e as f64 - 1.0);
                 }
+                let fp = rv.visible.difference(&exact.visible).count();
+                false_pos[g].push(fp as f64 / scene.triangle_count().max(1) as f64);
             }
         }
         total_fn += fns[0] + fns[1];
@@ -336,16 +342,21 @@ fn main() {
         let n = cams.len().max(1) as f64;
         let mean = |o: &Vec<f64>| 100.0 * o.iter().sum::<f64>() / o.len().max(1) as f64;
         let max = |o: &Vec<f64>| 100.0 * o.iter().copied().fold(0.0, f64::max);
+        let min = |o: &Vec<f64>| 100.0 * o.iter().copied().fold(f64::INFINITY, f64::min);
         println!(
-            "| {name} | {} | {:.0} | {:.0} | {:.1} % / {:.1} % | {:.0} | {:.1} % / {:.1} % | {} / {} ({} / {}) | {:.1} | {:.1} |",
+            "| {name} | {} | {:.0} | {:.0} | {:.1} % / {:.1} % | {:.2} % / {:.2} % | {:.0} | {:.1} % / {:.1} % | {:.2} % / {:.2} % | {} / {} ({} / {}) | {:.1} | {:.1} |",
             scene.triangle_count(),
             exact_sum as f64 / n,
             rv_sum[0] as f64 / n,
             mean(&over[0]),
             max(&over[0]),
+            min(&false_pos[0]),
+            max(&false_pos[0]),
             rv_sum[1] as f64 / n,
             mean(&over[1]),
             max(&over[1]),
+            min(&false_pos[1]),
+            max(&false_pos[1]),
             fns[0],
             fns[1],
             slivers[0],
