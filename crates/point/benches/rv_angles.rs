@@ -6,7 +6,8 @@
 //!
 //! Run: `cargo bench -p sightline-point --bench rv_angles` (a few minutes on 2 cores).
 //! `RV_ANGLES=N` changes the number of angles, `RV_SIZE=PX` the image size (default 256),
-//! `RV_SCENES=cube,bunny` runs only the scenes whose names contain one of the words. Each
+//! `RV_SCENES=cube,bunny` runs only the scenes whose names contain one of the words,
+//! `RV_INIT=1` turns the thesis' initialization phase on. Each
 //! angle runs RV under both guarantees (positive area, the default, and any rasterizer sample).
 //!
 //! Scenes: the thesis' scene types re-created (cube, bunny, bunny+box, a low-poly model,
@@ -269,6 +270,7 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(256);
     let only = std::env::var("RV_SCENES").ok();
+    let init_phase = std::env::var("RV_INIT").is_ok_and(|v| v == "1");
     let guarantees = [Guarantee::PositiveArea, Guarantee::AnySample];
     println!(
         "RV against the exact analytic set, {angles} angles at {size}², 256 MiB budget; \
@@ -308,6 +310,7 @@ fn main() {
                 let options = RvOptions {
                     bins: (16, 16),
                     guarantee: *guarantee,
+                    init_phase,
                     ..RvOptions::default()
                 };
                 let t = Instant::now();

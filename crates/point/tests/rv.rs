@@ -290,3 +290,37 @@ fn rv_positive_area_drops_the_back_faces_of_closed_boxes() {
     }
     assert!(samples_extra > 0, "any-sample semantics kept no back face");
 }
+
+/// The thesis' initialization phase accepts each bin's first work item untested: still
+/// conservative (against the exact set, with and without the re-test pass), and it does accept
+/// triangles untested.
+#[test]
+fn rv_initialization_phase_stays_conservative() {
+    let scene = procedural("procedural:city?size=8000");
+    for retest_pass in [false, true] {
+        let options = RvOptions {
+            init_phase: true,
+            retest_pass,
+            ..options()
+        };
+        for (k, cam) in cameras(&scene, &Placement::Inside { height: 40.0 })
+            .iter()
+            .enumerate()
+            .step_by(2)
+        {
+            let exact = visible_fragments(&scene, cam, &AnalyticOptions::default()).unwrap();
+            let rv = conservative_visible(&mut SceneSource::new(&scene), cam, &options).unwrap();
+            assert!(rv.stats.init_accepted > 0, "angle {k}: nothing initialised");
+            let area = exact.visible_area(scene.triangle_count());
+            let missing: Vec<usize> = exact
+                .visible
+                .difference(&rv.visible)
+                .filter(|&t| area[t] >= 1e-6)
+                .collect();
+            assert!(
+                missing.is_empty(),
+                "angle {k} (re-test {retest_pass}): {missing:?}"
+            );
+        }
+    }
+}

@@ -46,6 +46,10 @@ pub(crate) struct Args {
     /// (back faces along a closed object's outline; larger sets).
     #[arg(long, default_value = "area", value_parser = ["area", "samples"], requires = "conservative")]
     guarantee: String,
+    /// With --conservative (from a point): the thesis' initialization phase — each screen bin's
+    /// first batch of triangles becomes occluders untested (faster, larger sets).
+    #[arg(long, requires = "conservative")]
+    init_phase: bool,
     /// With --conservative: visibility from a whole view cell instead of a point: every
     /// triangle seen from any point of the cell is kept (umbrae of the largest convex
     /// occluders, two passes over the scene). Syntax as `pvs bake --cell`:
@@ -247,6 +251,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         } else {
             Guarantee::PositiveArea
         },
+        init_phase: args.init_phase,
         ..RvOptions::default()
     };
     let summary;

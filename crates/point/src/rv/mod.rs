@@ -120,6 +120,12 @@ pub struct RvOptions {
     pub retest_pass: bool,
     /// What "visible" means for the guarantee (see [`Guarantee`]).
     pub guarantee: Guarantee,
+    /// The thesis' initialization phase (section 6.3.4): the first work item of each bin is
+    /// turned into occluders right away, marked visible without an occlusion test. Faster on
+    /// scenes whose first triangles are good occluders, at the cost of overestimation (the
+    /// thesis' figures 7.7 and 7.8); the re-test pass then removes most of that cost. Off by
+    /// default, as in the thesis' comparisons.
+    pub init_phase: bool,
 }
 
 /// The reference a conservative set never misses a triangle of.
@@ -151,6 +157,7 @@ impl Default for RvOptions {
             sort_batches: true,
             retest_pass: true,
             guarantee: Guarantee::PositiveArea,
+            init_phase: false,
         }
     }
 }
@@ -187,6 +194,9 @@ pub struct RvStats {
     pub retested: bool,
     /// Triangles visible after the first pass (before the re-test pass).
     pub first_pass_visible: u64,
+    /// (triangle, bin) pairs the initialization phase accepted as occluders without a test
+    /// ([`RvOptions::init_phase`]).
+    pub init_accepted: u64,
     /// Wall-clock seconds.
     pub seconds: f64,
 }
@@ -337,11 +347,17 @@ impl Pass<'_> {
                                 pool,
                                 visible,
                                 build,
+                                init: false,
                             };
                             {
                                 let mut state = states[work.bin]
                                     .lock()
                                     .unwrap_or_else(std::sync::PoisonError::into_inner);
+                                // The thesis' initialization phase: the bin's first work
+                                // item becomes occluders untested (first pass only).
+                                let mut ctx = ctx;
+                                ctx.init = options.init_phase && build && !state.initialized;
+                                state.initialized = true;
                                 for batch in &work.batches {
                                     for &k in batch.bin(work.bin) {
                                         process(&batch.tris[k as usize], &ctx, &mut state, &mut st);
@@ -490,6 +506,7 @@ pub fn conservative_visible(
     stats.occluder_merges = stage.occluder_merges;
     stats.pool_full = stage.pool_full;
     stats.fused_occluded = stage.fused_occluded;
+    stats.init_accepted = stage.init_accepted;
     stats.silhouette_tests = stage.counters.silhouette_tests;
     stats.triangle_tests = stage.counters.triangle_tests;
     stats.seconds = start.elapsed().as_secs_f64();

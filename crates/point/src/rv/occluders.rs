@@ -105,6 +105,8 @@ pub(crate) struct BinState {
     edge_count: usize,
     /// The fused far-depth grid (see `fusion.rs`).
     pub(crate) fused: FusedDepth,
+    /// Whether the bin has had its first work item (the initialization phase's).
+    pub(crate) initialized: bool,
 }
 
 /// Most occluders one triangle may join at once (3 edges, a few non-manifold duplicates).

@@ -174,6 +174,7 @@ pub(crate) fn merge_stats(a: &mut StageStats, b: &StageStats) {
     a.occluder_merges += b.occluder_merges;
     a.pool_full += b.pool_full;
     a.fused_occluded += b.fused_occluded;
+    a.init_accepted += b.init_accepted;
     a.counters.silhouette_tests += b.counters.silhouette_tests;
     a.counters.triangle_tests += b.counters.triangle_tests;
 }

@@ -29,6 +29,8 @@ pub(crate) struct StageStats {
     pub(crate) pool_full: u64,
     /// Occluded only by several occluders together (`fusion.rs`).
     pub(crate) fused_occluded: u64,
+    /// Accepted untested by the initialization phase.
+    pub(crate) init_accepted: u64,
     pub(crate) counters: TestCounters,
 }
 
@@ -47,6 +49,8 @@ pub(crate) struct BinContext<'a> {
     pub(crate) visible: &'a AtomicTriangleSet,
     /// Whether visible triangles join the occluders (false in the re-test pass).
     pub(crate) build: bool,
+    /// The initialization phase (thesis section 6.3.4): accept without testing.
+    pub(crate) init: bool,
 }
 
 /// Runs the visibility stage on triangle `t` in the bin of `ctx`.
@@ -94,7 +98,9 @@ pub(crate) fn process(
         tri_screen: t.whole_front.then_some(&t.screen),
         area: ctx.area,
     };
-    if !state.occluders.is_empty() {
+    if ctx.init {
+        st.init_accepted += 1;
+    } else if !state.occluders.is_empty() {
         if is_occluded(&p, state, ctx.proj, ctx.margin, &mut st.counters) {
             st.occluded += 1;
             return;
