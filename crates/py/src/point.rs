@@ -6,7 +6,7 @@ use numpy::PyArray1;
 use pyo3::prelude::*;
 use sightline_core::Camera;
 use sightline_point::analytic::{visible_fragments, AnalyticOptions};
-use sightline_point::rv::{conservative_visible, RvOptions, SceneSource};
+use sightline_point::rv::{conservative_visible, Guarantee, RvOptions, SceneSource};
 
 use crate::scene::{PyScene, SceneData};
 use crate::{ids_array, value_error};
@@ -71,10 +71,12 @@ pub(crate) fn visible_exact<'py>(
 }
 
 /// A conservative visible set (never misses a visible triangle) computed in at most `memory`
-/// bytes.
+/// bytes. `guarantee`: "area" (every triangle with a visible region of positive area, the
+/// exact set's triangles) or "samples" (also those the rasterizer could show on a silhouette
+/// they only touch).
 #[pyfunction]
 #[pyo3(signature = (scene, eye, look, up = None, fov = 60.0, size = (1024, 768), near = None,
-    memory = 256 << 20))]
+    memory = 256 << 20, guarantee = "area"))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn visible_conservative<'py>(
     py: Python<'py>,
@@ -86,11 +88,22 @@ pub(crate) fn visible_conservative<'py>(
     size: (u32, u32),
     near: Option<f32>,
     memory: usize,
+    guarantee: &str,
 ) -> PyResult<Bound<'py, PyArray1<u32>>> {
     let data = scene.get().data.clone();
     let cam = camera(&data, eye, look, up, fov, size, near)?;
+    let guarantee = match guarantee {
+        "area" => Guarantee::PositiveArea,
+        "samples" => Guarantee::AnySample,
+        other => {
+            return Err(value_error(format!(
+                "guarantee must be \"area\" or \"samples\", not {other:?}"
+            )))
+        }
+    };
     let options = RvOptions {
         memory_budget_bytes: memory,
+        guarantee,
         ..RvOptions::default()
     };
     let result = py

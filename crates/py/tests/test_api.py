@@ -236,6 +236,14 @@ def test_exact_set_is_inside_conservative_set(city, eye):
     missing = np.setdiff1d(exact, conservative)
     assert len(missing) == 0, f"RV missed visible triangles {missing[:10]}"
     assert conservative.max() < city.triangle_count
+    # The stricter guarantee (any rasterizer sample) keeps the exact set too.
+    samples = sl.visible_conservative(city, eye, look, size=(128, 96), guarantee="samples")
+    assert len(np.setdiff1d(exact, samples)) == 0
+
+
+def test_unknown_guarantee_is_value_error(city):
+    with pytest.raises(ValueError, match="guarantee"):
+        sl.visible_conservative(city, [0, 0, 2], [1, 0, 2], guarantee="pixels")
 
 
 def test_bad_camera_is_value_error(city):

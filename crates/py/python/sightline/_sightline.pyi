@@ -151,4 +151,5 @@ def visible_conservative(
     size: Tuple[int, int] = (1024, 768),
     near: Optional[float] = None,
     memory: int = 268435456,
+    guarantee: str = "area",
 ) -> _Ids: ...
