@@ -7,7 +7,8 @@
 //! Run: `cargo bench -p sightline-point --bench rv_angles` (a few minutes on 2 cores).
 //! `RV_ANGLES=N` changes the number of angles, `RV_SIZE=PX` the image size (default 256),
 //! `RV_SCENES=cube,bunny` runs only the scenes whose names contain one of the words,
-//! `RV_INIT=1` turns the thesis' initialization phase on. Each
+//! `RV_INIT=1` turns the thesis' initialization phase on, `RV_HIDDEN=joining|all` lets hidden
+//! triangles become occluder parts. Each
 //! angle runs RV under both guarantees (positive area, the default, and any rasterizer sample).
 //!
 //! Scenes: the thesis' scene types re-created (cube, bunny, bunny+box, a low-poly model,
@@ -25,7 +26,9 @@ use sightline_core::scene::{open, LoadOptions, SceneBuilder};
 use sightline_core::trace::Bvh;
 use sightline_core::{Camera, Scene};
 use sightline_point::analytic::{visible_fragments, AnalyticOptions};
-use sightline_point::rv::{conservative_visible, Guarantee, RvOptions, SceneSource};
+use sightline_point::rv::{
+    conservative_visible, Guarantee, HiddenOccluders, RvOptions, SceneSource,
+};
 use sightline_region::cell_sources::random_free_cells;
 
 enum Placement {
@@ -271,6 +274,11 @@ fn main() {
         .unwrap_or(256);
     let only = std::env::var("RV_SCENES").ok();
     let init_phase = std::env::var("RV_INIT").is_ok_and(|v| v == "1");
+    let hidden_occluders = match std::env::var("RV_HIDDEN").as_deref() {
+        Ok("joining") => HiddenOccluders::Joining,
+        Ok("all") => HiddenOccluders::All,
+        _ => HiddenOccluders::Never,
+    };
     let guarantees = [Guarantee::PositiveArea, Guarantee::AnySample];
     println!(
         "RV against the exact analytic set, {angles} angles at {size}², 256 MiB budget; \
@@ -317,6 +325,7 @@ fn main() {
                     bins: (16, 16),
                     guarantee: *guarantee,
                     init_phase,
+                    hidden_occluders,
                     ..RvOptions::default()
                 };
                 let t = Instant::now();

@@ -12,8 +12,8 @@ use sightline_core::scene::SceneSpec;
 use sightline_core::trace::{Bvh, RayCaster};
 use sightline_core::TriangleSet;
 use sightline_point::rv::{
-    conservative_from_region, conservative_visible, Guarantee, RegionOptions, RvOptions,
-    SceneSource, StreamingCity,
+    conservative_from_region, conservative_visible, Guarantee, HiddenOccluders, RegionOptions,
+    RvOptions, SceneSource, StreamingCity,
 };
 use sightline_region::ViewCell;
 
@@ -50,6 +50,11 @@ pub(crate) struct Args {
     /// first batch of triangles becomes occluders untested (faster, larger sets).
     #[arg(long, requires = "conservative")]
     init_phase: bool,
+    /// With --conservative (from a point): whether triangles found hidden still become occluder
+    /// parts. `never` (the thesis), `joining` (they only grow existing occluders) or `all`.
+    /// Smaller sets on in-memory scenes, more time; see docs/BENCHMARKS.md.
+    #[arg(long, default_value = "never", value_parser = ["never", "joining", "all"], requires = "conservative")]
+    hidden_occluders: String,
     /// With --conservative: visibility from a whole view cell instead of a point: every
     /// triangle seen from any point of the cell is kept (umbrae of the largest convex
     /// occluders, two passes over the scene). Syntax as `pvs bake --cell`:
@@ -252,6 +257,11 @@ pub(crate) fn run(args: Args) -> Result<()> {
             Guarantee::PositiveArea
         },
         init_phase: args.init_phase,
+        hidden_occluders: match args.hidden_occluders.as_str() {
+            "joining" => HiddenOccluders::Joining,
+            "all" => HiddenOccluders::All,
+            _ => HiddenOccluders::Never,
+        },
         ..RvOptions::default()
     };
     let summary;

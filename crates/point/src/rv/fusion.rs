@@ -254,7 +254,7 @@ mod tests {
             max_occluders: 16,
             max_edges: 256,
         };
-        state.add(t, &limits, pool);
+        state.add(t, &limits, pool, true);
         let BinState {
             occluders, fused, ..
         } = state;
@@ -351,6 +351,7 @@ mod tests {
                 max_edges: 64,
             },
             &ok_pool,
+            true,
         );
         state.add(
             &b,
@@ -359,6 +360,7 @@ mod tests {
                 max_edges: 64,
             },
             &ok_pool,
+            true,
         );
         g.update(
             &state.occluders[0],

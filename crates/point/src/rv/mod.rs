@@ -50,7 +50,11 @@
 //! let options = RvOptions { bins: (4, 4), ..RvOptions::default() };
 //! let result = conservative_visible(&mut SceneSource::new(&scene), &cam, &options)
 //!     .expect("fits the budget");
-//! assert!(result.visible.contains(0) || result.visible.contains(1)); // the front face
+//! // The near face (z = 4) of the front box is visible, nothing of the box behind it.
+//! let near_face = (0..12).filter(|&t| scene.triangle(t).iter().all(|p| p.z == 4.0));
+//! assert!(near_face.clone().count() == 2);
+//! assert!(near_face.into_iter().all(|t| result.visible.contains(t as usize)));
+//! assert!((12..24).all(|t| !result.visible.contains(t)));
 //! assert!(result.peak_memory_bytes <= options.memory_budget_bytes);
 //! ```
 
@@ -126,6 +130,25 @@ pub struct RvOptions {
     /// thesis' figures 7.7 and 7.8); the re-test pass then removes most of that cost. Off by
     /// default, as in the thesis' comparisons.
     pub init_phase: bool,
+    /// Whether triangles found hidden still join the occluders (beyond the thesis; see
+    /// [`HiddenOccluders`]). Off by default: it costs time and, on unsorted streams, memory.
+    pub hidden_occluders: HiddenOccluders,
+}
+
+/// Which hidden triangles become occluder parts. A hidden triangle is still a surface, so using
+/// it as an occluder is as sound as using a visible one; it can connect visible patches into one
+/// occluder whose silhouette covers more (a box face partly behind another box), which helps
+/// most with the re-test pass. Measured in `docs/BENCHMARKS.md`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum HiddenOccluders {
+    /// Only visible triangles (the thesis).
+    #[default]
+    Never,
+    /// Hidden triangles grow or merge existing occluders but never start one.
+    Joining,
+    /// Hidden triangles also start occluders (more occluders: slower, and on an unsorted
+    /// stream far hidden ones can crowd out near ones until evicted).
+    All,
 }
 
 /// The reference a conservative set never misses a triangle of.
@@ -158,6 +181,7 @@ impl Default for RvOptions {
             retest_pass: true,
             guarantee: Guarantee::PositiveArea,
             init_phase: false,
+            hidden_occluders: HiddenOccluders::Never,
         }
     }
 }
@@ -348,6 +372,7 @@ impl Pass<'_> {
                                 visible,
                                 build,
                                 init: false,
+                                hidden: options.hidden_occluders,
                             };
                             {
                                 let mut state = states[work.bin]

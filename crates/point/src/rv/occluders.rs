@@ -113,8 +113,16 @@ pub(crate) struct BinState {
 const MAX_MATCHES: usize = 8;
 
 impl BinState {
-    /// Offers visible triangle `t` to this bin's occluders (chapter 5, figure 5.14).
-    pub(crate) fn add(&mut self, t: &ProjTri, limits: &Limits, pool: &Pool) -> AddOutcome {
+    /// Offers triangle `t` to this bin's occluders (chapter 5, figure 5.14). When `may_start`
+    /// is false it only grows or merges existing occluders (a hidden triangle under
+    /// [`super::HiddenOccluders::Joining`]).
+    pub(crate) fn add(
+        &mut self,
+        t: &ProjTri,
+        limits: &Limits,
+        pool: &Pool,
+        may_start: bool,
+    ) -> AddOutcome {
         let Some(plane) = t.plane.filter(|_| t.whole_front) else {
             return AddOutcome::NotEligible;
         };
@@ -154,6 +162,9 @@ impl BinState {
             }
         }
         if n_matches == 0 {
+            if !may_start {
+                return AddOutcome::NotEligible;
+            }
             // A full bin makes room by dropping its farthest occluder when this triangle lies
             // entirely in front of it (see `evict_farther_than`).
             if self.occluders.len() >= limits.max_occluders && !self.evict_farther_than(zmax, pool)
@@ -321,7 +332,12 @@ mod tests {
     fn first_triangle_starts_occluder() {
         let pool = Pool::new(1 << 20);
         let mut b = BinState::default();
-        let out = b.add(&tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), &limits(), &pool);
+        let out = b.add(
+            &tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),
+            &limits(),
+            &pool,
+            true,
+        );
         assert_eq!(out, AddOutcome::New);
         assert_eq!(b.occluders[0].edges.len(), 3);
     }
@@ -330,8 +346,18 @@ mod tests {
     fn shared_edge_grows_and_drops_edge() {
         let pool = Pool::new(1 << 20);
         let mut b = BinState::default();
-        b.add(&tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), &limits(), &pool);
-        let out = b.add(&tri([[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]), &limits(), &pool);
+        b.add(
+            &tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),
+            &limits(),
+            &pool,
+            true,
+        );
+        let out = b.add(
+            &tri([[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
+            &limits(),
+            &pool,
+            true,
+        );
         assert_eq!(out, AddOutcome::Grown);
         assert_eq!(b.occluders.len(), 1);
         assert_eq!(b.occluders[0].edges.len(), 4);
@@ -341,13 +367,33 @@ mod tests {
     fn bridge_triangle_merges() {
         let pool = Pool::new(1 << 20);
         let mut b = BinState::default();
-        b.add(&tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), &limits(), &pool);
-        b.add(&tri([[1.0, 1.0], [2.0, 1.0], [1.0, 2.0]]), &limits(), &pool);
+        b.add(
+            &tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),
+            &limits(),
+            &pool,
+            true,
+        );
+        b.add(
+            &tri([[1.0, 1.0], [2.0, 1.0], [1.0, 2.0]]),
+            &limits(),
+            &pool,
+            true,
+        );
         // Shares edge (1,0)-(0,1) with the first and nothing with the second...
-        let out = b.add(&tri([[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]), &limits(), &pool);
+        let out = b.add(
+            &tri([[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
+            &limits(),
+            &pool,
+            true,
+        );
         assert_eq!(out, AddOutcome::Grown);
         // ...then one touching both.
-        let out = b.add(&tri([[1.0, 1.0], [1.0, 0.0], [2.0, 1.0]]), &limits(), &pool);
+        let out = b.add(
+            &tri([[1.0, 1.0], [1.0, 0.0], [2.0, 1.0]]),
+            &limits(),
+            &pool,
+            true,
+        );
         assert_eq!(out, AddOutcome::Merged);
         assert_eq!(b.occluders.len(), 1);
         assert_eq!(b.occluders[0].tris.len(), 4);
@@ -363,14 +409,14 @@ mod tests {
         let mut b = BinState::default();
         let mut far = tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
         far.corners.iter_mut().for_each(|c| c.z = 50.0);
-        assert_eq!(b.add(&far, &one, &pool), AddOutcome::New);
+        assert_eq!(b.add(&far, &one, &pool, true), AddOutcome::New);
         // A nearer, unconnected triangle replaces it...
         let near = tri([[5.0, 5.0], [6.0, 5.0], [5.0, 6.0]]);
-        assert_eq!(b.add(&near, &one, &pool), AddOutcome::New);
+        assert_eq!(b.add(&near, &one, &pool, true), AddOutcome::New);
         assert_eq!(b.occluders.len(), 1);
         assert_eq!(b.occluders[0].zmin, 5.0);
         // ...but a farther one does not replace the near occluder.
-        assert_eq!(b.add(&far, &one, &pool), AddOutcome::Full);
+        assert_eq!(b.add(&far, &one, &pool, true), AddOutcome::Full);
         assert_eq!(b.occluders[0].zmin, 5.0);
     }
 
@@ -378,7 +424,12 @@ mod tests {
     fn full_pool_refuses() {
         let pool = Pool::new(0);
         let mut b = BinState::default();
-        let out = b.add(&tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), &limits(), &pool);
+        let out = b.add(
+            &tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),
+            &limits(),
+            &pool,
+            true,
+        );
         assert_eq!(out, AddOutcome::Full);
         assert!(b.occluders.is_empty());
     }
@@ -389,6 +440,6 @@ mod tests {
         let mut b = BinState::default();
         let mut t = tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
         t.whole_front = false;
-        assert_eq!(b.add(&t, &limits(), &pool), AddOutcome::NotEligible);
+        assert_eq!(b.add(&t, &limits(), &pool, true), AddOutcome::NotEligible);
     }
 }

@@ -15,6 +15,7 @@ use super::occluders::{AddOutcome, BinState, Limits};
 use super::occlusion_test::{is_occluded, Occludee, TestCounters};
 use super::overlap::Rect;
 use super::projection::{clip, Poly, Projection, MAX_POLY};
+use super::HiddenOccluders;
 
 /// Per-worker statistics of the visibility stage.
 #[derive(Clone, Copy, Debug, Default)]
@@ -51,6 +52,8 @@ pub(crate) struct BinContext<'a> {
     pub(crate) build: bool,
     /// The initialization phase (thesis section 6.3.4): accept without testing.
     pub(crate) init: bool,
+    /// Whether hidden triangles join the occluders ([`RvOptions::hidden_occluders`]).
+    pub(crate) hidden: HiddenOccluders,
 }
 
 /// Runs the visibility stage on triangle `t` in the bin of `ctx`.
@@ -98,28 +101,37 @@ pub(crate) fn process(
         tri_screen: t.whole_front.then_some(&t.screen),
         area: ctx.area,
     };
+    let mut occluded = false;
     if ctx.init {
         st.init_accepted += 1;
     } else if !state.occluders.is_empty() {
         if is_occluded(&p, state, ctx.proj, ctx.margin, &mut st.counters) {
             st.occluded += 1;
-            return;
-        }
-        if state
+            occluded = true;
+        } else if state
             .fused
             .hides(screen, &p.rect, zmin, &ctx.bin_rect, ctx.margin)
         {
             st.occluded += 1;
             st.fused_occluded += 1;
-            return;
+            occluded = true;
         }
     }
-    st.visible += 1;
-    ctx.visible.insert(t.id);
+    if !occluded {
+        st.visible += 1;
+        ctx.visible.insert(t.id);
+    }
+    // A hidden triangle is still a surface: as an occluder it is as sound as a visible one
+    // (beyond the thesis, which only builds occluders from visible triangles).
+    let may_start = match (occluded, ctx.hidden) {
+        (false, _) | (true, HiddenOccluders::All) => true,
+        (true, HiddenOccluders::Joining) => false,
+        (true, HiddenOccluders::Never) => return,
+    };
     if !ctx.build {
         return;
     }
-    let outcome = state.add(t, ctx.limits, ctx.pool);
+    let outcome = state.add(t, ctx.limits, ctx.pool, may_start);
     match outcome {
         AddOutcome::New => st.occluders_created += 1,
         AddOutcome::Grown => st.occluders_grown += 1,
