@@ -13,6 +13,8 @@
 
 use std::sync::{Condvar, Mutex, PoisonError};
 
+use sightline_core::TriangleSet;
+
 use super::geometry_stage::{bins_of, project, Batch, BinGrid, ProjTri};
 use super::pipeline::Scheduler;
 use super::projection::Projection;
@@ -161,6 +163,12 @@ pub(crate) struct GeometryContext<'a> {
     pub(crate) options: &'a RvOptions,
     pub(crate) max_entries: usize,
     pub(crate) sched: &'a Scheduler,
+    /// Only triangles in this set go on to projection (the re-test pass: a triangle the first
+    /// pass found hidden stays hidden, so it needs no geometry work); `None` keeps all.
+    pub(crate) only: Option<&'a TriangleSet>,
+    /// Sort batches front to back ([`RvOptions::sort_batches`]; pointless when the occluders
+    /// no longer change, as in the re-test pass).
+    pub(crate) sort: bool,
 }
 
 /// One geometry thread: reads input batches until the stream ends and pushes their binned,
@@ -179,6 +187,9 @@ pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scr
                 });
                 break;
             }
+            if ctx.only.is_some_and(|only| !only.contains(t.id as usize)) {
+                continue;
+            }
             let Some((pt, pts, n)) = project(t, ctx.proj, ctx.margin) else {
                 continue;
             };
@@ -192,7 +203,13 @@ pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scr
                 || s.tris.len() == ctx.options.batch_triangles
             {
                 // Rare (huge triangles): this input needs more than one batch.
-                let batch = seal(&mut s.tris, &mut s.pairs, n_bins, ctx.options);
+                let batch = seal(
+                    &mut s.tris,
+                    &mut s.pairs,
+                    n_bins,
+                    ctx.options.batch_triangles,
+                    ctx.sort,
+                );
                 shared.wait_turn(ticket);
                 ctx.sched.push(batch);
             }
@@ -201,8 +218,15 @@ pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scr
             s.pairs.extend(s.tri_bins.iter().map(|&b| (b, k)));
             out.entries += s.tri_bins.len() as u64;
         }
-        let batch =
-            (!s.tris.is_empty()).then(|| seal(&mut s.tris, &mut s.pairs, n_bins, ctx.options));
+        let batch = (!s.tris.is_empty()).then(|| {
+            seal(
+                &mut s.tris,
+                &mut s.pairs,
+                n_bins,
+                ctx.options.batch_triangles,
+                ctx.sort,
+            )
+        });
         shared.wait_turn(ticket);
         if let Some(batch) = batch {
             ctx.sched.push(batch);
@@ -216,16 +240,17 @@ pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scr
     out
 }
 
-/// Sorts a batch front to back (optional) and counting-sorts its (bin, triangle) pairs into a
+/// Sorts a batch front to back (when `sort`) and counting-sorts its (bin, triangle) pairs into a
 /// [`Batch`]; resets the buffers.
 fn seal(
     tris: &mut Vec<ProjTri>,
     pairs: &mut Vec<(u32, u32)>,
     n_bins: usize,
-    options: &RvOptions,
+    batch_triangles: usize,
+    sort: bool,
 ) -> Batch {
-    let mut batch_tris = std::mem::replace(tris, Vec::with_capacity(options.batch_triangles));
-    if options.sort_batches {
+    let mut batch_tris = std::mem::replace(tris, Vec::with_capacity(batch_triangles));
+    if sort {
         // Keys computed once: the nearest view depth of each triangle.
         let mut keys: Vec<(f64, u32)> = batch_tris
             .iter()
@@ -260,7 +285,7 @@ fn seal(
         *slot += 1;
     }
     pairs.clear();
-    if options.sort_batches {
+    if sort {
         // Each bin's triangles front to back.
         for b in 0..n_bins {
             entries[offsets[b] as usize..offsets[b + 1] as usize].sort_unstable();
