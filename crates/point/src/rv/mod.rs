@@ -57,6 +57,7 @@
 mod city_stream;
 mod depth;
 mod from_region;
+mod frustum_cull;
 mod fusion;
 mod geometry_stage;
 mod memory;
@@ -79,6 +80,7 @@ pub use city_stream::StreamingCity;
 pub use from_region::{conservative_from_region, RegionOptions, RegionResult, RegionStats};
 pub use source::{SceneSource, SourceTriangle, TriangleSource};
 
+use frustum_cull::FrustumCull;
 use geometry_stage::{Batch, BinGrid};
 use memory::Pool;
 use occluders::{BinState, Limits};
@@ -292,6 +294,7 @@ struct Pass<'a> {
     grid: &'a BinGrid,
     options: &'a RvOptions,
     proj: &'a Projection,
+    cull: FrustumCull,
     margin: f64,
     limits: &'a Limits,
     max_entries: usize,
@@ -320,6 +323,7 @@ impl Pass<'_> {
         let producers = Producers::new(source);
         let gctx = GeometryContext {
             proj: self.proj,
+            cull: &self.cull,
             grid,
             margin,
             options,
@@ -474,6 +478,7 @@ fn visible_with(
         grid: &grid,
         options,
         proj: &proj,
+        cull: FrustumCull::new(&proj, margin),
         margin,
         limits: &limits,
         max_entries,

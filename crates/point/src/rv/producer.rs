@@ -15,6 +15,7 @@ use std::sync::{Condvar, Mutex, PoisonError};
 
 use sightline_core::TriangleSet;
 
+use super::frustum_cull::{FrustumCull, RUN};
 use super::geometry_stage::{bins_of, project, Batch, BinGrid, ProjTri};
 use super::pipeline::Scheduler;
 use super::projection::Projection;
@@ -158,6 +159,8 @@ impl Scratch {
 /// What a geometry thread needs that does not change during a run.
 pub(crate) struct GeometryContext<'a> {
     pub(crate) proj: &'a Projection,
+    /// The frustum test of runs of input triangles.
+    pub(crate) cull: &'a FrustumCull,
     pub(crate) grid: &'a BinGrid,
     pub(crate) margin: f64,
     pub(crate) options: &'a RvOptions,
@@ -178,45 +181,53 @@ pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scr
     let n_bins = ctx.grid.len();
     while let Some(ticket) = shared.read(ctx.options.batch_triangles, &mut s.input) {
         let mut bad = None;
-        for t in &s.input {
-            out.streamed += 1;
-            if t.id >= shared.bound {
-                bad = Some(RvError::IdOutOfRange {
-                    id: t.id,
-                    bound: shared.bound,
-                });
-                break;
-            }
-            if ctx.only.is_some_and(|only| !only.contains(t.id as usize)) {
+        'input: for run in s.input.chunks(RUN) {
+            // Runs wholly outside the frustum skip projection (`frustum_cull.rs`); a run with a
+            // bad id goes the slow way, which reports it.
+            if run.iter().all(|t| t.id < shared.bound) && ctx.cull.rejects(run) {
+                out.streamed += run.len() as u64;
                 continue;
             }
-            let Some((pt, pts, n)) = project(t, ctx.proj, ctx.margin) else {
-                continue;
-            };
-            s.tri_bins.clear();
-            bins_of(&pts[..n], ctx.grid, ctx.margin, &mut s.tri_bins);
-            if s.tri_bins.is_empty() {
-                continue;
+            for t in run {
+                out.streamed += 1;
+                if t.id >= shared.bound {
+                    bad = Some(RvError::IdOutOfRange {
+                        id: t.id,
+                        bound: shared.bound,
+                    });
+                    break 'input;
+                }
+                if ctx.only.is_some_and(|only| !only.contains(t.id as usize)) {
+                    continue;
+                }
+                let Some((pt, pts, n)) = project(t, ctx.proj, ctx.margin) else {
+                    continue;
+                };
+                s.tri_bins.clear();
+                bins_of(&pts[..n], ctx.grid, ctx.margin, &mut s.tri_bins);
+                if s.tri_bins.is_empty() {
+                    continue;
+                }
+                out.on_screen += 1;
+                if s.pairs.len() + s.tri_bins.len() > ctx.max_entries
+                    || s.tris.len() == ctx.options.batch_triangles
+                {
+                    // Rare (huge triangles): this input needs more than one batch.
+                    let batch = seal(
+                        &mut s.tris,
+                        &mut s.pairs,
+                        n_bins,
+                        ctx.options.batch_triangles,
+                        ctx.sort,
+                    );
+                    shared.wait_turn(ticket);
+                    ctx.sched.push(batch);
+                }
+                let k = s.tris.len() as u32;
+                s.tris.push(pt);
+                s.pairs.extend(s.tri_bins.iter().map(|&b| (b, k)));
+                out.entries += s.tri_bins.len() as u64;
             }
-            out.on_screen += 1;
-            if s.pairs.len() + s.tri_bins.len() > ctx.max_entries
-                || s.tris.len() == ctx.options.batch_triangles
-            {
-                // Rare (huge triangles): this input needs more than one batch.
-                let batch = seal(
-                    &mut s.tris,
-                    &mut s.pairs,
-                    n_bins,
-                    ctx.options.batch_triangles,
-                    ctx.sort,
-                );
-                shared.wait_turn(ticket);
-                ctx.sched.push(batch);
-            }
-            let k = s.tris.len() as u32;
-            s.tris.push(pt);
-            s.pairs.extend(s.tri_bins.iter().map(|&b| (b, k)));
-            out.entries += s.tri_bins.len() as u64;
         }
         let batch = (!s.tris.is_empty()).then(|| {
             seal(
