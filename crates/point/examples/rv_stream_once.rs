@@ -53,8 +53,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         r.peak_memory_bytes as f64 / (1 << 20) as f64
     );
     println!(
-        "{} bin entries (first pass), {} bin tests, {} silhouette tests, {} triangle tests",
-        r.stats.bin_entries, r.stats.bin_tests, r.stats.silhouette_tests, r.stats.triangle_tests
+        "{} bin entries (first pass), {} bin tests ({} occluded, {} of them by fusion), {} \
+         silhouette tests, {} triangle tests",
+        r.stats.bin_entries,
+        r.stats.bin_tests,
+        r.stats.bin_occluded,
+        r.stats.fused_occluded,
+        r.stats.silhouette_tests,
+        r.stats.triangle_tests
     );
     Ok(())
 }

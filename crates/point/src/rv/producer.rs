@@ -184,9 +184,15 @@ pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scr
         'input: for run in s.input.chunks(RUN) {
             // Runs wholly outside the frustum skip projection (`frustum_cull.rs`); a run with a
             // bad id goes the slow way, which reports it.
-            if run.iter().all(|t| t.id < shared.bound) && ctx.cull.rejects(run) {
-                out.streamed += run.len() as u64;
-                continue;
+            if run.iter().all(|t| t.id < shared.bound) {
+                // In the re-test pass most runs hold no triangle left to test.
+                let none_kept = ctx
+                    .only
+                    .is_some_and(|only| !run.iter().any(|t| only.contains(t.id as usize)));
+                if none_kept || ctx.cull.rejects(run) {
+                    out.streamed += run.len() as u64;
+                    continue;
+                }
             }
             for t in run {
                 out.streamed += 1;
