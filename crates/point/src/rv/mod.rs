@@ -7,7 +7,8 @@
 //! The scene arrives as a [`TriangleSource`] (an in-memory [`SceneSource`], or a generator such
 //! as [`StreamingCity`] that never materialises the scene). A sort-middle pipeline projects and
 //! bins triangles into a grid of screen bins (geometry stage, `geometry_stage.rs`, on several
-//! threads: `producer.rs`), and worker
+//! threads: `producer.rs`; runs of input triangles wholly outside the frustum are dropped by
+//! their bounding box first, `frustum_cull.rs`), and worker
 //! threads resolve visibility per bin (visibility stage, `visibility_stage.rs`): each bin keeps
 //! occluders made of edge-connected visible triangles (`occluders.rs`), and a triangle is
 //! occluded in a bin when it lies inside one occluder's silhouette and behind its triangles
