@@ -51,7 +51,9 @@
 //! let options = RvOptions { bins: (4, 4), ..RvOptions::default() };
 //! let result = conservative_visible(&mut SceneSource::new(&scene), &cam, &options)
 //!     .expect("fits the budget");
-//! assert!(result.visible.contains(0) || result.visible.contains(1)); // the front face
+//! // The front box's -z face (triangles 8 and 9 of `add_box`) faces the eye.
+//! assert!(result.visible.contains(8) && result.visible.contains(9));
+//! assert!((12..24).all(|i| !result.visible.contains(i))); // the box behind
 //! assert!(result.peak_memory_bytes <= options.memory_budget_bytes);
 //! ```
 
@@ -588,21 +590,25 @@ mod tests {
         // Street level in a city whose far blocks stream before the near walls.
         let eye = Vec3::new(-6.0, -6.0, 2.0);
         let cam = Camera::look_at(eye, eye + Vec3::X, Vec3::Z, 60.0, 128, 128, 0.1).expect("cam");
-        let options = RvOptions {
-            bins: (8, 8),
-            threads: 2,
-            geometry_threads: 2,
-            batch_triangles: 512,
-            ..RvOptions::default()
-        };
-        let r = same_with_and_without_skipping(&mut StreamingCity::new(1, 40_000), &cam, &options);
-        // The re-test must have hidden something, or the comparison proves nothing.
-        assert!(
-            (r.visible.count_ones(..) as u64) < r.stats.first_pass_visible,
-            "re-test hid nothing: {} of {}",
-            r.visible.count_ones(..),
-            r.stats.first_pass_visible
-        );
+        for guarantee in [Guarantee::PositiveArea, Guarantee::AnySample] {
+            let options = RvOptions {
+                bins: (8, 8),
+                threads: 2,
+                geometry_threads: 2,
+                batch_triangles: 512,
+                guarantee,
+                ..RvOptions::default()
+            };
+            let mut city = StreamingCity::new(1, 40_000);
+            let r = same_with_and_without_skipping(&mut city, &cam, &options);
+            // The re-test must have hidden something, or the comparison proves nothing.
+            assert!(
+                (r.visible.count_ones(..) as u64) < r.stats.first_pass_visible,
+                "re-test hid nothing: {} of {}",
+                r.visible.count_ones(..),
+                r.stats.first_pass_visible
+            );
+        }
     }
 
     #[test]
