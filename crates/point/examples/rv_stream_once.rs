@@ -1,13 +1,14 @@
 //! One streamed RV run over a procedural city that is never materialised, for profiling and
 //! CPU-time measurements:
 //! `cargo run --release -p sightline-point --example rv_stream_once -- TRIANGLES [THREADS]
-//! [street|aerial] [--single-pass]`. Cameras at 1024², 60°: `street` stands at a street crossing near the
+//! [street|aerial] [--single-pass | --source-only]`. `--source-only` only drains the city generator
+//! once (the part of the run that is not RV's). Cameras at 1024², 60°: `street` stands at a street crossing near the
 //! centre (an even number of blocks puts one at (-6, -6)) looking down the street along +x;
 //! `aerial` looks down over the city from 300 m.
 
 use glam::Vec3;
 use sightline_core::Camera;
-use sightline_point::rv::{conservative_visible, RvOptions, StreamingCity};
+use sightline_point::rv::{conservative_visible, RvOptions, StreamingCity, TriangleSource};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -25,6 +26,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ..RvOptions::default()
     };
     let mut source = StreamingCity::new(1, size);
+    if args.iter().any(|a| a == "--source-only") {
+        let start = std::time::Instant::now();
+        let (mut batch, mut n) = (Vec::with_capacity(options.batch_triangles), 0usize);
+        while source.next_batch(options.batch_triangles, &mut batch)? > 0 {
+            n += batch.len();
+            batch.clear();
+        }
+        let s = start.elapsed().as_secs_f64();
+        println!(
+            "{n} generated, {s:.3} s, {:.2} M triangles/s",
+            n as f64 / s / 1e6
+        );
+        return Ok(());
+    }
     let r = conservative_visible(&mut source, &camera, &options)?;
     println!(
         "{} streamed, {} on screen, {} visible ({} after the first pass), {:.3} s, {:.2} M \
@@ -36,6 +51,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         r.stats.seconds,
         r.stats.triangles_streamed as f64 / r.stats.seconds / 1e6,
         r.peak_memory_bytes as f64 / (1 << 20) as f64
+    );
+    println!(
+        "{} bin entries (first pass), {} bin tests ({} occluded, {} of them by fusion), {} \
+         silhouette tests, {} triangle tests",
+        r.stats.bin_entries,
+        r.stats.bin_tests,
+        r.stats.bin_occluded,
+        r.stats.fused_occluded,
+        r.stats.silhouette_tests,
+        r.stats.triangle_tests
     );
     Ok(())
 }

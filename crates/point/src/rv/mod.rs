@@ -7,7 +7,8 @@
 //! The scene arrives as a [`TriangleSource`] (an in-memory [`SceneSource`], or a generator such
 //! as [`StreamingCity`] that never materialises the scene). A sort-middle pipeline projects and
 //! bins triangles into a grid of screen bins (geometry stage, `geometry_stage.rs`, on several
-//! threads: `producer.rs`), and worker
+//! threads: `producer.rs`; runs of input triangles wholly outside the frustum are dropped by
+//! their bounding box first, `frustum_cull.rs`), and worker
 //! threads resolve visibility per bin (visibility stage, `visibility_stage.rs`): each bin keeps
 //! occluders made of edge-connected visible triangles (`occluders.rs`), and a triangle is
 //! occluded in a bin when it lies inside one occluder's silhouette and behind its triangles
@@ -61,6 +62,7 @@
 mod city_stream;
 mod depth;
 mod from_region;
+mod frustum_cull;
 mod fusion;
 mod geometry_stage;
 mod memory;
@@ -83,6 +85,7 @@ pub use city_stream::StreamingCity;
 pub use from_region::{conservative_from_region, RegionOptions, RegionResult, RegionStats};
 pub use source::{SceneSource, SourceTriangle, TriangleSource};
 
+use frustum_cull::FrustumCull;
 use geometry_stage::{Batch, BinGrid};
 use memory::Pool;
 use occluders::{BinState, Limits};
@@ -116,11 +119,12 @@ pub struct RvOptions {
     /// (section 7.1.3) finds sorted input gives much smaller sets, as near occluders form
     /// first; sorting within a batch keeps the stream bounded.
     pub sort_batches: bool,
-    /// After the stream, stream the scene once more and re-test every triangle against the
-    /// final occluders (beyond the thesis; needs a source that can
+    /// After the stream, stream the scene once more and re-test every triangle the first pass
+    /// left visible against the final occluders (beyond the thesis; needs a source that can
     /// [`TriangleSource::rewind`]). Triangles that arrived before their occluders existed are
-    /// then found hidden, which an unsorted stream otherwise reports visible. Doubles the
-    /// streaming work; the memory is the same.
+    /// then found hidden, which an unsorted stream otherwise reports visible. The source is
+    /// read twice, but triangles already hidden skip all geometry work; the memory is the
+    /// same.
     pub retest_pass: bool,
     /// What "visible" means for the guarantee (see [`Guarantee`]).
     pub guarantee: Guarantee,
@@ -195,7 +199,8 @@ pub struct RvStats {
     pub triangles_on_screen: u64,
     /// (triangle, bin) pairs queued.
     pub bin_entries: u64,
-    /// (triangle, bin) pairs tested against occluders.
+    /// (triangle, bin) pairs tested against occluders (after a re-test pass: the re-test's,
+    /// which tests only the triangles the first pass left visible).
     pub bin_tests: u64,
     /// Of those, occluded in their bin.
     pub bin_occluded: u64,
@@ -314,6 +319,7 @@ struct Pass<'a> {
     grid: &'a BinGrid,
     options: &'a RvOptions,
     proj: &'a Projection,
+    cull: FrustumCull,
     margin: f64,
     limits: &'a Limits,
     max_entries: usize,
@@ -325,11 +331,15 @@ impl Pass<'_> {
     /// Streams `source` once through the sort-middle pipeline, marking visible triangles in
     /// `visible`; with `build`, visible triangles also grow the occluders (the thesis' single
     /// pass), without it they are only tested against the occluders as they stand.
+    ///
+    /// With `only`, triangles outside that set are read but skip all further work (their
+    /// bits in `visible` stay clear).
     fn run(
         &self,
         source: &mut (dyn TriangleSource + Send),
         visible: &AtomicTriangleSet,
         build: bool,
+        only: Option<&TriangleSet>,
     ) -> Result<(producer::Produced, StageStats), RvError> {
         let (grid, options, margin) = (self.grid, self.options, self.margin);
         let n_bins = grid.len();
@@ -338,11 +348,14 @@ impl Pass<'_> {
         let producers = Producers::new(source);
         let gctx = GeometryContext {
             proj: self.proj,
+            cull: &self.cull,
             grid,
             margin,
             options,
             max_entries: self.max_entries,
             sched: &sched,
+            only,
+            sort: options.sort_batches && build,
         };
         let produced = std::thread::scope(|scope| {
             let workers: Vec<_> = (0..options.threads)
@@ -446,6 +459,17 @@ pub fn conservative_visible(
     camera: &Camera,
     options: &RvOptions,
 ) -> Result<RvResult, RvError> {
+    visible_with(source, camera, options, false)
+}
+
+/// [`conservative_visible`]; with `retest_all`, the re-test pass re-tests every triangle and
+/// intersects (the earlier behaviour, kept to check that skipping gives the same set).
+fn visible_with(
+    source: &mut (dyn TriangleSource + Send),
+    camera: &Camera,
+    options: &RvOptions,
+    retest_all: bool,
+) -> Result<RvResult, RvError> {
     check(options)?;
     let start = Instant::now();
     let grid = BinGrid {
@@ -480,6 +504,7 @@ pub fn conservative_visible(
         grid: &grid,
         options,
         proj: &proj,
+        cull: FrustumCull::new(&proj, margin),
         margin,
         limits: &limits,
         max_entries,
@@ -488,7 +513,7 @@ pub fn conservative_visible(
     };
     let mut stats = RvStats::default();
     let first = AtomicTriangleSet::new(bound as usize);
-    let (produced, mut stage) = pass.run(source, &first, true)?;
+    let (produced, mut stage) = pass.run(source, &first, true, None)?;
     stats.first_pass_visible = first.count() as u64;
     // The memory accounting's two bitsets: the concurrent set being filled and the returned
     // set (here the first pass's result, narrowed by the re-test).
@@ -497,16 +522,27 @@ pub fn conservative_visible(
     if options.retest_pass && source.rewind()? {
         stats.retested = true;
         let second = AtomicTriangleSet::new(bound as usize);
-        let (_, retest) = pass.run(source, &second, false)?;
         // Both passes are conservative, so is their intersection. (The re-test alone can
         // keep a triangle the first pass hid: an occluder that hid it may since have merged
-        // with one whose silhouette edges now pass over it.)
-        let hidden_now: Vec<usize> = visible
-            .ones()
-            .filter(|&id| !second.contains(id as u32))
-            .collect();
-        for id in hidden_now {
-            visible.set(id, false);
+        // with one whose silhouette edges now pass over it.) The re-test does not change the
+        // occluders, so each triangle's outcome depends on that triangle alone: a triangle
+        // the first pass hid is left out of the intersection whatever the re-test says, and
+        // is skipped before any geometry work (most of a large scene: 95 % of the streamed
+        // city at street level).
+        let only = (!retest_all).then_some(&visible);
+        let (_, retest) = pass.run(source, &second, false, only)?;
+        if retest_all {
+            let hidden_now: Vec<usize> = visible
+                .ones()
+                .filter(|&id| !second.contains(id as u32))
+                .collect();
+            for id in hidden_now {
+                visible.set(id, false);
+            }
+        } else {
+            // `second` holds only triangles of `visible`: it is the intersection.
+            drop(visible);
+            visible = second.to_set();
         }
         // Occlusion counters are the re-test's; occluder counters stay the first pass's.
         stage.tested = retest.tested;
@@ -540,4 +576,86 @@ pub fn conservative_visible(
         peak_memory_bytes: fixed + pool.peak(),
         stats,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+    use sightline_core::scene::SceneBuilder;
+
+    use super::*;
+
+    /// Runs RV twice, re-testing only the first pass's visible triangles and re-testing all;
+    /// asserts both give the same set and returns it.
+    fn same_with_and_without_skipping(
+        source: &mut (dyn TriangleSource + Send),
+        cam: &Camera,
+        options: &RvOptions,
+    ) -> RvResult {
+        let all = visible_with(source, cam, options, true).expect("runs");
+        source.rewind().expect("rewinds");
+        let skipping = visible_with(source, cam, options, false).expect("runs");
+        assert!(skipping.stats.retested && all.stats.retested);
+        assert_eq!(skipping.visible, all.visible);
+        assert_eq!(
+            skipping.stats.first_pass_visible,
+            all.stats.first_pass_visible
+        );
+        assert_eq!(
+            skipping.stats.triangles_streamed,
+            all.stats.triangles_streamed
+        );
+        skipping
+    }
+
+    #[test]
+    fn retest_skipping_hidden_matches_retesting_all_streamed_city() {
+        // Street level in a city whose far blocks stream before the near walls.
+        let eye = Vec3::new(-6.0, -6.0, 2.0);
+        let cam = Camera::look_at(eye, eye + Vec3::X, Vec3::Z, 60.0, 128, 128, 0.1).expect("cam");
+        for guarantee in [Guarantee::PositiveArea, Guarantee::AnySample] {
+            let options = RvOptions {
+                bins: (8, 8),
+                threads: 2,
+                geometry_threads: 2,
+                batch_triangles: 512,
+                guarantee,
+                ..RvOptions::default()
+            };
+            let mut city = StreamingCity::new(1, 40_000);
+            let r = same_with_and_without_skipping(&mut city, &cam, &options);
+            // The re-test must have hidden something, or the comparison proves nothing.
+            assert!(
+                (r.visible.count_ones(..) as u64) < r.stats.first_pass_visible,
+                "re-test hid nothing: {} of {}",
+                r.visible.count_ones(..),
+                r.stats.first_pass_visible
+            );
+        }
+    }
+
+    #[test]
+    fn retest_skipping_hidden_matches_retesting_all_small_scene() {
+        // Far boxes first, the wall hiding them last, unsorted: only the re-test hides them.
+        let mut b = SceneBuilder::new("far boxes, then a wall");
+        for i in 0..4 {
+            let x = -1.5 + i as f32;
+            b.add_box(Vec3::new(x, -0.4, 8.0), Vec3::new(x + 0.8, 0.4, 9.0));
+        }
+        b.add_box(Vec3::new(-3.0, -2.0, 4.0), Vec3::new(3.0, 2.0, 4.5));
+        let scene = b.finish();
+        let cam = Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y, 60.0, 64, 64, 0.1).expect("cam");
+        let options = RvOptions {
+            bins: (4, 4),
+            threads: 2,
+            geometry_threads: 1,
+            batch_triangles: 8,
+            sort_batches: false,
+            ..RvOptions::default()
+        };
+        let r = same_with_and_without_skipping(&mut SceneSource::new(&scene), &cam, &options);
+        assert!((r.visible.count_ones(..) as u64) < r.stats.first_pass_visible);
+        // The wall's front face (the last box's -z face) stays visible.
+        assert!(r.visible.count_ones(48..) > 0);
+    }
 }

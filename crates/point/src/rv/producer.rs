@@ -13,6 +13,9 @@
 
 use std::sync::{Condvar, Mutex, PoisonError};
 
+use sightline_core::TriangleSet;
+
+use super::frustum_cull::{FrustumCull, RUN};
 use super::geometry_stage::{bins_of, project, Batch, BinGrid, ProjTri};
 use super::pipeline::Scheduler;
 use super::projection::Projection;
@@ -156,11 +159,19 @@ impl Scratch {
 /// What a geometry thread needs that does not change during a run.
 pub(crate) struct GeometryContext<'a> {
     pub(crate) proj: &'a Projection,
+    /// The frustum test of runs of input triangles.
+    pub(crate) cull: &'a FrustumCull,
     pub(crate) grid: &'a BinGrid,
     pub(crate) margin: f64,
     pub(crate) options: &'a RvOptions,
     pub(crate) max_entries: usize,
     pub(crate) sched: &'a Scheduler,
+    /// Only triangles in this set go on to projection (the re-test pass: a triangle the first
+    /// pass found hidden stays hidden, so it needs no geometry work); `None` keeps all.
+    pub(crate) only: Option<&'a TriangleSet>,
+    /// Sort batches front to back ([`RvOptions::sort_batches`]; pointless when the occluders
+    /// no longer change, as in the re-test pass).
+    pub(crate) sort: bool,
 }
 
 /// One geometry thread: reads input batches until the stream ends and pushes their binned,
@@ -170,39 +181,69 @@ pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scr
     let n_bins = ctx.grid.len();
     while let Some(ticket) = shared.read(ctx.options.batch_triangles, &mut s.input) {
         let mut bad = None;
-        for t in &s.input {
-            out.streamed += 1;
-            if t.id >= shared.bound {
-                bad = Some(RvError::IdOutOfRange {
-                    id: t.id,
-                    bound: shared.bound,
-                });
-                break;
+        'input: for run in s.input.chunks(RUN) {
+            // Runs wholly outside the frustum skip projection (`frustum_cull.rs`); a run with a
+            // bad id goes the slow way, which reports it.
+            if run.iter().all(|t| t.id < shared.bound) {
+                // In the re-test pass most runs hold no triangle left to test.
+                let none_kept = ctx
+                    .only
+                    .is_some_and(|only| !run.iter().any(|t| only.contains(t.id as usize)));
+                if none_kept || ctx.cull.rejects(run) {
+                    out.streamed += run.len() as u64;
+                    continue;
+                }
             }
-            let Some((pt, pts, n)) = project(t, ctx.proj, ctx.margin) else {
-                continue;
-            };
-            s.tri_bins.clear();
-            bins_of(&pts[..n], ctx.grid, ctx.margin, &mut s.tri_bins);
-            if s.tri_bins.is_empty() {
-                continue;
+            for t in run {
+                out.streamed += 1;
+                if t.id >= shared.bound {
+                    bad = Some(RvError::IdOutOfRange {
+                        id: t.id,
+                        bound: shared.bound,
+                    });
+                    break 'input;
+                }
+                if ctx.only.is_some_and(|only| !only.contains(t.id as usize)) {
+                    continue;
+                }
+                let Some((pt, pts, n)) = project(t, ctx.proj, ctx.margin) else {
+                    continue;
+                };
+                s.tri_bins.clear();
+                bins_of(&pts[..n], ctx.grid, ctx.margin, &mut s.tri_bins);
+                if s.tri_bins.is_empty() {
+                    continue;
+                }
+                out.on_screen += 1;
+                if s.pairs.len() + s.tri_bins.len() > ctx.max_entries
+                    || s.tris.len() == ctx.options.batch_triangles
+                {
+                    // Rare (huge triangles): this input needs more than one batch.
+                    let batch = seal(
+                        &mut s.tris,
+                        &mut s.pairs,
+                        n_bins,
+                        ctx.options.batch_triangles,
+                        ctx.sort,
+                    );
+                    shared.wait_turn(ticket);
+                    ctx.sched.push(batch);
+                }
+                let k = s.tris.len() as u32;
+                s.tris.push(pt);
+                s.pairs.extend(s.tri_bins.iter().map(|&b| (b, k)));
+                out.entries += s.tri_bins.len() as u64;
             }
-            out.on_screen += 1;
-            if s.pairs.len() + s.tri_bins.len() > ctx.max_entries
-                || s.tris.len() == ctx.options.batch_triangles
-            {
-                // Rare (huge triangles): this input needs more than one batch.
-                let batch = seal(&mut s.tris, &mut s.pairs, n_bins, ctx.options);
-                shared.wait_turn(ticket);
-                ctx.sched.push(batch);
-            }
-            let k = s.tris.len() as u32;
-            s.tris.push(pt);
-            s.pairs.extend(s.tri_bins.iter().map(|&b| (b, k)));
-            out.entries += s.tri_bins.len() as u64;
         }
-        let batch =
-            (!s.tris.is_empty()).then(|| seal(&mut s.tris, &mut s.pairs, n_bins, ctx.options));
+        let batch = (!s.tris.is_empty()).then(|| {
+            seal(
+                &mut s.tris,
+                &mut s.pairs,
+                n_bins,
+                ctx.options.batch_triangles,
+                ctx.sort,
+            )
+        });
         shared.wait_turn(ticket);
         if let Some(batch) = batch {
             ctx.sched.push(batch);
@@ -216,16 +257,17 @@ pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scr
     out
 }
 
-/// Sorts a batch front to back (optional) and counting-sorts its (bin, triangle) pairs into a
+/// Sorts a batch front to back (when `sort`) and counting-sorts its (bin, triangle) pairs into a
 /// [`Batch`]; resets the buffers.
 fn seal(
     tris: &mut Vec<ProjTri>,
     pairs: &mut Vec<(u32, u32)>,
     n_bins: usize,
-    options: &RvOptions,
+    batch_triangles: usize,
+    sort: bool,
 ) -> Batch {
-    let mut batch_tris = std::mem::replace(tris, Vec::with_capacity(options.batch_triangles));
-    if options.sort_batches {
+    let mut batch_tris = std::mem::replace(tris, Vec::with_capacity(batch_triangles));
+    if sort {
         // Keys computed once: the nearest view depth of each triangle.
         let mut keys: Vec<(f64, u32)> = batch_tris
             .iter()
@@ -260,7 +302,7 @@ fn seal(
         *slot += 1;
     }
     pairs.clear();
-    if options.sort_batches {
+    if sort {
         // Each bin's triangles front to back.
         for b in 0..n_bins {
             entries[offsets[b] as usize..offsets[b + 1] as usize].sort_unstable();

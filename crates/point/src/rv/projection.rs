@@ -73,9 +73,19 @@ pub(crate) fn plane_value(plane: &[f64; 4], v: DVec3) -> f64 {
 /// sharing an edge get bit-identical cut points.
 pub(crate) fn clip(poly: &Poly, plane: &[f64; 4]) -> Poly {
     let mut out = Poly::new();
+    if clip_into(poly, plane, &mut out) {
+        out
+    } else {
+        *poly
+    }
+}
+
+/// [`clip`] into `out`, without copying polygons: false (and `out` untouched) when `poly` lies
+/// wholly inside, so the clipped polygon is `poly` itself; true when it is `out`.
+pub(crate) fn clip_into(poly: &Poly, plane: &[f64; 4], out: &mut Poly) -> bool {
     let n = poly.len;
     if n == 0 {
-        return out;
+        return false;
     }
     let mut all_inside = true;
     let mut values = [0.0f64; MAX_POLY];
@@ -84,8 +94,9 @@ pub(crate) fn clip(poly: &Poly, plane: &[f64; 4]) -> Poly {
         all_inside &= values[i] >= 0.0;
     }
     if all_inside {
-        return *poly;
+        return false;
     }
+    out.len = 0;
     for i in 0..n {
         let j = (i + 1) % n;
         let (a, b) = (poly.verts[i], poly.verts[j]);
@@ -106,7 +117,7 @@ pub(crate) fn clip(poly: &Poly, plane: &[f64; 4]) -> Poly {
             out.push(inside + (outside - inside) * t);
         }
     }
-    out
+    true
 }
 
 /// The camera mapping of `camera.rs` in f64: `sightline_core::camera::ScreenMapping`, the one
@@ -178,6 +189,23 @@ mod tests {
         let c = clip(&t, &[1.0, 0.0, 0.0, 0.0]);
         assert_eq!(c.len, 3);
         assert!(c.as_slice().iter().all(|v| v.x >= 0.0));
+    }
+
+    #[test]
+    fn clip_into_leaves_output_alone_when_all_inside() {
+        let t = Poly::from_slice(&[
+            DVec3::new(1.0, 0.0, 1.0),
+            DVec3::new(2.0, 0.0, 1.0),
+            DVec3::new(1.0, 1.0, 1.0),
+        ]);
+        let mut out = Poly::new();
+        assert!(!clip_into(&t, &[1.0, 0.0, 0.0, 0.0], &mut out));
+        assert!(out.is_empty());
+        // Cut by x >= 1.5: the same polygon `clip` gives.
+        assert!(clip_into(&t, &[1.0, 0.0, 0.0, -1.5], &mut out));
+        let c = clip(&t, &[1.0, 0.0, 0.0, -1.5]);
+        assert_eq!(out.as_slice(), c.as_slice());
+        assert!(out.len == 3 && out.as_slice().iter().all(|v| v.x >= 1.5));
     }
 
     #[test]

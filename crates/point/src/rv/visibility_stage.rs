@@ -14,7 +14,7 @@ use super::memory::Pool;
 use super::occluders::{AddOutcome, BinState, Limits};
 use super::occlusion_test::{is_occluded, Occludee, TestCounters};
 use super::overlap::Rect;
-use super::projection::{clip, Poly, Projection, MAX_POLY};
+use super::projection::{clip_into, Poly, Projection, MAX_POLY};
 use super::HiddenOccluders;
 
 /// Per-worker statistics of the visibility stage.
@@ -63,20 +63,27 @@ pub(crate) fn process(
     state: &mut BinState,
     st: &mut StageStats,
 ) {
-    let mut poly = Poly::from_slice(&t.corners);
+    let mut whole = Poly::from_slice(&t.corners);
+    let mut scratch;
+    let mut poly = &mut whole;
     // Most triangles of a large scene are small and lie inside one bin: then clipping to the
     // bin's frustum would return them unchanged, so it is skipped. (Keeping the unclipped
     // triangle where rounding might have shaved a sliver off is conservative: a larger
     // occludee is never easier to occlude.)
     let inside_bin = t.whole_front && ctx.bin_rect.contains(&Rect::of(&t.screen), 0.0);
     if !inside_bin {
-        if !t.whole_front {
-            poly = clip(&poly, &ctx.proj.near_plane());
-        }
-        for plane in &ctx.planes {
-            poly = clip(&poly, plane);
+        // Clip back and forth between two buffers (a polygon is a few hundred bytes).
+        scratch = Poly::new();
+        let mut other = &mut scratch;
+        let near = ctx.proj.near_plane();
+        let near = (!t.whole_front).then_some(&near);
+        for plane in near.into_iter().chain(&ctx.planes) {
+            if clip_into(poly, plane, other) {
+                std::mem::swap(&mut poly, &mut other);
+            }
         }
     }
+    let poly: &Poly = poly;
     if poly.is_empty() {
         st.clipped_away += 1;
         return;
@@ -91,7 +98,7 @@ pub(crate) fn process(
     }
     let screen = &screen[..poly.len];
     let p = Occludee {
-        poly: &poly,
+        poly,
         screen,
         rect: Rect::of(screen),
         zmin,
