@@ -34,9 +34,9 @@ use sightline_core::{Aabb, Camera};
 
 mod kernels;
 pub use kernels::Kernel;
-use kernels::{ColClamp, Edges, TileRowSpans, SCALAR};
+use kernels::{ColClamp, Edges, RowDepth, RowTiles, TileRowSpans, SCALAR};
 #[cfg(target_arch = "x86_64")]
-use kernels::{AVX2, SSE2};
+use kernels::{AVX2, AVX2_PER_TILE, SSE2, SSE2_PER_TILE};
 
 /// Tile width in pixels (a row of a tile is one byte of the mask).
 pub const TILE_W: u32 = 8;
@@ -243,7 +243,14 @@ impl OcclusionBuffer {
                 unsafe { self.render_avx2(triangles, camera) }
             }
             #[cfg(target_arch = "x86_64")]
+            Kernel::Avx2PerTile => {
+                // SAFETY: as for `Avx2`, `available` checked AVX2 support.
+                unsafe { self.render_avx2_per_tile(triangles, camera) }
+            }
+            #[cfg(target_arch = "x86_64")]
             Kernel::Sse2 => self.render_with::<SSE2>(triangles, camera),
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Sse2PerTile => self.render_with::<SSE2_PER_TILE>(triangles, camera),
             _ => self.render_with::<SCALAR>(triangles, camera),
         }
     }
@@ -257,6 +264,16 @@ impl OcclusionBuffer {
     #[target_feature(enable = "avx2")]
     unsafe fn render_avx2(&mut self, triangles: &[Vec3], camera: &Camera) {
         self.render_with::<AVX2>(triangles, camera);
+    }
+
+    /// The previous AVX2 kernel, see [`Self::render_avx2`].
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn render_avx2_per_tile(&mut self, triangles: &[Vec3], camera: &Camera) {
+        self.render_with::<AVX2_PER_TILE>(triangles, camera);
     }
 
     #[inline(always)]
@@ -451,14 +468,57 @@ impl OcclusionBuffer {
             let ya = (ty * TILE_H) as f32 + 0.5;
             let yb = ya + (TILE_H - 1) as f32;
             let r_rows = p[0][2] + (rb * (ya - p[0][1])).min(rb * (yb - p[0][1]));
-            for tx in lo_all as u32 / TILE_W..=hi_all as u32 / TILE_W {
+            let tx_first = lo_all as u32 / TILE_W;
+            let tx_last = hi_all as u32 / TILE_W;
+            #[cfg(target_arch = "x86_64")]
+            if K == AVX2 {
+                let depth = RowDepth {
+                    x0: p[0][0],
+                    ra,
+                    r_rows,
+                    r_far,
+                    plane_ok,
+                };
+                let outside_y = if ty == self.tiles_y - 1 {
+                    self.outside_y
+                } else {
+                    0
+                };
+                let row = (ty * self.tiles_x) as usize;
+                let mut out = RowTiles::EMPTY;
+                let mut tx = tx_first;
+                while tx <= tx_last {
+                    // SAFETY: `K == AVX2` only inside `render_avx2`, which the dispatcher
+                    // calls only after `is_x86_feature_detected!("avx2")`.
+                    unsafe {
+                        spans.row_tiles_avx2(
+                            tx,
+                            self.tiles_x - 1,
+                            self.outside_x,
+                            outside_y,
+                            &depth,
+                            &mut out,
+                        );
+                    }
+                    let n = (tx_last - tx + 1).min(8) as usize;
+                    let start = row + tx as usize;
+                    let tiles = &mut self.tiles[start..start + n];
+                    for (tile, (&mask, &r)) in tiles.iter_mut().zip(out.mask.iter().zip(&out.r)) {
+                        merge_tile(tile, mask, r);
+                    }
+                    tx += 8;
+                }
+                continue;
+            }
+            for tx in tx_first..=tx_last {
                 let base = (tx * TILE_W) as i32;
                 let mut mask = match K {
                     SCALAR => spans.mask_scalar(base),
                     #[cfg(target_arch = "x86_64")]
-                    AVX2 => {
-                        // SAFETY: `K == AVX2` only inside `render_avx2`, which the dispatcher
-                        // calls only after `is_x86_feature_detected!("avx2")`.
+                    AVX2 | AVX2_PER_TILE => {
+                        // SAFETY: `K == AVX2` or `AVX2_PER_TILE` only inside `render_avx2` or
+                        // `render_avx2_per_tile`, which the dispatcher calls only after
+                        // `is_x86_feature_detected!("avx2")`.
                         unsafe { spans.mask_avx2(base) }
                     }
                     _ => spans.mask_sse2(base),
@@ -628,6 +688,25 @@ fn update_tile(tile: &mut Tile, cov: u32, r: f32) {
     }
 }
 
+/// [`update_tile`] without branches (selects only), for tiles a triangle's coverage `cov`
+/// (possibly 0: nothing to merge) touches in no predictable pattern. Same results bit for bit.
+#[inline(always)]
+fn merge_tile(tile: &mut Tile, cov: u32, r: f32) {
+    let t = *tile;
+    // `!(r > z0)` also holds for a NaN `r`.
+    let keep = cov == 0 || !(r > t.z0);
+    let discard = t.mask == 0 || r - t.z1 > t.z1 - t.z0;
+    let z1 = if discard { r } else { t.z1.min(r) };
+    let mask = if discard { cov } else { t.mask | cov };
+    let full = mask == FULL;
+    let merged = Tile {
+        z0: if full { z1 } else { t.z0 },
+        z1: if full { 0.0 } else { z1 },
+        mask: if full { 0 } else { mask },
+    };
+    *tile = if keep { t } else { merged };
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -765,5 +844,38 @@ mod tests {
         update_tile(&mut t, 0x0000_00FF, 0.1);
         update_tile(&mut t, 0x0000_FF00, 0.9);
         assert_eq!((t.mask, t.z1), (0x0000_FF00, 0.9));
+    }
+
+    #[test]
+    fn branch_free_merge_equals_tile_update() {
+        let mut rng = sightline_core::random::SplitMix64::new(5);
+        // Depths from a small set so that ties, equal layers and NaN all occur.
+        let depths = [0.0, 0.1, 0.25, 0.5, 0.75, 1.0, f32::NAN];
+        let masks = [0, 1, 0x0000_FFFF, 0xFFFF_0000, 0xF0F0_F0F0, FULL >> 1, FULL];
+        let pick =
+            |rng: &mut sightline_core::random::SplitMix64, n: usize| rng.below(n as u64) as usize;
+        let mut changed = 0;
+        for _ in 0..20_000 {
+            let mut tile = CLEAR_TILE;
+            // A random history of merges gives reachable tile states.
+            for _ in 0..pick(&mut rng, 4) {
+                let (m, r) = (masks[pick(&mut rng, 6) + 1], depths[pick(&mut rng, 6) + 1]);
+                update_tile(&mut tile, m, r);
+            }
+            let (cov, r) = (masks[pick(&mut rng, 7)], depths[pick(&mut rng, 7)]);
+            let mut want = tile;
+            if cov != 0 {
+                update_tile(&mut want, cov, r);
+            }
+            let mut got = tile;
+            merge_tile(&mut got, cov, r);
+            assert_eq!(
+                (got.z0.to_bits(), got.z1.to_bits(), got.mask),
+                (want.z0.to_bits(), want.z1.to_bits(), want.mask),
+                "{tile:?} + ({cov:#x}, {r})"
+            );
+            changed += usize::from(want != tile);
+        }
+        assert!(changed > 5_000, "{changed}");
     }
 }

@@ -22,6 +22,12 @@ pub(super) const SSE2: u8 = 1;
 /// See [`SCALAR`].
 #[cfg(target_arch = "x86_64")]
 pub(super) const AVX2: u8 = 2;
+/// See [`SCALAR`]: the previous AVX2 kernel (one tile per step, branchy tile merge).
+#[cfg(target_arch = "x86_64")]
+pub(super) const AVX2_PER_TILE: u8 = 3;
+/// See [`SCALAR`]: the previous SSE2 kernel (one tile per step, branchy tile merge).
+#[cfg(target_arch = "x86_64")]
+pub(super) const SSE2_PER_TILE: u8 = 4;
 
 /// Which implementation of the rasterizer's inner loops an
 /// [`OcclusionBuffer`](super::OcclusionBuffer) uses.
@@ -31,13 +37,25 @@ pub enum Kernel {
     Scalar,
     /// SSE2 (every x86_64 CPU): 4 scanlines per instruction, masks by byte comparisons.
     Sse2,
-    /// AVX2: as SSE2, with a whole 32-pixel tile mask in one 256-bit comparison.
+    /// AVX2: the masks and depths of up to 8 tiles of a tile row at once (one tile per
+    /// 32-bit lane), branch-free tile merges.
     Avx2,
+    /// The previous SSE2 kernel (one tile per step), kept to measure the others against.
+    Sse2PerTile,
+    /// The previous AVX2 kernel (one tile per step, a whole 32-pixel tile mask in one 256-bit
+    /// comparison), kept to measure the others against.
+    Avx2PerTile,
 }
 
 impl Kernel {
     /// Every kernel, scalar first.
-    pub const ALL: [Kernel; 3] = [Kernel::Scalar, Kernel::Sse2, Kernel::Avx2];
+    pub const ALL: [Kernel; 5] = [
+        Kernel::Scalar,
+        Kernel::Sse2,
+        Kernel::Avx2,
+        Kernel::Sse2PerTile,
+        Kernel::Avx2PerTile,
+    ];
 
     /// The fastest kernel this CPU supports.
     pub fn detect() -> Self {
@@ -54,8 +72,8 @@ impl Kernel {
     pub fn available(self) -> bool {
         match self {
             Kernel::Scalar => true,
-            Kernel::Sse2 => cfg!(target_arch = "x86_64"),
-            Kernel::Avx2 => {
+            Kernel::Sse2 | Kernel::Sse2PerTile => cfg!(target_arch = "x86_64"),
+            Kernel::Avx2 | Kernel::Avx2PerTile => {
                 #[cfg(target_arch = "x86_64")]
                 {
                     std::arch::is_x86_feature_detected!("avx2")
@@ -74,6 +92,8 @@ impl Kernel {
             Kernel::Scalar => "scalar",
             Kernel::Sse2 => "sse2",
             Kernel::Avx2 => "avx2",
+            Kernel::Sse2PerTile => "sse2_per_tile",
+            Kernel::Avx2PerTile => "avx2_per_tile",
         }
     }
 }
@@ -99,6 +119,32 @@ pub(super) struct ColClamp {
     /// First and last pixel row of the triangle.
     pub row0: i32,
     pub row1: i32,
+}
+
+/// What the row kernels need for a tile's conservative depth: the triangle's `1/z` plane
+/// `r_rows + ra (x - x0)` (`r_rows` already its minimum over the tile row's scanlines), used
+/// when `plane_ok`, and the triangle's farthest corner `r_far`, a lower bound in every case.
+pub(super) struct RowDepth {
+    pub x0: f32,
+    pub ra: f32,
+    pub r_rows: f32,
+    pub r_far: f32,
+    pub plane_ok: bool,
+}
+
+/// Coverage masks (outside bits included) and conservative `1/z` of 8 consecutive tiles of a
+/// tile row; a zero mask means that the tile is not touched.
+#[repr(C, align(32))]
+pub(super) struct RowTiles {
+    pub mask: [u32; 8],
+    pub r: [f32; 8],
+}
+
+impl RowTiles {
+    pub const EMPTY: RowTiles = RowTiles {
+        mask: [0; 8],
+        r: [0.0; 8],
+    };
 }
 
 /// An empty span: its start beyond and its end before every column.
@@ -322,6 +368,97 @@ impl TileRowSpans {
         }
     }
 
+    /// Masks and depths of the 8 tiles `tx..tx + 8` of tile row `ty`, AVX2, one tile per
+    /// 32-bit lane: the same integers and `f32` operations as the per-tile path (mask from the
+    /// clipped spans, farthest depth over the lowest and highest covered column, outside bits
+    /// added to touched tiles of the last column / row), so the results are identical.
+    /// `last_tx` is the last tile column, `outside_y` is 0 unless this is the last tile row.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn row_tiles_avx2(
+        &self,
+        tx: u32,
+        last_tx: u32,
+        outside_x: u32,
+        outside_y: u32,
+        d: &RowDepth,
+        out: &mut RowTiles,
+    ) {
+        use std::arch::x86_64::*;
+        let txv = _mm256_add_epi32(
+            _mm256_set1_epi32(tx as i32),
+            _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
+        );
+        let base = _mm256_slli_epi32::<3>(txv);
+        let base7 = _mm256_add_epi32(base, _mm256_set1_epi32(7));
+        let one = _mm256_set1_epi32(1);
+        let two = _mm256_set1_epi32(2);
+        let mut mask = _mm256_setzero_si256();
+        let mut cmin = _mm256_set1_epi32(i32::MAX);
+        let mut cmax = _mm256_set1_epi32(i32::MIN);
+        macro_rules! row {
+            ($k:literal) => {{
+                // The span clipped to the tile's columns; empty when it ends before it starts.
+                let lo = _mm256_max_epi32(_mm256_set1_epi32(self.a[$k]), base);
+                let hi = _mm256_min_epi32(_mm256_set1_epi32(self.b[$k]), base7);
+                let empty = _mm256_cmpgt_epi32(lo, hi);
+                // Bits lo..=hi of the row: (2 << hi) - (1 << lo); shift counts outside 0..32
+                // (only in empty rows) give 0 and the row is masked off anyway.
+                let bits = _mm256_sub_epi32(
+                    _mm256_sllv_epi32(two, _mm256_sub_epi32(hi, base)),
+                    _mm256_sllv_epi32(one, _mm256_sub_epi32(lo, base)),
+                );
+                let bits = _mm256_andnot_si256(empty, bits);
+                mask = _mm256_or_si256(mask, _mm256_slli_epi32::<{ 8 * $k }>(bits));
+                cmin = _mm256_min_epi32(
+                    cmin,
+                    _mm256_blendv_epi8(lo, _mm256_set1_epi32(i32::MAX), empty),
+                );
+                cmax = _mm256_max_epi32(
+                    cmax,
+                    _mm256_blendv_epi8(hi, _mm256_set1_epi32(i32::MIN), empty),
+                );
+            }};
+        }
+        row!(0);
+        row!(1);
+        row!(2);
+        row!(3);
+        let touched = _mm256_xor_si256(
+            _mm256_cmpeq_epi32(mask, _mm256_setzero_si256()),
+            _mm256_set1_epi32(-1),
+        );
+        let outside = _mm256_or_si256(
+            _mm256_and_si256(
+                _mm256_cmpeq_epi32(txv, _mm256_set1_epi32(last_tx as i32)),
+                _mm256_set1_epi32(outside_x as i32),
+            ),
+            _mm256_set1_epi32(outside_y as i32),
+        );
+        let mask = _mm256_or_si256(mask, _mm256_and_si256(touched, outside));
+        let r_far = _mm256_set1_ps(d.r_far);
+        let r = if d.plane_ok {
+            let half = _mm256_set1_ps(0.5);
+            let x0 = _mm256_set1_ps(d.x0);
+            let ra = _mm256_set1_ps(d.ra);
+            let xa = _mm256_sub_ps(_mm256_add_ps(_mm256_cvtepi32_ps(cmin), half), x0);
+            let xb = _mm256_sub_ps(_mm256_add_ps(_mm256_cvtepi32_ps(cmax), half), x0);
+            let m = min_like_f32(_mm256_mul_ps(ra, xa), _mm256_mul_ps(ra, xb));
+            max_like_f32(_mm256_add_ps(_mm256_set1_ps(d.r_rows), m), r_far)
+        } else {
+            r_far
+        };
+        // SAFETY: stores into the two 32-byte aligned arrays of `out`.
+        unsafe {
+            _mm256_store_si256(out.mask.as_mut_ptr().cast(), mask);
+            _mm256_store_ps(out.r.as_mut_ptr(), r);
+        }
+    }
+
     /// Coverage mask, AVX2: the span ends shuffled to the 32 byte lanes of one register, one
     /// comparison per side and one `movemask` for the whole tile.
     ///
@@ -349,6 +486,31 @@ impl TileRowSpans {
         let out = _mm256_or_si256(_mm256_cmpgt_epi8(a, cols), _mm256_cmpgt_epi8(cols, b));
         !(_mm256_movemask_epi8(out) as u32)
     }
+}
+
+/// `a.min(b)` of `f32` lane by lane (the non-NaN operand when one is NaN), as the scalar code.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+fn min_like_f32(
+    a: std::arch::x86_64::__m256,
+    b: std::arch::x86_64::__m256,
+) -> std::arch::x86_64::__m256 {
+    use std::arch::x86_64::*;
+    // `minps(a, b)` returns `b` when either is NaN: take `a` where `b` is NaN.
+    _mm256_blendv_ps(_mm256_min_ps(a, b), a, _mm256_cmp_ps::<_CMP_UNORD_Q>(b, b))
+}
+
+/// `a.max(b)` of `f32` lane by lane, see [`min_like_f32`].
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+fn max_like_f32(
+    a: std::arch::x86_64::__m256,
+    b: std::arch::x86_64::__m256,
+) -> std::arch::x86_64::__m256 {
+    use std::arch::x86_64::*;
+    _mm256_blendv_ps(_mm256_max_ps(a, b), a, _mm256_cmp_ps::<_CMP_UNORD_Q>(b, b))
 }
 
 #[cfg(test)]
