@@ -105,6 +105,10 @@ pub(super) struct Edges {
     pub slope: [f32; 3],
     pub left: [bool; 3],
     pub used: [bool; 3],
+    /// -1 where an edge bounds spans from the left (`used && left`), else 0.
+    pub bound_l: [i32; 3],
+    /// -1 where an edge bounds spans from the right (`used && !left`), else 0.
+    pub bound_r: [i32; 3],
 }
 
 /// Clamps of span ends (pixel columns of the triangle's bounding box) and its rows.
@@ -121,30 +125,27 @@ pub(super) struct ColClamp {
     pub row1: i32,
 }
 
-/// What the row kernels need for a tile's conservative depth: the triangle's `1/z` plane
-/// `r_rows + ra (x - x0)` (`r_rows` already its minimum over the tile row's scanlines), used
-/// when `plane_ok`, and the triangle's farthest corner `r_far`, a lower bound in every case.
-pub(super) struct RowDepth {
+/// The block grid of a buffer, for the AVX2 kernel.
+pub(super) struct BlockGrid {
+    pub blocks_x: u32,
+    /// Last tile column and row of the image.
+    pub last_tx: u32,
+    pub last_ty: u32,
+    /// Mask bits beyond the image of the last tile column / row (see the buffer).
+    pub outside_x: u32,
+    pub outside_y: u32,
+}
+
+/// A triangle's `1/z` over the screen, `r0 + ra (x - x0) + rb (y - y0)`, used when
+/// `plane_ok`, and its farthest corner `r_far`, a lower bound in every case.
+pub(super) struct Plane {
     pub x0: f32,
+    pub y0: f32,
+    pub r0: f32,
     pub ra: f32,
-    pub r_rows: f32,
+    pub rb: f32,
     pub r_far: f32,
     pub plane_ok: bool,
-}
-
-/// Coverage masks (outside bits included) and conservative `1/z` of 8 consecutive tiles of a
-/// tile row; a zero mask means that the tile is not touched.
-#[repr(C, align(32))]
-pub(super) struct RowTiles {
-    pub mask: [u32; 8],
-    pub r: [f32; 8],
-}
-
-impl RowTiles {
-    pub const EMPTY: RowTiles = RowTiles {
-        mask: [0; 8],
-        r: [0.0; 8],
-    };
 }
 
 /// An empty span: its start beyond and its end before every column.
@@ -368,97 +369,6 @@ impl TileRowSpans {
         }
     }
 
-    /// Masks and depths of the 8 tiles `tx..tx + 8` of tile row `ty`, AVX2, one tile per
-    /// 32-bit lane: the same integers and `f32` operations as the per-tile path (mask from the
-    /// clipped spans, farthest depth over the lowest and highest covered column, outside bits
-    /// added to touched tiles of the last column / row), so the results are identical.
-    /// `last_tx` is the last tile column, `outside_y` is 0 unless this is the last tile row.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub unsafe fn row_tiles_avx2(
-        &self,
-        tx: u32,
-        last_tx: u32,
-        outside_x: u32,
-        outside_y: u32,
-        d: &RowDepth,
-        out: &mut RowTiles,
-    ) {
-        use std::arch::x86_64::*;
-        let txv = _mm256_add_epi32(
-            _mm256_set1_epi32(tx as i32),
-            _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
-        );
-        let base = _mm256_slli_epi32::<3>(txv);
-        let base7 = _mm256_add_epi32(base, _mm256_set1_epi32(7));
-        let one = _mm256_set1_epi32(1);
-        let two = _mm256_set1_epi32(2);
-        let mut mask = _mm256_setzero_si256();
-        let mut cmin = _mm256_set1_epi32(i32::MAX);
-        let mut cmax = _mm256_set1_epi32(i32::MIN);
-        macro_rules! row {
-            ($k:literal) => {{
-                // The span clipped to the tile's columns; empty when it ends before it starts.
-                let lo = _mm256_max_epi32(_mm256_set1_epi32(self.a[$k]), base);
-                let hi = _mm256_min_epi32(_mm256_set1_epi32(self.b[$k]), base7);
-                let empty = _mm256_cmpgt_epi32(lo, hi);
-                // Bits lo..=hi of the row: (2 << hi) - (1 << lo); shift counts outside 0..32
-                // (only in empty rows) give 0 and the row is masked off anyway.
-                let bits = _mm256_sub_epi32(
-                    _mm256_sllv_epi32(two, _mm256_sub_epi32(hi, base)),
-                    _mm256_sllv_epi32(one, _mm256_sub_epi32(lo, base)),
-                );
-                let bits = _mm256_andnot_si256(empty, bits);
-                mask = _mm256_or_si256(mask, _mm256_slli_epi32::<{ 8 * $k }>(bits));
-                cmin = _mm256_min_epi32(
-                    cmin,
-                    _mm256_blendv_epi8(lo, _mm256_set1_epi32(i32::MAX), empty),
-                );
-                cmax = _mm256_max_epi32(
-                    cmax,
-                    _mm256_blendv_epi8(hi, _mm256_set1_epi32(i32::MIN), empty),
-                );
-            }};
-        }
-        row!(0);
-        row!(1);
-        row!(2);
-        row!(3);
-        let touched = _mm256_xor_si256(
-            _mm256_cmpeq_epi32(mask, _mm256_setzero_si256()),
-            _mm256_set1_epi32(-1),
-        );
-        let outside = _mm256_or_si256(
-            _mm256_and_si256(
-                _mm256_cmpeq_epi32(txv, _mm256_set1_epi32(last_tx as i32)),
-                _mm256_set1_epi32(outside_x as i32),
-            ),
-            _mm256_set1_epi32(outside_y as i32),
-        );
-        let mask = _mm256_or_si256(mask, _mm256_and_si256(touched, outside));
-        let r_far = _mm256_set1_ps(d.r_far);
-        let r = if d.plane_ok {
-            let half = _mm256_set1_ps(0.5);
-            let x0 = _mm256_set1_ps(d.x0);
-            let ra = _mm256_set1_ps(d.ra);
-            let xa = _mm256_sub_ps(_mm256_add_ps(_mm256_cvtepi32_ps(cmin), half), x0);
-            let xb = _mm256_sub_ps(_mm256_add_ps(_mm256_cvtepi32_ps(cmax), half), x0);
-            let m = min_like_f32(_mm256_mul_ps(ra, xa), _mm256_mul_ps(ra, xb));
-            max_like_f32(_mm256_add_ps(_mm256_set1_ps(d.r_rows), m), r_far)
-        } else {
-            r_far
-        };
-        // SAFETY: stores into the two 32-byte aligned arrays of `out`.
-        unsafe {
-            _mm256_store_si256(out.mask.as_mut_ptr().cast(), mask);
-            _mm256_store_ps(out.r.as_mut_ptr(), r);
-        }
-    }
-
     /// Coverage mask, AVX2: the span ends shuffled to the 32 byte lanes of one register, one
     /// comparison per side and one `movemask` for the whole tile.
     ///
@@ -486,6 +396,266 @@ impl TileRowSpans {
         let out = _mm256_or_si256(_mm256_cmpgt_epi8(a, cols), _mm256_cmpgt_epi8(cols, b));
         !(_mm256_movemask_epi8(out) as u32)
     }
+}
+
+/// Rasterizes one triangle (already set up: edges, bounding box, depth plane) into the blocks
+/// of 4x2 tiles, AVX2. For each block row (8 scanlines, one per lane) the span ends are
+/// computed at once; for each block (8 tiles, one per lane) the coverage masks, the
+/// conservative depths and the merge with the tiles.
+///
+/// Every value is the one the per-tile path computes, with the same `f32` operations: spans
+/// as in [`TileRowSpans::simd`], a tile's depth from the lowest and highest covered column,
+/// the tile merge of `update_tile`; tiles the triangle does not cover get a zero mask and
+/// are left unchanged. So the buffers are identical bit for bit (checked by the tests).
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn raster_blocks_avx2(
+    blocks: &mut [super::Block],
+    g: &BlockGrid,
+    e: &Edges,
+    c: &ColClamp,
+    d: &Plane,
+) {
+    use std::arch::x86_64::*;
+    let neg_inf = _mm256_set1_ps(f32::NEG_INFINITY);
+    let pos_inf = _mm256_set1_ps(f32::INFINITY);
+    // Edges without branches: an edge that does not bound a side contributes -inf to the
+    // left bound (+inf to the right one), which `max` / `min` ignore.
+    let edge = |i: usize| {
+        (
+            _mm256_set1_ps(e.x0[i]),
+            _mm256_set1_ps(e.y0[i]),
+            _mm256_set1_ps(e.slope[i]),
+            _mm256_castsi256_ps(_mm256_set1_epi32(e.bound_l[i])),
+            _mm256_castsi256_ps(_mm256_set1_epi32(e.bound_r[i])),
+        )
+    };
+    let edges = [edge(0), edge(1), edge(2)];
+    let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    // Tile column / row of each lane within a block.
+    let lane_tx = _mm256_setr_epi32(0, 1, 2, 3, 0, 1, 2, 3);
+    let lane_ty = _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1);
+    let half = _mm256_set1_ps(0.5);
+    let all = _mm256_set1_epi32(-1);
+    let zero = _mm256_setzero_si256();
+    let (x0, ra, r_far) = (
+        _mm256_set1_ps(d.x0),
+        _mm256_set1_ps(d.ra),
+        _mm256_set1_ps(d.r_far),
+    );
+    let by0 = c.row0 as u32 / (2 * TILE_H);
+    let by1 = c.row1 as u32 / (2 * TILE_H);
+    for by in by0..=by1 {
+        let row_base = (by * 2 * TILE_H) as i32;
+        // Scanline centres, exact in f32 (small integers plus a half), as in the SSE2 kernel.
+        let yc = _mm256_add_ps(
+            _mm256_set1_ps(row_base as f32 + 0.5),
+            _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0),
+        );
+        let mut xl = neg_inf;
+        let mut xr = pos_inf;
+        for &(ex0, ey0, slope, bound_l, bound_r) in &edges {
+            let x = _mm256_add_ps(ex0, _mm256_mul_ps(_mm256_sub_ps(yc, ey0), slope));
+            // `maxps(x, acc)` returns `acc` when `x` is NaN, as `f32::max` does.
+            xl = _mm256_max_ps(_mm256_blendv_ps(neg_inf, x, bound_l), xl);
+            xr = _mm256_min_ps(_mm256_blendv_ps(pos_inf, x, bound_r), xr);
+        }
+        let xa = _mm256_min_ps(
+            _mm256_max_ps(_mm256_sub_ps(xl, half), _mm256_set1_ps(c.a_lo)),
+            _mm256_set1_ps(c.a_hi),
+        );
+        let xb = _mm256_min_ps(
+            _mm256_max_ps(_mm256_sub_ps(xr, half), _mm256_set1_ps(c.b_lo)),
+            _mm256_set1_ps(c.b_hi),
+        );
+        let ta = _mm256_cvttps_epi32(xa);
+        let a = _mm256_sub_epi32(
+            ta,
+            _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(xa, _mm256_cvtepi32_ps(ta))),
+        );
+        let tb = _mm256_cvttps_epi32(xb);
+        let b = _mm256_add_epi32(
+            tb,
+            _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LT_OQ>(xb, _mm256_cvtepi32_ps(tb))),
+        );
+        let rows = _mm256_add_epi32(_mm256_set1_epi32(row_base), lane);
+        let invalid = _mm256_or_si256(
+            _mm256_or_si256(
+                _mm256_cmpgt_epi32(_mm256_set1_epi32(c.row0), rows),
+                _mm256_cmpgt_epi32(rows, _mm256_set1_epi32(c.row1)),
+            ),
+            _mm256_cmpgt_epi32(a, b),
+        );
+        let a = _mm256_blendv_epi8(a, _mm256_set1_epi32(EMPTY_LO), invalid);
+        let b = _mm256_blendv_epi8(b, _mm256_set1_epi32(EMPTY_HI), invalid);
+        let lo_all = hmin_epi32(a);
+        let hi_all = hmax_epi32(b);
+        if lo_all > hi_all {
+            continue;
+        }
+        // Lane `4 j + i` (tile row j of the block) takes scanline `4 j + k` for row k.
+        let pick = |k: i32| _mm256_setr_epi32(k, k, k, k, 4 + k, 4 + k, 4 + k, 4 + k);
+        let span_a = [
+            _mm256_permutevar8x32_epi32(a, pick(0)),
+            _mm256_permutevar8x32_epi32(a, pick(1)),
+            _mm256_permutevar8x32_epi32(a, pick(2)),
+            _mm256_permutevar8x32_epi32(a, pick(3)),
+        ];
+        let span_b = [
+            _mm256_permutevar8x32_epi32(b, pick(0)),
+            _mm256_permutevar8x32_epi32(b, pick(1)),
+            _mm256_permutevar8x32_epi32(b, pick(2)),
+            _mm256_permutevar8x32_epi32(b, pick(3)),
+        ];
+        let tyv = _mm256_add_epi32(_mm256_set1_epi32((2 * by) as i32), lane_ty);
+        // The plane's minimum over each tile row's scanlines, as the per-tile path.
+        let r_rows = {
+            let ya = _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_slli_epi32::<2>(tyv)), half);
+            let yb = _mm256_add_ps(ya, _mm256_set1_ps((TILE_H - 1) as f32));
+            let (rb, y0) = (_mm256_set1_ps(d.rb), _mm256_set1_ps(d.y0));
+            _mm256_add_ps(
+                _mm256_set1_ps(d.r0),
+                min_like_f32(
+                    _mm256_mul_ps(rb, _mm256_sub_ps(ya, y0)),
+                    _mm256_mul_ps(rb, _mm256_sub_ps(yb, y0)),
+                ),
+            )
+        };
+        let outside_y = _mm256_and_si256(
+            _mm256_cmpeq_epi32(tyv, _mm256_set1_epi32(g.last_ty as i32)),
+            _mm256_set1_epi32(g.outside_y as i32),
+        );
+        let block_row = (by * g.blocks_x) as usize;
+        for bx in lo_all as u32 / 32..=hi_all as u32 / 32 {
+            let txv = _mm256_add_epi32(_mm256_set1_epi32((4 * bx) as i32), lane_tx);
+            let base = _mm256_slli_epi32::<3>(txv);
+            let base7 = _mm256_add_epi32(base, _mm256_set1_epi32(7));
+            let mut mask = zero;
+            let mut cmin = _mm256_set1_epi32(i32::MAX);
+            let mut cmax = _mm256_set1_epi32(i32::MIN);
+            macro_rules! row {
+                ($k:literal) => {{
+                    // The span clipped to the tile's columns; empty when it ends first.
+                    let lo = _mm256_max_epi32(span_a[$k], base);
+                    let hi = _mm256_min_epi32(span_b[$k], base7);
+                    let empty = _mm256_cmpgt_epi32(lo, hi);
+                    // Bits lo..=hi: (2 << hi) - (1 << lo), relative to the tile; shift counts
+                    // outside 0..32 (empty rows only) give 0, and empty rows are masked off.
+                    let bits = _mm256_sub_epi32(
+                        _mm256_sllv_epi32(_mm256_set1_epi32(2), _mm256_sub_epi32(hi, base)),
+                        _mm256_sllv_epi32(_mm256_set1_epi32(1), _mm256_sub_epi32(lo, base)),
+                    );
+                    let bits = _mm256_andnot_si256(empty, bits);
+                    mask = _mm256_or_si256(mask, _mm256_slli_epi32::<{ 8 * $k }>(bits));
+                    cmin =
+                        _mm256_min_epi32(cmin, _mm256_or_si256(lo, _mm256_srli_epi32::<1>(empty)));
+                    cmax = _mm256_max_epi32(cmax, _mm256_andnot_si256(empty, hi));
+                }};
+            }
+            row!(0);
+            row!(1);
+            row!(2);
+            row!(3);
+            let untouched = _mm256_cmpeq_epi32(mask, zero);
+            let outside_x = _mm256_and_si256(
+                _mm256_cmpeq_epi32(txv, _mm256_set1_epi32(g.last_tx as i32)),
+                _mm256_set1_epi32(g.outside_x as i32),
+            );
+            let cov = _mm256_or_si256(
+                mask,
+                _mm256_andnot_si256(untouched, _mm256_or_si256(outside_x, outside_y)),
+            );
+            let r = if d.plane_ok {
+                let xa = _mm256_sub_ps(_mm256_add_ps(_mm256_cvtepi32_ps(cmin), half), x0);
+                let xb = _mm256_sub_ps(_mm256_add_ps(_mm256_cvtepi32_ps(cmax), half), x0);
+                let m = min_like_f32(_mm256_mul_ps(ra, xa), _mm256_mul_ps(ra, xb));
+                max_like_f32(_mm256_add_ps(r_rows, m), r_far)
+            } else {
+                r_far
+            };
+            merge_block_avx2(&mut blocks[block_row + bx as usize], cov, r, all);
+        }
+    }
+}
+
+/// `update_tile` for the 8 tiles of a block at once, with selects; lanes with a zero `cov`
+/// are left unchanged.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(super) fn merge_block_avx2(
+    block: &mut super::Block,
+    cov: std::arch::x86_64::__m256i,
+    r: std::arch::x86_64::__m256,
+    all: std::arch::x86_64::__m256i,
+) {
+    use std::arch::x86_64::*;
+    // SAFETY: aligned loads of the three 32-byte arrays of a `#[repr(align(32))]` block.
+    let (z0, z1, m) = unsafe {
+        (
+            _mm256_load_ps(block.z0.as_ptr()),
+            _mm256_load_ps(block.z1.as_ptr()),
+            _mm256_load_si256(block.mask.as_ptr().cast()),
+        )
+    };
+    let zero = _mm256_setzero_si256();
+    // Unchanged: nothing covered, or not nearer than the reference layer (or NaN).
+    let nearer = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(r, z0));
+    let keep = _mm256_or_si256(_mm256_cmpeq_epi32(cov, zero), _mm256_xor_si256(nearer, all));
+    let discard = _mm256_or_si256(
+        _mm256_cmpeq_epi32(m, zero),
+        _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(
+            _mm256_sub_ps(r, z1),
+            _mm256_sub_ps(z1, z0),
+        )),
+    );
+    let z1n = _mm256_blendv_ps(min_like_f32(z1, r), r, _mm256_castsi256_ps(discard));
+    let mn = _mm256_blendv_epi8(_mm256_or_si256(m, cov), cov, discard);
+    let full = _mm256_cmpeq_epi32(mn, all);
+    let z0n = _mm256_blendv_ps(z0, z1n, _mm256_castsi256_ps(full));
+    let z1n = _mm256_andnot_ps(_mm256_castsi256_ps(full), z1n);
+    let mn = _mm256_andnot_si256(full, mn);
+    // Byte blends with the old values: with `blendv_ps` LLVM turns blend-and-store into a
+    // masked store (`vmaskmovps`), which is slow on AMD CPUs.
+    let z0n = _mm256_blendv_epi8(_mm256_castps_si256(z0n), _mm256_castps_si256(z0), keep);
+    let z1n = _mm256_blendv_epi8(_mm256_castps_si256(z1n), _mm256_castps_si256(z1), keep);
+    // SAFETY: aligned stores into the same three arrays.
+    unsafe {
+        _mm256_store_si256(block.z0.as_mut_ptr().cast(), z0n);
+        _mm256_store_si256(block.z1.as_mut_ptr().cast(), z1n);
+        _mm256_store_si256(
+            block.mask.as_mut_ptr().cast(),
+            _mm256_blendv_epi8(mn, m, keep),
+        );
+    }
+}
+
+/// Smallest lane.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+fn hmin_epi32(v: std::arch::x86_64::__m256i) -> i32 {
+    use std::arch::x86_64::*;
+    let m = _mm_min_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
+    let m = _mm_min_epi32(m, _mm_shuffle_epi32::<0b01_00_11_10>(m));
+    let m = _mm_min_epi32(m, _mm_shuffle_epi32::<0b10_11_00_01>(m));
+    _mm_cvtsi128_si32(m)
+}
+
+/// Largest lane.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+fn hmax_epi32(v: std::arch::x86_64::__m256i) -> i32 {
+    use std::arch::x86_64::*;
+    let m = _mm_max_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
+    let m = _mm_max_epi32(m, _mm_shuffle_epi32::<0b01_00_11_10>(m));
+    let m = _mm_max_epi32(m, _mm_shuffle_epi32::<0b10_11_00_01>(m));
+    _mm_cvtsi128_si32(m)
 }
 
 /// `a.min(b)` of `f32` lane by lane (the non-NaN operand when one is NaN), as the scalar code.
