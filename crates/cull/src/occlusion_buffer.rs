@@ -34,7 +34,7 @@ use sightline_core::{Aabb, Camera};
 
 mod kernels;
 pub use kernels::Kernel;
-use kernels::{BlockGrid, ColClamp, Edges, Plane, TileRowSpans, SCALAR};
+use kernels::{BlockGrid, ColClamp, Edges, Screen8, Setup8, TileRowSpans, SCALAR};
 #[cfg(target_arch = "x86_64")]
 use kernels::{AVX2, AVX2_PER_TILE, SSE2, SSE2_PER_TILE};
 
@@ -342,6 +342,13 @@ impl OcclusionBuffer {
     #[inline(always)]
     fn render_with<const K: u8>(&mut self, triangles: &[Vec3], camera: &Camera) {
         let proj = Projector::new(camera, self.width, self.height);
+        #[cfg(target_arch = "x86_64")]
+        if K == AVX2 {
+            // SAFETY: `K == AVX2` only inside `render_avx2`, which the dispatcher calls only
+            // after `is_x86_feature_detected!("avx2")`.
+            unsafe { self.render_batches_avx2(triangles, &proj) };
+            return;
+        }
         // The SIMD kernels run one triangle behind the projection and prefetch the tiles of
         // the next triangle while rasterizing the current one: with scattered triangles the
         // tile loads miss the cache and dominate otherwise. The order of rasterization (which
@@ -371,6 +378,166 @@ impl OcclusionBuffer {
         }
         if let Some(q) = queued {
             self.raster_triangle::<K>(q);
+        }
+    }
+
+    /// The block grid for the AVX2 kernel.
+    #[cfg(target_arch = "x86_64")]
+    fn grid(&self) -> BlockGrid {
+        BlockGrid {
+            blocks_x: self.blocks_x,
+            last_tx: self.tiles_x - 1,
+            last_ty: self.tiles_y - 1,
+            outside_x: self.outside_x,
+            outside_y: self.outside_y,
+        }
+    }
+
+    /// The AVX2 rasterizer: triangles in batches of 8, one per lane, through the view
+    /// transform, the choice between culling, clipping and the fast path (every corner in
+    /// front of the near plane and inside the guard band), projection and setup; then the
+    /// batch's triangles are drawn in their order (clipped ones through [`Self::raster_clipped`])
+    /// after prefetching their first blocks. Same arithmetic as the per-triangle path.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn render_batches_avx2(&mut self, triangles: &[Vec3], proj: &Projector) {
+        use std::arch::x86_64::*;
+        let grid = self.grid();
+        let mut setup = Setup8::ZERO;
+        let mut s = Screen8 {
+            x: [[0.0; 8]; 3],
+            y: [[0.0; 8]; 3],
+            r: [[0.0; 8]; 3],
+        };
+        // View-space corners, `[corner][lane]`.
+        let mut vx = [[0f32; 8]; 3];
+        let mut vy = [[0f32; 8]; 3];
+        let mut vz = [[0f32; 8]; 3];
+        let set1 = _mm256_set1_ps;
+        let (ex, ey, ez) = (set1(proj.eye.x), set1(proj.eye.y), set1(proj.eye.z));
+        let axes = [proj.right, proj.up, proj.forward].map(|a| (set1(a.x), set1(a.y), set1(a.z)));
+        let near = set1(proj.near);
+        let (gx, gy) = (set1(GUARD * proj.tan_x), set1(GUARD * proj.tan_y));
+        let (kx, nky, cx, cy) = (set1(proj.kx), set1(-proj.ky), set1(proj.cx), set1(proj.cy));
+        let abs = |v: __m256| _mm256_andnot_ps(set1(-0.0), v);
+        let inf = set1(f32::INFINITY);
+        for batch in triangles.chunks(24) {
+            let n = batch.len() / 3;
+            if n == 0 {
+                break;
+            }
+            // Lanes past the end repeat the last triangle; they are never drawn.
+            let mut wx = [_mm256_setzero_ps(); 3];
+            let mut wy = [_mm256_setzero_ps(); 3];
+            let mut wz = [_mm256_setzero_ps(); 3];
+            for j in 0..3 {
+                let corner = |l: usize| batch[3 * l.min(n - 1) + j];
+                let c: [Vec3; 8] = std::array::from_fn(corner);
+                wx[j] = _mm256_setr_ps(
+                    c[0].x, c[1].x, c[2].x, c[3].x, c[4].x, c[5].x, c[6].x, c[7].x,
+                );
+                wy[j] = _mm256_setr_ps(
+                    c[0].y, c[1].y, c[2].y, c[3].y, c[4].y, c[5].y, c[6].y, c[7].y,
+                );
+                wz[j] = _mm256_setr_ps(
+                    c[0].z, c[1].z, c[2].z, c[3].z, c[4].z, c[5].z, c[6].z, c[7].z,
+                );
+            }
+            let mut behind = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+            let mut finite = behind;
+            let mut guard = behind;
+            for j in 0..3 {
+                let (dx, dy, dz) = (
+                    _mm256_sub_ps(wx[j], ex),
+                    _mm256_sub_ps(wy[j], ey),
+                    _mm256_sub_ps(wz[j], ez),
+                );
+                // `Vec3::dot`: (x * x') + (y * y') + (z * z').
+                let [v_x, v_y, v_z] = axes.map(|(ax, ay, az)| {
+                    _mm256_add_ps(
+                        _mm256_add_ps(_mm256_mul_ps(dx, ax), _mm256_mul_ps(dy, ay)),
+                        _mm256_mul_ps(dz, az),
+                    )
+                });
+                behind = _mm256_and_ps(behind, _mm256_cmp_ps::<_CMP_LT_OQ>(v_z, near));
+                for v in [v_x, v_y, v_z] {
+                    finite = _mm256_and_ps(finite, _mm256_cmp_ps::<_CMP_LT_OQ>(abs(v), inf));
+                }
+                // `Projector::inside_guard`.
+                let inside = _mm256_and_ps(
+                    _mm256_cmp_ps::<_CMP_GE_OQ>(v_z, near),
+                    _mm256_and_ps(
+                        _mm256_cmp_ps::<_CMP_LE_OQ>(abs(v_x), _mm256_mul_ps(gx, v_z)),
+                        _mm256_cmp_ps::<_CMP_LE_OQ>(abs(v_y), _mm256_mul_ps(gy, v_z)),
+                    ),
+                );
+                guard = _mm256_and_ps(guard, inside);
+                // `Projector::screen` (garbage in lanes that are not drawn this way).
+                let r = _mm256_div_ps(set1(1.0), v_z);
+                // SAFETY: stores of 8 lanes into `[f32; 8]` arrays (those of `s` aligned).
+                unsafe {
+                    _mm256_store_ps(
+                        s.x[j].as_mut_ptr(),
+                        _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(kx, v_x), r), cx),
+                    );
+                    _mm256_store_ps(
+                        s.y[j].as_mut_ptr(),
+                        _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(nky, v_y), r), cy),
+                    );
+                    _mm256_store_ps(s.r[j].as_mut_ptr(), r);
+                    _mm256_storeu_ps(vx[j].as_mut_ptr(), v_x);
+                    _mm256_storeu_ps(vy[j].as_mut_ptr(), v_y);
+                    _mm256_storeu_ps(vz[j].as_mut_ptr(), v_z);
+                }
+            }
+            let skip = _mm256_movemask_ps(_mm256_or_ps(
+                behind,
+                _mm256_xor_ps(finite, _mm256_castsi256_ps(_mm256_set1_epi32(-1))),
+            )) as u32;
+            let fast = _mm256_movemask_ps(guard) as u32 & !skip;
+            let draw = kernels::setup8_avx2(&s, self.width, self.height, &mut setup) & fast;
+            for l in 0..n {
+                if draw & (1 << l) != 0 {
+                    self.prefetch_blocks(&setup, l);
+                }
+            }
+            for l in 0..n {
+                let bit = 1 << l;
+                if draw & bit != 0 {
+                    // SAFETY: this function requires AVX2.
+                    unsafe { kernels::raster_blocks_avx2(&mut self.blocks, &grid, &setup, l) };
+                } else if (fast | skip) & bit == 0 {
+                    let v = [0, 1, 2].map(|j| Vec3::new(vx[j][l], vy[j][l], vz[j][l]));
+                    self.raster_clipped::<AVX2>(v, proj);
+                }
+            }
+        }
+    }
+
+    /// Prefetches the blocks of the first block column of lane `l`'s bounding box (up to
+    /// two block rows: 16 scanlines).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn prefetch_blocks(&self, setup: &Setup8, l: usize) {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let (row0, row1, col0, _) = setup.bbox(l);
+        let tx = col0 as u32 / TILE_W;
+        let ty0 = row0 as u32 / TILE_H;
+        let ty1 = (row1 as u32 / TILE_H).min(ty0 + 3);
+        for by in ty0 / BLOCK_TY..=ty1 / BLOCK_TY {
+            if let Some(block) = self.blocks.get(self.slot(tx, by * BLOCK_TY).0) {
+                let ptr: *const Block = block;
+                // SAFETY: prefetch hints (SSE, part of the x86_64 baseline) of the two cache
+                // lines of an element of `self.blocks`; they never fault.
+                #[allow(unused_unsafe)]
+                unsafe {
+                    _mm_prefetch::<_MM_HINT_T0>(ptr.cast());
+                    _mm_prefetch::<_MM_HINT_T0>(ptr.cast::<i8>().wrapping_add(64));
+                }
+            }
         }
     }
 
@@ -444,6 +611,29 @@ impl OcclusionBuffer {
     /// Rasterizes one triangle given as `[sx, sy, 1/z]` per corner, all inside the guard band.
     #[inline(always)]
     fn raster_triangle<const K: u8>(&mut self, mut p: [[f32; 3]; 3]) {
+        #[cfg(target_arch = "x86_64")]
+        if K == AVX2 {
+            // The batched setup with this triangle alone in lane 0 (a triangle of a clipped
+            // polygon): the same results as the setup below.
+            let mut s = Screen8 {
+                x: [[0.0; 8]; 3],
+                y: [[0.0; 8]; 3],
+                r: [[0.0; 8]; 3],
+            };
+            for (j, c) in p.iter().enumerate() {
+                (s.x[j][0], s.y[j][0], s.r[j][0]) = (c[0], c[1], c[2]);
+            }
+            let mut setup = Setup8::ZERO;
+            // SAFETY: `K == AVX2` only inside `render_avx2`, which the dispatcher calls only
+            // after `is_x86_feature_detected!("avx2")`.
+            unsafe {
+                if kernels::setup8_avx2(&s, self.width, self.height, &mut setup) & 1 != 0 {
+                    let grid = self.grid();
+                    kernels::raster_blocks_avx2(&mut self.blocks, &grid, &setup, 0);
+                }
+            }
+            return;
+        }
         let height = self.height;
         let area =
             (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
@@ -507,8 +697,6 @@ impl OcclusionBuffer {
             slope: edge_slope,
             left: edge_left,
             used: edge_used,
-            bound_l: std::array::from_fn(|i| -i32::from(edge_used[i] && edge_left[i])),
-            bound_r: std::array::from_fn(|i| -i32::from(edge_used[i] && !edge_left[i])),
         };
         let clamp = ColClamp {
             a_lo: col0 as f32,
@@ -518,29 +706,6 @@ impl OcclusionBuffer {
             row0,
             row1,
         };
-        #[cfg(target_arch = "x86_64")]
-        if K == AVX2 {
-            let grid = BlockGrid {
-                blocks_x: self.blocks_x,
-                last_tx: self.tiles_x - 1,
-                last_ty: self.tiles_y - 1,
-                outside_x: self.outside_x,
-                outside_y: self.outside_y,
-            };
-            let plane = Plane {
-                x0: p[0][0],
-                y0: p[0][1],
-                r0: p[0][2],
-                ra,
-                rb,
-                r_far,
-                plane_ok,
-            };
-            // SAFETY: `K == AVX2` only inside `render_avx2`, which the dispatcher calls only
-            // after `is_x86_feature_detected!("avx2")`.
-            unsafe { kernels::raster_blocks_avx2(&mut self.blocks, &grid, &edges, &clamp, &plane) };
-            return;
-        }
         let ty0 = row0 as u32 / TILE_H;
         let ty1 = row1 as u32 / TILE_H;
         for ty in ty0..=ty1 {

@@ -105,10 +105,6 @@ pub(super) struct Edges {
     pub slope: [f32; 3],
     pub left: [bool; 3],
     pub used: [bool; 3],
-    /// -1 where an edge bounds spans from the left (`used && left`), else 0.
-    pub bound_l: [i32; 3],
-    /// -1 where an edge bounds spans from the right (`used && !left`), else 0.
-    pub bound_r: [i32; 3],
 }
 
 /// Clamps of span ends (pixel columns of the triangle's bounding box) and its rows.
@@ -136,16 +132,75 @@ pub(super) struct BlockGrid {
     pub outside_y: u32,
 }
 
-/// A triangle's `1/z` over the screen, `r0 + ra (x - x0) + rb (y - y0)`, used when
-/// `plane_ok`, and its farthest corner `r_far`, a lower bound in every case.
-pub(super) struct Plane {
-    pub x0: f32,
-    pub y0: f32,
-    pub r0: f32,
-    pub ra: f32,
-    pub rb: f32,
-    pub r_far: f32,
-    pub plane_ok: bool,
+/// Screen-space corners `[sx, sy, 1/z]` of up to 8 triangles, one per lane: `x[corner][lane]`.
+#[repr(C, align(32))]
+pub(super) struct Screen8 {
+    pub x: [[f32; 8]; 3],
+    pub y: [[f32; 8]; 3],
+    pub r: [[f32; 8]; 3],
+}
+
+/// The setup of up to 8 triangles, one per lane, as [`setup8_avx2`] computes it: what the
+/// per-tile path computes in `raster_triangle` (after the swap to counter-clockwise order).
+#[repr(C, align(32))]
+pub(super) struct Setup8 {
+    /// `1/z = r0 + ra (x - x0) + rb (y - y0)` (`ra = rb = 0` unless `plane_ok`).
+    x0: [f32; 8],
+    y0: [f32; 8],
+    r0: [f32; 8],
+    ra: [f32; 8],
+    rb: [f32; 8],
+    /// The farthest corner's `1/z`, a lower bound in every case.
+    r_far: [f32; 8],
+    /// -1 when the plane is well conditioned (area of a pixel at least).
+    plane_ok: [i32; 8],
+    /// Edge `i`: `x = ex0 + (y - ey0) * slope`; bounds spans from the left / right (-1).
+    ex0: [[f32; 8]; 3],
+    ey0: [[f32; 8]; 3],
+    slope: [[f32; 8]; 3],
+    bound_l: [[i32; 8]; 3],
+    bound_r: [[i32; 8]; 3],
+    /// Span clamps, see [`ColClamp`].
+    a_lo: [f32; 8],
+    a_hi: [f32; 8],
+    b_lo: [f32; 8],
+    b_hi: [f32; 8],
+    /// Pixel rows and columns of the bounding box, clamped to the buffer.
+    row0: [i32; 8],
+    row1: [i32; 8],
+    col0: [i32; 8],
+    col1: [i32; 8],
+}
+
+impl Setup8 {
+    pub const ZERO: Setup8 = Setup8 {
+        x0: [0.0; 8],
+        y0: [0.0; 8],
+        r0: [0.0; 8],
+        ra: [0.0; 8],
+        rb: [0.0; 8],
+        r_far: [0.0; 8],
+        plane_ok: [0; 8],
+        ex0: [[0.0; 8]; 3],
+        ey0: [[0.0; 8]; 3],
+        slope: [[0.0; 8]; 3],
+        bound_l: [[0; 8]; 3],
+        bound_r: [[0; 8]; 3],
+        a_lo: [0.0; 8],
+        a_hi: [0.0; 8],
+        b_lo: [0.0; 8],
+        b_hi: [0.0; 8],
+        row0: [0; 8],
+        row1: [0; 8],
+        col0: [0; 8],
+        col1: [0; 8],
+    };
+
+    /// The bounding box of lane `l`: first and last pixel row and column.
+    #[inline(always)]
+    pub fn bbox(&self, l: usize) -> (i32, i32, i32, i32) {
+        (self.row0[l], self.row1[l], self.col0[l], self.col1[l])
+    }
 }
 
 /// An empty span: its start beyond and its end before every column.
@@ -416,9 +471,8 @@ impl TileRowSpans {
 pub(super) unsafe fn raster_blocks_avx2(
     blocks: &mut [super::Block],
     g: &BlockGrid,
-    e: &Edges,
-    c: &ColClamp,
-    d: &Plane,
+    t: &Setup8,
+    l: usize,
 ) {
     use std::arch::x86_64::*;
     let neg_inf = _mm256_set1_ps(f32::NEG_INFINITY);
@@ -427,11 +481,11 @@ pub(super) unsafe fn raster_blocks_avx2(
     // left bound (+inf to the right one), which `max` / `min` ignore.
     let edge = |i: usize| {
         (
-            _mm256_set1_ps(e.x0[i]),
-            _mm256_set1_ps(e.y0[i]),
-            _mm256_set1_ps(e.slope[i]),
-            _mm256_castsi256_ps(_mm256_set1_epi32(e.bound_l[i])),
-            _mm256_castsi256_ps(_mm256_set1_epi32(e.bound_r[i])),
+            _mm256_set1_ps(t.ex0[i][l]),
+            _mm256_set1_ps(t.ey0[i][l]),
+            _mm256_set1_ps(t.slope[i][l]),
+            _mm256_castsi256_ps(_mm256_set1_epi32(t.bound_l[i][l])),
+            _mm256_castsi256_ps(_mm256_set1_epi32(t.bound_r[i][l])),
         )
     };
     let edges = [edge(0), edge(1), edge(2)];
@@ -443,12 +497,14 @@ pub(super) unsafe fn raster_blocks_avx2(
     let all = _mm256_set1_epi32(-1);
     let zero = _mm256_setzero_si256();
     let (x0, ra, r_far) = (
-        _mm256_set1_ps(d.x0),
-        _mm256_set1_ps(d.ra),
-        _mm256_set1_ps(d.r_far),
+        _mm256_set1_ps(t.x0[l]),
+        _mm256_set1_ps(t.ra[l]),
+        _mm256_set1_ps(t.r_far[l]),
     );
-    let by0 = c.row0 as u32 / (2 * TILE_H);
-    let by1 = c.row1 as u32 / (2 * TILE_H);
+    let plane_ok = t.plane_ok[l] != 0;
+    let (row0, row1) = (t.row0[l], t.row1[l]);
+    let by0 = row0 as u32 / (2 * TILE_H);
+    let by1 = row1 as u32 / (2 * TILE_H);
     for by in by0..=by1 {
         let row_base = (by * 2 * TILE_H) as i32;
         // Scanline centres, exact in f32 (small integers plus a half), as in the SSE2 kernel.
@@ -465,12 +521,12 @@ pub(super) unsafe fn raster_blocks_avx2(
             xr = _mm256_min_ps(_mm256_blendv_ps(pos_inf, x, bound_r), xr);
         }
         let xa = _mm256_min_ps(
-            _mm256_max_ps(_mm256_sub_ps(xl, half), _mm256_set1_ps(c.a_lo)),
-            _mm256_set1_ps(c.a_hi),
+            _mm256_max_ps(_mm256_sub_ps(xl, half), _mm256_set1_ps(t.a_lo[l])),
+            _mm256_set1_ps(t.a_hi[l]),
         );
         let xb = _mm256_min_ps(
-            _mm256_max_ps(_mm256_sub_ps(xr, half), _mm256_set1_ps(c.b_lo)),
-            _mm256_set1_ps(c.b_hi),
+            _mm256_max_ps(_mm256_sub_ps(xr, half), _mm256_set1_ps(t.b_lo[l])),
+            _mm256_set1_ps(t.b_hi[l]),
         );
         let ta = _mm256_cvttps_epi32(xa);
         let a = _mm256_sub_epi32(
@@ -485,8 +541,8 @@ pub(super) unsafe fn raster_blocks_avx2(
         let rows = _mm256_add_epi32(_mm256_set1_epi32(row_base), lane);
         let invalid = _mm256_or_si256(
             _mm256_or_si256(
-                _mm256_cmpgt_epi32(_mm256_set1_epi32(c.row0), rows),
-                _mm256_cmpgt_epi32(rows, _mm256_set1_epi32(c.row1)),
+                _mm256_cmpgt_epi32(_mm256_set1_epi32(row0), rows),
+                _mm256_cmpgt_epi32(rows, _mm256_set1_epi32(row1)),
             ),
             _mm256_cmpgt_epi32(a, b),
         );
@@ -516,9 +572,9 @@ pub(super) unsafe fn raster_blocks_avx2(
         let r_rows = {
             let ya = _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_slli_epi32::<2>(tyv)), half);
             let yb = _mm256_add_ps(ya, _mm256_set1_ps((TILE_H - 1) as f32));
-            let (rb, y0) = (_mm256_set1_ps(d.rb), _mm256_set1_ps(d.y0));
+            let (rb, y0) = (_mm256_set1_ps(t.rb[l]), _mm256_set1_ps(t.y0[l]));
             _mm256_add_ps(
-                _mm256_set1_ps(d.r0),
+                _mm256_set1_ps(t.r0[l]),
                 min_like_f32(
                     _mm256_mul_ps(rb, _mm256_sub_ps(ya, y0)),
                     _mm256_mul_ps(rb, _mm256_sub_ps(yb, y0)),
@@ -569,7 +625,7 @@ pub(super) unsafe fn raster_blocks_avx2(
                 mask,
                 _mm256_andnot_si256(untouched, _mm256_or_si256(outside_x, outside_y)),
             );
-            let r = if d.plane_ok {
+            let r = if plane_ok {
                 let xa = _mm256_sub_ps(_mm256_add_ps(_mm256_cvtepi32_ps(cmin), half), x0);
                 let xb = _mm256_sub_ps(_mm256_add_ps(_mm256_cvtepi32_ps(cmax), half), x0);
                 let m = min_like_f32(_mm256_mul_ps(ra, xa), _mm256_mul_ps(ra, xb));
@@ -580,6 +636,141 @@ pub(super) unsafe fn raster_blocks_avx2(
             merge_block_avx2(&mut blocks[block_row + bx as usize], cov, r, all);
         }
     }
+}
+
+/// Triangle setup of 8 triangles at once, AVX2 (Hasselgren et al. 2016, section 4: setup in
+/// SIMD lanes): the same `f32` and integer operations as `raster_triangle` does for one,
+/// lane by lane: area and orientation (clockwise triangles get corners 1 and 2 swapped),
+/// bounding box in pixel centres clamped to the `width x height` buffer, the `1/z` plane and
+/// the edges. Returns a bit per lane that has something to draw (non-degenerate area, bounding
+/// box inside the buffer); other lanes of `out` hold garbage.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(super) fn setup8_avx2(s: &Screen8, width: u32, height: u32, out: &mut Setup8) -> u32 {
+    use std::arch::x86_64::*;
+    // SAFETY (all blocks below): aligned loads and stores of 32-byte arrays of
+    // `#[repr(C, align(32))]` structs (every field is a multiple of 32 bytes).
+    let ld = |a: &[f32; 8]| unsafe { _mm256_load_ps(a.as_ptr()) };
+    let st = |a: &mut [f32; 8], v: __m256| unsafe { _mm256_store_ps(a.as_mut_ptr(), v) };
+    let sti =
+        |a: &mut [i32; 8], v: __m256i| unsafe { _mm256_store_si256(a.as_mut_ptr().cast(), v) };
+    let (x0, mut x1, mut x2) = (ld(&s.x[0]), ld(&s.x[1]), ld(&s.x[2]));
+    let (y0, mut y1, mut y2) = (ld(&s.y[0]), ld(&s.y[1]), ld(&s.y[2]));
+    let (r0, mut r1, mut r2) = (ld(&s.r[0]), ld(&s.r[1]), ld(&s.r[2]));
+    let zero = _mm256_setzero_ps();
+    let area = _mm256_sub_ps(
+        _mm256_mul_ps(_mm256_sub_ps(x1, x0), _mm256_sub_ps(y2, y0)),
+        _mm256_mul_ps(_mm256_sub_ps(y1, y0), _mm256_sub_ps(x2, x0)),
+    );
+    // Not zero and not NaN.
+    let valid = _mm256_cmp_ps::<_CMP_NEQ_OQ>(area, zero);
+    let cw = _mm256_cmp_ps::<_CMP_LT_OQ>(area, zero);
+    (x1, x2) = (_mm256_blendv_ps(x1, x2, cw), _mm256_blendv_ps(x2, x1, cw));
+    (y1, y2) = (_mm256_blendv_ps(y1, y2, cw), _mm256_blendv_ps(y2, y1, cw));
+    (r1, r2) = (_mm256_blendv_ps(r1, r2, cw), _mm256_blendv_ps(r2, r1, cw));
+    let area = _mm256_andnot_ps(_mm256_set1_ps(-0.0), area);
+    // Bounding box: pixel centres in [min, max]: first = ceil(min - 0.5), last = floor(max - 0.5).
+    let half = _mm256_set1_ps(0.5);
+    let ceil_i = |v: __m256| {
+        let t = _mm256_cvttps_epi32(v);
+        _mm256_sub_epi32(
+            t,
+            _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(v, _mm256_cvtepi32_ps(t))),
+        )
+    };
+    let floor_i = |v: __m256| {
+        let t = _mm256_cvttps_epi32(v);
+        _mm256_add_epi32(
+            t,
+            _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LT_OQ>(v, _mm256_cvtepi32_ps(t))),
+        )
+    };
+    let ymin = _mm256_min_ps(_mm256_min_ps(y0, y1), y2);
+    let ymax = _mm256_max_ps(_mm256_max_ps(y0, y1), y2);
+    let xmin = _mm256_min_ps(_mm256_min_ps(x0, x1), x2);
+    let xmax = _mm256_max_ps(_mm256_max_ps(x0, x1), x2);
+    let izero = _mm256_setzero_si256();
+    let row0 = _mm256_max_epi32(ceil_i(_mm256_sub_ps(ymin, half)), izero);
+    let row1 = _mm256_min_epi32(
+        floor_i(_mm256_sub_ps(ymax, half)),
+        _mm256_set1_epi32(height as i32 - 1),
+    );
+    let col0 = _mm256_max_epi32(ceil_i(_mm256_sub_ps(xmin, half)), izero);
+    let col1 = _mm256_min_epi32(
+        floor_i(_mm256_sub_ps(xmax, half)),
+        _mm256_set1_epi32(width as i32 - 1),
+    );
+    let empty = _mm256_or_si256(
+        _mm256_cmpgt_epi32(row0, row1),
+        _mm256_cmpgt_epi32(col0, col1),
+    );
+    let draw = _mm256_andnot_si256(empty, _mm256_castps_si256(valid));
+    // The `1/z` plane; for slivers (less than a pixel of area) only the farthest corner.
+    let plane_ok = _mm256_cmp_ps::<_CMP_GE_OQ>(area, _mm256_set1_ps(1.0));
+    let (d1x, d1y, d1r) = (
+        _mm256_sub_ps(x1, x0),
+        _mm256_sub_ps(y1, y0),
+        _mm256_sub_ps(r1, r0),
+    );
+    let (d2x, d2y, d2r) = (
+        _mm256_sub_ps(x2, x0),
+        _mm256_sub_ps(y2, y0),
+        _mm256_sub_ps(r2, r0),
+    );
+    let ra = _mm256_div_ps(
+        _mm256_sub_ps(_mm256_mul_ps(d1r, d2y), _mm256_mul_ps(d2r, d1y)),
+        area,
+    );
+    let rb = _mm256_div_ps(
+        _mm256_sub_ps(_mm256_mul_ps(d2r, d1x), _mm256_mul_ps(d1r, d2x)),
+        area,
+    );
+    st(&mut out.x0, x0);
+    st(&mut out.y0, y0);
+    st(&mut out.r0, r0);
+    st(&mut out.ra, _mm256_and_ps(ra, plane_ok));
+    st(&mut out.rb, _mm256_and_ps(rb, plane_ok));
+    st(&mut out.r_far, _mm256_min_ps(_mm256_min_ps(r0, r1), r2));
+    sti(&mut out.plane_ok, _mm256_castps_si256(plane_ok));
+    // Edges a -> b with the interior on the left (y down): going up (dy < 0) bounds spans
+    // from the left, going down from the right; horizontal edges bound nothing.
+    let xs = [x0, x1, x2];
+    let ys = [y0, y1, y2];
+    for i in 0..3 {
+        let j = (i + 1) % 3;
+        let dy = _mm256_sub_ps(ys[j], ys[i]);
+        st(&mut out.ex0[i], xs[i]);
+        st(&mut out.ey0[i], ys[i]);
+        st(
+            &mut out.slope[i],
+            _mm256_div_ps(_mm256_sub_ps(xs[j], xs[i]), dy),
+        );
+        sti(
+            &mut out.bound_l[i],
+            _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LT_OQ>(dy, zero)),
+        );
+        sti(
+            &mut out.bound_r[i],
+            _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(dy, zero)),
+        );
+    }
+    let one = _mm256_set1_epi32(1);
+    st(&mut out.a_lo, _mm256_cvtepi32_ps(col0));
+    st(
+        &mut out.a_hi,
+        _mm256_cvtepi32_ps(_mm256_add_epi32(col1, one)),
+    );
+    st(
+        &mut out.b_lo,
+        _mm256_cvtepi32_ps(_mm256_sub_epi32(col0, one)),
+    );
+    st(&mut out.b_hi, _mm256_cvtepi32_ps(col1));
+    sti(&mut out.row0, row0);
+    sti(&mut out.row1, row1);
+    sti(&mut out.col0, col0);
+    sti(&mut out.col1, col1);
+    _mm256_movemask_ps(_mm256_castsi256_ps(draw)) as u32
 }
 
 /// `update_tile` for the 8 tiles of a block at once, with selects; lanes with a zero `cov`
