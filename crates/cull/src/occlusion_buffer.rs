@@ -16,6 +16,14 @@
 //! the screen position, so the farthest point of a triangle over a tile is at a tile corner.
 //! The buffer covers the camera's field of view with its own pixel grid (`width x height`).
 //!
+//! # Layout and kernels
+//! Tiles are stored in blocks of 4x2 tiles (32x8 pixels), one array per field, as in the
+//! paper's AVX2 form. The AVX2 kernel sets up 8 triangles at once (one per SIMD lane) and then
+//! draws each triangle a block at a time (8 tiles per step: masks, depths and the tile merge
+//! in SIMD). The scalar and SSE2 kernels, and the previous AVX2 kernel (`Kernel::Avx2PerTile`),
+//! set up one triangle and draw one tile at a time. All use the same `f32` operations, so the
+//! buffers they produce are identical bit for bit (checked by the tests).
+//!
 //! # Why it is conservative
 //! - A tile's reference layer `z0` is a lower bound on `r` for every pixel of the tile, the
 //!   working layer `z1` a lower bound for the pixels of `mask`. Both only ever come from the

@@ -8,6 +8,11 @@
 //! one of the 4 scanlines of an 8x4 tile row (`__m128`), and the mask of one tile comes from
 //! comparing the 32 pixel columns (one byte lane each) with the span ends, then `movemask`.
 //!
+//! The AVX2 kernel goes further (section 4 of the paper): triangle setup for 8 triangles in
+//! the 8 lanes of `__m256` ([`setup8_avx2`]), then per triangle the spans of a block row's 8
+//! scanlines in one register and the masks, depths and merges of a block's 8 tiles in one
+//! register each ([`raster_blocks_avx2`]), without branches per tile.
+//!
 //! Bit-exactness: every kernel evaluates the same `f32` expressions in the same order (Rust
 //! does not contract `a * b + c` into an FMA) and rounds them with the same integer rules, so
 //! the buffers they produce are identical (checked by the tests).
