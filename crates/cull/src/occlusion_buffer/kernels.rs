@@ -42,8 +42,9 @@ pub enum Kernel {
     Scalar,
     /// SSE2 (every x86_64 CPU): 4 scanlines per instruction, masks by byte comparisons.
     Sse2,
-    /// AVX2: the masks and depths of up to 8 tiles of a tile row at once (one tile per
-    /// 32-bit lane), branch-free tile merges.
+    /// AVX2: triangle setup for 8 triangles at once (one per lane), then per triangle the
+    /// masks, depths and merges of a block of 4x2 tiles at once (one tile per lane), without
+    /// branches per tile.
     Avx2,
     /// The previous SSE2 kernel (one tile per step), kept to measure the others against.
     Sse2PerTile,
