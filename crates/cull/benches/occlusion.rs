@@ -4,8 +4,13 @@
 //! against the buffer those triangles leave plus a full-screen wall at depth 70 (boxes of about 20x20 pixels at depths 40..100).
 //!
 //! Run: `cargo bench -p sightline-cull --bench occlusion`. One thread. The occluder benchmark
-//! runs once per rasterizer kernel the CPU supports (scalar, sse2, avx2).
+//! runs once per rasterizer kernel the CPU supports (scalar, sse2, avx2, and the previous
+//! per-tile kernels sse2_per_tile, avx2_per_tile), side by side in one run.
+//!
+//! Times are the benchmark thread's CPU time (`CLOCK_THREAD_CPUTIME_ID`), not wall time: the
+//! machines this runs on are shared, and time spent waiting for a core is not the kernel's.
 
+use criterion::measurement::{Measurement, ValueFormatter, WallTime};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
 use sightline_core::random::SplitMix64;
@@ -55,7 +60,45 @@ fn boxes(cam: &Camera, n: usize) -> Vec<Aabb> {
         .collect()
 }
 
-fn bench_occlusion(c: &mut Criterion) {
+/// Criterion measurement: CPU time of the calling thread, in nanoseconds.
+struct ThreadCpuTime;
+
+fn thread_cpu_ns() -> u64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `clock_gettime` writes one `timespec` through a valid pointer.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    assert_eq!(rc, 0, "clock_gettime(CLOCK_THREAD_CPUTIME_ID) failed");
+    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
+}
+
+impl Measurement for ThreadCpuTime {
+    type Intermediate = u64;
+    type Value = u64;
+    fn start(&self) -> u64 {
+        thread_cpu_ns()
+    }
+    fn end(&self, start: u64) -> u64 {
+        thread_cpu_ns() - start
+    }
+    fn add(&self, a: &u64, b: &u64) -> u64 {
+        a + b
+    }
+    fn zero(&self) -> u64 {
+        0
+    }
+    fn to_f64(&self, v: &u64) -> f64 {
+        *v as f64
+    }
+    fn formatter(&self) -> &dyn ValueFormatter {
+        // Values are nanoseconds, as wall time's.
+        WallTime.formatter()
+    }
+}
+
+fn bench_occlusion(c: &mut Criterion<ThreadCpuTime>) {
     let cam = camera();
     let mut group = c.benchmark_group("occlusion_1080p");
     group.sample_size(20);
@@ -95,5 +138,9 @@ fn bench_occlusion(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_occlusion);
+criterion_group! {
+    name = benches;
+    config = Criterion::default().with_measurement(ThreadCpuTime);
+    targets = bench_occlusion
+}
 criterion_main!(benches);

@@ -16,6 +16,14 @@
 //! the screen position, so the farthest point of a triangle over a tile is at a tile corner.
 //! The buffer covers the camera's field of view with its own pixel grid (`width x height`).
 //!
+//! # Layout and kernels
+//! Tiles are stored in blocks of 4x2 tiles (32x8 pixels), one array per field, as in the
+//! paper's AVX2 form. The AVX2 kernel sets up 8 triangles at once (one per SIMD lane) and then
+//! draws each triangle a block at a time (8 tiles per step: masks, depths and the tile merge
+//! in SIMD). The scalar and SSE2 kernels, and the previous AVX2 kernel (`Kernel::Avx2PerTile`),
+//! set up one triangle and draw one tile at a time. All use the same `f32` operations, so the
+//! buffers they produce are identical bit for bit (checked by the tests).
+//!
 //! # Why it is conservative
 //! - A tile's reference layer `z0` is a lower bound on `r` for every pixel of the tile, the
 //!   working layer `z1` a lower bound for the pixels of `mask`. Both only ever come from the
@@ -34,9 +42,9 @@ use sightline_core::{Aabb, Camera};
 
 mod kernels;
 pub use kernels::Kernel;
-use kernels::{ColClamp, Edges, TileRowSpans, SCALAR};
+use kernels::{BlockGrid, ColClamp, Edges, Screen8, Setup8, TileRowSpans, SCALAR};
 #[cfg(target_arch = "x86_64")]
-use kernels::{AVX2, SSE2};
+use kernels::{AVX2, AVX2_PER_TILE, SSE2, SSE2_PER_TILE};
 
 /// Tile width in pixels (a row of a tile is one byte of the mask).
 pub const TILE_W: u32 = 8;
@@ -62,10 +70,32 @@ struct Tile {
     mask: u32,
 }
 
+#[cfg(test)]
 const CLEAR_TILE: Tile = Tile {
     z0: 0.0,
     z1: 0.0,
     mask: 0,
+};
+
+/// Tiles per block, across and down.
+const BLOCK_TX: u32 = 4;
+const BLOCK_TY: u32 = 2;
+
+/// The storage of 4x2 tiles (32x8 pixels), one array per field with tile `4 * row + column`
+/// in element `i`: the AVX2 kernel loads, merges and stores the 8 tiles of a block as three
+/// 8-lane registers (the layout of Hasselgren et al. 2016, section 4).
+#[repr(C, align(32))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Block {
+    z0: [f32; 8],
+    z1: [f32; 8],
+    mask: [u32; 8],
+}
+
+const CLEAR_BLOCK: Block = Block {
+    z0: [0.0; 8],
+    z1: [0.0; 8],
+    mask: [0; 8],
 };
 
 /// A conservative masked software depth buffer. See the module documentation.
@@ -94,11 +124,14 @@ pub struct OcclusionBuffer {
     height: u32,
     tiles_x: u32,
     tiles_y: u32,
+    /// Blocks across (`tiles_x / 4` rounded up); tiles beyond the image in the last block
+    /// column / row are never drawn.
+    blocks_x: u32,
     /// Mask bits of the last tile column / row that lie outside the image: they count as
     /// covered by every occluder, so that edge tiles can become full.
     outside_x: u32,
     outside_y: u32,
-    tiles: Vec<Tile>,
+    blocks: Vec<Block>,
     kernel: Kernel,
 }
 
@@ -190,9 +223,13 @@ impl OcclusionBuffer {
             height,
             tiles_x,
             tiles_y,
+            blocks_x: tiles_x.div_ceil(BLOCK_TX),
             outside_x,
             outside_y,
-            tiles: vec![CLEAR_TILE; (tiles_x * tiles_y) as usize],
+            blocks: vec![
+                CLEAR_BLOCK;
+                (tiles_x.div_ceil(BLOCK_TX) * tiles_y.div_ceil(BLOCK_TY)) as usize
+            ],
             kernel: Kernel::detect(),
         }
     }
@@ -213,7 +250,41 @@ impl OcclusionBuffer {
 
     /// True when both buffers have the same size and identical tiles (masks and depths).
     pub fn same_contents(&self, other: &Self) -> bool {
-        self.width == other.width && self.height == other.height && self.tiles == other.tiles
+        self.width == other.width && self.height == other.height && self.blocks == other.blocks
+    }
+
+    /// Block index and lane of tile `(tx, ty)`.
+    #[inline(always)]
+    fn slot(&self, tx: u32, ty: u32) -> (usize, usize) {
+        let block = (ty / BLOCK_TY) * self.blocks_x + tx / BLOCK_TX;
+        let lane = (ty % BLOCK_TY) * BLOCK_TX + tx % BLOCK_TX;
+        (block as usize, lane as usize)
+    }
+
+    /// Tile `(tx, ty)` (inside the buffer).
+    #[inline(always)]
+    fn tile(&self, tx: u32, ty: u32) -> Tile {
+        let (b, l) = self.slot(tx, ty);
+        let b = &self.blocks[b];
+        Tile {
+            z0: b.z0[l],
+            z1: b.z1[l],
+            mask: b.mask[l],
+        }
+    }
+
+    /// Merges coverage `cov` at `1/z` value `r` into tile `(tx, ty)` with [`update_tile`].
+    #[inline(always)]
+    fn update(&mut self, tx: u32, ty: u32, cov: u32, r: f32) {
+        let (b, l) = self.slot(tx, ty);
+        let b = &mut self.blocks[b];
+        let mut t = Tile {
+            z0: b.z0[l],
+            z1: b.z1[l],
+            mask: b.mask[l],
+        };
+        update_tile(&mut t, cov, r);
+        (b.z0[l], b.z1[l], b.mask[l]) = (t.z0, t.z1, t.mask);
     }
 
     /// Width in pixels.
@@ -228,7 +299,7 @@ impl OcclusionBuffer {
 
     /// Removes every occluder.
     pub fn clear(&mut self) {
-        self.tiles.fill(CLEAR_TILE);
+        self.blocks.fill(CLEAR_BLOCK);
     }
 
     /// Rasterizes occluder triangles, given as a flat list of corners (three per triangle; a
@@ -243,7 +314,14 @@ impl OcclusionBuffer {
                 unsafe { self.render_avx2(triangles, camera) }
             }
             #[cfg(target_arch = "x86_64")]
+            Kernel::Avx2PerTile => {
+                // SAFETY: as for `Avx2`, `available` checked AVX2 support.
+                unsafe { self.render_avx2_per_tile(triangles, camera) }
+            }
+            #[cfg(target_arch = "x86_64")]
             Kernel::Sse2 => self.render_with::<SSE2>(triangles, camera),
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Sse2PerTile => self.render_with::<SSE2_PER_TILE>(triangles, camera),
             _ => self.render_with::<SCALAR>(triangles, camera),
         }
     }
@@ -259,9 +337,26 @@ impl OcclusionBuffer {
         self.render_with::<AVX2>(triangles, camera);
     }
 
+    /// The previous AVX2 kernel, see [`Self::render_avx2`].
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn render_avx2_per_tile(&mut self, triangles: &[Vec3], camera: &Camera) {
+        self.render_with::<AVX2_PER_TILE>(triangles, camera);
+    }
+
     #[inline(always)]
     fn render_with<const K: u8>(&mut self, triangles: &[Vec3], camera: &Camera) {
         let proj = Projector::new(camera, self.width, self.height);
+        #[cfg(target_arch = "x86_64")]
+        if K == AVX2 {
+            // SAFETY: `K == AVX2` only inside `render_avx2`, which the dispatcher calls only
+            // after `is_x86_feature_detected!("avx2")`.
+            unsafe { self.render_batches_avx2(triangles, &proj) };
+            return;
+        }
         // The SIMD kernels run one triangle behind the projection and prefetch the tiles of
         // the next triangle while rasterizing the current one: with scattered triangles the
         // tile loads miss the cache and dominate otherwise. The order of rasterization (which
@@ -294,6 +389,166 @@ impl OcclusionBuffer {
         }
     }
 
+    /// The block grid for the AVX2 kernel.
+    #[cfg(target_arch = "x86_64")]
+    fn grid(&self) -> BlockGrid {
+        BlockGrid {
+            blocks_x: self.blocks_x,
+            last_tx: self.tiles_x - 1,
+            last_ty: self.tiles_y - 1,
+            outside_x: self.outside_x,
+            outside_y: self.outside_y,
+        }
+    }
+
+    /// The AVX2 rasterizer: triangles in batches of 8, one per lane, through the view
+    /// transform, the choice between culling, clipping and the fast path (every corner in
+    /// front of the near plane and inside the guard band), projection and setup; then the
+    /// batch's triangles are drawn in their order (clipped ones through [`Self::raster_clipped`])
+    /// after prefetching their first blocks. Same arithmetic as the per-triangle path.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn render_batches_avx2(&mut self, triangles: &[Vec3], proj: &Projector) {
+        use std::arch::x86_64::*;
+        let grid = self.grid();
+        let mut setup = Setup8::ZERO;
+        let mut s = Screen8 {
+            x: [[0.0; 8]; 3],
+            y: [[0.0; 8]; 3],
+            r: [[0.0; 8]; 3],
+        };
+        // View-space corners, `[corner][lane]`.
+        let mut vx = [[0f32; 8]; 3];
+        let mut vy = [[0f32; 8]; 3];
+        let mut vz = [[0f32; 8]; 3];
+        let set1 = _mm256_set1_ps;
+        let (ex, ey, ez) = (set1(proj.eye.x), set1(proj.eye.y), set1(proj.eye.z));
+        let axes = [proj.right, proj.up, proj.forward].map(|a| (set1(a.x), set1(a.y), set1(a.z)));
+        let near = set1(proj.near);
+        let (gx, gy) = (set1(GUARD * proj.tan_x), set1(GUARD * proj.tan_y));
+        let (kx, nky, cx, cy) = (set1(proj.kx), set1(-proj.ky), set1(proj.cx), set1(proj.cy));
+        let abs = |v: __m256| _mm256_andnot_ps(set1(-0.0), v);
+        let inf = set1(f32::INFINITY);
+        for batch in triangles.chunks(24) {
+            let n = batch.len() / 3;
+            if n == 0 {
+                break;
+            }
+            // Lanes past the end repeat the last triangle; they are never drawn.
+            let mut wx = [_mm256_setzero_ps(); 3];
+            let mut wy = [_mm256_setzero_ps(); 3];
+            let mut wz = [_mm256_setzero_ps(); 3];
+            for j in 0..3 {
+                let corner = |l: usize| batch[3 * l.min(n - 1) + j];
+                let c: [Vec3; 8] = std::array::from_fn(corner);
+                wx[j] = _mm256_setr_ps(
+                    c[0].x, c[1].x, c[2].x, c[3].x, c[4].x, c[5].x, c[6].x, c[7].x,
+                );
+                wy[j] = _mm256_setr_ps(
+                    c[0].y, c[1].y, c[2].y, c[3].y, c[4].y, c[5].y, c[6].y, c[7].y,
+                );
+                wz[j] = _mm256_setr_ps(
+                    c[0].z, c[1].z, c[2].z, c[3].z, c[4].z, c[5].z, c[6].z, c[7].z,
+                );
+            }
+            let mut behind = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+            let mut finite = behind;
+            let mut guard = behind;
+            for j in 0..3 {
+                let (dx, dy, dz) = (
+                    _mm256_sub_ps(wx[j], ex),
+                    _mm256_sub_ps(wy[j], ey),
+                    _mm256_sub_ps(wz[j], ez),
+                );
+                // `Vec3::dot`: (x * x') + (y * y') + (z * z').
+                let [v_x, v_y, v_z] = axes.map(|(ax, ay, az)| {
+                    _mm256_add_ps(
+                        _mm256_add_ps(_mm256_mul_ps(dx, ax), _mm256_mul_ps(dy, ay)),
+                        _mm256_mul_ps(dz, az),
+                    )
+                });
+                behind = _mm256_and_ps(behind, _mm256_cmp_ps::<_CMP_LT_OQ>(v_z, near));
+                for v in [v_x, v_y, v_z] {
+                    finite = _mm256_and_ps(finite, _mm256_cmp_ps::<_CMP_LT_OQ>(abs(v), inf));
+                }
+                // `Projector::inside_guard`.
+                let inside = _mm256_and_ps(
+                    _mm256_cmp_ps::<_CMP_GE_OQ>(v_z, near),
+                    _mm256_and_ps(
+                        _mm256_cmp_ps::<_CMP_LE_OQ>(abs(v_x), _mm256_mul_ps(gx, v_z)),
+                        _mm256_cmp_ps::<_CMP_LE_OQ>(abs(v_y), _mm256_mul_ps(gy, v_z)),
+                    ),
+                );
+                guard = _mm256_and_ps(guard, inside);
+                // `Projector::screen` (garbage in lanes that are not drawn this way).
+                let r = _mm256_div_ps(set1(1.0), v_z);
+                // SAFETY: stores of 8 lanes into `[f32; 8]` arrays (those of `s` aligned).
+                unsafe {
+                    _mm256_store_ps(
+                        s.x[j].as_mut_ptr(),
+                        _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(kx, v_x), r), cx),
+                    );
+                    _mm256_store_ps(
+                        s.y[j].as_mut_ptr(),
+                        _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(nky, v_y), r), cy),
+                    );
+                    _mm256_store_ps(s.r[j].as_mut_ptr(), r);
+                    _mm256_storeu_ps(vx[j].as_mut_ptr(), v_x);
+                    _mm256_storeu_ps(vy[j].as_mut_ptr(), v_y);
+                    _mm256_storeu_ps(vz[j].as_mut_ptr(), v_z);
+                }
+            }
+            let skip = _mm256_movemask_ps(_mm256_or_ps(
+                behind,
+                _mm256_xor_ps(finite, _mm256_castsi256_ps(_mm256_set1_epi32(-1))),
+            )) as u32;
+            let fast = _mm256_movemask_ps(guard) as u32 & !skip;
+            let draw = kernels::setup8_avx2(&s, self.width, self.height, &mut setup) & fast;
+            for l in 0..n {
+                if draw & (1 << l) != 0 {
+                    self.prefetch_blocks(&setup, l);
+                }
+            }
+            for l in 0..n {
+                let bit = 1 << l;
+                if draw & bit != 0 {
+                    // SAFETY: this function requires AVX2.
+                    unsafe { kernels::raster_blocks_avx2(&mut self.blocks, &grid, &setup, l) };
+                } else if (fast | skip) & bit == 0 {
+                    let v = [0, 1, 2].map(|j| Vec3::new(vx[j][l], vy[j][l], vz[j][l]));
+                    self.raster_clipped::<AVX2>(v, proj);
+                }
+            }
+        }
+    }
+
+    /// Prefetches the blocks of the first block column of lane `l`'s bounding box (up to
+    /// two block rows: 16 scanlines).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn prefetch_blocks(&self, setup: &Setup8, l: usize) {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let (row0, row1, col0, _) = setup.bbox(l);
+        let tx = col0 as u32 / TILE_W;
+        let ty0 = row0 as u32 / TILE_H;
+        let ty1 = (row1 as u32 / TILE_H).min(ty0 + 3);
+        for by in ty0 / BLOCK_TY..=ty1 / BLOCK_TY {
+            if let Some(block) = self.blocks.get(self.slot(tx, by * BLOCK_TY).0) {
+                let ptr: *const Block = block;
+                // SAFETY: prefetch hints (SSE, part of the x86_64 baseline) of the two cache
+                // lines of an element of `self.blocks`; they never fault.
+                #[allow(unused_unsafe)]
+                unsafe {
+                    _mm_prefetch::<_MM_HINT_T0>(ptr.cast());
+                    _mm_prefetch::<_MM_HINT_T0>(ptr.cast::<i8>().wrapping_add(64));
+                }
+            }
+        }
+    }
+
     /// Prefetches the first tile of each tile row a triangle's bounding box touches.
     #[inline(always)]
     fn prefetch(&self, p: &[[f32; 3]; 3]) {
@@ -308,14 +563,16 @@ impl OcclusionBuffer {
             let clamp_y = |v: f32| (v as i32).clamp(0, self.height as i32 - 1) as u32;
             let tx = clamp_x(xmin) / TILE_W;
             let (ty0, ty1) = (clamp_y(ymin) / TILE_H, clamp_y(ymax) / TILE_H);
-            for ty in ty0..=ty1.min(ty0 + 3) {
-                let idx = (ty * self.tiles_x + tx) as usize;
-                if let Some(tile) = self.tiles.get(idx) {
-                    // SAFETY: a prefetch hint (SSE, part of the x86_64 baseline) of an element
-                    // of `self.tiles`; it never faults and reads nothing.
+            for by in ty0 / BLOCK_TY..=ty1.min(ty0 + 3) / BLOCK_TY {
+                if let Some(block) = self.blocks.get(self.slot(tx, by * BLOCK_TY).0) {
+                    let ptr: *const Block = block;
+                    // SAFETY: prefetch hints (SSE, part of the x86_64 baseline) of the two
+                    // cache lines of an element of `self.blocks` (96 bytes, 32-byte aligned,
+                    // so it ends within the line after `ptr + 64`); they never fault.
                     #[allow(unused_unsafe)]
                     unsafe {
-                        _mm_prefetch::<_MM_HINT_T0>((tile as *const Tile).cast());
+                        _mm_prefetch::<_MM_HINT_T0>(ptr.cast());
+                        _mm_prefetch::<_MM_HINT_T0>(ptr.cast::<i8>().wrapping_add(64));
                     }
                 }
             }
@@ -362,6 +619,29 @@ impl OcclusionBuffer {
     /// Rasterizes one triangle given as `[sx, sy, 1/z]` per corner, all inside the guard band.
     #[inline(always)]
     fn raster_triangle<const K: u8>(&mut self, mut p: [[f32; 3]; 3]) {
+        #[cfg(target_arch = "x86_64")]
+        if K == AVX2 {
+            // The batched setup with this triangle alone in lane 0 (a triangle of a clipped
+            // polygon): the same results as the setup below.
+            let mut s = Screen8 {
+                x: [[0.0; 8]; 3],
+                y: [[0.0; 8]; 3],
+                r: [[0.0; 8]; 3],
+            };
+            for (j, c) in p.iter().enumerate() {
+                (s.x[j][0], s.y[j][0], s.r[j][0]) = (c[0], c[1], c[2]);
+            }
+            let mut setup = Setup8::ZERO;
+            // SAFETY: `K == AVX2` only inside `render_avx2`, which the dispatcher calls only
+            // after `is_x86_feature_detected!("avx2")`.
+            unsafe {
+                if kernels::setup8_avx2(&s, self.width, self.height, &mut setup) & 1 != 0 {
+                    let grid = self.grid();
+                    kernels::raster_blocks_avx2(&mut self.blocks, &grid, &setup, 0);
+                }
+            }
+            return;
+        }
         let height = self.height;
         let area =
             (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
@@ -451,14 +731,17 @@ impl OcclusionBuffer {
             let ya = (ty * TILE_H) as f32 + 0.5;
             let yb = ya + (TILE_H - 1) as f32;
             let r_rows = p[0][2] + (rb * (ya - p[0][1])).min(rb * (yb - p[0][1]));
-            for tx in lo_all as u32 / TILE_W..=hi_all as u32 / TILE_W {
+            let tx_first = lo_all as u32 / TILE_W;
+            let tx_last = hi_all as u32 / TILE_W;
+            for tx in tx_first..=tx_last {
                 let base = (tx * TILE_W) as i32;
                 let mut mask = match K {
                     SCALAR => spans.mask_scalar(base),
                     #[cfg(target_arch = "x86_64")]
-                    AVX2 => {
-                        // SAFETY: `K == AVX2` only inside `render_avx2`, which the dispatcher
-                        // calls only after `is_x86_feature_detected!("avx2")`.
+                    AVX2 | AVX2_PER_TILE => {
+                        // SAFETY: `K == AVX2` or `AVX2_PER_TILE` only inside `render_avx2` or
+                        // `render_avx2_per_tile`, which the dispatcher calls only after
+                        // `is_x86_feature_detected!("avx2")`.
                         unsafe { spans.mask_avx2(base) }
                     }
                     _ => spans.mask_sse2(base),
@@ -484,8 +767,7 @@ impl OcclusionBuffer {
                 } else {
                     r_far
                 };
-                let idx = (ty * self.tiles_x + tx) as usize;
-                update_tile(&mut self.tiles[idx], mask, r);
+                self.update(tx, ty, mask, r);
             }
         }
     }
@@ -556,9 +838,8 @@ impl OcclusionBuffer {
             let rlo = y0.saturating_sub(ty * TILE_H).min(TILE_H);
             let rhi = (y1 - ty * TILE_H).min(TILE_H);
             let rows = ((1u64 << (TILE_W * rhi)) - (1u64 << (TILE_W * rlo))) as u32;
-            let row_tiles = &self.tiles[(ty * self.tiles_x) as usize..];
             for tx in x0 / TILE_W..=(x1 - 1) / TILE_W {
-                let t = row_tiles[tx as usize];
+                let t = self.tile(tx, ty);
                 if r < t.z0 {
                     continue;
                 }
@@ -580,7 +861,7 @@ impl OcclusionBuffer {
         if x >= self.width || y >= self.height {
             return None;
         }
-        let t = self.tiles[((y / TILE_H) * self.tiles_x + x / TILE_W) as usize];
+        let t = self.tile(x / TILE_W, y / TILE_H);
         let bit = 1u32 << ((y % TILE_H) * TILE_W + x % TILE_W);
         let r = if t.mask & bit != 0 { t.z1 } else { t.z0 };
         Some(if r > 0.0 { 1.0 / r } else { f32::INFINITY })
@@ -659,7 +940,7 @@ mod tests {
     fn empty_occluder_list_changes_nothing() {
         let mut b = OcclusionBuffer::new(64, 48);
         b.render_occluders(&[], &camera(64, 48));
-        assert!(b.tiles.iter().all(|t| *t == CLEAR_TILE));
+        assert!(b.blocks.iter().all(|t| *t == CLEAR_BLOCK));
     }
 
     #[test]
@@ -765,5 +1046,51 @@ mod tests {
         update_tile(&mut t, 0x0000_00FF, 0.1);
         update_tile(&mut t, 0x0000_FF00, 0.9);
         assert_eq!((t.mask, t.z1), (0x0000_FF00, 0.9));
+    }
+
+    #[test]
+    #[cfg(target_arch = "x86_64")]
+    fn block_merge_equals_tile_update() {
+        use std::arch::x86_64::*;
+        if !Kernel::Avx2.available() {
+            return;
+        }
+        let mut rng = sightline_core::random::SplitMix64::new(5);
+        // Depths from a small set so that ties, equal layers and NaN all occur.
+        let depths = [0.0, 0.1, 0.25, 0.5, 0.75, 1.0, f32::NAN];
+        let masks = [0, 1, 0x0000_FFFF, 0xFFFF_0000, 0xF0F0_F0F0, FULL >> 1, FULL];
+        let pick =
+            |rng: &mut sightline_core::random::SplitMix64, n: usize| rng.below(n as u64) as usize;
+        let mut changed = 0;
+        for _ in 0..5_000 {
+            let mut block = CLEAR_BLOCK;
+            let mut want = CLEAR_BLOCK;
+            let (mut cov, mut r) = ([0u32; 8], [0f32; 8]);
+            for l in 0..8 {
+                let mut tile = CLEAR_TILE;
+                // A random history of merges gives reachable tile states.
+                for _ in 0..pick(&mut rng, 4) {
+                    let (m, z) = (masks[pick(&mut rng, 6) + 1], depths[pick(&mut rng, 6) + 1]);
+                    update_tile(&mut tile, m, z);
+                }
+                (block.z0[l], block.z1[l], block.mask[l]) = (tile.z0, tile.z1, tile.mask);
+                (cov[l], r[l]) = (masks[pick(&mut rng, 7)], depths[pick(&mut rng, 7)]);
+                if cov[l] != 0 {
+                    update_tile(&mut tile, cov[l], r[l]);
+                }
+                (want.z0[l], want.z1[l], want.mask[l]) = (tile.z0, tile.z1, tile.mask);
+            }
+            let before = block;
+            // SAFETY: AVX2 support was checked above; unaligned loads of local arrays.
+            unsafe {
+                let c = _mm256_loadu_si256(cov.as_ptr().cast());
+                let z = _mm256_loadu_ps(r.as_ptr());
+                kernels::merge_block_avx2(&mut block, c, z, _mm256_set1_epi32(-1));
+            }
+            let bits = |b: &Block| (b.z0.map(f32::to_bits), b.z1.map(f32::to_bits), b.mask);
+            assert_eq!(bits(&block), bits(&want), "{before:?} + {cov:x?}, {r:?}");
+            changed += usize::from(want != before);
+        }
+        assert!(changed > 2_500, "{changed}");
     }
 }

@@ -100,3 +100,85 @@ fn unavailable_kernel_is_refused_and_scalar_always_works() {
     }
     assert!(Kernel::detect().available());
 }
+
+/// The point seen at screen `(sx, sy)` at view depth `z` by a camera at the origin looking
+/// down -Z (+Y up) onto a `w x h` image.
+fn unproject(cam: &Camera, w: u32, h: u32, sx: f32, sy: f32, z: f32) -> Vec3 {
+    let u = (2.0 * sx / w as f32 - 1.0) * cam.tan_half_x();
+    let v = (1.0 - 2.0 * sy / h as f32) * cam.tan_half_y();
+    Vec3::new(u * z, v * z, -z)
+}
+
+#[test]
+fn batched_avx2_path_equals_previous_kernels_on_small_edge_and_near_triangles() {
+    if !Kernel::Avx2.available() {
+        eprintln!("no AVX2 on this CPU: the batched path is not compiled in use");
+        return;
+    }
+    let (w, h) = (480, 270);
+    let cam = Camera::look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 60.0, w, h, 0.1).expect("camera");
+    let mut rng = SplitMix64::new(23);
+    let mut tris = Vec::new();
+    let (mut crossing_near, mut crossing_edge, mut beyond_guard) = (0, 0, 0);
+    for i in 0..3001 {
+        // Screen positions that reach past every image edge.
+        let sx = rng.range_f32(-30.0, w as f32 + 20.0);
+        let sy = rng.range_f32(-30.0, h as f32 + 20.0);
+        let z = rng.range_f32(0.5, 30.0);
+        let s = rng.range_f32(2.0, 14.0);
+        let mut t = [
+            unproject(&cam, w, h, sx, sy, z),
+            unproject(&cam, w, h, sx + s, sy + rng.range_f32(-2.0, 2.0), z * 1.01),
+            unproject(&cam, w, h, sx + rng.range_f32(-2.0, 2.0), sy + s, z * 0.99),
+        ];
+        match i % 10 {
+            // One corner behind the camera: clipped at the near plane.
+            0 => {
+                t[1].z = rng.range_f32(0.05, 3.0);
+                crossing_near += 1;
+            }
+            // A corner far outside the view: clipped at the guard band.
+            1 => {
+                t[2].x += rng.range_f32(-400.0, 400.0);
+                beyond_guard += 1;
+            }
+            // Degenerate: two equal corners.
+            2 => t[2] = t[1],
+            // Clockwise order.
+            3 => t.swap(1, 2),
+            // Slivers of 0.2 to 3 pixels of area (the plane is used from 1 pixel on).
+            4 => {
+                let a = rng.range_f32(0.2, 3.0);
+                t[2] = unproject(&cam, w, h, sx, sy + 2.0 * a / s, z * 0.7);
+                t[1] = unproject(&cam, w, h, sx + s, sy, z * 1.5);
+            }
+            _ => {}
+        }
+        crossing_edge +=
+            usize::from(sx < 0.0 || sy < 0.0 || sx + s > w as f32 || sy + s > h as f32);
+        tris.extend_from_slice(&t);
+    }
+    assert!(crossing_near > 250 && beyond_guard > 250 && crossing_edge > 300);
+    let render = |k: Kernel, tris: &[Vec3]| {
+        let mut b = OcclusionBuffer::new(w, h);
+        assert!(b.set_kernel(k));
+        // Uneven slices: batches of 8 with partial ones at every end.
+        for part in tris.chunks(3 * 13) {
+            b.render_occluders(part, &cam);
+        }
+        b
+    };
+    let new = render(Kernel::Avx2, &tris);
+    assert!(!new.same_contents(&OcclusionBuffer::new(w, h)));
+    for old in [Kernel::Avx2PerTile, Kernel::Sse2PerTile, Kernel::Scalar] {
+        assert!(
+            new.same_contents(&render(old, &tris)),
+            "avx2 differs from {old:?}"
+        );
+    }
+    // Fewer triangles than a batch, alone.
+    for n in 1..8 {
+        let part = &tris[..3 * n];
+        assert!(render(Kernel::Avx2, part).same_contents(&render(Kernel::Avx2PerTile, part)));
+    }
+}
