@@ -1,7 +1,10 @@
 //! Runs the culling simulation on a procedural scene and prints a summary per method.
 //!
 //! `cargo run --release -p sightline-cull --example simulate -- [grid|graveyard] [frames]
-//! [latency 0|1] [popping 0|1] [tight boxes 0|1] [object tests 0|1] [grid|all]`
+//! [latency 0|1] [popping 0|1] [tight boxes 0|1] [object tests 0|1] [grid|all]
+//! [triangle tests 0|1] [pre-pass every tested object 0|1] [sort cell objects 0|1]
+//! [retest 0|1]`; `DIAG=1` breaks the drawn objects that are not visible down by
+//! cause.
 
 use sightline_cull::scenes::{graveyard, the_grid};
 use sightline_cull::{simulate_methods, Method, SimConfig, SoftwareBackend};
@@ -26,6 +29,20 @@ fn main() {
     if let Some(p) = flag(6) {
         config.object_tests = p != 0;
     }
+    if let Some(p) = flag(8) {
+        config.triangle_tests = p != 0;
+    }
+    if let Some(p) = flag(9) {
+        config.prepass_tested = p != 0;
+    }
+    if let Some(p) = flag(10) {
+        config.sort_cell_objects = p != 0;
+    }
+    if let Some(p) = flag(11) {
+        config.retest = p != 0;
+    }
+    // DIAG=1: break the drawn objects that are not visible down by cause.
+    config.diagnose = std::env::var("DIAG").is_ok_and(|v| v == "1");
     let methods: &[Method] = match args.get(7).map(String::as_str) {
         Some("grid") => &[Method::Grid],
         _ => &Method::ALL,
@@ -49,6 +66,21 @@ fn main() {
         Ok(reports) => {
             for r in reports {
                 println!("{name} latency {}: {}", config.latency, r.summary());
+                let visible = r.mean(|f| f64::from(f.exact_visible));
+                if visible > 0.0 {
+                    println!(
+                        "  drawn per exactly visible {:.3}",
+                        r.mean(|f| f64::from(f.drawn)) / visible
+                    );
+                }
+                if config.diagnose {
+                    let causes: Vec<String> = r
+                        .extra_means()
+                        .iter()
+                        .map(|(n, v)| format!("{n} {v:.2}"))
+                        .collect();
+                    println!("  not visible but drawn, by cause: {}", causes.join(", "));
+                }
             }
         }
         Err(e) => eprintln!("error: {e}"),
