@@ -2,7 +2,7 @@
 //!
 //! `cargo run --release -p sightline-cull --example simulate -- [grid|graveyard] [frames]
 //! [latency 0|1] [popping 0|1] [tight boxes 0|1] [object tests 0|1] [grid|all]
-//! [triangle tests 0|1] [pre-pass every tested object 0|1] [sort cell objects 0|1]
+//! [triangle tests 0|1] [larger pre-pass cap for tested objects 0|1] [sort cell objects 0|1]
 //! [retest 0|1]`; `DIAG=1` breaks the drawn objects that are not visible down by
 //! cause.
 
@@ -33,7 +33,9 @@ fn main() {
         config.triangle_tests = p != 0;
     }
     if let Some(p) = flag(9) {
-        config.prepass_tested = p != 0;
+        if p == 0 {
+            config.tested_prepass_cap = 0;
+        }
     }
     if let Some(p) = flag(10) {
         config.sort_cell_objects = p != 0;
@@ -51,12 +53,16 @@ fn main() {
         "graveyard" => graveyard(1, 5000),
         _ => the_grid(1, 40),
     };
-    // Tuning experiments: CELL=x,y,z (grid cell size), VIS=frames (visible duration).
+    // Tuning experiments: CELL=x,y,z (grid cell size), VIS=frames (visible duration), CAP=objects
+    // (depth pre-pass cap).
     if let Ok(c) = std::env::var("CELL") {
         let v: Vec<f32> = c.split(',').filter_map(|s| s.parse().ok()).collect();
         if let [x, y, z] = v[..] {
             scene.cell_size = glam::Vec3::new(x, y, z);
         }
+    }
+    if let Some(v) = std::env::var("CAP").ok().and_then(|s| s.parse().ok()) {
+        config.scheduler.depth_prepass_cap = v;
     }
     if let Some(v) = std::env::var("VIS").ok().and_then(|s| s.parse().ok()) {
         config.scheduler.visible_duration = v;

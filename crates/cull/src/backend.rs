@@ -33,15 +33,18 @@ pub trait OcclusionBackend {
         let _ = triangles;
         self.test_now(aabb)
     }
-    /// After the frame's traversal, with every occluder of the frame drawn: tests an object
-    /// once more, answering at once when the backend can; `None` otherwise (the default).
-    /// The software backend renders all of the frame's occluders again, in reverse order,
-    /// into a second buffer and tests the box, then the triangles, against it: in the first
-    /// buffer a tile that a near occluder covers in part takes the farther depth once
-    /// farther occluders, drawn after it, fill the rest (the masked merge of Andersson et
-    /// al. 2015 keeps the farther of the two layers), while in reverse order the near
-    /// occluder comes last and replaces them. Both buffers hold only real occluders, so an
-    /// object hidden in the second is hidden.
+    /// Fills a second depth buffer with `occluders` (three corners per triangle), for
+    /// [`OcclusionBackend::retest_now`]; the caller picks the occluders and their order. A
+    /// masked tile that a near occluder covers in part takes the farther depth once farther
+    /// occluders, drawn after it, fill the rest (the merge of Andersson et al. 2015 keeps the
+    /// farther of two layers), so the same occluders in reverse order keep depths the
+    /// first buffer lost. Backends without a second buffer ignore it (the default).
+    fn begin_retest(&mut self, occluders: &[Vec3]) {
+        let _ = occluders;
+    }
+    /// Tests an object (box, then triangles) against the second buffer and answers at once,
+    /// when the backend can; `None` otherwise (the default). Visible when no
+    /// [`OcclusionBackend::begin_retest`] came since the frame began.
     fn retest_now(&mut self, aabb: &Aabb, triangles: &[Vec3]) -> Option<bool> {
         let _ = (aabb, triangles);
         None
@@ -60,13 +63,10 @@ pub struct SoftwareBackend {
     buffer: OcclusionBuffer,
     camera: Option<Camera>,
     results: Vec<(u32, bool)>,
-    /// The frame's occluders (corners) and the range of each `draw_depth` call, so that
-    /// [`OcclusionBackend::retest_now`] can render them again in reverse order.
-    occluders: Vec<Vec3>,
-    batches: Vec<(usize, usize)>,
-    /// The frame's occluders in reverse order, once a retest asked for them.
-    reverse: OcclusionBuffer,
-    reverse_ready: bool,
+    /// The second buffer of [`OcclusionBackend::begin_retest`], and whether it was filled
+    /// this frame.
+    second: OcclusionBuffer,
+    second_ready: bool,
 }
 
 impl SoftwareBackend {
@@ -76,10 +76,8 @@ impl SoftwareBackend {
             buffer: OcclusionBuffer::new(width, height),
             camera: None,
             results: Vec::new(),
-            occluders: Vec::new(),
-            batches: Vec::new(),
-            reverse: OcclusionBuffer::new(width, height),
-            reverse_ready: false,
+            second: OcclusionBuffer::new(width, height),
+            second_ready: false,
         }
     }
 
@@ -94,18 +92,12 @@ impl OcclusionBackend for SoftwareBackend {
         self.buffer.clear();
         self.camera = Some(*camera);
         self.results.clear();
-        self.occluders.clear();
-        self.batches.clear();
-        self.reverse_ready = false;
+        self.second_ready = false;
     }
 
     fn draw_depth(&mut self, triangles: &[Vec3]) {
         if let Some(cam) = &self.camera {
             self.buffer.render_occluders(triangles, cam);
-            let start = self.occluders.len();
-            self.occluders.extend_from_slice(triangles);
-            self.batches.push((start, self.occluders.len()));
-            self.reverse_ready = false;
         }
     }
 
@@ -135,18 +127,21 @@ impl OcclusionBackend for SoftwareBackend {
         })
     }
 
-    fn retest_now(&mut self, aabb: &Aabb, triangles: &[Vec3]) -> Option<bool> {
-        let Some(cam) = &self.camera else {
-            return Some(true);
-        };
-        if !self.reverse_ready {
-            self.reverse.clear();
-            for &(a, b) in self.batches.iter().rev() {
-                self.reverse.render_occluders(&self.occluders[a..b], cam);
-            }
-            self.reverse_ready = true;
+    fn begin_retest(&mut self, occluders: &[Vec3]) {
+        if let Some(cam) = &self.camera {
+            self.second.clear();
+            self.second.render_occluders(occluders, cam);
+            self.second_ready = true;
         }
-        Some(self.reverse.test_box(aabb, cam) && self.reverse.test_triangles(triangles, cam))
+    }
+
+    fn retest_now(&mut self, aabb: &Aabb, triangles: &[Vec3]) -> Option<bool> {
+        Some(match &self.camera {
+            Some(cam) if self.second_ready => {
+                self.second.test_box(aabb, cam) && self.second.test_triangles(triangles, cam)
+            }
+            _ => true,
+        })
     }
 
     fn take_results(&mut self, out: &mut Vec<(u32, bool)>) {
@@ -190,8 +185,9 @@ mod tests {
     }
 
     /// A near wall over part of a tile, then a far wall over everything: the tile merges to
-    /// the far depth, so an object between them passes the test as drawn; rendered in reverse
-    /// order the near wall comes last and hides it. An object in front of both stays visible.
+    /// the far depth, so an object between them passes the test as drawn; in the second
+    /// buffer, in reverse order, the near wall comes last and hides it. An object in front of
+    /// both stays visible.
     #[test]
     fn retest_hides_what_a_farther_occluder_merged_away() {
         let cam =
@@ -200,8 +196,11 @@ mod tests {
         b.begin_frame(&cam);
         // 16x8 pixels at depth 2 span about 2.3 x 1.15: the near wall covers the left 6.5
         // pixel columns, inside the first 8-pixel tile.
-        b.draw_depth(&quad(-5.0, -0.22, -5.0, 5.0, -2.0));
-        b.draw_depth(&quad(-50.0, 50.0, -50.0, 50.0, -20.0));
+        let near = quad(-5.0, -0.22, -5.0, 5.0, -2.0);
+        let far = quad(-50.0, 50.0, -50.0, 50.0, -20.0);
+        b.draw_depth(&near);
+        b.draw_depth(&far);
+        b.begin_retest(&[far, near].concat());
         // At depth 5 a pixel is 0.72 wide: this square covers the centre of pixel (3, 3), and
         // its one-pixel widening stays within the near wall's columns.
         let between = Aabb::new(Vec3::new(-3.4, 0.2, -5.2), Vec3::new(-3.1, 0.5, -5.0));

@@ -145,8 +145,8 @@ fn two_viewports_share_one_grid_without_interfering() {
     assert_ne!(exact(&both[0]), exact(&both[1]));
 }
 
-/// The grid method's per-object refinements (the triangle test where the box passes, every
-/// tested object in the pre-pass, a cell's objects front to back, the reverse-order retest)
+/// The grid method's per-object refinements (the triangle test where the box passes, a larger
+/// pre-pass cap for tested objects, a cell's objects front to back, the reverse-order retest)
 /// draw fewer objects than the box test alone over the same frames and ground truth, and keep
 /// the latency bound; the triangle test alone draws no more than the box test either.
 #[test]
@@ -155,7 +155,7 @@ fn object_refinements_draw_fewer_objects_within_the_bounds() {
     let refined = config(1);
     let boxes = SimConfig {
         triangle_tests: false,
-        prepass_tested: false,
+        tested_prepass_cap: 0,
         sort_cell_objects: false,
         retest: false,
         ..refined
