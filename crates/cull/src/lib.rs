@@ -11,8 +11,8 @@
 //! - [`ExtraCauses`] (`diagnose.rs`): why drawn objects are not visible, cause by cause.
 //! - [`Hzb`] (`hzb.rs`): a hierarchical depth pyramid (the two-phase baseline's test).
 //! - [`simulate()`], [`simulate_methods`] (`simulate.rs`): the per-frame loop over a camera
-//!   path, the grid method and the baselines (frustum, stop-and-wait, two-phase HZB), with
-//!   popping counts.
+//!   path, the grid method and the baselines (frustum, stop-and-wait with box or triangle
+//!   tests, two-phase HZB), with popping counts.
 //! - [`scenes`] (`scenes.rs`): The Grid and Teapot Graveyard with motion and camera paths.
 #![deny(missing_docs)]
 

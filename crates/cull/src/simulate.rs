@@ -4,7 +4,10 @@
 //!
 //! Based on: Seletsky. Real Time Visibility Culling With Hardware Occlusion Queries and Uniform
 //! Grids. 2013, sections 4.3.2-4.3.5 (the per-frame loop) and 5.3 (metrics; the thesis judged
-//! popping by eye, here it is counted).
+//! popping by eye, here it is counted). Beyond the thesis, where the backend answers object
+//! tests at once (the software buffer): objects of drawn cells are tested front to back by
+//! box, then triangles, tested objects get a larger pre-pass cap, and the drawn objects are
+//! retested against the frame's occluders in reverse order (see [`SimConfig`]).
 //!
 //! # Popping, precisely
 //! The ground truth is the reference rasterizer's image of all objects. The image of the drawn
