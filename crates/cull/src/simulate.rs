@@ -535,7 +535,8 @@ impl MethodState {
                 }
             }
         }
-        if config.object_tests && config.retest {
+        // Only when the backend answered object tests this frame (it can retest then).
+        if config.object_tests && config.retest && stats.object_tests > 0 {
             // The frame's occluders in reverse order into the backend's second buffer.
             self.retest_corners.clear();
             for &o in self.prepassed.iter().rev() {
