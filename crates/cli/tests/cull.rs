@@ -20,6 +20,7 @@ fn default_scene_prints_a_row_per_method() {
         "| frustum |",
         "| stop-and-wait |",
         "| two-phase-hzb |",
+        "| stop-and-wait-triangles |",
     ] {
         assert!(out.contains(m), "{m} missing in:\n{out}");
     }
@@ -40,12 +41,12 @@ fn json_and_plot_are_written() {
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let summaries = v["summaries"].as_array().unwrap();
-    assert_eq!(summaries.len(), 4);
+    assert_eq!(summaries.len(), 5);
     assert_eq!(v["per_frame"][0]["frames"].as_array().unwrap().len(), 12);
     // The frustum baseline draws at least what any occlusion method draws.
     let drawn = |i: usize| summaries[i]["drawn_mean"].as_f64().unwrap();
     assert!(
-        drawn(1) >= drawn(2) && drawn(1) >= drawn(3),
+        drawn(1) >= drawn(2) && drawn(1) >= drawn(3) && drawn(1) >= drawn(4),
         "{summaries:?}"
     );
     let svg = std::fs::read_to_string(dir.path().join("run.svg")).unwrap();

@@ -303,9 +303,9 @@ fn demo_page_loads_in_chromium() {
     ] {
         assert!(dom.contains(&format!("id=\"{id}\"")), "no #{id} in the DOM");
     }
-    // The demo records convergence itself, so its plot is always there; four culling methods.
+    // The demo records convergence itself, so its plot is always there; five culling methods.
     assert!(dom.contains("id=\"convergence-plot\""));
-    assert_eq!(dom.matches("<tr data-method=").count(), 4);
+    assert_eq!(dom.matches("<tr data-method=").count(), 5);
     assert_screenshot_not_blank(&page);
 }
 

@@ -8,14 +8,16 @@
 //! - [`Traversal`] (`traversal.rs`): occlusion-order traversal of the frustum over the grid.
 //! - [`Scheduler`] (`scheduler.rs`): which cells are queried, drawn and depth-pre-passed.
 //! - [`OcclusionBackend`] (`backend.rs`): the backend trait and its software implementation.
+//! - [`ExtraCauses`] (`diagnose.rs`): why drawn objects are not visible, cause by cause.
 //! - [`Hzb`] (`hzb.rs`): a hierarchical depth pyramid (the two-phase baseline's test).
 //! - [`simulate()`], [`simulate_methods`] (`simulate.rs`): the per-frame loop over a camera
-//!   path, the grid method and the baselines (frustum, stop-and-wait, two-phase HZB), with
-//!   popping counts.
+//!   path, the grid method and the baselines (frustum, stop-and-wait with box or triangle
+//!   tests, two-phase HZB), with popping counts.
 //! - [`scenes`] (`scenes.rs`): The Grid and Teapot Graveyard with motion and camera paths.
 #![deny(missing_docs)]
 
 mod backend;
+mod diagnose;
 mod grid;
 mod hzb;
 mod occlusion_buffer;
@@ -25,9 +27,10 @@ mod simulate;
 mod traversal;
 
 pub use backend::{OcclusionBackend, SoftwareBackend};
+pub use diagnose::ExtraCauses;
 pub use grid::{Grid, GridError, GridShape};
 pub use hzb::Hzb;
-pub use occlusion_buffer::{Kernel, OcclusionBuffer, DEPTH_SLACK, TILE_H, TILE_W};
+pub use occlusion_buffer::{Kernel, OcclusionBuffer, COVER_MARGIN, DEPTH_SLACK, TILE_H, TILE_W};
 pub use scheduler::{DepthClass, Scheduler, SchedulerConfig};
 pub use simulate::{
     simulate, simulate_methods, simulate_methods_with_cameras, simulate_viewports, FrameStats,

@@ -54,6 +54,10 @@ pub const TILE_H: u32 = 4;
 /// much nearer than it is, which absorbs the `f32` rounding of both sides (about 1e-6
 /// relative inside the guard band) with a wide margin.
 pub const DEPTH_SLACK: f32 = 2e-5;
+/// Margin in pixels of [`OcclusionBuffer::covers_pixel_centre`]: far above the `f32` error of
+/// screen positions inside the guard band (about 1/100 px) and the reference rasterizer's
+/// snapping of vertices to 1/256 px.
+pub const COVER_MARGIN: f32 = 1.0 / 16.0;
 /// Triangles are clipped to a guard band of this many half-screens around the centre, which
 /// keeps screen coordinates small enough for `f32` spans to be accurate to 1/100 px.
 const GUARD: f32 = 4.0;
@@ -865,6 +869,248 @@ impl OcclusionBuffer {
         let bit = 1u32 << ((y % TILE_H) * TILE_W + x % TILE_W);
         let r = if t.mask & bit != 0 { t.z1 } else { t.z0 };
         Some(if r > 0.0 { 1.0 / r } else { f32::INFINITY })
+    }
+
+    /// True when some of an object's triangles (three corners each, double-sided; a trailing
+    /// incomplete triangle is ignored) may show at some pixel from `camera`: a tighter test
+    /// than [`OcclusionBuffer::test_box`] for an object whose screen rectangle or nearest
+    /// corner says little about where it really is. Conservative like the box test: each
+    /// triangle is clipped to the near plane and the guard band, its coverage is widened by
+    /// one pixel on each side (the box test's widening, for the same reason: occluder edges
+    /// are rasterized in `f32`), and at each pixel its depth is the plane's nearest value over
+    /// the pixels that pixel stands for, capped by the triangle's nearest corner, with
+    /// [`DEPTH_SLACK`]. An object whose triangles cover no pixel centre (within
+    /// [`COVER_MARGIN`] pixels) has no pixel in any image of this size and is not visible.
+    /// Non-finite corners make the object visible.
+    pub fn test_triangles(&self, triangles: &[Vec3], camera: &Camera) -> bool {
+        self.test_triangles_widened(triangles, camera, 1.0)
+    }
+
+    /// True when some of the triangles (as in [`OcclusionBuffer::test_triangles`]) covers a
+    /// pixel centre of the buffer's image, within [`COVER_MARGIN`] pixels, whatever is in
+    /// front: false means the triangles have no pixel at all.
+    pub fn covers_pixel_centre(&self, triangles: &[Vec3], camera: &Camera) -> bool {
+        let proj = Projector::new(camera, self.width, self.height);
+        self.any_screen_triangle(triangles, &proj, |s| {
+            self.screen_triangle_covers_centre(s, COVER_MARGIN)
+        })
+    }
+
+    /// [`OcclusionBuffer::test_triangles`] with the coverage widened by `widen` pixels (0:
+    /// plain pixel centres, which the diagnosis of the simulation uses to tell what the
+    /// widening costs).
+    pub(crate) fn test_triangles_widened(
+        &self,
+        triangles: &[Vec3],
+        camera: &Camera,
+        widen: f32,
+    ) -> bool {
+        let proj = Projector::new(camera, self.width, self.height);
+        self.any_screen_triangle(triangles, &proj, |s| {
+            self.screen_triangle_covers_centre(s, COVER_MARGIN)
+        }) && self.any_screen_triangle(triangles, &proj, |s| self.test_screen_triangle(s, widen))
+    }
+
+    /// True when `f` holds for some screen triangle (`[sx, sy, 1/z]` per corner) of the
+    /// triangles clipped to the near plane and the guard band, or some corner is not finite.
+    fn any_screen_triangle(
+        &self,
+        triangles: &[Vec3],
+        proj: &Projector,
+        mut f: impl FnMut([[f32; 3]; 3]) -> bool,
+    ) -> bool {
+        for t in triangles.chunks_exact(3) {
+            let v = [proj.view(t[0]), proj.view(t[1]), proj.view(t[2])];
+            if !v.iter().all(|p| p.is_finite()) {
+                return true;
+            }
+            if v.iter().all(|p| p.z < proj.near) {
+                continue;
+            }
+            if v.iter().all(|&p| proj.inside_guard(p)) {
+                if f([proj.screen(v[0]), proj.screen(v[1]), proj.screen(v[2])]) {
+                    return true;
+                }
+                continue;
+            }
+            // Clipped to the near plane and the guard band, then fanned out (as the occluder
+            // rasterizer does; Sutherland-Hodgman adds at most one vertex per plane).
+            let mut poly = [Vec3::ZERO; 9];
+            let mut next = [Vec3::ZERO; 9];
+            poly[..3].copy_from_slice(&v);
+            let mut n = 3;
+            for plane in proj.planes() {
+                let dist = |p: Vec3| plane[0] * p.x + plane[1] * p.y + plane[2] * p.z + plane[3];
+                let mut m = 0;
+                for i in 0..n {
+                    let (a, b) = (poly[i], poly[(i + 1) % n]);
+                    let (da, db) = (dist(a), dist(b));
+                    if da >= 0.0 {
+                        next[m] = a;
+                        m += 1;
+                    }
+                    if (da >= 0.0) != (db >= 0.0) {
+                        next[m] = a + (b - a) * (da / (da - db));
+                        m += 1;
+                    }
+                }
+                std::mem::swap(&mut poly, &mut next);
+                n = m;
+                if n < 3 {
+                    break;
+                }
+            }
+            let s = |p: Vec3| proj.screen(Vec3::new(p.x, p.y, p.z.max(proj.near)));
+            for i in 1..n.saturating_sub(1) {
+                if f([s(poly[0]), s(poly[i]), s(poly[i + 1])]) {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    /// True when the screen triangle, widened by `margin` pixels, contains a pixel centre of
+    /// the image. Row by row: each edge bounds the row's span from one side.
+    fn screen_triangle_covers_centre(&self, p: [[f32; 3]; 3], margin: f32) -> bool {
+        let xmin = p[0][0].min(p[1][0]).min(p[2][0]) - margin;
+        let xmax = p[0][0].max(p[1][0]).max(p[2][0]) + margin;
+        let ymin = p[0][1].min(p[1][1]).min(p[2][1]) - margin;
+        let ymax = p[0][1].max(p[1][1]).max(p[2][1]) + margin;
+        if !(xmin.is_finite() && xmax.is_finite() && ymin.is_finite() && ymax.is_finite()) {
+            return true;
+        }
+        let col0 = ceil_i(xmin - 0.5).max(0);
+        let col1 = floor_i(xmax - 0.5).min(self.width as i32 - 1);
+        let row0 = ceil_i(ymin - 0.5).max(0);
+        let row1 = floor_i(ymax - 0.5).min(self.height as i32 - 1);
+        if col0 > col1 || row0 > row1 {
+            return false;
+        }
+        let (d1x, d1y) = (p[1][0] - p[0][0], p[1][1] - p[0][1]);
+        let (d2x, d2y) = (p[2][0] - p[0][0], p[2][1] - p[0][1]);
+        let area = d1x * d2y - d1y * d2x;
+        // Too thin to orient reliably in `f32`: its widened bounding box holds a centre.
+        if area.is_nan() || area.abs() < 1e-2 {
+            return true;
+        }
+        let q = if area > 0.0 { p } else { [p[0], p[2], p[1]] };
+        for y in row0..=row1 {
+            let fy = y as f32 + 0.5;
+            let (mut lo, mut hi) = (col0 as f32 + 0.5, col1 as f32 + 0.5);
+            for i in 0..3 {
+                let (a, b) = (q[i], q[(i + 1) % 3]);
+                let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+                // E(x) = dx (y - ay) - dy (x - ax) + margin (|dx| + |dy|) >= 0.
+                let c = dx * (fy - a[1]) + dy * a[0] + margin * (dx.abs() + dy.abs());
+                if dy > 0.0 {
+                    hi = hi.min(c / dy);
+                } else if dy < 0.0 {
+                    lo = lo.max(c / dy);
+                } else if c < 0.0 {
+                    hi = f32::NEG_INFINITY;
+                }
+            }
+            if lo <= hi && ceil_i(lo - 0.5) <= floor_i(hi - 0.5) {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// One screen triangle (`[sx, sy, 1/z]` per corner) against the buffer: true when some
+    /// pixel of its coverage widened by `widen` pixels is not covered by a nearer occluder.
+    fn test_screen_triangle(&self, p: [[f32; 3]; 3], widen: f32) -> bool {
+        let xmin = p[0][0].min(p[1][0]).min(p[2][0]) - widen;
+        let xmax = p[0][0].max(p[1][0]).max(p[2][0]) + widen;
+        let ymin = p[0][1].min(p[1][1]).min(p[2][1]) - widen;
+        let ymax = p[0][1].max(p[1][1]).max(p[2][1]) + widen;
+        if !(xmin.is_finite() && xmax.is_finite() && ymin.is_finite() && ymax.is_finite()) {
+            return true;
+        }
+        // Pixel centres inside the widened bounding box.
+        let col0 = ceil_i(xmin - 0.5).max(0);
+        let col1 = floor_i(xmax - 0.5).min(self.width as i32 - 1);
+        let row0 = ceil_i(ymin - 0.5).max(0);
+        let row1 = floor_i(ymax - 0.5).min(self.height as i32 - 1);
+        if col0 > col1 || row0 > row1 {
+            return false;
+        }
+        let r_corner = p[0][2].max(p[1][2]).max(p[2][2]);
+        let (d1x, d1y, d1r) = (p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]);
+        let (d2x, d2y, d2r) = (p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]);
+        let area = d1x * d2y - d1y * d2x;
+        // Below a pixel of area the orientation and the depth gradient are unreliable in
+        // `f32`: the widened bounding box at the nearest corner's depth stands for the sliver
+        // (`test_rect_depth` adds the slack).
+        if area.is_nan() || area.abs() < 1.0 {
+            return self.test_rect_depth(
+                col0 as u32,
+                row0 as u32,
+                col1 as u32 + 1,
+                row1 as u32 + 1,
+                1.0 / r_corner,
+            );
+        }
+        let r_near = r_corner * (1.0 + DEPTH_SLACK);
+        // Counter-clockwise in y-down screen space as `area > 0`: interior where every edge
+        // function is >= 0. Widening moves each edge outward by `widen` pixels in both axes
+        // (the Minkowski sum with a square, together with the widened bounding box).
+        let q = if area > 0.0 { p } else { [p[0], p[2], p[1]] };
+        let mut ex = [0.0f32; 3];
+        let mut ey = [0.0f32; 3];
+        let mut ec = [0.0f32; 3];
+        for i in 0..3 {
+            let (a, b) = (q[i], q[(i + 1) % 3]);
+            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+            // E(x, y) = dx (y - ay) - dy (x - ax) + widen (|dx| + |dy|)
+            ex[i] = -dy;
+            ey[i] = dx;
+            ec[i] = dy * a[0] - dx * a[1] + widen * (dx.abs() + dy.abs());
+        }
+        // 1/z over the screen: r = r0 + ra (x - x0) + rb (y - y0); a pixel stands for the
+        // pixels within `widen` of it, so its depth is the plane's nearest over that square.
+        let ra = (d1r * d2y - d2r * d1y) / area;
+        let rb = (d2r * d1x - d1r * d2x) / area;
+        let margin = widen * (ra.abs() + rb.abs());
+        let plane = |x: f32, y: f32| p[0][2] + ra * (x - p[0][0]) + rb * (y - p[0][1]) + margin;
+        let r_at = |x: f32, y: f32| (plane(x, y) * (1.0 + DEPTH_SLACK)).min(r_near);
+        for ty in row0 as u32 / TILE_H..=row1 as u32 / TILE_H {
+            let ya = (ty * TILE_H).max(row0 as u32);
+            let yb = (ty * TILE_H + TILE_H - 1).min(row1 as u32);
+            let row_tiles = &self.tiles[(ty * self.tiles_x) as usize..];
+            for tx in col0 as u32 / TILE_W..=col1 as u32 / TILE_W {
+                let xa = (tx * TILE_W).max(col0 as u32);
+                let xb = (tx * TILE_W + TILE_W - 1).min(col1 as u32);
+                let t = row_tiles[tx as usize];
+                // The plane is affine: its nearest value over the tile's pixels is at a corner.
+                let (fxa, fxb) = (xa as f32 + 0.5, xb as f32 + 0.5);
+                let (fya, fyb) = (ya as f32 + 0.5, yb as f32 + 0.5);
+                let r_tile = r_at(fxa, fya)
+                    .max(r_at(fxb, fya))
+                    .max(r_at(fxa, fyb))
+                    .max(r_at(fxb, fyb));
+                if r_tile < t.z0 {
+                    continue;
+                }
+                for y in ya..=yb {
+                    let fy = y as f32 + 0.5;
+                    for x in xa..=xb {
+                        let fx = x as f32 + 0.5;
+                        let inside = (0..3).all(|i| ex[i] * fx + ey[i] * fy + ec[i] >= 0.0);
+                        if !inside {
+                            continue;
+                        }
+                        let bit = 1u32 << ((y % TILE_H) * TILE_W + x % TILE_W);
+                        let stored = if t.mask & bit != 0 { t.z1 } else { t.z0 };
+                        if r_at(fx, fy) >= stored {
+                            return true;
+                        }
+                    }
+                }
+            }
+        }
+        false
     }
 }
 

@@ -202,9 +202,15 @@ impl Scheduler {
 
     /// For an object of a drawn cell: true when it goes to the depth pre-pass.
     pub fn enters_prepass(&mut self, class: DepthClass) -> bool {
+        self.enters_prepass_capped(class, self.config.depth_prepass_cap)
+    }
+
+    /// As [`Scheduler::enters_prepass`] with `cap` in place of the configured cap (for
+    /// objects the caller found visible itself, whose rendering it judges cheaper).
+    pub fn enters_prepass_capped(&mut self, class: DepthClass, cap: usize) -> bool {
         let take = match class {
             DepthClass::Always => true,
-            DepthClass::Sometimes => self.prepass < self.config.depth_prepass_cap,
+            DepthClass::Sometimes => self.prepass < cap,
             DepthClass::Never => false,
         };
         self.prepass += usize::from(take);
@@ -276,5 +282,18 @@ mod tests {
         assert!(s.enters_prepass(DepthClass::Always));
         s.begin_frame();
         assert!(s.enters_prepass(DepthClass::Sometimes));
+    }
+
+    #[test]
+    fn prepass_with_a_larger_cap_takes_more_sometimes_objects() {
+        let mut s = Scheduler::new(1, config());
+        s.begin_frame();
+        assert!(s.enters_prepass(DepthClass::Sometimes));
+        assert!(s.enters_prepass(DepthClass::Sometimes));
+        assert!(!s.enters_prepass(DepthClass::Sometimes));
+        assert!(s.enters_prepass_capped(DepthClass::Sometimes, 4));
+        assert!(s.enters_prepass_capped(DepthClass::Sometimes, 4));
+        assert!(!s.enters_prepass_capped(DepthClass::Sometimes, 4));
+        assert!(!s.enters_prepass_capped(DepthClass::Never, 100));
     }
 }

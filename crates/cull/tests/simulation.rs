@@ -6,6 +6,8 @@
 //! - Every frame draws at most the frustum baseline's objects.
 //! - The baselines (frustum, stop-and-wait, two-phase HZB) run over the same frames and ground
 //!   truth and never pop: they cull against the current frame only.
+//! - The grid method's per-object refinements draw fewer objects than box tests alone, within
+//!   the same bounds; the diagnosis of drawn objects that are not visible adds up.
 
 use sightline_cull::scenes::the_grid;
 use sightline_cull::{
@@ -141,4 +143,99 @@ fn two_viewports_share_one_grid_without_interfering() {
         r.frames.iter().map(|f| f.exact_visible).collect()
     };
     assert_ne!(exact(&both[0]), exact(&both[1]));
+}
+
+/// The grid method's per-object refinements (the triangle test where the box passes, a larger
+/// pre-pass cap for tested objects, a cell's objects front to back, the reverse-order retest)
+/// draw fewer objects than the box test alone over the same frames and ground truth, and keep
+/// the latency bound; the triangle test alone draws no more than the box test either.
+#[test]
+fn object_refinements_draw_fewer_objects_within_the_bounds() {
+    let scene = the_grid(5, 3);
+    let refined = config(1);
+    let boxes = SimConfig {
+        triangle_tests: false,
+        tested_prepass_cap: 0,
+        sort_cell_objects: false,
+        retest: false,
+        ..refined
+    };
+    let triangles_only = SimConfig {
+        triangle_tests: true,
+        ..boxes
+    };
+    let run = |cfg: &SimConfig| {
+        let mut backend = SoftwareBackend::new(cfg.width, cfg.height);
+        simulate(&scene, &mut backend, cfg).unwrap()
+    };
+    let (r_boxes, r_tri, r_refined) = (run(&boxes), run(&triangles_only), run(&refined));
+    let drawn = |r: &sightline_cull::SimReport| r.mean(|f| f.drawn as f64);
+    eprintln!(
+        "drawn: boxes {:.2}, triangles {:.2}, refined {:.2}",
+        drawn(&r_boxes),
+        drawn(&r_tri),
+        drawn(&r_refined)
+    );
+    assert!(drawn(&r_tri) <= drawn(&r_boxes), "{}", r_tri.summary());
+    assert!(
+        drawn(&r_refined) < drawn(&r_boxes),
+        "{}",
+        r_refined.summary()
+    );
+    let bound = (refined.scheduler.invisible_duration + 1) as usize;
+    for r in [&r_boxes, &r_tri, &r_refined] {
+        assert!(r.max_streak() <= bound, "{}", r.summary());
+        for (f, g) in r.frames.iter().zip(&r_boxes.frames) {
+            assert_eq!(f.exact_visible, g.exact_visible);
+            assert!(f.drawn <= f.frustum, "{f:?}");
+        }
+    }
+    let retested: u32 = r_refined.frames.iter().map(|f| f.retest_culled).sum();
+    assert!(
+        retested > 0,
+        "the retest never culled: {}",
+        r_refined.summary()
+    );
+}
+
+/// The diagnosis attributes every drawn object without a ground-truth pixel to exactly one
+/// cause; methods that test triangles leave no sub-pixel object and nothing for the triangle
+/// test to catch, while the box test leaves some.
+#[test]
+fn diagnosis_accounts_for_every_drawn_object_that_is_not_visible() {
+    let scene = the_grid(5, 3);
+    let cfg = SimConfig {
+        diagnose: true,
+        ..config(1)
+    };
+    let mut backend = SoftwareBackend::new(cfg.width, cfg.height);
+    let methods = [
+        Method::Grid,
+        Method::StopAndWait,
+        Method::StopAndWaitTriangles,
+    ];
+    let reports = simulate_methods(&scene, &mut backend, &cfg, &methods).unwrap();
+    for r in &reports {
+        for (i, f) in r.measured().iter().enumerate() {
+            let drawn_visible = f.exact_visible - f.missing;
+            assert_eq!(
+                f.extra.total(),
+                f.drawn - drawn_visible,
+                "{} frame {i}: {f:?}",
+                r.method.name()
+            );
+        }
+    }
+    let sum = |r: &sightline_cull::SimReport, pick: fn(&sightline_cull::ExtraCauses) -> u32| {
+        r.measured().iter().map(|f| pick(&f.extra)).sum::<u32>()
+    };
+    for r in [&reports[0], &reports[2]] {
+        assert_eq!(sum(r, |e| e.sub_pixel), 0, "{}", r.method.name());
+        assert_eq!(sum(r, |e| e.box_test), 0, "{}", r.method.name());
+    }
+    let by_box = sum(&reports[1], |e| e.box_test) + sum(&reports[1], |e| e.sub_pixel);
+    assert!(by_box > 0, "{:?}", reports[1].extra_means());
+    // Stop-and-wait with triangle tests draws no more than with boxes.
+    let drawn = |r: &sightline_cull::SimReport| r.mean(|f| f.drawn as f64);
+    assert!(drawn(&reports[2]) <= drawn(&reports[1]));
 }

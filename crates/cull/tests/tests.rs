@@ -1,7 +1,8 @@
 //! Integration tests of sightline-cull, one module per property.
 #![allow(clippy::unwrap_used)]
 
-/// The software occlusion buffer never culls a box that the exact depth test shows visible.
+/// The software occlusion buffer never culls a box (nor, with the triangle test, an object)
+/// that the exact depth test shows visible.
 mod conservative;
 /// The SIMD and scalar rasterizer kernels produce identical buffers.
 mod kernels;

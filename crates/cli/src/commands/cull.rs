@@ -331,7 +331,7 @@ fn write_plot(path: &Path, reports: &[SimReport], title: &str) -> Result<()> {
         ("queries", |f| f.queries as f64),
         ("popping pixels", |f| f.popping_pixels as f64),
     ];
-    let colours = [RED, BLUE, GREEN, MAGENTA];
+    let colours = [RED, BLUE, GREEN, MAGENTA, CYAN];
     let root = SVGBackend::new(path, (1000, 900)).into_drawing_area();
     let draw = || -> std::result::Result<(), Box<dyn std::error::Error>> {
         root.fill(&WHITE)?;
