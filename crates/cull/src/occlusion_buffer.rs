@@ -1078,11 +1078,10 @@ impl OcclusionBuffer {
         for ty in row0 as u32 / TILE_H..=row1 as u32 / TILE_H {
             let ya = (ty * TILE_H).max(row0 as u32);
             let yb = (ty * TILE_H + TILE_H - 1).min(row1 as u32);
-            let row_tiles = &self.tiles[(ty * self.tiles_x) as usize..];
             for tx in col0 as u32 / TILE_W..=col1 as u32 / TILE_W {
                 let xa = (tx * TILE_W).max(col0 as u32);
                 let xb = (tx * TILE_W + TILE_W - 1).min(col1 as u32);
-                let t = row_tiles[tx as usize];
+                let t = self.tile(tx, ty);
                 // The plane is affine: its nearest value over the tile's pixels is at a corner.
                 let (fxa, fxb) = (xa as f32 + 0.5, xb as f32 + 0.5);
                 let (fya, fyb) = (ya as f32 + 0.5, yb as f32 + 0.5);
