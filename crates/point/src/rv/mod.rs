@@ -460,19 +460,23 @@ pub fn conservative_visible(
     camera: &Camera,
     options: &RvOptions,
 ) -> Result<RvResult, RvError> {
-    visible_with(source, camera, options, false, false)
+    visible_with(source, camera, options, false, Some(INDEX_FROM))
 }
 
+/// Occluders a bin must have before it indexes them (`occluder_index.rs`): fewer are scanned
+/// as fast without the index's upkeep.
+const INDEX_FROM: usize = 32;
+
 /// [`conservative_visible`]; with `retest_all`, the re-test pass re-tests every triangle and
-/// intersects (the earlier behaviour, kept to check that skipping gives the same set); with
-/// `linear_scan`, bins scan all their occluders instead of using their index (kept to check
-/// that the index gives the same set).
+/// intersects (the earlier behaviour, kept to check that skipping gives the same set); bins
+/// index their occluders once they have `index_from` of them, or never (scanning them all, kept
+/// to check that the index gives the same set).
 fn visible_with(
     source: &mut (dyn TriangleSource + Send),
     camera: &Camera,
     options: &RvOptions,
     retest_all: bool,
-    linear_scan: bool,
+    index_from: Option<usize>,
 ) -> Result<RvResult, RvError> {
     check(options)?;
     let start = Instant::now();
@@ -503,15 +507,16 @@ fn visible_with(
     };
     let states: Vec<Mutex<BinState>> = (0..n_bins)
         .map(|b| {
-            if linear_scan {
+            let Some(from) = index_from else {
                 return Mutex::new(BinState::default());
-            }
+            };
             // The index covers the bin's region (the one its occludees are clipped to).
             let (x0, x1, y0, y1) = grid.rect(b);
-            Mutex::new(BinState::indexed(&overlap::Rect {
+            let area = overlap::Rect {
                 min: glam::DVec2::new(x0 - margin, y0 - margin),
                 max: glam::DVec2::new(x1 + margin, y1 + margin),
-            }))
+            };
+            Mutex::new(BinState::indexed(&area, from))
         })
         .collect();
     let pass = Pass {
@@ -606,9 +611,9 @@ mod tests {
         cam: &Camera,
         options: &RvOptions,
     ) -> RvResult {
-        let all = visible_with(source, cam, options, true, false).expect("runs");
+        let all = visible_with(source, cam, options, true, Some(INDEX_FROM)).expect("runs");
         source.rewind().expect("rewinds");
-        let skipping = visible_with(source, cam, options, false, false).expect("runs");
+        let skipping = visible_with(source, cam, options, false, Some(INDEX_FROM)).expect("runs");
         assert!(skipping.stats.retested && all.stats.retested);
         assert_eq!(skipping.visible, all.visible);
         assert_eq!(
@@ -655,10 +660,20 @@ mod tests {
         cam: &Camera,
         options: &RvOptions,
     ) -> RvResult {
-        let linear = visible_with(source, cam, options, false, true).expect("runs");
+        let linear = visible_with(source, cam, options, false, None).expect("runs");
         source.rewind().expect("rewinds");
-        let indexed = visible_with(source, cam, options, false, false).expect("runs");
-        source.rewind().expect("rewinds");
+        // Indexed from the first occluder, and from a few (built while the bin fills).
+        let mut last = None;
+        for from in [0, 5] {
+            let indexed = visible_with(source, cam, options, false, Some(from)).expect("runs");
+            source.rewind().expect("rewinds");
+            same_result(&indexed, &linear);
+            last = Some(indexed);
+        }
+        last.expect("ran")
+    }
+
+    fn same_result(indexed: &RvResult, linear: &RvResult) {
         let (a, b) = (&indexed.stats, &linear.stats);
         assert_eq!(indexed.visible, linear.visible);
         assert_eq!(a.first_pass_visible, b.first_pass_visible);
@@ -670,7 +685,6 @@ mod tests {
             (a.bin_tests, a.bin_occluded, a.fused_occluded, a.pool_full),
             (b.bin_tests, b.bin_occluded, b.fused_occluded, b.pool_full)
         );
-        indexed
     }
 
     /// Every guarantee, with and without hidden occluders, single pass and with the re-test.

@@ -67,8 +67,12 @@ pub(crate) struct OccluderIndex {
     origin: DVec2,
     /// Cells per unit of screen, per axis.
     scale: DVec2,
-    /// Whether the index is in use (false: never set up, or memory ran out).
+    /// Whether the index may be built (false: no index, or memory ran out).
+    usable: bool,
+    /// Whether the index is built and in use.
     active: bool,
+    /// Occluders a bin must have before its index is built.
+    from: usize,
     /// Row-major cells, each listing slots; empty until the first occluder registers.
     cells: Vec<Vec<u32>>,
     /// Per slot id.
@@ -83,7 +87,9 @@ impl Default for OccluderIndex {
         Self {
             origin: DVec2::ZERO,
             scale: DVec2::ZERO,
+            usable: false,
             active: false,
+            from: 0,
             cells: Vec::new(),
             slots: Vec::new(),
             free: NONE,
@@ -92,18 +98,31 @@ impl Default for OccluderIndex {
 }
 
 impl OccluderIndex {
-    /// An index over `area` (empty until occluders register); no index when `area` is
+    /// An index over `area`, to be built once the bin has `from` occluders (below that a
+    /// linear scan is as fast and the index's upkeep is saved); no index when `area` is
     /// degenerate.
-    pub(crate) fn over(area: &Rect) -> Self {
+    pub(crate) fn over(area: &Rect, from: usize) -> Self {
         let size = area.max - area.min;
         let scale = DVec2::splat(CELLS as f64) / size;
         let ok = scale.is_finite() && scale.min_element() > 0.0;
         Self {
             origin: area.min,
             scale,
-            active: ok,
+            usable: ok,
+            from,
             ..Self::default()
         }
+    }
+
+    /// Whether a bin with `n` occluders should build its index now.
+    #[inline]
+    pub(crate) fn wants_start(&self, n: usize) -> bool {
+        self.usable && !self.active && n >= self.from
+    }
+
+    /// Turns an empty index on: the caller then inserts the bin's occluders.
+    pub(crate) fn start(&mut self) {
+        self.active = self.usable;
     }
 
     /// Whether look-ups may use the index.
@@ -240,17 +259,20 @@ impl OccluderIndex {
         self.free = slot;
     }
 
-    /// Returns all memory to `pool` and turns the index off (the bin scans linearly).
+    /// Returns all memory to `pool` and turns the index off for good (the bin scans
+    /// linearly until cleared).
     pub(crate) fn fail(&mut self, pool: &Pool) {
         self.release(pool);
         self.active = false;
+        self.usable = false;
     }
 
-    /// Returns all memory to `pool`, keeping the index on (for an emptied bin).
+    /// Returns all memory to `pool` (for an emptied bin); the index is built again once the
+    /// bin has enough occluders.
     pub(crate) fn clear(&mut self, pool: &Pool) {
-        let active = self.active;
-        self.fail(pool);
-        self.active = active && self.scale.min_element() > 0.0;
+        self.release(pool);
+        self.active = false;
+        self.usable = self.scale.is_finite() && self.scale.min_element() > 0.0;
     }
 
     fn release(&mut self, pool: &Pool) {
@@ -289,7 +311,7 @@ mod tests {
 
     #[test]
     fn cells_are_monotone_and_clamped() {
-        let idx = OccluderIndex::over(&rect(0.0, 0.0, 32.0, 32.0));
+        let idx = OccluderIndex::over(&rect(0.0, 0.0, 32.0, 32.0), 0);
         assert_eq!(idx.cell_of(DVec2::new(-100.0, 1e300)), (0, CELLS - 1));
         assert_eq!(idx.cell_of(DVec2::new(f64::NAN, 5.0)), (0, 1));
         let mut last = 0;
@@ -304,7 +326,9 @@ mod tests {
     #[test]
     fn insert_grow_remove_keep_cells_exact() {
         let pool = Pool::new(1 << 20);
-        let mut idx = OccluderIndex::over(&rect(0.0, 0.0, 32.0, 32.0));
+        let mut idx = OccluderIndex::over(&rect(0.0, 0.0, 32.0, 32.0), 0);
+        assert!(idx.wants_start(0));
+        idx.start();
         let a = rect(1.0, 1.0, 2.0, 2.0);
         let s = idx.insert(0, &a, true, &pool).expect("memory");
         assert!(idx.lists_exactly(s, &a));
@@ -324,7 +348,7 @@ mod tests {
         assert_eq!(idx.slot(t).pos, 3);
         assert!(!idx.slot(t).front);
         idx.clear(&pool);
-        assert!(idx.active());
+        assert!(!idx.active() && idx.wants_start(0));
         assert!(idx.cell(0, 0).is_empty());
         assert!(pool.try_take(1 << 20), "clear returned all memory");
     }
@@ -332,16 +356,19 @@ mod tests {
     #[test]
     fn exhausted_pool_turns_index_off_and_returns_memory() {
         let pool = Pool::new(64);
-        let mut idx = OccluderIndex::over(&rect(0.0, 0.0, 32.0, 32.0));
+        let mut idx = OccluderIndex::over(&rect(0.0, 0.0, 32.0, 32.0), 0);
+        idx.start();
         assert_eq!(idx.insert(0, &rect(1.0, 1.0, 2.0, 2.0), true, &pool), None);
-        assert!(!idx.active());
+        assert!(!idx.active() && !idx.wants_start(1));
         // Everything went back: the whole pool can be taken again.
         assert!(pool.try_take(64));
     }
 
     #[test]
     fn degenerate_area_has_no_index() {
-        assert!(!OccluderIndex::over(&rect(0.0, 0.0, 0.0, 5.0)).active());
-        assert!(!OccluderIndex::default().active());
+        assert!(!OccluderIndex::over(&rect(0.0, 0.0, 0.0, 5.0), 0).wants_start(9));
+        assert!(!OccluderIndex::default().wants_start(9));
+        let idx = OccluderIndex::over(&rect(0.0, 0.0, 1.0, 5.0), 4);
+        assert!(!idx.wants_start(3) && idx.wants_start(4));
     }
 }

@@ -119,11 +119,26 @@ const MAX_MATCHES: usize = 8;
 
 impl BinState {
     /// An empty bin whose occluders are indexed over `area` (the bin's rectangle grown by the
-    /// margin; any rectangle works, a tight one prunes best).
-    pub(crate) fn indexed(area: &Rect) -> Self {
+    /// margin; any rectangle works, a tight one prunes best) once it has `from` of them.
+    pub(crate) fn indexed(area: &Rect, from: usize) -> Self {
         Self {
-            index: OccluderIndex::over(area),
+            index: OccluderIndex::over(area, from),
             ..Self::default()
+        }
+    }
+
+    /// Builds the index when the bin has just got enough occluders for it.
+    fn start_index(&mut self, pool: &Pool) {
+        if !self.index.wants_start(self.occluders.len()) {
+            return;
+        }
+        self.index.start();
+        for (i, o) in self.occluders.iter_mut().enumerate() {
+            match self.index.insert(i, &o.rect, o.front, pool) {
+                Some(slot) => o.slot = slot,
+                // Out of memory: the index turned itself off.
+                None => return,
+            }
         }
     }
 
@@ -200,6 +215,7 @@ impl BinState {
         let Some(plane) = t.plane.filter(|_| t.whole_front) else {
             return AddOutcome::NotEligible;
         };
+        self.start_index(pool);
         let s = t.screen;
         let edges = [
             Edge { a: s[0], b: s[1] },
@@ -588,7 +604,8 @@ mod tests {
         // Index on all along, and turned off half way (what an exhausted pool does).
         for fail_at in [usize::MAX, 300] {
             let pool = Pool::new(1 << 24);
-            let (mut linear, mut indexed) = (BinState::default(), BinState::indexed(&area));
+            // Built once the bin has 6 occluders.
+            let (mut linear, mut indexed) = (BinState::default(), BinState::indexed(&area, 6));
             let mut outcomes = [0usize; 6];
             for (k, t) in lattice_tris(600).iter().enumerate() {
                 if k == fail_at {
