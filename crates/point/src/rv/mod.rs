@@ -66,6 +66,7 @@ mod frustum_cull;
 mod fusion;
 mod geometry_stage;
 mod memory;
+mod occluder_index;
 mod occluders;
 mod occlusion_test;
 mod overlap;
@@ -459,16 +460,23 @@ pub fn conservative_visible(
     camera: &Camera,
     options: &RvOptions,
 ) -> Result<RvResult, RvError> {
-    visible_with(source, camera, options, false)
+    visible_with(source, camera, options, false, Some(INDEX_FROM))
 }
 
+/// Occluders a bin must have before it indexes them (`occluder_index.rs`): fewer are scanned
+/// as fast without the index's upkeep.
+const INDEX_FROM: usize = 32;
+
 /// [`conservative_visible`]; with `retest_all`, the re-test pass re-tests every triangle and
-/// intersects (the earlier behaviour, kept to check that skipping gives the same set).
+/// intersects (the earlier behaviour, kept to check that skipping gives the same set); bins
+/// index their occluders once they have `index_from` of them, or never (scanning them all, kept
+/// to check that the index gives the same set).
 fn visible_with(
     source: &mut (dyn TriangleSource + Send),
     camera: &Camera,
     options: &RvOptions,
     retest_all: bool,
+    index_from: Option<usize>,
 ) -> Result<RvResult, RvError> {
     check(options)?;
     let start = Instant::now();
@@ -498,7 +506,18 @@ fn visible_with(
         max_edges: options.max_edges_per_bin,
     };
     let states: Vec<Mutex<BinState>> = (0..n_bins)
-        .map(|_| Mutex::new(BinState::default()))
+        .map(|b| {
+            let Some(from) = index_from else {
+                return Mutex::new(BinState::default());
+            };
+            // The index covers the bin's region (the one its occludees are clipped to).
+            let (x0, x1, y0, y1) = grid.rect(b);
+            let area = overlap::Rect {
+                min: glam::DVec2::new(x0 - margin, y0 - margin),
+                max: glam::DVec2::new(x1 + margin, y1 + margin),
+            };
+            Mutex::new(BinState::indexed(&area, from))
+        })
         .collect();
     let pass = Pass {
         grid: &grid,
@@ -592,9 +611,9 @@ mod tests {
         cam: &Camera,
         options: &RvOptions,
     ) -> RvResult {
-        let all = visible_with(source, cam, options, true).expect("runs");
+        let all = visible_with(source, cam, options, true, Some(INDEX_FROM)).expect("runs");
         source.rewind().expect("rewinds");
-        let skipping = visible_with(source, cam, options, false).expect("runs");
+        let skipping = visible_with(source, cam, options, false, Some(INDEX_FROM)).expect("runs");
         assert!(skipping.stats.retested && all.stats.retested);
         assert_eq!(skipping.visible, all.visible);
         assert_eq!(
@@ -631,6 +650,116 @@ mod tests {
                 r.visible.count_ones(..),
                 r.stats.first_pass_visible
             );
+        }
+    }
+
+    /// Runs RV with the occluder index and with linear scans; asserts the same visible sets
+    /// and occluder histories.
+    fn same_with_and_without_index(
+        source: &mut (dyn TriangleSource + Send),
+        cam: &Camera,
+        options: &RvOptions,
+    ) -> RvResult {
+        let linear = visible_with(source, cam, options, false, None).expect("runs");
+        source.rewind().expect("rewinds");
+        // Indexed from the first occluder, and from a few (built while the bin fills).
+        let mut last = None;
+        for from in [0, 5] {
+            let indexed = visible_with(source, cam, options, false, Some(from)).expect("runs");
+            source.rewind().expect("rewinds");
+            same_result(&indexed, &linear);
+            last = Some(indexed);
+        }
+        last.expect("ran")
+    }
+
+    fn same_result(indexed: &RvResult, linear: &RvResult) {
+        let (a, b) = (&indexed.stats, &linear.stats);
+        assert_eq!(indexed.visible, linear.visible);
+        assert_eq!(a.first_pass_visible, b.first_pass_visible);
+        assert_eq!(
+            (a.occluders_created, a.occluders_grown, a.occluder_merges),
+            (b.occluders_created, b.occluders_grown, b.occluder_merges)
+        );
+        assert_eq!(
+            (a.bin_tests, a.bin_occluded, a.fused_occluded, a.pool_full),
+            (b.bin_tests, b.bin_occluded, b.fused_occluded, b.pool_full)
+        );
+    }
+
+    /// Every guarantee, with and without hidden occluders, single pass and with the re-test.
+    fn index_variants(base: &RvOptions) -> Vec<RvOptions> {
+        let mut v = Vec::new();
+        for guarantee in [Guarantee::PositiveArea, Guarantee::AnySample] {
+            for hidden_occluders in [HiddenOccluders::Never, HiddenOccluders::All] {
+                for retest_pass in [false, true] {
+                    v.push(RvOptions {
+                        guarantee,
+                        hidden_occluders,
+                        retest_pass,
+                        ..base.clone()
+                    });
+                }
+            }
+        }
+        v
+    }
+
+    #[test]
+    fn occluder_index_matches_linear_scan_streamed_city() {
+        let eye = Vec3::new(-6.0, -6.0, 2.0);
+        let cam = Camera::look_at(eye, eye + Vec3::X, Vec3::Z, 60.0, 128, 128, 0.1).expect("cam");
+        let base = RvOptions {
+            bins: (4, 4),
+            threads: 2,
+            geometry_threads: 2,
+            batch_triangles: 512,
+            ..RvOptions::default()
+        };
+        for options in index_variants(&base) {
+            let mut city = StreamingCity::new(1, 20_000);
+            let r = same_with_and_without_index(&mut city, &cam, &options);
+            // Occluders merged and hid triangles, or the comparison proves little.
+            assert!(r.stats.occluder_merges > 0 && r.stats.bin_occluded > 0);
+        }
+    }
+
+    #[test]
+    fn occluder_index_matches_linear_scan_scenes() {
+        // Rows of small boxes receding from the camera (many small occluders per bin), and a
+        // few large boxes hiding and overlapping each other (occluders spanning many cells).
+        let mut rows = SceneBuilder::new("rows of boxes");
+        for i in 0..12 {
+            for j in 0..5 {
+                let (x, z) = (-2.0 + j as f32, 2.0 + 1.5 * i as f32);
+                rows.add_box(Vec3::new(x, -1.0, z), Vec3::new(x + 0.6, -0.2, z + 0.6));
+            }
+        }
+        let mut big = SceneBuilder::new("overlapping boxes");
+        for i in 0..6 {
+            let f = i as f32;
+            big.add_box(
+                Vec3::new(-3.0 + 0.7 * f, -1.5 + 0.3 * f, 3.0 + f),
+                Vec3::new(-1.0 + 0.9 * f, 1.0 + 0.2 * f, 3.5 + 1.3 * f),
+            );
+        }
+        let cam = Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y, 60.0, 96, 96, 0.1).expect("cam");
+        for (name, scene) in [("rows", rows.finish()), ("big", big.finish())] {
+            for sort_batches in [true, false] {
+                let base = RvOptions {
+                    bins: (3, 3),
+                    threads: 2,
+                    geometry_threads: 1,
+                    batch_triangles: 16,
+                    sort_batches,
+                    ..RvOptions::default()
+                };
+                for options in index_variants(&base) {
+                    let r =
+                        same_with_and_without_index(&mut SceneSource::new(&scene), &cam, &options);
+                    assert!(r.stats.bin_occluded > 0, "{name}: nothing hidden");
+                }
+            }
         }
     }
 

@@ -32,6 +32,7 @@ use glam::{DVec2, DVec3};
 use super::fusion::FusedDepth;
 use super::geometry_stage::ProjTri;
 use super::memory::{release_to, reserve_from, Pool};
+use super::occluder_index::OccluderIndex;
 use super::overlap::Rect;
 
 /// An occluder's triangle, as the triangle test needs it.
@@ -74,6 +75,8 @@ pub(crate) struct Occluder {
     pub(crate) zmin: f64,
     pub(crate) zmax: f64,
     pub(crate) front: bool,
+    /// Its slot in the bin's [`OccluderIndex`] (meaningless while the index is off).
+    pub(crate) slot: u32,
 }
 
 /// Limits of one bin's state (thesis: occluders per bin, silhouette edge buffer size).
@@ -107,12 +110,98 @@ pub(crate) struct BinState {
     pub(crate) fused: FusedDepth,
     /// Whether the bin has had its first work item (the initialization phase's).
     pub(crate) initialized: bool,
+    /// Which occluders lie where (`occluder_index.rs`); off by default (linear scans).
+    pub(crate) index: OccluderIndex,
 }
 
 /// Most occluders one triangle may join at once (3 edges, a few non-manifold duplicates).
 const MAX_MATCHES: usize = 8;
 
 impl BinState {
+    /// An empty bin whose occluders are indexed over `area` (the bin's rectangle grown by the
+    /// margin; any rectangle works, a tight one prunes best) once it has `from` of them.
+    pub(crate) fn indexed(area: &Rect, from: usize) -> Self {
+        Self {
+            index: OccluderIndex::over(area, from),
+            ..Self::default()
+        }
+    }
+
+    /// Builds the index when the bin has just got enough occluders for it.
+    fn start_index(&mut self, pool: &Pool) {
+        if !self.index.wants_start(self.occluders.len()) {
+            return;
+        }
+        self.index.start();
+        for (i, o) in self.occluders.iter_mut().enumerate() {
+            match self.index.insert(i, &o.rect, o.front, pool) {
+                Some(slot) => o.slot = slot,
+                // Out of memory: the index turned itself off.
+                None => return,
+            }
+        }
+    }
+
+    /// Takes the occluder at `i` out of the vector (`swap_remove`), keeping the index's
+    /// positions right; it stays listed in the index (see `unlist`).
+    fn detach(&mut self, i: usize) -> Occluder {
+        let o = self.occluders.swap_remove(i);
+        if self.index.active() {
+            if let Some(m) = self.occluders.get(i) {
+                self.index.moved(m.slot, i);
+            }
+        }
+        o
+    }
+
+    /// Removes a detached occluder from the index.
+    fn unlist(&mut self, o: &Occluder) {
+        if self.index.active() {
+            self.index.remove(o.slot);
+        }
+    }
+
+    /// Calls `f` with the position of each occluder of facing `front` whose rectangle touches
+    /// `r`, once each, in no particular order (through the index when it is on); stops, and
+    /// returns false, when `f` does.
+    fn for_each_touching(
+        &self,
+        r: &Rect,
+        front: bool,
+        mut f: impl FnMut(usize, &Occluder) -> bool,
+    ) -> bool {
+        let wanted = |o: &Occluder| o.front == front && o.rect.touches(r, 0.0);
+        if !self.index.active() {
+            return (self.occluders.iter().enumerate()).all(|(i, o)| !wanted(o) || f(i, o));
+        }
+        let q = self.index.range(r);
+        let one_cell = q[0] == q[2] && q[1] == q[3];
+        for y in q[1]..=q[3] {
+            for x in q[0]..=q[2] {
+                for &slot in self.index.cell(x, y) {
+                    // The slot's copy of the filter's fields: the occluder is read only when
+                    // it passes.
+                    let e = self.index.slot(slot);
+                    if e.front != front || !e.rect.touches(r, 0.0) {
+                        continue;
+                    }
+                    // Visit each occluder once: in the first cell both ranges share.
+                    if !one_cell {
+                        let (ox, oy) = (usize::from(e.first.0), usize::from(e.first.1));
+                        if ox.max(q[0]) != x || oy.max(q[1]) != y {
+                            continue;
+                        }
+                    }
+                    let i = e.pos as usize;
+                    if !f(i, &self.occluders[i]) {
+                        return false;
+                    }
+                }
+            }
+        }
+        true
+    }
+
     /// Offers triangle `t` to this bin's occluders (chapter 5, figure 5.14). When `may_start`
     /// is false it only grows or merges existing occluders (a hidden triangle under
     /// [`super::HiddenOccluders::Joining`]).
@@ -126,6 +215,7 @@ impl BinState {
         let Some(plane) = t.plane.filter(|_| t.whole_front) else {
             return AddOutcome::NotEligible;
         };
+        self.start_index(pool);
         let s = t.screen;
         let edges = [
             Edge { a: s[0], b: s[1] },
@@ -149,18 +239,26 @@ impl BinState {
         // Occluders sharing an edge with t: same facing, touching bounds, an identical edge.
         let mut matches = [0usize; MAX_MATCHES];
         let mut n_matches = 0;
-        for (i, o) in self.occluders.iter().enumerate() {
-            if o.front != t.front || !o.rect.touches(&occ_tri.rect, 0.0) {
-                continue;
-            }
-            if o.edges.iter().any(|e| edges.iter().any(|f| e.same(f))) {
+        let all_found = self.for_each_touching(&occ_tri.rect, t.front, |i, o| {
+            // A shared edge starts at one of t's corners: most edges fail that first.
+            if o.edges
+                .iter()
+                .any(|e| s.contains(&e.a) && edges.iter().any(|f| e.same(f)))
+            {
                 if n_matches == MAX_MATCHES {
-                    return AddOutcome::Full;
+                    return false;
                 }
                 matches[n_matches] = i;
                 n_matches += 1;
             }
+            true
+        });
+        if !all_found {
+            return AddOutcome::Full;
         }
+        // In vector order, as a linear scan finds them (the merge target's tie-break and the
+        // removals below depend on it).
+        matches[..n_matches].sort_unstable();
         if n_matches == 0 {
             if !may_start {
                 return AddOutcome::NotEligible;
@@ -181,6 +279,7 @@ impl BinState {
                 zmin,
                 zmax,
                 front: t.front,
+                slot: 0,
             };
             if !reserve_from(&mut o.tris, 1, pool) || !reserve_from(&mut o.edges, 3, pool) {
                 release_to(&mut o.tris, pool);
@@ -190,6 +289,13 @@ impl BinState {
             o.tris.push(occ_tri);
             o.edges.extend_from_slice(&edges);
             self.edge_count += 3;
+            if self.index.active() {
+                // Without index memory the bin scans linearly (`insert` turned the index off).
+                o.slot = self
+                    .index
+                    .insert(self.occluders.len(), &o.rect, o.front, pool)
+                    .unwrap_or(0);
+            }
             self.occluders.push(o);
             return AddOutcome::New;
         }
@@ -226,10 +332,11 @@ impl BinState {
         let mut taken: Vec<Occluder> = Vec::new();
         let mut main = None;
         for &i in matches.iter() {
-            let o = self.occluders.swap_remove(i);
+            let o = self.detach(i);
             if i == target {
                 main = Some(o);
             } else {
+                self.unlist(&o);
                 taken.push(o);
             }
         }
@@ -262,6 +369,11 @@ impl BinState {
                 self.edge_count += 1;
             }
         }
+        if self.index.active() {
+            self.index.moved(main.slot, self.occluders.len());
+            // Without memory for the new cells the index turns off (see `grow`).
+            self.index.grow(main.slot, &main.rect, pool);
+        }
         self.occluders.push(main);
         if merged {
             AddOutcome::Merged
@@ -285,7 +397,8 @@ impl BinState {
         else {
             return false;
         };
-        let mut o = self.occluders.swap_remove(i);
+        let mut o = self.detach(i);
+        self.unlist(&o);
         self.edge_count -= o.edges.len();
         release_to(&mut o.tris, pool);
         release_to(&mut o.edges, pool);
@@ -301,6 +414,7 @@ impl BinState {
         release_to(&mut self.occluders, pool);
         self.edge_count = 0;
         self.fused.clear(pool);
+        self.index.clear(pool);
     }
 }
 
@@ -432,6 +546,89 @@ mod tests {
         );
         assert_eq!(out, AddOutcome::Full);
         assert!(b.occluders.is_empty());
+    }
+
+    /// Small triangles on a lattice (so that many share edges) in a 32 px bin, both facings,
+    /// at varied depths; deterministic.
+    fn lattice_tris(n: usize) -> Vec<ProjTri> {
+        let mut seed = 12345u64;
+        let mut next = move |m: u64| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) % m
+        };
+        (0..n)
+            .map(|_| {
+                let (x, y) = (next(14) as f64 * 2.0 - 2.0, next(14) as f64 * 2.0 - 2.0);
+                let step = [2.0, 2.0, 2.0, 4.0, 16.0][next(5) as usize];
+                let mut t = if next(2) == 0 {
+                    tri([[x, y], [x + step, y], [x, y + step]])
+                } else {
+                    tri([[x + step, y], [x + step, y + step], [x, y + step]])
+                };
+                t.front = next(4) != 0;
+                let z = 1.0 + next(50) as f64;
+                t.corners.iter_mut().for_each(|c| c.z = z);
+                t
+            })
+            .collect()
+    }
+
+    /// The occluders as a comparable list (everything but the index slot).
+    fn summary(b: &BinState) -> Vec<(Rect, f64, f64, bool, usize, Vec<Edge>)> {
+        (b.occluders.iter())
+            .map(|o| {
+                (
+                    o.rect,
+                    o.zmin,
+                    o.zmax,
+                    o.front,
+                    o.tris.len(),
+                    o.edges.clone(),
+                )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn index_gives_the_same_occluders_as_a_linear_scan() {
+        let area = Rect {
+            min: DVec2::splat(-0.004),
+            max: DVec2::splat(32.004),
+        };
+        let lim = Limits {
+            max_occluders: 40,
+            max_edges: 300,
+        };
+        // Index on all along, and turned off half way (what an exhausted pool does).
+        for fail_at in [usize::MAX, 300] {
+            let pool = Pool::new(1 << 24);
+            // Built once the bin has 6 occluders.
+            let (mut linear, mut indexed) = (BinState::default(), BinState::indexed(&area, 6));
+            let mut outcomes = [0usize; 6];
+            for (k, t) in lattice_tris(600).iter().enumerate() {
+                if k == fail_at {
+                    indexed.index.fail(&pool);
+                }
+                let out = linear.add(t, &lim, &pool, true);
+                assert_eq!(indexed.add(t, &lim, &pool, true), out, "triangle {k}");
+                assert_eq!(summary(&indexed), summary(&linear), "triangle {k}");
+                outcomes[out as usize] += 1;
+                if indexed.index.active() {
+                    for (i, o) in indexed.occluders.iter().enumerate() {
+                        assert_eq!(indexed.index.slot(o.slot).pos as usize, i);
+                        assert!(indexed.index.lists_exactly(o.slot, &o.rect));
+                    }
+                }
+            }
+            assert_eq!(indexed.index.active(), fail_at == usize::MAX);
+            // Every path was taken: new, grown, merged, full (evictions make room).
+            assert!(outcomes[1..5].iter().all(|&n| n > 0), "{outcomes:?}");
+            linear.clear(&pool);
+            indexed.clear(&pool);
+            assert!(pool.try_take(1 << 24), "all memory returned");
+        }
     }
 
     #[test]

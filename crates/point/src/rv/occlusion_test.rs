@@ -79,10 +79,23 @@ pub(crate) fn is_occluded(
     margin: f64,
     counters: &mut TestCounters,
 ) -> bool {
-    state
-        .occluders
-        .iter()
-        .any(|o| occluded_by(p, o, proj, margin, counters))
+    debug_assert!(margin >= 0.0, "the index needs a non-negative margin");
+    if !state.index.active() {
+        return state
+            .occluders
+            .iter()
+            .any(|o| occluded_by(p, o, proj, margin, counters));
+    }
+    // An occluder that hides P has a rectangle containing P's, so it is listed in the cell of
+    // P's lower corner (`occluder_index.rs`).
+    let (x, y) = state.index.cell_of(p.rect.min);
+    let rect_margin = if p.area { 0.0 } else { margin };
+    state.index.cell(x, y).iter().any(|&slot| {
+        // `occluded_by`'s first filter, on the slot's copy of the occluder's bounds.
+        let e = state.index.slot(slot);
+        e.rect.contains(&p.rect, rect_margin)
+            && occluded_by(p, &state.occluders[e.pos as usize], proj, margin, counters)
+    })
 }
 
 fn occluded_by(
