@@ -90,7 +90,7 @@ use frustum_cull::FrustumCull;
 use geometry_stage::{Batch, BinGrid};
 use memory::Pool;
 use occluders::{BinState, Limits};
-use pipeline::{merge_stats, Scheduler};
+use pipeline::{merge_stats, AbortOnPanic, Scheduler};
 use producer::{GeometryContext, Producers, Scratch};
 use projection::Projection;
 use visibility_stage::{process, BinContext, StageStats};
@@ -363,9 +363,19 @@ impl Pass<'_> {
                 .map(|_| {
                     let (sched, states, pool, limits, proj) =
                         (&sched, self.states, self.pool, self.limits, self.proj);
+                    let producers = &producers;
                     scope.spawn(move || {
+                        let stop_producers = || producers.abort();
+                        let _guard = AbortOnPanic {
+                            sched,
+                            also: Some(&stop_producers),
+                        };
                         let mut st = StageStats::default();
                         while let Some(work) = sched.take() {
+                            #[cfg(test)]
+                            if options.batch_triangles == tests::PANIC_BATCH {
+                                panic!("injected worker panic");
+                            }
                             let (x0, x1, y0, y1) = grid.rect(work.bin);
                             let ctx = BinContext {
                                 proj,
@@ -413,11 +423,21 @@ impl Pass<'_> {
                 .map(|_| {
                     let (producers, gctx) = (&producers, &gctx);
                     scope.spawn(move || {
+                        let stop_producers = || producers.abort();
+                        let _guard = AbortOnPanic {
+                            sched: gctx.sched,
+                            also: Some(&stop_producers),
+                        };
                         let mut scratch = Scratch::new(options, self.max_entries, n_bins);
                         producer::run(producers, gctx, &mut scratch)
                     })
                 })
                 .collect();
+            let stop_producers = || producers.abort();
+            let guard = AbortOnPanic {
+                sched: &sched,
+                also: Some(&stop_producers),
+            };
             let mut scratch = Scratch::new(options, self.max_entries, n_bins);
             let mut produced = producer::run(&producers, &gctx, &mut scratch);
             drop(scratch);
@@ -441,6 +461,7 @@ impl Pass<'_> {
                     Err(panic) => std::panic::resume_unwind(panic),
                 }
             }
+            drop(guard);
             produced
         });
         if let Some(e) = producers.into_error() {
@@ -603,6 +624,86 @@ mod tests {
     use sightline_core::scene::SceneBuilder;
 
     use super::*;
+
+    /// `batch_triangles` value that makes a worker panic (test builds only).
+    pub(super) const PANIC_BATCH: usize = 7777;
+
+    /// Runs `f` on a thread and fails the test if it has not finished within a minute.
+    fn finishes_in_time<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> T {
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let _ = tx.send(f());
+        });
+        rx.recv_timeout(std::time::Duration::from_secs(60))
+            .expect("the pipeline hung after a thread panicked")
+    }
+
+    /// A source that panics on its fourth batch (in whichever geometry thread reads it).
+    struct PanickingSource {
+        batches: u32,
+    }
+
+    impl TriangleSource for PanickingSource {
+        fn id_bound(&self) -> u32 {
+            1 << 20
+        }
+
+        fn next_batch(
+            &mut self,
+            max: usize,
+            out: &mut Vec<SourceTriangle>,
+        ) -> Result<usize, RvError> {
+            self.batches += 1;
+            assert!(self.batches < 4, "injected source panic");
+            let base = (self.batches - 1) * max as u32;
+            for i in 0..max as u32 {
+                let x = (i % 64) as f32 * 0.1 - 3.0;
+                let y = (i / 64 % 64) as f32 * 0.1 - 3.0;
+                let z = 5.0 + (i / 4096) as f32;
+                out.push(SourceTriangle {
+                    id: base + i,
+                    corners: [
+                        Vec3::new(x, y, z),
+                        Vec3::new(x + 0.1, y, z),
+                        Vec3::new(x, y + 0.1, z),
+                    ],
+                });
+            }
+            Ok(max)
+        }
+
+        fn rewind(&mut self) -> Result<bool, RvError> {
+            Ok(false)
+        }
+    }
+
+    /// A panic in a visibility worker or in a geometry thread (here, inside the source) must
+    /// reach the caller as a panic, never leave the other threads waiting forever.
+    #[test]
+    fn a_panicking_thread_stops_the_pipeline() {
+        let cam = Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y, 60.0, 64, 64, 0.1).expect("cam");
+        for (batch, geometry_threads) in [(PANIC_BATCH, 1), (PANIC_BATCH, 2), (256, 1), (256, 2)] {
+            let options = RvOptions {
+                bins: (4, 4),
+                threads: 2,
+                geometry_threads,
+                batch_triangles: batch,
+                ring_batches: 2,
+                ..RvOptions::default()
+            };
+            let outcome = finishes_in_time(move || {
+                std::panic::catch_unwind(move || {
+                    let mut source = PanickingSource { batches: 0 };
+                    conservative_visible(&mut source, &cam, &options).is_ok()
+                })
+                .is_err()
+            });
+            assert!(
+                outcome,
+                "batch {batch}, {geometry_threads} geometry threads: no panic"
+            );
+        }
+    }
 
     /// Runs RV twice, re-testing only the first pass's visible triangles and re-testing all;
     /// asserts both give the same set and returns it.

@@ -38,6 +38,8 @@ struct Queues {
     input_done: bool,
     /// The producer waits for ring space.
     producer_blocked: bool,
+    /// A thread panicked: everyone stops waiting (the panic is re-raised at the join).
+    aborted: bool,
 }
 
 /// The bin queues and their scheduling (see the module documentation).
@@ -73,6 +75,7 @@ impl Scheduler {
                 in_flight: 0,
                 input_done: false,
                 producer_blocked: false,
+                aborted: false,
             }),
             changed: Condvar::new(),
             ring_batches,
@@ -87,6 +90,9 @@ impl Scheduler {
         let batch = Arc::new(batch);
         let mut s = lock(&self.state);
         while s.in_flight >= self.ring_batches {
+            if s.aborted {
+                return;
+            }
             s.producer_blocked = true;
             self.changed.notify_all();
             s = self.changed.wait(s).unwrap_or_else(PoisonError::into_inner);
@@ -122,6 +128,9 @@ impl Scheduler {
     pub(crate) fn take(&self) -> Option<Work> {
         let mut s = lock(&self.state);
         loop {
+            if s.aborted {
+                return None;
+            }
             let drain = s.input_done || s.producer_blocked;
             let threshold = if drain { 1 } else { self.threshold };
             let mut best: Option<usize> = None;
@@ -146,6 +155,13 @@ impl Scheduler {
         }
     }
 
+    /// A thread panicked: wake every waiting thread and make all waits end, so the pipeline
+    /// stops instead of waiting forever for work the panicked thread will never finish.
+    pub(crate) fn abort(&self) {
+        lock(&self.state).aborted = true;
+        self.changed.notify_all();
+    }
+
     /// Worker: done with `work`'s bin; drops its batch references and frees finished batches.
     pub(crate) fn done(&self, work: Work) {
         let mut freed = 0;
@@ -160,6 +176,24 @@ impl Scheduler {
         s.in_flight -= freed;
         drop(s);
         self.changed.notify_all();
+    }
+}
+
+/// Calls [`Scheduler::abort`] (and `also`) when dropped during a panic: hold one in every
+/// pipeline thread.
+pub(crate) struct AbortOnPanic<'a> {
+    pub(crate) sched: &'a Scheduler,
+    pub(crate) also: Option<&'a dyn Fn()>,
+}
+
+impl Drop for AbortOnPanic<'_> {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            self.sched.abort();
+            if let Some(f) = self.also {
+                f();
+            }
+        }
     }
 }
 

@@ -47,6 +47,8 @@ pub(crate) struct Producers<'s> {
     turn_changed: Condvar,
     error: Mutex<Option<RvError>>,
     bound: u32,
+    /// A pipeline thread panicked: turn waits end at once.
+    aborted: std::sync::atomic::AtomicBool,
 }
 
 impl<'s> Producers<'s> {
@@ -63,6 +65,7 @@ impl<'s> Producers<'s> {
             turn_changed: Condvar::new(),
             error: Mutex::new(None),
             bound,
+            aborted: std::sync::atomic::AtomicBool::new(false),
         }
     }
 
@@ -88,7 +91,7 @@ impl<'s> Producers<'s> {
     /// Reads the next input batch into `input`; its ticket, or `None` at the end.
     fn read(&self, max: usize, input: &mut Vec<SourceTriangle>) -> Option<u64> {
         let mut r = self.reader.lock().unwrap_or_else(PoisonError::into_inner);
-        if r.done {
+        if r.done || self.aborted.load(std::sync::atomic::Ordering::SeqCst) {
             return None;
         }
         input.clear();
@@ -109,9 +112,21 @@ impl<'s> Producers<'s> {
         }
     }
 
+    /// A pipeline thread panicked: stop reading and end every turn wait (the panic is
+    /// re-raised at the join; nothing produced afterwards is used).
+    pub(crate) fn abort(&self) {
+        self.aborted
+            .store(true, std::sync::atomic::Ordering::SeqCst);
+        if let Ok(mut r) = self.reader.try_lock() {
+            r.done = true;
+        }
+        let _turn = self.turn.lock().unwrap_or_else(PoisonError::into_inner);
+        self.turn_changed.notify_all();
+    }
+
     fn wait_turn(&self, ticket: u64) {
         let mut t = self.turn.lock().unwrap_or_else(PoisonError::into_inner);
-        while *t != ticket {
+        while *t != ticket && !self.aborted.load(std::sync::atomic::Ordering::SeqCst) {
             t = self
                 .turn_changed
                 .wait(t)
