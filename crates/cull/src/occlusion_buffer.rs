@@ -196,6 +196,38 @@ impl Projector {
             && v.y.abs() <= GUARD * self.tan_y * v.z
     }
 
+    /// Clips a view-space triangle to the near plane and the guard band (Sutherland-Hodgman:
+    /// each plane adds at most one vertex, 3 + 5 = 8); the polygon and its vertex count, which
+    /// is below 3 when nothing is left.
+    fn clip(&self, v: [Vec3; 3]) -> ([Vec3; 9], usize) {
+        let mut poly = [Vec3::ZERO; 9];
+        let mut next = [Vec3::ZERO; 9];
+        poly[..3].copy_from_slice(&v);
+        let mut n = 3;
+        for plane in self.planes() {
+            let dist = |p: Vec3| plane[0] * p.x + plane[1] * p.y + plane[2] * p.z + plane[3];
+            let mut m = 0;
+            for i in 0..n {
+                let (a, b) = (poly[i], poly[(i + 1) % n]);
+                let (da, db) = (dist(a), dist(b));
+                if da >= 0.0 {
+                    next[m] = a;
+                    m += 1;
+                }
+                if (da >= 0.0) != (db >= 0.0) {
+                    next[m] = a + (b - a) * (da / (da - db));
+                    m += 1;
+                }
+            }
+            std::mem::swap(&mut poly, &mut next);
+            n = m;
+            if n < 3 {
+                return (poly, n);
+            }
+        }
+        (poly, n)
+    }
+
     /// The clipping planes in view space (`inside` when `dot >= 0` on `(x, y, z, 1)`).
     fn planes(&self) -> [[f32; 4]; 5] {
         let gx = GUARD * self.tan_x;
@@ -587,31 +619,9 @@ impl OcclusionBuffer {
 
     /// Clips a view-space triangle to the near plane and the guard band, then fans it out.
     fn raster_clipped<const K: u8>(&mut self, v: [Vec3; 3], proj: &Projector) {
-        // Sutherland-Hodgman: each plane adds at most one vertex, 3 + 5 = 8.
-        let mut poly = [Vec3::ZERO; 9];
-        let mut next = [Vec3::ZERO; 9];
-        poly[..3].copy_from_slice(&v);
-        let mut n = 3;
-        for plane in proj.planes() {
-            let dist = |p: Vec3| plane[0] * p.x + plane[1] * p.y + plane[2] * p.z + plane[3];
-            let mut m = 0;
-            for i in 0..n {
-                let (a, b) = (poly[i], poly[(i + 1) % n]);
-                let (da, db) = (dist(a), dist(b));
-                if da >= 0.0 {
-                    next[m] = a;
-                    m += 1;
-                }
-                if (da >= 0.0) != (db >= 0.0) {
-                    next[m] = a + (b - a) * (da / (da - db));
-                    m += 1;
-                }
-            }
-            std::mem::swap(&mut poly, &mut next);
-            n = m;
-            if n < 3 {
-                return;
-            }
+        let (poly, n) = proj.clip(v);
+        if n < 3 {
+            return;
         }
         for i in 1..n - 1 {
             // Clipped points lie on z = near at the least; clamp the rounding of the lerp.
@@ -934,32 +944,8 @@ impl OcclusionBuffer {
                 continue;
             }
             // Clipped to the near plane and the guard band, then fanned out (as the occluder
-            // rasterizer does; Sutherland-Hodgman adds at most one vertex per plane).
-            let mut poly = [Vec3::ZERO; 9];
-            let mut next = [Vec3::ZERO; 9];
-            poly[..3].copy_from_slice(&v);
-            let mut n = 3;
-            for plane in proj.planes() {
-                let dist = |p: Vec3| plane[0] * p.x + plane[1] * p.y + plane[2] * p.z + plane[3];
-                let mut m = 0;
-                for i in 0..n {
-                    let (a, b) = (poly[i], poly[(i + 1) % n]);
-                    let (da, db) = (dist(a), dist(b));
-                    if da >= 0.0 {
-                        next[m] = a;
-                        m += 1;
-                    }
-                    if (da >= 0.0) != (db >= 0.0) {
-                        next[m] = a + (b - a) * (da / (da - db));
-                        m += 1;
-                    }
-                }
-                std::mem::swap(&mut poly, &mut next);
-                n = m;
-                if n < 3 {
-                    break;
-                }
-            }
+            // rasterizer does).
+            let (poly, n) = proj.clip(v);
             let s = |p: Vec3| proj.screen(Vec3::new(p.x, p.y, p.z.max(proj.near)));
             for i in 1..n.saturating_sub(1) {
                 if f([s(poly[0]), s(poly[i]), s(poly[i + 1])]) {
