@@ -7,7 +7,9 @@
 //! popping by eye, here it is counted). Beyond the thesis, where the backend answers object
 //! tests at once (the software buffer): objects of drawn cells are tested front to back by
 //! box, then triangles, tested objects get a larger pre-pass cap, and the drawn objects are
-//! retested against the frame's occluders in reverse order (see [`SimConfig`]).
+//! retested against the frame's occluders in reverse order (see [`SimConfig`]). Where it cannot
+//! (hardware queries), objects of drawn cells get box queries of their own, read a frame later
+//! like the cells' ([`SimConfig::object_queries`]).
 //!
 //! # Popping, precisely
 //! The ground truth is the reference rasterizer's image of all objects. The image of the drawn
@@ -82,6 +84,24 @@ pub struct SimConfig {
     /// answers at once) and drop the hidden ones; they stay in the depth as the real
     /// occluders they are.
     pub retest: bool,
+    /// Grid method with `object_tests`, for objects whose test the backend cannot answer at
+    /// once (hardware queries, [`OcclusionBackend::test_object_now`] returns `None`): the
+    /// hardware-query analogue of the test. Such an object of a drawn cell is skipped when
+    /// its own box query, issued in the last `invisible_duration` frames (the scheduler's)
+    /// over a box that lay inside the view and still holds the object, said hidden; otherwise
+    /// it is drawn (no answer yet, a visible one, or a stale one: new objects, cells just
+    /// drawn, objects that moved out of their query box). Every skipped object is queried
+    /// again, and a drawn one whenever it has no visible answer younger than
+    /// `object_visible_duration` frames; answers are read a frame later, like the cells'.
+    /// Query boxes are grown by the object's last step (twice ahead, once around) and by two
+    /// of the camera's last steps, so that next frame's object and eye are still covered.
+    /// Object queries count in the scheduler's query cap after the cells'. With `latency = 0`
+    /// each object's answer is waited for instead and used at once. Backends that answer at
+    /// once never see these queries.
+    pub object_queries: bool,
+    /// Frames a visible result of an object query lasts before the drawn object is queried
+    /// again (so objects that become hidden are found).
+    pub object_visible_duration: u64,
     /// Grid and stop-and-wait methods: attribute every drawn object that is not exactly
     /// visible to a cause ([`FrameStats::extra`]); needs `measure_popping`, costs a few
     /// occluder renders per frame outside the timed culling.
@@ -106,6 +126,8 @@ impl Default for SimConfig {
             tested_prepass_cap: 150,
             sort_cell_objects: true,
             retest: true,
+            object_queries: true,
+            object_visible_duration: 8,
             diagnose: false,
         }
     }
@@ -120,8 +142,11 @@ pub struct FrameStats {
     pub exact_visible: u32,
     /// Objects in cells inside the frustum (the frustum-culling baseline).
     pub frustum: u32,
-    /// Queries issued (cell queries for the grid method, object tests for the baselines).
+    /// Queries issued (cell and object queries for the grid method, object tests for the
+    /// baselines).
     pub queries: u32,
+    /// Grid method: of `queries`, the object queries ([`SimConfig::object_queries`]).
+    pub object_queries: u32,
     /// Grid method: objects of drawn cells tested at once against the frame's depth.
     pub object_tests: u32,
     /// Grid method: drawn objects dropped by the retest after the traversal.
@@ -357,7 +382,113 @@ struct MethodState {
     hzb: Hzb,
     /// With [`SimConfig::diagnose`], for the methods it applies to.
     diagnosis: Option<Diagnosis>,
+    /// Grid method, per object: its object queries ([`SimConfig::object_queries`]).
+    objects: ObjectQueries,
     report: SimReport,
+}
+
+/// The tag bit of object queries in the grid method; cell queries are tagged by cell index.
+const OBJECT_TAG: u32 = 1 << 31;
+
+/// Object query boxes grow by this many of the camera's last steps on every side.
+const OBJECT_QUERY_EYE_STEPS: f32 = 2.0;
+
+/// Per-object state of the grid method's object queries: the last answered query of every
+/// object and the box it asked about.
+#[derive(Default)]
+struct ObjectQueries {
+    /// Frame the last answered query was issued in (0: never), with bit 63 when it said
+    /// visible.
+    result: Vec<u64>,
+    /// Box of the object's last query.
+    queried: Vec<Aabb>,
+    /// Box of the object when last queried, for the motion of the next query's box.
+    seen: Vec<Aabb>,
+    /// Frame of `seen` (0: never).
+    seen_at: Vec<u64>,
+    /// Whether the last query box lay inside the view: a hidden answer for a box partly
+    /// outside may only say that it was off screen, which turning the camera undoes.
+    in_view: Vec<bool>,
+    /// The eye of the last frame, and how far it moved into this one.
+    eye: Option<Vec3>,
+    eye_step: f32,
+}
+
+impl ObjectQueries {
+    const VISIBLE: u64 = 1 << 63;
+
+    fn new(objects: usize) -> Self {
+        Self {
+            result: vec![0; objects],
+            queried: vec![Aabb::EMPTY; objects],
+            seen: vec![Aabb::EMPTY; objects],
+            seen_at: vec![0; objects],
+            in_view: vec![false; objects],
+            eye: None,
+            eye_step: 0.0,
+        }
+    }
+
+    /// Records the answer of a query of `o` issued in frame `issued`.
+    fn record(&mut self, o: u32, issued: u64, visible: bool) {
+        if let Some(r) = self.result.get_mut(o as usize) {
+            *r = issued | if visible { Self::VISIBLE } else { 0 };
+        }
+    }
+
+    /// For an object of a drawn cell in frame `frame`, with box `aabb`: `(draw, query)`.
+    /// Hidden only by a hidden answer at most `hidden_for` frames old over a box that still
+    /// holds the object; queried when not drawn or without a visible answer younger than
+    /// `visible_for` frames.
+    fn decide(
+        &self,
+        o: u32,
+        aabb: &Aabb,
+        frame: u64,
+        hidden_for: u64,
+        visible_for: u64,
+    ) -> (bool, bool) {
+        let o = o as usize;
+        let r = self.result[o];
+        let issued = r & !Self::VISIBLE;
+        if issued == 0 {
+            return (true, true);
+        }
+        if r & Self::VISIBLE != 0 {
+            return (true, issued + visible_for.max(1) <= frame);
+        }
+        let q = &self.queried[o];
+        let holds = self.in_view[o] && q.min.cmple(aabb.min).all() && aabb.max.cmple(q.max).all();
+        let hidden = holds && issued + hidden_for.max(1) >= frame;
+        (!hidden, true)
+    }
+
+    /// The box to query for `o`, now at `aabb`: its box, stretched by the motion since its
+    /// last query when that was in the previous frame (so that next frame's box is likely
+    /// still inside and the answer applies).
+    fn query_box(&mut self, o: u32, aabb: &Aabb, frame: u64, camera: &Camera) -> Aabb {
+        let o = o as usize;
+        // The camera's last step around the box: parallax lets the next eye see past an
+        // occluder's edge about as far as the eye moves, so the answer holds for it.
+        let margin = Vec3::splat(self.eye_step * OBJECT_QUERY_EYE_STEPS);
+        let mut q = Aabb::new(aabb.min - margin, aabb.max + margin);
+        if self.seen_at[o] + 1 == frame && !self.seen[o].is_empty() {
+            // Two steps ahead and a step around: room for acceleration and turning back.
+            let step = aabb.min - self.seen[o].min;
+            let pad = step.abs();
+            q = q.union(&Aabb::new(aabb.min + 2.0 * step, aabb.max + 2.0 * step));
+            q = Aabb::new(q.min - pad, q.max + pad);
+        }
+        self.queried[o] = q;
+        self.in_view[o] = inside_view(&q, camera);
+        q
+    }
+
+    /// Notes the box of `o` in frame `frame` (every frame it is decided on).
+    fn seen(&mut self, o: u32, aabb: &Aabb, frame: u64) {
+        self.seen[o as usize] = *aabb;
+        self.seen_at[o as usize] = frame;
+    }
 }
 
 impl MethodState {
@@ -465,10 +596,12 @@ impl MethodState {
         let scheduler = &mut self.scheduler;
         scheduler.begin_frame();
         let frame_no = scheduler.frame();
-        for &(cell, vis) in &self.pending {
-            scheduler.record(cell, frame_no - 1, vis);
-        }
-        self.pending.clear();
+        // Object queries have their state only where they are on (see `simulate_views`).
+        let object_queries = config.object_tests && !self.objects.result.is_empty();
+        let objects = &mut self.objects;
+        objects.eye_step = objects.eye.map_or(0.0, |e| e.distance(camera.eye));
+        objects.eye = Some(camera.eye);
+        record_results(&mut self.pending, scheduler, objects, frame_no - 1);
         backend.begin_frame(camera);
         w.grid.begin_pass();
         for &cell in &self.cells {
@@ -481,10 +614,7 @@ impl MethodState {
                 stats.queries += 1;
                 if config.latency == 0 {
                     backend.take_results(&mut self.pending);
-                    for &(c, vis) in &self.pending {
-                        scheduler.record(c, frame_no, vis);
-                    }
-                    self.pending.clear();
+                    record_results(&mut self.pending, scheduler, objects, frame_no);
                 }
             }
             if !scheduler.is_drawn(cell) {
@@ -516,6 +646,43 @@ impl MethodState {
                         tested = true;
                         stats.object_tests += 1;
                         if !vis {
+                            continue;
+                        }
+                    } else if object_queries && config.latency == 0 {
+                        // Results used at once: wait for the object's answer (stop and wait),
+                        // exact for this frame like the software test.
+                        let tag = OBJECT_TAG | o;
+                        backend.query(tag, aabb);
+                        stats.object_queries += 1;
+                        stats.queries += 1;
+                        backend.take_results(&mut self.pending);
+                        let vis = self.pending.iter().rev().find(|r| r.0 == tag);
+                        let vis = vis.is_none_or(|r| r.1);
+                        record_results(&mut self.pending, scheduler, objects, frame_no);
+                        if !vis {
+                            continue;
+                        }
+                    } else if object_queries {
+                        let (draw, query) = objects.decide(
+                            o,
+                            aabb,
+                            frame_no,
+                            scheduler.config().invisible_duration,
+                            config.object_visible_duration,
+                        );
+                        // Within the frame's query cap (cells' queries first); an object
+                        // left unqueried has no fresh answer next frame and is drawn then.
+                        let room = scheduler.queries_this_frame() + (stats.object_queries as usize)
+                            < scheduler.config().query_cap;
+                        if query && room {
+                            let q = objects.query_box(o, aabb, frame_no, camera);
+                            // Before the object's own depth, which would hide its box's back.
+                            backend.query(OBJECT_TAG | o, &q);
+                            stats.object_queries += 1;
+                            stats.queries += 1;
+                        }
+                        objects.seen(o, aabb, frame_no);
+                        if !draw {
                             continue;
                         }
                     }
@@ -559,6 +726,39 @@ impl MethodState {
         backend.take_results(&mut self.pending);
         scheduler.end_frame();
     }
+}
+
+/// Whether every corner of `aabb` lies inside the camera's view (beyond the near plane,
+/// within the image's edges).
+fn inside_view(aabb: &Aabb, camera: &Camera) -> bool {
+    let (tx, ty) = (camera.tan_half_x(), camera.tan_half_y());
+    (0..8).all(|i| {
+        let c = Vec3::new(
+            if i & 1 != 0 { aabb.max.x } else { aabb.min.x },
+            if i & 2 != 0 { aabb.max.y } else { aabb.min.y },
+            if i & 4 != 0 { aabb.max.z } else { aabb.min.z },
+        );
+        let v = camera.to_view(c);
+        v.z >= camera.near && v.x.abs() <= v.z * tx && v.y.abs() <= v.z * ty
+    })
+}
+
+/// Records query results of the grid method, `(tag, visible)` issued in frame `issued`, with
+/// the scheduler (cells) or the object queries ([`OBJECT_TAG`]), and empties `pending`.
+fn record_results(
+    pending: &mut Vec<(u32, bool)>,
+    scheduler: &mut Scheduler,
+    objects: &mut ObjectQueries,
+    issued: u64,
+) {
+    for &(tag, vis) in pending.iter() {
+        if tag & OBJECT_TAG != 0 && !objects.result.is_empty() {
+            objects.record(tag & !OBJECT_TAG, issued, vis);
+        } else {
+            scheduler.record(tag, issued, vis);
+        }
+    }
+    pending.clear();
 }
 
 /// Runs the simulation of `scene` along its camera path once, culling every frame with each
@@ -671,6 +871,16 @@ fn simulate_views(
                     Method::Grid | Method::StopAndWait | Method::StopAndWaitTriangles
                 ))
             .then(|| Diagnosis::new(config.width, config.height)),
+            // Object tags need cell and object indices below the tag bit.
+            objects: if method == Method::Grid
+                && config.object_queries
+                && shape.cell_count() < OBJECT_TAG as usize
+                && n_obj < OBJECT_TAG as usize
+            {
+                ObjectQueries::new(n_obj)
+            } else {
+                ObjectQueries::default()
+            },
             drawn_flag: vec![false; n_obj],
             streak: vec![0; n_obj],
             last_visible: Vec::new(),

@@ -1,5 +1,6 @@
 //! Runs The Grid with the GPU (hardware occlusion query) backend and, side by side, the
-//! software backend, and prints both summaries plus the GPU's queries and wait per frame.
+//! software backend, and prints both summaries plus the GPU's queries and wait per frame; the
+//! GPU runs with the grid method's object queries and without them (cell queries only).
 //!
 //! `cargo run --release -p sightline-gpu --example grid_gpu -- [frames] [per_room] [popping 0|1]`
 
@@ -94,18 +95,27 @@ fn main() {
     );
     for latency in [1, 0] {
         config.latency = latency;
-        let mut counted = Counted {
-            gpu: &mut gpu,
-            frames: 0,
-            sum: GpuFrameStats::default(),
-        };
-        match simulate(&scene, &mut counted, &config) {
-            Ok(r) => println!(
-                "gpu latency {latency}: {}\n  {}",
-                r.summary(),
-                counted.per_frame()
-            ),
-            Err(e) => eprintln!("error: {e}"),
+        // With the grid method's object queries (the default) and without (cells only).
+        for object_queries in [true, false] {
+            let cfg = SimConfig {
+                object_queries,
+                ..config
+            };
+            let mut counted = Counted {
+                gpu: &mut gpu,
+                frames: 0,
+                sum: GpuFrameStats::default(),
+            };
+            let label = if object_queries { "on" } else { "off" };
+            match simulate(&scene, &mut counted, &cfg) {
+                Ok(r) => println!(
+                    "gpu latency {latency}, object queries {label}: {}\n  object queries {:.0}/frame; {}",
+                    r.summary(),
+                    r.mean(|f| f64::from(f.object_queries)),
+                    counted.per_frame()
+                ),
+                Err(e) => eprintln!("error: {e}"),
+            }
         }
         let mut sw = SoftwareBackend::new(config.width, config.height);
         match simulate(&scene, &mut sw, &config) {
