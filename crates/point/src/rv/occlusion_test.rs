@@ -278,3 +278,141 @@ fn behind_but_shared_corners(
     p.iter().all(|v| t.contains(v) || behind(t_plane, *v))
         || p_plane.is_some_and(|pp| t.iter().all(|u| p.contains(u) || in_front(pp, *u)))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rv::depth::eye_plane;
+
+    const M: f64 = 1e-3;
+
+    fn v(x: f64, y: f64) -> DVec2 {
+        DVec2::new(x, y)
+    }
+
+    fn tri() -> [DVec2; 3] {
+        [v(0.0, 0.0), v(10.0, 0.0), v(0.0, 10.0)]
+    }
+
+    #[test]
+    fn an_edge_of_the_occludee_stays_on_its_boundary() {
+        let t = tri();
+        assert!(stays_on_boundary(&Edge { a: t[0], b: t[1] }, &t, M));
+        // Either direction.
+        assert!(stays_on_boundary(&Edge { a: t[2], b: t[1] }, &t, M));
+    }
+
+    #[test]
+    fn an_edge_leaving_a_corner_outwards_stays_on_the_boundary() {
+        let t = tri();
+        assert!(stays_on_boundary(
+            &Edge {
+                a: t[0],
+                b: v(-5.0, -1.0)
+            },
+            &t,
+            M
+        ));
+        assert!(stays_on_boundary(
+            &Edge {
+                a: v(12.0, -3.0),
+                b: t[1]
+            },
+            &t,
+            M
+        ));
+    }
+
+    #[test]
+    fn an_edge_entering_the_interior_does_not() {
+        let t = tri();
+        // From a corner into the triangle.
+        assert!(!stays_on_boundary(
+            &Edge {
+                a: t[0],
+                b: v(3.0, 3.0)
+            },
+            &t,
+            M
+        ));
+        // Touching no corner at all (crossing it).
+        assert!(!stays_on_boundary(
+            &Edge {
+                a: v(-1.0, 5.0),
+                b: v(5.0, -1.0)
+            },
+            &t,
+            M
+        ));
+        // Leaving a corner outwards, but within the (scaled) margin of an edge line: the
+        // rounding of either segment could put it inside.
+        let grazing = Edge {
+            a: t[0],
+            b: v(10.0, -1e-4),
+        };
+        assert!(!stays_on_boundary(&grazing, &t, M));
+    }
+
+    #[test]
+    fn triangles_on_either_side_of_a_shared_edge_are_apart() {
+        let p = tri();
+        let across = [v(10.0, 0.0), v(0.0, 10.0), v(10.0, 10.0)];
+        assert!(interiors_apart_at_shared_corners(&p, &across, M));
+        // Folded back over the same side: they overlap.
+        let folded = [v(10.0, 0.0), v(0.0, 10.0), v(2.0, 2.0)];
+        assert!(!interiors_apart_at_shared_corners(&p, &folded, M));
+    }
+
+    #[test]
+    fn triangles_sharing_a_corner_are_apart_only_when_a_line_separates_them() {
+        let p = tri();
+        let beside = [v(0.0, 0.0), v(-5.0, 1.0), v(-1.0, 8.0)];
+        assert!(interiors_apart_at_shared_corners(&p, &beside, M));
+        let overlapping = [v(0.0, 0.0), v(5.0, 1.0), v(-1.0, 8.0)];
+        assert!(!interiors_apart_at_shared_corners(&p, &overlapping, M));
+        // No shared corner: never claimed apart here.
+        let elsewhere = [v(20.0, 0.0), v(30.0, 0.0), v(20.0, 10.0)];
+        assert!(!interiors_apart_at_shared_corners(&p, &elsewhere, M));
+    }
+
+    /// A unit cube seen from (3, 2.5, 2) in view coordinates: the eye at the origin, the cube
+    /// ahead along +z.
+    fn corner(x: f64, y: f64, z: f64) -> DVec3 {
+        DVec3::new(x - 0.5, y - 0.5, z + 3.0)
+    }
+
+    #[test]
+    fn a_back_face_sharing_an_edge_lies_behind_the_front_face() {
+        // Front face z = 0 (nearest), back face x = 1 sharing the edge x = 1, z = 0.
+        let front = [
+            corner(0.0, 0.0, 0.0),
+            corner(1.0, 0.0, 0.0),
+            corner(1.0, 1.0, 0.0),
+        ];
+        let side = [
+            corner(1.0, 0.0, 0.0),
+            corner(1.0, 1.0, 0.0),
+            corner(1.0, 1.0, 1.0),
+        ];
+        let fp = eye_plane(front[0], front[1], front[2]).expect("plane");
+        let sp = eye_plane(side[0], side[1], side[2]);
+        assert!(behind_but_shared_corners(&side, sp.as_ref(), &front, &fp));
+        // The same triangle is not behind itself (three shared corners: a tie).
+        assert!(!behind_but_shared_corners(&front, Some(&fp), &front, &fp));
+        // In front of it: the front face is not behind the side face.
+        let spl = sp.expect("plane");
+        assert!(!behind_but_shared_corners(&front, Some(&fp), &side, &spl));
+    }
+
+    #[test]
+    fn no_shared_corner_is_left_to_the_general_test() {
+        let near = [
+            corner(0.0, 0.0, 0.0),
+            corner(1.0, 0.0, 0.0),
+            corner(1.0, 1.0, 0.0),
+        ];
+        let far = near.map(|c| c + DVec3::new(0.0, 0.0, 5.0));
+        let np = eye_plane(near[0], near[1], near[2]).expect("plane");
+        assert!(!behind_but_shared_corners(&far, None, &near, &np));
+    }
+}
