@@ -112,7 +112,10 @@ fn unproject(cam: &Camera, w: u32, h: u32, sx: f32, sy: f32, z: f32) -> Vec3 {
 #[test]
 fn batched_avx2_path_equals_previous_kernels_on_small_edge_and_near_triangles() {
     if !Kernel::Avx2.available() {
-        eprintln!("no AVX2 on this CPU: the batched path is not compiled in use");
+        // Without AVX2 the batched path can never run: then it must not be selectable either.
+        eprintln!("no AVX2 on this CPU: checking that the batched path cannot be selected");
+        assert_ne!(Kernel::detect(), Kernel::Avx2);
+        assert!(!OcclusionBuffer::new(8, 8).set_kernel(Kernel::Avx2));
         return;
     }
     let (w, h) = (480, 270);
