@@ -150,13 +150,7 @@ impl Diagnosis {
         self.order.clear();
         self.order
             .extend((0..visible.len() as u32).filter(|&o| visible[o as usize]));
-        let eye = camera.eye;
-        let dist = |o: &u32| {
-            let b = &objects.boxes[*o as usize];
-            (eye.clamp(b.min, b.max) - eye).length_squared()
-        };
-        self.order
-            .sort_by(|a, b| dist(a).total_cmp(&dist(b)).then(a.cmp(b)));
+        crate::simulate::sort_front_to_back(&mut self.order, objects.boxes, camera.eye);
         render(&mut self.ideal, &self.order);
         let method_test = |buffer: &OcclusionBuffer, o: u32| {
             buffer.test_box(&objects.boxes[o as usize], camera)

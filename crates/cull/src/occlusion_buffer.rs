@@ -63,6 +63,16 @@ pub const COVER_MARGIN: f32 = 1.0 / 16.0;
 const GUARD: f32 = 4.0;
 const FULL: u32 = u32::MAX;
 
+/// Pixel centres under a widened screen triangle's bounding box.
+enum CentreRange {
+    /// A corner is not finite: the caller must stay conservative.
+    NotFinite,
+    /// No pixel centre of the image.
+    Empty,
+    /// Inclusive `(col0, col1, row0, row1)`.
+    Pixels((i32, i32, i32, i32)),
+}
+
 /// One 8x4 tile: reference layer, working layer and the working layer's coverage.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Tile {
@@ -956,23 +966,35 @@ impl OcclusionBuffer {
         false
     }
 
-    /// True when the screen triangle, widened by `margin` pixels, contains a pixel centre of
-    /// the image. Row by row: each edge bounds the row's span from one side.
-    fn screen_triangle_covers_centre(&self, p: [[f32; 3]; 3], margin: f32) -> bool {
+    /// The pixel centres (inclusive columns and rows, clamped to the image) inside the
+    /// bounding box of screen triangle `p` (`[sx, sy, 1/z]` per corner) grown by `margin`.
+    fn widened_centres(&self, p: [[f32; 3]; 3], margin: f32) -> CentreRange {
         let xmin = p[0][0].min(p[1][0]).min(p[2][0]) - margin;
         let xmax = p[0][0].max(p[1][0]).max(p[2][0]) + margin;
         let ymin = p[0][1].min(p[1][1]).min(p[2][1]) - margin;
         let ymax = p[0][1].max(p[1][1]).max(p[2][1]) + margin;
         if !(xmin.is_finite() && xmax.is_finite() && ymin.is_finite() && ymax.is_finite()) {
-            return true;
+            return CentreRange::NotFinite;
         }
         let col0 = ceil_i(xmin - 0.5).max(0);
         let col1 = floor_i(xmax - 0.5).min(self.width as i32 - 1);
         let row0 = ceil_i(ymin - 0.5).max(0);
         let row1 = floor_i(ymax - 0.5).min(self.height as i32 - 1);
         if col0 > col1 || row0 > row1 {
-            return false;
+            CentreRange::Empty
+        } else {
+            CentreRange::Pixels((col0, col1, row0, row1))
         }
+    }
+
+    /// True when the screen triangle, widened by `margin` pixels, contains a pixel centre of
+    /// the image. Row by row: each edge bounds the row's span from one side.
+    fn screen_triangle_covers_centre(&self, p: [[f32; 3]; 3], margin: f32) -> bool {
+        let (col0, col1, row0, row1) = match self.widened_centres(p, margin) {
+            CentreRange::NotFinite => return true,
+            CentreRange::Empty => return false,
+            CentreRange::Pixels(r) => r,
+        };
         let (d1x, d1y) = (p[1][0] - p[0][0], p[1][1] - p[0][1]);
         let (d2x, d2y) = (p[2][0] - p[0][0], p[2][1] - p[0][1]);
         let area = d1x * d2y - d1y * d2x;
@@ -1007,21 +1029,11 @@ impl OcclusionBuffer {
     /// One screen triangle (`[sx, sy, 1/z]` per corner) against the buffer: true when some
     /// pixel of its coverage widened by `widen` pixels is not covered by a nearer occluder.
     fn test_screen_triangle(&self, p: [[f32; 3]; 3], widen: f32) -> bool {
-        let xmin = p[0][0].min(p[1][0]).min(p[2][0]) - widen;
-        let xmax = p[0][0].max(p[1][0]).max(p[2][0]) + widen;
-        let ymin = p[0][1].min(p[1][1]).min(p[2][1]) - widen;
-        let ymax = p[0][1].max(p[1][1]).max(p[2][1]) + widen;
-        if !(xmin.is_finite() && xmax.is_finite() && ymin.is_finite() && ymax.is_finite()) {
-            return true;
-        }
-        // Pixel centres inside the widened bounding box.
-        let col0 = ceil_i(xmin - 0.5).max(0);
-        let col1 = floor_i(xmax - 0.5).min(self.width as i32 - 1);
-        let row0 = ceil_i(ymin - 0.5).max(0);
-        let row1 = floor_i(ymax - 0.5).min(self.height as i32 - 1);
-        if col0 > col1 || row0 > row1 {
-            return false;
-        }
+        let (col0, col1, row0, row1) = match self.widened_centres(p, widen) {
+            CentreRange::NotFinite => return true,
+            CentreRange::Empty => return false,
+            CentreRange::Pixels(r) => r,
+        };
         let r_corner = p[0][2].max(p[1][2]).max(p[2][2]);
         let (d1x, d1y, d1r) = (p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]);
         let (d2x, d2y, d2r) = (p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]);

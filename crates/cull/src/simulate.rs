@@ -305,6 +305,16 @@ pub fn simulate(
     Ok(reports.pop().unwrap_or_default())
 }
 
+/// Sorts object ids by the distance from `eye` to the nearest point of their boxes (ties by
+/// id, so the order never depends on the input's).
+pub(crate) fn sort_front_to_back(ids: &mut [u32], boxes: &[Aabb], eye: Vec3) {
+    let dist = |o: &u32| {
+        let b = &boxes[*o as usize];
+        (eye.clamp(b.min, b.max) - eye).length_squared()
+    };
+    ids.sort_by(|a, b| dist(a).total_cmp(&dist(b)).then(a.cmp(b)));
+}
+
 /// The world shared by the methods in one frame: objects in the grid, their current boxes
 /// and triangle corners.
 struct World<'a> {
@@ -513,13 +523,7 @@ impl MethodState {
                 self.collected.clear();
                 stats.cells = w.frustum_objects(&self.cells, &mut self.collected);
                 // Front to back by the distance from the eye to each box.
-                let eye = camera.eye;
-                let dist = |o: &u32| {
-                    let b = &w.boxes[*o as usize];
-                    (eye.clamp(b.min, b.max) - eye).length_squared()
-                };
-                self.collected
-                    .sort_by(|a, b| dist(a).total_cmp(&dist(b)).then(a.cmp(b)));
+                sort_front_to_back(&mut self.collected, &w.boxes, camera.eye);
                 backend.begin_frame(camera);
                 for &o in &self.collected {
                     stats.queries += 1;
@@ -623,13 +627,7 @@ impl MethodState {
             self.collected.clear();
             w.grid.collect(cell, &mut self.collected);
             if config.sort_cell_objects {
-                let eye = camera.eye;
-                let dist = |o: &u32| {
-                    let b = &w.boxes[*o as usize];
-                    (eye.clamp(b.min, b.max) - eye).length_squared()
-                };
-                self.collected
-                    .sort_by(|a, b| dist(a).total_cmp(&dist(b)).then(a.cmp(b)));
+                sort_front_to_back(&mut self.collected, &w.boxes, camera.eye);
             }
             for &o in &self.collected {
                 // Objects of a drawn cell against the depth drawn so far this frame (exact

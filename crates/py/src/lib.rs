@@ -21,6 +21,22 @@ use pyo3::prelude::*;
 use sightline_core::TriangleSet;
 
 /// A `ValueError` carrying `e`'s message.
+/// The values of a contiguous integer array (already converted to `T`) as `i128`, which holds
+/// every `i64` and `u64` so range checks see the true value.
+fn widened<'py, T>(array: Bound<'py, PyAny>) -> PyResult<Vec<i128>>
+where
+    T: numpy::Element + Copy + Into<i128>,
+{
+    let a = array.cast_into::<numpy::PyArrayDyn<T>>()?;
+    let ro = a.readonly();
+    Ok(ro
+        .as_slice()
+        .map_err(value_error)?
+        .iter()
+        .map(|&v| v.into())
+        .collect())
+}
+
 pub(crate) fn value_error(e: impl std::fmt::Display) -> PyErr {
     PyValueError::new_err(e.to_string())
 }
@@ -77,21 +93,9 @@ pub(crate) fn rows_u32(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<[u32;
     let wide = np.call_method1("ascontiguousarray", (arr, wide_dtype))?;
     let mut rows = Vec::with_capacity(shape[0]);
     let values: Vec<i128> = if kind == "i" {
-        let a = wide.cast_into::<numpy::PyArrayDyn<i64>>()?;
-        let ro = a.readonly();
-        ro.as_slice()
-            .map_err(value_error)?
-            .iter()
-            .map(|&v| i128::from(v))
-            .collect()
+        widened::<i64>(wide)?
     } else {
-        let a = wide.cast_into::<numpy::PyArrayDyn<u64>>()?;
-        let ro = a.readonly();
-        ro.as_slice()
-            .map_err(value_error)?
-            .iter()
-            .map(|&v| i128::from(v))
-            .collect()
+        widened::<u64>(wide)?
     };
     for (i, c) in values.chunks_exact(3).enumerate() {
         let mut row = [0u32; 3];

@@ -56,23 +56,37 @@ struct Row {
     seconds: f64,
 }
 
+/// Reads the `.pvs` file at `path` and checks that it was baked for `scene`.
+pub(crate) fn load_pvs_of(
+    scene: &sightline_core::Scene,
+    path: &std::path::Path,
+) -> Result<PvsFile> {
+    let file = PvsFile::load(path).with_context(|| format!("reading {}", path.display()))?;
+    file.check_scene(scene)
+        .with_context(|| format!("{}", path.display()))?;
+    Ok(file)
+}
+
+/// The view mode named on the command line (`random`; anything else is the cube faces, which
+/// clap's value list already restricts to `cube`).
+pub(crate) fn view_mode(name: &str) -> ViewMode {
+    if name == "random" {
+        ViewMode::Random
+    } else {
+        ViewMode::CubeFaces
+    }
+}
+
 pub(crate) fn run(args: Args) -> Result<()> {
     let scene = args.scene.load()?;
-    let file =
-        PvsFile::load(&args.pvs).with_context(|| format!("reading {}", args.pvs.display()))?;
-    file.check_scene(&scene)
-        .with_context(|| format!("{}", args.pvs.display()))?;
+    let file = load_pvs_of(&scene, &args.pvs)?;
     if args.viewpoints == 0 || args.resolution == 0 || args.resolution > 8192 {
         bail!("--viewpoints must be >= 1 and --resolution in 1..=8192");
     }
     let params = EvalParams {
         viewpoints: args.viewpoints,
         resolution: args.resolution,
-        views: if args.views == "random" {
-            ViewMode::Random
-        } else {
-            ViewMode::CubeFaces
-        },
+        views: view_mode(&args.views),
         seed: args.seed,
     };
     let indices: Vec<usize> = if args.cells.is_empty() {

@@ -9,10 +9,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use sightline_core::atomic_file::write_atomic;
 use sightline_core::scene::LoadOptions;
-use sightline_eval::{EvalParams, ViewMode};
-use sightline_region::PvsFile;
+use sightline_eval::EvalParams;
 
 use crate::args::SceneArgs;
+use crate::commands::eval::{load_pvs_of, view_mode};
 use crate::output::print_json;
 use crate::report::html::page;
 use crate::report::{pvs_report, PvsReportOptions};
@@ -78,19 +78,12 @@ pub(crate) fn run(args: Args) -> Result<()> {
         patch_subdivisions: args.patch_subdivisions,
     }
     .load()?;
-    let file =
-        PvsFile::load(&args.pvs).with_context(|| format!("reading {}", args.pvs.display()))?;
-    file.check_scene(&scene)
-        .with_context(|| format!("{}", args.pvs.display()))?;
+    let file = load_pvs_of(&scene, &args.pvs)?;
     let options = PvsReportOptions {
         params: EvalParams {
             viewpoints: args.views,
             resolution: args.size,
-            views: if args.view_mode == "random" {
-                ViewMode::Random
-            } else {
-                ViewMode::CubeFaces
-            },
+            views: view_mode(&args.view_mode),
             seed: args.seed,
         },
         worst_views: args.worst,

@@ -429,6 +429,11 @@ mod tests {
         }
     }
 
+    /// Offers the triangle with screen corners `s` (at depth 5) to `b` under `limits()`.
+    fn add(b: &mut BinState, s: [[f64; 2]; 3], pool: &Pool) -> AddOutcome {
+        b.add(&tri(s), &limits(), pool, true)
+    }
+
     fn tri(s: [[f64; 2]; 3]) -> ProjTri {
         let screen = s.map(|p| DVec2::new(p[0], p[1]));
         let corners = s.map(|p| DVec3::new(p[0], p[1], 5.0));
@@ -446,12 +451,7 @@ mod tests {
     fn first_triangle_starts_occluder() {
         let pool = Pool::new(1 << 20);
         let mut b = BinState::default();
-        let out = b.add(
-            &tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),
-            &limits(),
-            &pool,
-            true,
-        );
+        let out = add(&mut b, [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], &pool);
         assert_eq!(out, AddOutcome::New);
         assert_eq!(b.occluders[0].edges.len(), 3);
     }
@@ -460,18 +460,8 @@ mod tests {
     fn shared_edge_grows_and_drops_edge() {
         let pool = Pool::new(1 << 20);
         let mut b = BinState::default();
-        b.add(
-            &tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),
-            &limits(),
-            &pool,
-            true,
-        );
-        let out = b.add(
-            &tri([[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
-            &limits(),
-            &pool,
-            true,
-        );
+        add(&mut b, [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], &pool);
+        let out = add(&mut b, [[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], &pool);
         assert_eq!(out, AddOutcome::Grown);
         assert_eq!(b.occluders.len(), 1);
         assert_eq!(b.occluders[0].edges.len(), 4);
@@ -481,33 +471,13 @@ mod tests {
     fn bridge_triangle_merges() {
         let pool = Pool::new(1 << 20);
         let mut b = BinState::default();
-        b.add(
-            &tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),
-            &limits(),
-            &pool,
-            true,
-        );
-        b.add(
-            &tri([[1.0, 1.0], [2.0, 1.0], [1.0, 2.0]]),
-            &limits(),
-            &pool,
-            true,
-        );
+        add(&mut b, [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], &pool);
+        add(&mut b, [[1.0, 1.0], [2.0, 1.0], [1.0, 2.0]], &pool);
         // Shares edge (1,0)-(0,1) with the first and nothing with the second...
-        let out = b.add(
-            &tri([[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
-            &limits(),
-            &pool,
-            true,
-        );
+        let out = add(&mut b, [[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], &pool);
         assert_eq!(out, AddOutcome::Grown);
         // ...then one touching both.
-        let out = b.add(
-            &tri([[1.0, 1.0], [1.0, 0.0], [2.0, 1.0]]),
-            &limits(),
-            &pool,
-            true,
-        );
+        let out = add(&mut b, [[1.0, 1.0], [1.0, 0.0], [2.0, 1.0]], &pool);
         assert_eq!(out, AddOutcome::Merged);
         assert_eq!(b.occluders.len(), 1);
         assert_eq!(b.occluders[0].tris.len(), 4);
@@ -538,12 +508,7 @@ mod tests {
     fn full_pool_refuses() {
         let pool = Pool::new(0);
         let mut b = BinState::default();
-        let out = b.add(
-            &tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),
-            &limits(),
-            &pool,
-            true,
-        );
+        let out = add(&mut b, [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], &pool);
         assert_eq!(out, AddOutcome::Full);
         assert!(b.occluders.is_empty());
     }

@@ -234,13 +234,7 @@ pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scr
                     || s.tris.len() == ctx.options.batch_triangles
                 {
                     // Rare (huge triangles): this input needs more than one batch.
-                    let batch = seal(
-                        &mut s.tris,
-                        &mut s.pairs,
-                        n_bins,
-                        ctx.options.batch_triangles,
-                        ctx.sort,
-                    );
+                    let batch = seal_scratch(&mut s.tris, &mut s.pairs, ctx, n_bins);
                     shared.wait_turn(ticket);
                     ctx.sched.push(batch);
                 }
@@ -250,15 +244,8 @@ pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scr
                 out.entries += s.tri_bins.len() as u64;
             }
         }
-        let batch = (!s.tris.is_empty()).then(|| {
-            seal(
-                &mut s.tris,
-                &mut s.pairs,
-                n_bins,
-                ctx.options.batch_triangles,
-                ctx.sort,
-            )
-        });
+        let batch =
+            (!s.tris.is_empty()).then(|| seal_scratch(&mut s.tris, &mut s.pairs, ctx, n_bins));
         shared.wait_turn(ticket);
         if let Some(batch) = batch {
             ctx.sched.push(batch);
@@ -270,6 +257,16 @@ pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scr
         }
     }
     out
+}
+
+/// Seals a geometry thread's gathered triangles into a batch with this pass's options.
+fn seal_scratch(
+    tris: &mut Vec<ProjTri>,
+    pairs: &mut Vec<(u32, u32)>,
+    ctx: &GeometryContext<'_>,
+    n_bins: usize,
+) -> Batch {
+    seal(tris, pairs, n_bins, ctx.options.batch_triangles, ctx.sort)
 }
 
 /// Sorts a batch front to back (when `sort`) and counting-sorts its (bin, triangle) pairs into a
