@@ -11,6 +11,7 @@
 use glam::Vec3;
 use sightline_core::scene::procedural::City;
 use sightline_core::scene::TriangleSink;
+use sightline_core::TriangleSet;
 
 use super::source::{SourceTriangle, TriangleSource};
 use super::RvError;
@@ -41,6 +42,31 @@ impl TriangleSink for BlockSink {
         let corner = |i: u32| self.vertices.get(i as usize).copied().unwrap_or(Vec3::NAN);
         self.triangles
             .push([corner(t[0]), corner(t[1]), corner(t[2])]);
+    }
+}
+
+/// Counts one block's triangles without keeping them: a block nobody wants is generated into
+/// it, so the generator's random state and the ids stay those of the full stream.
+#[derive(Default)]
+struct CountingSink {
+    vertices: u32,
+    triangles: u32,
+}
+
+impl TriangleSink for CountingSink {
+    fn begin_object(&mut self, _name: std::fmt::Arguments<'_>) {}
+
+    fn vertex_count(&self) -> u32 {
+        self.vertices
+    }
+
+    fn add_vertex(&mut self, _p: Vec3) -> u32 {
+        self.vertices += 1;
+        self.vertices - 1
+    }
+
+    fn add_triangle(&mut self, _t: [u32; 3]) {
+        self.triangles += 1;
     }
 }
 
@@ -101,12 +127,45 @@ impl TriangleSource for StreamingCity {
     }
 
     fn next_batch(&mut self, max: usize, out: &mut Vec<SourceTriangle>) -> Result<usize, RvError> {
+        Ok(self.fill(max, out, None))
+    }
+
+    fn next_wanted(
+        &mut self,
+        max: usize,
+        out: &mut Vec<SourceTriangle>,
+        wanted: &TriangleSet,
+    ) -> Result<usize, RvError> {
+        Ok(self.fill(max, out, Some(wanted)))
+    }
+}
+
+impl StreamingCity {
+    /// Appends up to `max` triangles; with `wanted`, blocks none of whose possible ids is
+    /// wanted are only counted (about a tenth of the cost of yielding them).
+    fn fill(
+        &mut self,
+        max: usize,
+        out: &mut Vec<SourceTriangle>,
+        wanted: Option<&TriangleSet>,
+    ) -> usize {
         let mut n = 0;
         while n < max {
             if self.at == self.block.triangles.len() {
                 self.block.vertices.clear();
                 self.block.triangles.clear();
                 self.at = 0;
+                let first = self.next_id as usize;
+                // Ids are handed out in order, so the next block's lie in this range.
+                let range = first..first + City::MAX_TRIANGLES_PER_BLOCK;
+                if wanted.is_some_and(|w| w.count_ones(range.start..range.end.min(w.len())) == 0) {
+                    let mut count = CountingSink::default();
+                    if !self.city.next_block(&mut count) {
+                        break;
+                    }
+                    self.next_id += count.triangles;
+                    continue;
+                }
                 if !self.city.next_block(&mut self.block) {
                     break;
                 }
@@ -120,7 +179,7 @@ impl TriangleSource for StreamingCity {
             self.next_id += 1;
             n += 1;
         }
-        Ok(n)
+        n
     }
 }
 
@@ -146,6 +205,31 @@ mod tests {
         let mut again = Vec::new();
         while s.next_batch(61, &mut again).ok() > Some(0) {}
         assert_eq!(again, out);
+    }
+
+    #[test]
+    fn wanted_triangles_come_through_with_their_ids_and_corners() {
+        let mut all = Vec::new();
+        let mut s = StreamingCity::new(3, 5000);
+        while s.next_batch(113, &mut all).ok() > Some(0) {}
+        // A sparse choice: whole blocks are then left out.
+        let mut wanted = TriangleSet::with_capacity(s.id_bound() as usize);
+        for t in all.iter().filter(|t| t.id % 997 == 5) {
+            wanted.insert(t.id as usize);
+        }
+        let mut s = StreamingCity::new(3, 5000);
+        let mut got = Vec::new();
+        while s.next_wanted(64, &mut got, &wanted).ok() > Some(0) {}
+        assert!(got.len() < all.len() / 2, "unwanted blocks were skipped");
+        let kept: Vec<&SourceTriangle> = got
+            .iter()
+            .filter(|t| wanted.contains(t.id as usize))
+            .collect();
+        let want: Vec<&SourceTriangle> = all
+            .iter()
+            .filter(|t| wanted.contains(t.id as usize))
+            .collect();
+        assert_eq!(kept, want);
     }
 
     #[test]

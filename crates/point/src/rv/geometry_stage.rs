@@ -17,7 +17,7 @@
 use glam::{DVec2, DVec3};
 
 use super::depth::eye_plane;
-use super::overlap::{convex_overlap, Rect};
+use super::overlap::Rect;
 use super::projection::{clip, Poly, Projection, MAX_POLY};
 use super::source::SourceTriangle;
 
@@ -162,28 +162,56 @@ pub(crate) fn project(
 }
 
 /// Appends the bins `pts` (a convex screen polygon) overlaps, grown by `margin`, to `out`.
+///
+/// Row by row: the polygon's part in a bin row's band (grown by the margin) spans an interval
+/// of x, and the bins of the row whose grown columns meet it are the ones it overlaps (a convex
+/// polygon's slice of a band is convex). This is one pass over the polygon per row instead of
+/// an overlap test per bin of the bounding rectangle (the thesis' section 6.2 test), and lists
+/// the same bins except where the polygon passes within the margin of a bin's corner
+/// diagonally, which it also lists: a superset, so no bin that needs the triangle misses it.
 pub(crate) fn bins_of(pts: &[DVec2], grid: &BinGrid, margin: f64, out: &mut Vec<u32>) {
     let r = Rect::of(pts);
     let (x0, x1) = grid.range(r.min.x - margin, r.max.x + margin, grid.nx, grid.width);
     let (y0, y1) = grid.range(r.min.y - margin, r.max.y + margin, grid.ny, grid.height);
-    let single = x0 == x1 && y0 == y1;
+    if x0 == x1 || y0 == y1 || pts.len() < 3 {
+        // A connected polygon spans its bounding rectangle's x and y ranges, so within one
+        // column (row) it meets every row (column) of its rectangle; a degenerate polygon
+        // gets its whole rectangle.
+        for y in y0..=y1 {
+            out.extend((x0..=x1).map(|x| (y * grid.nx + x) as u32));
+        }
+        return;
+    }
+    let row_height = grid.height / grid.ny as f64;
+    let n = pts.len();
     for y in y0..=y1 {
-        for x in x0..=x1 {
-            let b = y * grid.nx + x;
-            if !single {
-                let (bx0, bx1, by0, by1) = grid.rect(b);
-                let rect = [
-                    DVec2::new(bx0, by0),
-                    DVec2::new(bx1, by0),
-                    DVec2::new(bx1, by1),
-                    DVec2::new(bx0, by1),
-                ];
-                if !convex_overlap(pts, &rect, margin) {
-                    continue;
+        let (lo, hi) = (
+            y as f64 * row_height - margin,
+            (y + 1) as f64 * row_height + margin,
+        );
+        let (mut xmin, mut xmax) = (f64::INFINITY, f64::NEG_INFINITY);
+        for i in 0..n {
+            let (a, b) = (pts[i], pts[(i + 1) % n]);
+            if (lo..=hi).contains(&a.y) {
+                xmin = xmin.min(a.x);
+                xmax = xmax.max(a.x);
+            }
+            for line in [lo, hi] {
+                if (a.y < line) != (b.y < line) {
+                    let x = a.x + (line - a.y) / (b.y - a.y) * (b.x - a.x);
+                    xmin = xmin.min(x);
+                    xmax = xmax.max(x);
                 }
             }
-            out.push(b as u32);
         }
+        if xmin > xmax {
+            continue;
+        }
+        // Grown by the margin on both sides: the columns' grown bounds, and the rounding of
+        // the crossings (far below it).
+        let (c0, c1) = grid.range(xmin - margin, xmax + margin, grid.nx, grid.width);
+        let (c0, c1) = (c0.max(x0), c1.min(x1));
+        out.extend((c0..=c1).map(|x| (y * grid.nx + x) as u32));
     }
 }
 

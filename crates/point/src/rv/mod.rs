@@ -61,6 +61,7 @@
 
 mod city_stream;
 mod depth;
+mod edge_map;
 mod from_region;
 mod frustum_cull;
 mod fusion;

@@ -1,7 +1,8 @@
-//! A per-bin spatial index of occluders: a uniform grid over the bin's rectangle whose cells
-//! list the occluders whose bounding rectangle overlaps them, so that the occlusion test and
-//! the shared-edge search of a new occluder triangle visit only occluders whose rectangle can
-//! pass their rectangle filters.
+//! A per-bin index of occluders: a uniform grid over the bin's rectangle whose cells list the
+//! occluders whose bounding rectangle overlaps them, so that the occlusion test visits only
+//! occluders whose rectangle can pass its rectangle filter; and a map from silhouette edges to
+//! occluders (`edge_map.rs`), so that a new occluder triangle finds the occluders it shares an
+//! edge with without a search.
 //!
 //! Based on: Ivanchenko. Massively Parallel Analytic Visibility for Streaming Virtual Reality.
 //! 2021, section 6.3 (a bin's occluders are walked by the threads of a GPU work group). Ours,
@@ -9,17 +10,14 @@
 //! hundreds of small occluders, so it visits only those listed in one cell (a uniform grid, as
 //! in any 2D broad phase).
 //!
-//! Exactness: the index only ever skips occluders that fail the rectangle filter the scan
-//! applies next, so results are bit for bit those of a linear scan.
+//! Exactness: results are bit for bit those of a linear scan.
 //! - `is_occluded(P)` needs `O.rect` to contain `P.rect` (grown by a non-negative margin), so
 //!   it contains the point `P.rect.min`: only occluders listed in that point's cell qualify.
-//! - `add(t)` needs `O.rect` to touch `t`'s rectangle, so their cell ranges intersect: only
-//!   occluders listed in a cell of `t`'s range qualify, each visited once (in the first cell of
-//!   the two ranges' intersection).
-//!
-//! Both hold for any rectangles, inside the grid or not, because a coordinate's cell is a
-//! monotone function of it (clamped to the grid; IEEE subtraction and multiplication round
-//! monotonically), the same function for registration and look-up.
+//!   This holds for any rectangles, inside the grid or not, because a coordinate's cell is a
+//!   monotone function of it (clamped to the grid; IEEE subtraction and multiplication round
+//!   monotonically), the same function for registration and look-up.
+//! - `add(t)` needs an occluder with an edge equal to one of `t`'s: the edge map lists every
+//!   silhouette edge of every indexed occluder.
 //!
 //! Occluders keep a stable slot id while their position in the bin's vector changes
 //! (`swap_remove`); cells list slots. The free slots form a list threaded through `pos`, so
@@ -31,12 +29,13 @@
 
 use glam::DVec2;
 
+use super::edge_map::EdgeMap;
 use super::memory::{release_to, reserve_from, Pool};
+use super::occluders::Edge;
 use super::overlap::Rect;
 
 /// Cells per side of a bin's grid (4 px cells on the default 32 px bins).
 pub(crate) const CELLS: usize = 8;
-const _: () = assert!(CELLS <= 256, "cell coordinates are kept in a u8");
 
 /// Marks a free slot in `pos` (the rest of the value is the next free slot).
 const FREE: u32 = 1 << 31;
@@ -56,8 +55,6 @@ pub(crate) struct Slot {
     pub(crate) pos: u32,
     /// Its facing.
     pub(crate) front: bool,
-    /// The first cell of its range, `(x, y)`.
-    pub(crate) first: (u8, u8),
 }
 
 /// The grid of one bin.
@@ -79,6 +76,8 @@ pub(crate) struct OccluderIndex {
     slots: Vec<Slot>,
     /// First free slot, or `NONE`.
     free: u32,
+    /// Each indexed occluder's silhouette edges, to its slot (`edge_map.rs`).
+    edges: EdgeMap,
 }
 
 impl Default for OccluderIndex {
@@ -93,6 +92,7 @@ impl Default for OccluderIndex {
             cells: Vec::new(),
             slots: Vec::new(),
             free: NONE,
+            edges: EdgeMap::default(),
         }
     }
 }
@@ -163,6 +163,17 @@ impl OccluderIndex {
             .map_or(&[][..], |c| c.as_slice())
     }
 
+    /// Moves the `k`-th slot of cell `(x, y)` to the front of its list (lists are unordered
+    /// sets; the order only decides which candidates a scan meets first).
+    #[inline]
+    pub(crate) fn promote(&mut self, x: usize, y: usize, k: usize) {
+        if let Some(cell) = self.cells.get_mut(y * CELLS + x) {
+            if k < cell.len() {
+                cell.swap(0, k);
+            }
+        }
+    }
+
     /// What the index keeps of the occluder in `slot`.
     #[inline]
     pub(crate) fn slot(&self, slot: u32) -> &Slot {
@@ -186,12 +197,10 @@ impl OccluderIndex {
             }
             self.cells.resize_with(CELLS * CELLS, Vec::new);
         }
-        let (x, y) = self.cell_of(r.min);
         let entry = Slot {
             rect: *r,
             pos: at as u32,
             front,
-            first: (x as u8, y as u8),
         };
         let slot = if self.free != NONE {
             let s = self.free;
@@ -219,7 +228,6 @@ impl OccluderIndex {
         let (before, after) = (self.range(&self.slots[slot as usize].rect), self.range(new));
         let entry = &mut self.slots[slot as usize];
         entry.rect = *new;
-        entry.first = (after[0] as u8, after[1] as u8);
         before == after || self.add_cells(slot, after, Some(before), pool)
     }
 
@@ -259,6 +267,41 @@ impl OccluderIndex {
         self.free = slot;
     }
 
+    /// Lists silhouette edges `edges` of the occluder in `slot`; false when the pool is
+    /// exhausted (the index is then off).
+    pub(crate) fn add_edges(&mut self, slot: u32, edges: &[Edge], pool: &Pool) -> bool {
+        for e in edges {
+            if !self.edges.insert(e, slot, pool) {
+                self.fail(pool);
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Unlists silhouette edges `edges` of the occluder in `slot` (one entry each).
+    pub(crate) fn remove_edges(&mut self, slot: u32, edges: &[Edge]) {
+        for e in edges {
+            let found = self.edges.remove(e, slot);
+            debug_assert!(found, "edge of slot {slot} missing from the edge map");
+        }
+    }
+
+    /// Hands silhouette edges `edges` from the occluder in `from` to the one in `to` (a merge).
+    pub(crate) fn move_edges(&mut self, edges: &[Edge], from: u32, to: u32) {
+        for e in edges {
+            let found = self.edges.repoint(e, from, to);
+            debug_assert!(found, "edge of slot {from} missing from the edge map");
+        }
+    }
+
+    /// Calls `f` with the slot of each occluder listing edge `e` (in either direction), once
+    /// per listing.
+    #[inline]
+    pub(crate) fn slots_with_edge(&self, e: &Edge, f: impl FnMut(u32)) {
+        self.edges.for_each_slot(e, f);
+    }
+
     /// Returns all memory to `pool` and turns the index off for good (the bin scans
     /// linearly until cleared).
     pub(crate) fn fail(&mut self, pool: &Pool) {
@@ -281,6 +324,7 @@ impl OccluderIndex {
         }
         release_to(&mut self.cells, pool);
         release_to(&mut self.slots, pool);
+        self.edges.release(pool);
         self.free = NONE;
     }
 

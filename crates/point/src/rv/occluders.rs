@@ -112,6 +112,11 @@ pub(crate) struct BinState {
     pub(crate) initialized: bool,
     /// Which occluders lie where (`occluder_index.rs`); off by default (linear scans).
     pub(crate) index: OccluderIndex,
+    /// At least the largest `zmin` of the occluders (an upper bound, tightened when an
+    /// eviction scan finds nothing to drop): a full bin offered a triangle in front of every
+    /// occluder's near point then skips the scan. Occluders only ever get nearer `zmin`s by
+    /// growing, so the bound stays valid.
+    zmin_bound: f64,
 }
 
 /// Most occluders one triangle may join at once (3 edges, a few non-manifold duplicates).
@@ -135,9 +140,9 @@ impl BinState {
         self.index.start();
         for (i, o) in self.occluders.iter_mut().enumerate() {
             match self.index.insert(i, &o.rect, o.front, pool) {
-                Some(slot) => o.slot = slot,
+                Some(slot) if self.index.add_edges(slot, &o.edges, pool) => o.slot = slot,
                 // Out of memory: the index turned itself off.
-                None => return,
+                _ => return,
             }
         }
     }
@@ -154,52 +159,69 @@ impl BinState {
         o
     }
 
-    /// Removes a detached occluder from the index.
+    /// Removes a detached occluder, and its edges, from the index.
     fn unlist(&mut self, o: &Occluder) {
         if self.index.active() {
+            self.index.remove_edges(o.slot, &o.edges);
             self.index.remove(o.slot);
         }
     }
 
-    /// Calls `f` with the position of each occluder of facing `front` whose rectangle touches
-    /// `r`, once each, in no particular order (through the index when it is on); stops, and
-    /// returns false, when `f` does.
-    fn for_each_touching(
+    /// Writes to `out` the positions of the occluders of facing `front` that share an edge (in
+    /// either direction) with triangle `edges` (corners `corners`, bounds `rect`), each once,
+    /// ascending, and returns how many; `None` when there are more than `out` holds. Through
+    /// the index's edge map when it is on, else by a scan.
+    fn sharing_an_edge(
         &self,
-        r: &Rect,
+        edges: &[Edge; 3],
+        corners: &[DVec2; 3],
+        rect: &Rect,
         front: bool,
-        mut f: impl FnMut(usize, &Occluder) -> bool,
-    ) -> bool {
-        let wanted = |o: &Occluder| o.front == front && o.rect.touches(r, 0.0);
-        if !self.index.active() {
-            return (self.occluders.iter().enumerate()).all(|(i, o)| !wanted(o) || f(i, o));
-        }
-        let q = self.index.range(r);
-        let one_cell = q[0] == q[2] && q[1] == q[3];
-        for y in q[1]..=q[3] {
-            for x in q[0]..=q[2] {
-                for &slot in self.index.cell(x, y) {
-                    // The slot's copy of the filter's fields: the occluder is read only when
-                    // it passes.
-                    let e = self.index.slot(slot);
-                    if e.front != front || !e.rect.touches(r, 0.0) {
-                        continue;
+        out: &mut [usize; MAX_MATCHES],
+    ) -> Option<usize> {
+        let mut n = 0;
+        if self.index.active() {
+            let mut overflow = false;
+            for e in edges {
+                self.index.slots_with_edge(e, |slot| {
+                    let entry = self.index.slot(slot);
+                    let i = entry.pos as usize;
+                    if entry.front != front || out[..n].contains(&i) {
+                        return;
                     }
-                    // Visit each occluder once: in the first cell both ranges share.
-                    if !one_cell {
-                        let (ox, oy) = (usize::from(e.first.0), usize::from(e.first.1));
-                        if ox.max(q[0]) != x || oy.max(q[1]) != y {
-                            continue;
-                        }
+                    if n == MAX_MATCHES {
+                        overflow = true;
+                        return;
                     }
-                    let i = e.pos as usize;
-                    if !f(i, &self.occluders[i]) {
-                        return false;
+                    out[n] = i;
+                    n += 1;
+                });
+            }
+            if overflow {
+                return None;
+            }
+        } else {
+            for (i, o) in self.occluders.iter().enumerate() {
+                if o.front != front || !o.rect.touches(rect, 0.0) {
+                    continue;
+                }
+                // A shared edge starts at one of t's corners: most edges fail that first.
+                if o.edges
+                    .iter()
+                    .any(|e| corners.contains(&e.a) && edges.iter().any(|f| e.same(f)))
+                {
+                    if n == MAX_MATCHES {
+                        return None;
                     }
+                    out[n] = i;
+                    n += 1;
                 }
             }
         }
-        true
+        // In vector order, as a linear scan finds them (the merge target's tie-break and the
+        // removals in `add` depend on it).
+        out[..n].sort_unstable();
+        Some(n)
     }
 
     /// Offers triangle `t` to this bin's occluders (chapter 5, figure 5.14). When `may_start`
@@ -236,29 +258,13 @@ impl BinState {
                 return AddOutcome::Full;
             }
         }
-        // Occluders sharing an edge with t: same facing, touching bounds, an identical edge.
+        // Occluders sharing an edge with t: same facing, an identical edge.
         let mut matches = [0usize; MAX_MATCHES];
-        let mut n_matches = 0;
-        let all_found = self.for_each_touching(&occ_tri.rect, t.front, |i, o| {
-            // A shared edge starts at one of t's corners: most edges fail that first.
-            if o.edges
-                .iter()
-                .any(|e| s.contains(&e.a) && edges.iter().any(|f| e.same(f)))
-            {
-                if n_matches == MAX_MATCHES {
-                    return false;
-                }
-                matches[n_matches] = i;
-                n_matches += 1;
-            }
-            true
-        });
-        if !all_found {
+        let Some(n_matches) =
+            self.sharing_an_edge(&edges, &s, &occ_tri.rect, t.front, &mut matches)
+        else {
             return AddOutcome::Full;
-        }
-        // In vector order, as a linear scan finds them (the merge target's tie-break and the
-        // removals below depend on it).
-        matches[..n_matches].sort_unstable();
+        };
         if n_matches == 0 {
             if !may_start {
                 return AddOutcome::NotEligible;
@@ -294,8 +300,10 @@ impl BinState {
                 o.slot = self
                     .index
                     .insert(self.occluders.len(), &o.rect, o.front, pool)
+                    .filter(|&slot| self.index.add_edges(slot, &o.edges, pool))
                     .unwrap_or(0);
             }
+            self.zmin_bound = self.zmin_bound.max(zmin);
             self.occluders.push(o);
             return AddOutcome::New;
         }
@@ -329,6 +337,7 @@ impl BinState {
         // Take all matched occluders out (highest index first so swap_remove keeps the rest
         // valid), fold the others into the target, put the target back.
         matches.sort_unstable_by(|a, b| b.cmp(a));
+        let target_slot = self.occluders[target].slot;
         let mut taken: Vec<Occluder> = Vec::new();
         let mut main = None;
         for &i in matches.iter() {
@@ -336,7 +345,11 @@ impl BinState {
             if i == target {
                 main = Some(o);
             } else {
-                self.unlist(&o);
+                if self.index.active() {
+                    // Its edges become the target's.
+                    self.index.move_edges(&o.edges, o.slot, target_slot);
+                    self.index.remove(o.slot);
+                }
                 taken.push(o);
             }
         }
@@ -362,11 +375,18 @@ impl BinState {
         // the winding number of the silhouette equal to the sum of the triangles' windings.
         for e in edges {
             if let Some(k) = main.edges.iter().position(|f| f.inverse(&e)) {
-                main.edges.swap_remove(k);
+                let gone = main.edges.swap_remove(k);
                 self.edge_count -= 1;
+                if self.index.active() {
+                    self.index.remove_edges(main.slot, &[gone]);
+                }
             } else {
                 main.edges.push(e);
                 self.edge_count += 1;
+                if self.index.active() {
+                    // Without memory the index turns off (see `add_edges`).
+                    self.index.add_edges(main.slot, &[e], pool);
+                }
             }
         }
         if self.index.active() {
@@ -388,15 +408,23 @@ impl BinState {
     /// ones, and the near occluders that hide most of the scene arrive later and were lost.
     /// Dropping an occluder is always sound: it only stops hiding later triangles.
     fn evict_farther_than(&mut self, z: f64, pool: &Pool) -> bool {
-        let Some((i, _)) = self
+        if self.zmin_bound <= z {
+            return false;
+        }
+        // The farthest near point (the last of equals, as `max_by` picks).
+        let Some((i, far)) = self
             .occluders
             .iter()
             .enumerate()
-            .filter(|(_, o)| o.zmin > z)
-            .max_by(|a, b| a.1.zmin.total_cmp(&b.1.zmin))
+            .map(|(i, o)| (i, o.zmin))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
         else {
             return false;
         };
+        if far <= z {
+            self.zmin_bound = far;
+            return false;
+        }
         let mut o = self.detach(i);
         self.unlist(&o);
         self.edge_count -= o.edges.len();

@@ -72,9 +72,14 @@ pub(crate) struct TestCounters {
 }
 
 /// True when some occluder of `state` hides all of `p`.
+///
+/// With the index on, the occluder that hides `p` is moved to the front of the cell it was
+/// found in: the next triangles of a bin come from the same surfaces (batches are sorted front
+/// to back), so the same occluder is usually tried first. The answer is an `any` over the
+/// cell, which no order changes.
 pub(crate) fn is_occluded(
     p: &Occludee<'_>,
-    state: &BinState,
+    state: &mut BinState,
     proj: &Projection,
     margin: f64,
     counters: &mut TestCounters,
@@ -90,12 +95,16 @@ pub(crate) fn is_occluded(
     // P's lower corner (`occluder_index.rs`).
     let (x, y) = state.index.cell_of(p.rect.min);
     let rect_margin = if p.area { 0.0 } else { margin };
-    state.index.cell(x, y).iter().any(|&slot| {
+    let hit = state.index.cell(x, y).iter().position(|&slot| {
         // `occluded_by`'s first filter, on the slot's copy of the occluder's bounds.
         let e = state.index.slot(slot);
         e.rect.contains(&p.rect, rect_margin)
             && occluded_by(p, &state.occluders[e.pos as usize], proj, margin, counters)
-    })
+    });
+    if let Some(k) = hit {
+        state.index.promote(x, y, k);
+    }
+    hit.is_some()
 }
 
 fn occluded_by(

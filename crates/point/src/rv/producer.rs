@@ -88,14 +88,24 @@ impl<'s> Producers<'s> {
             .done = true;
     }
 
-    /// Reads the next input batch into `input`; its ticket, or `None` at the end.
-    fn read(&self, max: usize, input: &mut Vec<SourceTriangle>) -> Option<u64> {
+    /// Reads the next input batch into `input` (the source may leave out triangles not in
+    /// `only`); its ticket, or `None` at the end.
+    fn read(
+        &self,
+        max: usize,
+        input: &mut Vec<SourceTriangle>,
+        only: Option<&TriangleSet>,
+    ) -> Option<u64> {
         let mut r = self.reader.lock().unwrap_or_else(PoisonError::into_inner);
         if r.done || self.aborted.load(std::sync::atomic::Ordering::SeqCst) {
             return None;
         }
         input.clear();
-        match r.source.next_batch(max, input) {
+        let got = match only {
+            Some(wanted) => r.source.next_wanted(max, input, wanted),
+            None => r.source.next_batch(max, input),
+        };
+        match got {
             Ok(0) => {
                 r.done = true;
                 None
@@ -194,7 +204,7 @@ pub(crate) struct GeometryContext<'a> {
 pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scratch) -> Produced {
     let mut out = Produced::default();
     let n_bins = ctx.grid.len();
-    while let Some(ticket) = shared.read(ctx.options.batch_triangles, &mut s.input) {
+    while let Some(ticket) = shared.read(ctx.options.batch_triangles, &mut s.input, ctx.only) {
         let mut bad = None;
         'input: for run in s.input.chunks(RUN) {
             // Runs wholly outside the frustum skip projection (`frustum_cull.rs`); a run with a
