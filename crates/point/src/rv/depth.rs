@@ -69,14 +69,14 @@ pub(crate) struct OccluderView<'a> {
 /// within `margin` px of triangle `t` lies behind `t` by the relative margin. `p_plane` is the
 /// occludee's own eye-positive plane when it has one.
 pub(crate) fn occludee_behind(
-    p: &Poly,
+    p: &[DVec3],
     p_plane: Option<&[f64; 4]>,
     t: &OccluderView<'_>,
     proj: &Projection,
     margin: f64,
 ) -> bool {
     // Eq. 4.11, first half: all of p behind t's plane.
-    if p.as_slice().iter().all(|&v| behind(t.plane, v)) {
+    if p.iter().all(|&v| behind(t.plane, v)) {
         return true;
     }
     // Eq. 4.11, second half: all of t in front of p's plane.
@@ -89,7 +89,7 @@ pub(crate) fn occludee_behind(
     // whether it projects onto t at all.
     let s = 1.0 - DEPTH_EPS;
     let not_behind = [t.plane[0] * s, t.plane[1] * s, t.plane[2] * s, t.plane[3]];
-    let front = clip(p, &not_behind);
+    let front = clip(&Poly::from_slice(p), &not_behind);
     if front.is_empty() {
         return true;
     }
@@ -129,7 +129,7 @@ mod tests {
         let plane = eye_plane(t[0], t[1], t[2]).expect("plane");
         let pp = eye_plane(p[0], p[1], p[2]);
         occludee_behind(
-            &Poly::from_slice(&p),
+            &p,
             pp.as_ref(),
             &OccluderView {
                 corners: &t,

@@ -74,7 +74,9 @@ impl FusedDepth {
     fn cell_range(&self, bin: &Rect, r: &Rect) -> ([usize; 2], [usize; 2]) {
         let size = (bin.max - bin.min) / self.n as f64;
         let idx =
-            |v: f64, lo: f64, s: f64| (((v - lo) / s).floor().max(0.0) as usize).min(self.n - 1);
+            // `as` truncates (the floor for non-negative values) and saturates negatives and
+            // NaN to 0, without a libm call.
+            |v: f64, lo: f64, s: f64| (((v - lo) / s) as usize).min(self.n - 1);
         (
             [
                 idx(r.min.x, bin.min.x, size.x),

@@ -91,7 +91,9 @@ impl BinGrid {
 
     fn range(&self, lo: f64, hi: f64, n: usize, extent: f64) -> (usize, usize) {
         let cell = extent / n as f64;
-        let clamp = |v: f64| (v / cell).floor().clamp(0.0, (n - 1) as f64) as usize;
+        // `as` truncates (the floor for non-negative values) and saturates negatives and NaN
+        // to 0: the floor clamped to the grid, without a libm call.
+        let clamp = |v: f64| ((v / cell) as usize).min(n - 1);
         (clamp(lo), clamp(hi))
     }
 }

@@ -41,12 +41,12 @@ use glam::{DVec2, DVec3};
 use super::depth::{behind, in_front, occludee_behind, OccluderView, DEPTH_EPS};
 use super::occluders::{BinState, Edge, Occluder};
 use super::overlap::{convex_overlap, inner_point, ray_winding, segment_overlaps, Rect};
-use super::projection::{Poly, Projection};
+use super::projection::Projection;
 
 /// An occludee clipped to a bin, with what the tests need precomputed.
 pub(crate) struct Occludee<'a> {
     /// View-space polygon (clipped to the near plane and the bin).
-    pub(crate) poly: &'a Poly,
+    pub(crate) poly: &'a [DVec3],
     /// Its screen projection.
     pub(crate) screen: &'a [DVec2],
     /// Bounds of `screen`.

@@ -289,6 +289,21 @@ fn seal(
     sort: bool,
 ) -> Batch {
     let mut batch_tris = std::mem::replace(tris, Vec::with_capacity(batch_triangles));
+    // Counting sort of the pairs by bin.
+    let mut offsets = vec![0u32; n_bins + 1];
+    for &(b, _) in pairs.iter() {
+        offsets[b as usize + 1] += 1;
+    }
+    for i in 0..n_bins {
+        offsets[i + 1] += offsets[i];
+    }
+    let mut fill = offsets.clone();
+    let mut entries = vec![0u32; pairs.len()];
+    let mut place = |b: u32, k: u32| {
+        let slot = &mut fill[b as usize];
+        entries[*slot as usize] = k;
+        *slot += 1;
+    };
     if sort {
         // Keys computed once: the nearest view depth of each triangle.
         let mut keys: Vec<(f64, u32)> = batch_tris
@@ -300,36 +315,29 @@ fn seal(
             })
             .collect();
         keys.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let mut rank = vec![0u32; keys.len()];
-        for (r, &(_, i)) in keys.iter().enumerate() {
-            rank[i as usize] = r as u32;
+        // Triangle k's pairs are `pairs[starts[k]..starts[k + 1]]` (they were pushed triangle
+        // by triangle). Placing them front to back makes every bin's list front to back (the
+        // counting sort is stable), with no sort per bin.
+        let mut starts = vec![0u32; batch_tris.len() + 1];
+        for &(_, k) in pairs.iter() {
+            starts[k as usize + 1] += 1;
+        }
+        for i in 0..batch_tris.len() {
+            starts[i + 1] += starts[i];
+        }
+        for (rank, &(_, k)) in keys.iter().enumerate() {
+            let own = &pairs[starts[k as usize] as usize..starts[k as usize + 1] as usize];
+            for &(b, _) in own {
+                place(b, rank as u32);
+            }
         }
         batch_tris = keys.iter().map(|&(_, i)| batch_tris[i as usize]).collect();
-        for pair in pairs.iter_mut() {
-            pair.1 = rank[pair.1 as usize];
+    } else {
+        for &(b, k) in pairs.iter() {
+            place(b, k);
         }
-    }
-    let mut offsets = vec![0u32; n_bins + 1];
-    for &(b, _) in pairs.iter() {
-        offsets[b as usize + 1] += 1;
-    }
-    for i in 0..n_bins {
-        offsets[i + 1] += offsets[i];
-    }
-    let mut fill = offsets.clone();
-    let mut entries = vec![0u32; pairs.len()];
-    for &(b, k) in pairs.iter() {
-        let slot = &mut fill[b as usize];
-        entries[*slot as usize] = k;
-        *slot += 1;
     }
     pairs.clear();
-    if sort {
-        // Each bin's triangles front to back.
-        for b in 0..n_bins {
-            entries[offsets[b] as usize..offsets[b + 1] as usize].sort_unstable();
-        }
-    }
     Batch {
         tris: batch_tris,
         offsets,
@@ -376,6 +384,51 @@ mod tests {
         let (a, b) = (run(1), run(3));
         assert_eq!(a.visible, b.visible);
         assert_eq!(a.stats.triangles_streamed, b.stats.triangles_streamed);
+    }
+
+    /// A sorted seal lists every (bin, triangle) pair once, with the triangles front to back
+    /// and each bin's entries in that order.
+    #[test]
+    fn sorted_seal_keeps_every_pair_front_to_back() {
+        use glam::{DVec2, DVec3};
+        let n_bins = 5;
+        let mut tris = Vec::new();
+        let mut pairs = Vec::new();
+        let mut want = Vec::new();
+        for k in 0..40u32 {
+            // Depths out of order, with ties.
+            let z = f64::from((k * 7) % 13) + 1.0;
+            tris.push(ProjTri {
+                id: 100 + k,
+                corners: [DVec3::new(0.0, 0.0, z); 3],
+                screen: [DVec2::ZERO; 3],
+                plane: None,
+                whole_front: true,
+                front: true,
+            });
+            for b in 0..n_bins as u32 {
+                if (k + b) % 3 != 0 {
+                    pairs.push((b, k));
+                    want.push((b, 100 + k));
+                }
+            }
+        }
+        let batch = seal(&mut tris, &mut pairs, n_bins, 64, true);
+        assert!(tris.is_empty() && pairs.is_empty(), "buffers reset");
+        let z = |i: u32| batch.tris[i as usize].corners[0].z;
+        assert!(batch
+            .tris
+            .windows(2)
+            .all(|w| w[0].corners[0].z <= w[1].corners[0].z));
+        let mut got = Vec::new();
+        for b in 0..n_bins {
+            let list = batch.bin(b);
+            assert!(list.windows(2).all(|w| w[0] < w[1] && z(w[0]) <= z(w[1])));
+            got.extend(list.iter().map(|&i| (b as u32, batch.tris[i as usize].id)));
+        }
+        got.sort_unstable();
+        want.sort_unstable();
+        assert_eq!(got, want);
     }
 
     /// Yields one good batch, then an id past its bound.

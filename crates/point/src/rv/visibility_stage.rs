@@ -6,7 +6,7 @@
 //! are processed one by one, in stream order, against the bin's occluder state; a triangle is
 //! visible as soon as it is visible in one bin, so the visible set only ever gains bits).
 
-use glam::DVec2;
+use glam::{DVec2, DVec3};
 use sightline_core::atomic_set::AtomicTriangleSet;
 
 use super::geometry_stage::ProjTri;
@@ -63,42 +63,59 @@ pub(crate) fn process(
     state: &mut BinState,
     st: &mut StageStats,
 ) {
-    let mut whole = Poly::from_slice(&t.corners);
-    let mut scratch;
-    let mut poly = &mut whole;
     // Most triangles of a large scene are small and lie inside one bin: then clipping to the
-    // bin's frustum would return them unchanged, so it is skipped. (Keeping the unclipped
-    // triangle where rounding might have shaved a sliver off is conservative: a larger
-    // occludee is never easier to occlude.)
-    let inside_bin = t.whole_front && ctx.bin_rect.contains(&Rect::of(&t.screen), 0.0);
-    if !inside_bin {
+    // bin's frustum would return them unchanged, so it is skipped and the triangle's own
+    // corners and screen points are used. (Keeping the unclipped triangle where rounding might
+    // have shaved a sliver off is conservative: a larger occludee is never easier to occlude.
+    // The same holds for each bin side the triangle's screen bounds do not cross, which is not
+    // clipped against either.)
+    let tri_rect = Rect::of(&t.screen);
+    let inside_bin = t.whole_front && ctx.bin_rect.contains(&tri_rect, 0.0);
+    let (mut first, mut second);
+    let mut screen_buf = [DVec2::ZERO; MAX_POLY];
+    let (verts, screen): (&[DVec3], &[DVec2]) = if inside_bin {
+        (&t.corners, &t.screen)
+    } else {
         // Clip back and forth between two buffers (a polygon is a few hundred bytes).
-        scratch = Poly::new();
-        let mut other = &mut scratch;
+        first = Poly::from_slice(&t.corners);
+        second = Poly::new();
+        let (mut poly, mut other) = (&mut first, &mut second);
         let near = ctx.proj.near_plane();
         let near = (!t.whole_front).then_some(&near);
-        for plane in near.into_iter().chain(&ctx.planes) {
+        let b = &ctx.bin_rect;
+        // `BinContext::planes` order: x >= min.x, x <= max.x, y >= min.y, y <= max.y.
+        let crossed = [
+            tri_rect.min.x < b.min.x,
+            tri_rect.max.x > b.max.x,
+            tri_rect.min.y < b.min.y,
+            tri_rect.max.y > b.max.y,
+        ];
+        let sides = (ctx.planes.iter().zip(crossed))
+            .filter(|&(_, c)| c || !t.whole_front)
+            .map(|(plane, _)| plane);
+        for plane in near.into_iter().chain(sides) {
             if clip_into(poly, plane, other) {
                 std::mem::swap(&mut poly, &mut other);
             }
         }
-    }
-    let poly: &Poly = poly;
-    if poly.is_empty() {
-        st.clipped_away += 1;
-        return;
-    }
+        if poly.is_empty() {
+            st.clipped_away += 1;
+            return;
+        }
+        for (s, v) in screen_buf.iter_mut().zip(poly.as_slice()) {
+            *s = ctx.proj.screen_of(*v);
+        }
+        let poly: &Poly = poly;
+        (poly.as_slice(), &screen_buf[..poly.len])
+    };
     st.tested += 1;
-    let mut screen = [DVec2::ZERO; MAX_POLY];
     let (mut zmin, mut zmax) = (f64::INFINITY, f64::NEG_INFINITY);
-    for (i, v) in poly.as_slice().iter().enumerate() {
-        screen[i] = ctx.proj.screen_of(*v);
+    for v in verts {
         zmin = zmin.min(v.z);
         zmax = zmax.max(v.z);
     }
-    let screen = &screen[..poly.len];
     let p = Occludee {
-        poly,
+        poly: verts,
         screen,
         rect: Rect::of(screen),
         zmin,
