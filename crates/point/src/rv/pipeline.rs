@@ -47,6 +47,8 @@ struct Queues {
 pub(crate) struct Scheduler {
     state: Mutex<Queues>,
     changed: Condvar,
+    /// Finished batches kept for their buffers (`take_spare`), at most `ring_batches`.
+    spares: Mutex<Vec<Batch>>,
     ring_batches: usize,
     threshold: usize,
 }
@@ -78,6 +80,7 @@ impl Scheduler {
                 aborted: false,
             }),
             changed: Condvar::new(),
+            spares: Mutex::new(Vec::with_capacity(ring_batches)),
             ring_batches,
             threshold,
         }
@@ -155,6 +158,14 @@ impl Scheduler {
         }
     }
 
+    /// Producer: a finished batch whose buffers can be reused, if any.
+    pub(crate) fn take_spare(&self) -> Option<Batch> {
+        self.spares
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .pop()
+    }
+
     /// A thread panicked: wake every waiting thread and make all waits end, so the pipeline
     /// stops instead of waiting forever for work the panicked thread will never finish.
     pub(crate) fn abort(&self) {
@@ -162,13 +173,18 @@ impl Scheduler {
         self.changed.notify_all();
     }
 
-    /// Worker: done with `work`'s bin; drops its batch references and frees finished batches.
+    /// Worker: done with `work`'s bin; drops its batch references and frees finished batches
+    /// (their ring slots; their buffers are kept as spares).
     pub(crate) fn done(&self, work: Work) {
         let mut freed = 0;
         for batch in work.batches {
             // The last reference frees the batch (the ring slot).
-            if Arc::into_inner(batch).is_some() {
+            if let Some(finished) = Arc::into_inner(batch) {
                 freed += 1;
+                let mut spares = self.spares.lock().unwrap_or_else(PoisonError::into_inner);
+                if spares.len() < self.ring_batches {
+                    spares.push(finished);
+                }
             }
         }
         let mut s = lock(&self.state);

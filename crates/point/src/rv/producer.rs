@@ -156,6 +156,15 @@ pub(crate) struct Scratch {
     pairs: Vec<(u32, u32)>,
     tri_bins: Vec<u32>,
     tris: Vec<ProjTri>,
+    sorting: SealScratch,
+}
+
+/// `seal`'s buffers: sort keys, each triangle's first pair, each bin's fill position.
+#[derive(Default)]
+struct SealScratch {
+    keys: Vec<(f64, u32)>,
+    starts: Vec<u32>,
+    fill: Vec<u32>,
 }
 
 impl Scratch {
@@ -166,18 +175,30 @@ impl Scratch {
             pairs: Vec::with_capacity(max_entries),
             tri_bins: Vec::with_capacity(n_bins),
             tris: Vec::with_capacity(options.batch_triangles),
+            sorting: SealScratch {
+                keys: Vec::with_capacity(options.batch_triangles),
+                starts: Vec::with_capacity(options.batch_triangles + 1),
+                fill: Vec::with_capacity(n_bins),
+            },
         }
     }
 
-    /// Heap bytes of one thread's buffers, its sealed batch waiting for a ring slot, and the
-    /// sorting scratch of `seal`.
+    /// Heap bytes of one thread's buffers (input, pairs, its bins, `seal`'s scratch), the
+    /// batch it fills and its sealed batch waiting for a ring slot.
+    ///
+    /// Finished batches are kept for reuse (`Scheduler::take_spare`) instead of freed: a
+    /// batch buffer is only allocated when no spare is left, and a spare comes only out of the
+    /// ring, so ring, spares and the threads' two batches never hold more than this and the
+    /// ring's allowance together.
     pub(crate) fn bytes_for(options: &RvOptions, max_entries: usize, n_bins: usize) -> usize {
         let b = options.batch_triangles;
         b * std::mem::size_of::<SourceTriangle>()
             + max_entries * 8
             + n_bins * 4
+            + b * (16 + 4)
+            + 4
+            + n_bins * 4
             + 2 * Batch::bytes_for(b, max_entries, n_bins)
-            + b * (16 + 4 + std::mem::size_of::<ProjTri>())
     }
 }
 
@@ -244,7 +265,8 @@ pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scr
                     || s.tris.len() == ctx.options.batch_triangles
                 {
                     // Rare (huge triangles): this input needs more than one batch.
-                    let batch = seal_scratch(&mut s.tris, &mut s.pairs, ctx, n_bins);
+                    let batch =
+                        seal_scratch(&mut s.tris, &mut s.pairs, &mut s.sorting, ctx, n_bins);
                     shared.wait_turn(ticket);
                     ctx.sched.push(batch);
                 }
@@ -254,8 +276,8 @@ pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scr
                 out.entries += s.tri_bins.len() as u64;
             }
         }
-        let batch =
-            (!s.tris.is_empty()).then(|| seal_scratch(&mut s.tris, &mut s.pairs, ctx, n_bins));
+        let batch = (!s.tris.is_empty())
+            .then(|| seal_scratch(&mut s.tris, &mut s.pairs, &mut s.sorting, ctx, n_bins));
         shared.wait_turn(ticket);
         if let Some(batch) = batch {
             ctx.sched.push(batch);
@@ -269,36 +291,61 @@ pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scr
     out
 }
 
-/// Seals a geometry thread's gathered triangles into a batch with this pass's options.
+/// Seals a geometry thread's gathered triangles into a batch with this pass's options, reusing
+/// the buffers of a finished batch when the scheduler has one.
 fn seal_scratch(
     tris: &mut Vec<ProjTri>,
     pairs: &mut Vec<(u32, u32)>,
+    sorting: &mut SealScratch,
     ctx: &GeometryContext<'_>,
     n_bins: usize,
 ) -> Batch {
-    seal(tris, pairs, n_bins, ctx.options.batch_triangles, ctx.sort)
+    let spare = ctx.sched.take_spare();
+    let batch_triangles = ctx.options.batch_triangles;
+    seal(
+        tris,
+        pairs,
+        sorting,
+        spare,
+        n_bins,
+        batch_triangles,
+        ctx.sort,
+    )
 }
 
-/// Sorts a batch front to back (when `sort`) and counting-sorts its (bin, triangle) pairs into a
-/// [`Batch`]; resets the buffers.
+/// Counting-sorts a batch's (bin, triangle) pairs into a [`Batch`], each bin's triangles front
+/// to back when `sort` (in stream order otherwise); resets the buffers. `spare`, a finished
+/// batch, lends its buffers (no allocation, and no fresh pages to fault in, per batch).
 fn seal(
     tris: &mut Vec<ProjTri>,
     pairs: &mut Vec<(u32, u32)>,
+    s: &mut SealScratch,
+    spare: Option<Batch>,
     n_bins: usize,
     batch_triangles: usize,
     sort: bool,
 ) -> Batch {
-    let mut batch_tris = std::mem::replace(tris, Vec::with_capacity(batch_triangles));
+    let (mut next_tris, mut offsets, mut entries) = match spare {
+        Some(b) => (b.tris, b.offsets, b.entries),
+        None => (Vec::with_capacity(batch_triangles), Vec::new(), Vec::new()),
+    };
+    next_tris.clear();
+    let batch_tris = std::mem::replace(tris, next_tris);
     // Counting sort of the pairs by bin.
-    let mut offsets = vec![0u32; n_bins + 1];
+    offsets.clear();
+    offsets.resize(n_bins + 1, 0);
     for &(b, _) in pairs.iter() {
         offsets[b as usize + 1] += 1;
     }
     for i in 0..n_bins {
         offsets[i + 1] += offsets[i];
     }
-    let mut fill = offsets.clone();
-    let mut entries = vec![0u32; pairs.len()];
+    // Each bin's next free position, then (once filled) its end.
+    let fill = &mut s.fill;
+    fill.clear();
+    fill.extend_from_slice(&offsets[..n_bins]);
+    entries.clear();
+    entries.resize(pairs.len(), 0);
     let mut place = |b: u32, k: u32| {
         let slot = &mut fill[b as usize];
         entries[*slot as usize] = k;
@@ -306,32 +353,31 @@ fn seal(
     };
     if sort {
         // Keys computed once: the nearest view depth of each triangle.
-        let mut keys: Vec<(f64, u32)> = batch_tris
-            .iter()
-            .enumerate()
-            .map(|(i, t)| {
-                let z = t.corners[0].z.min(t.corners[1].z).min(t.corners[2].z);
-                (z, i as u32)
-            })
-            .collect();
+        let keys = &mut s.keys;
+        keys.clear();
+        keys.extend(batch_tris.iter().enumerate().map(|(i, t)| {
+            let z = t.corners[0].z.min(t.corners[1].z).min(t.corners[2].z);
+            (z, i as u32)
+        }));
         keys.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         // Triangle k's pairs are `pairs[starts[k]..starts[k + 1]]` (they were pushed triangle
         // by triangle). Placing them front to back makes every bin's list front to back (the
-        // counting sort is stable), with no sort per bin.
-        let mut starts = vec![0u32; batch_tris.len() + 1];
+        // counting sort is stable), with no sort per bin and no reordering of the triangles.
+        let starts = &mut s.starts;
+        starts.clear();
+        starts.resize(batch_tris.len() + 1, 0);
         for &(_, k) in pairs.iter() {
             starts[k as usize + 1] += 1;
         }
         for i in 0..batch_tris.len() {
             starts[i + 1] += starts[i];
         }
-        for (rank, &(_, k)) in keys.iter().enumerate() {
+        for &(_, k) in keys.iter() {
             let own = &pairs[starts[k as usize] as usize..starts[k as usize + 1] as usize];
             for &(b, _) in own {
-                place(b, rank as u32);
+                place(b, k);
             }
         }
-        batch_tris = keys.iter().map(|&(_, i)| batch_tris[i as usize]).collect();
     } else {
         for &(b, k) in pairs.iter() {
             place(b, k);
@@ -386,19 +432,21 @@ mod tests {
         assert_eq!(a.stats.triangles_streamed, b.stats.triangles_streamed);
     }
 
-    /// A sorted seal lists every (bin, triangle) pair once, with the triangles front to back
-    /// and each bin's entries in that order.
+    /// A sorted seal lists every (bin, triangle) pair once, each bin's entries front to back.
     #[test]
     fn sorted_seal_keeps_every_pair_front_to_back() {
         use glam::{DVec2, DVec3};
         let n_bins = 5;
-        let mut tris = Vec::new();
-        let mut pairs = Vec::new();
+        let options = RvOptions {
+            batch_triangles: 64,
+            ..RvOptions::default()
+        };
+        let mut s = Scratch::new(&options, 256, n_bins);
         let mut want = Vec::new();
         for k in 0..40u32 {
             // Depths out of order, with ties.
             let z = f64::from((k * 7) % 13) + 1.0;
-            tris.push(ProjTri {
+            s.tris.push(ProjTri {
                 id: 100 + k,
                 corners: [DVec3::new(0.0, 0.0, z); 3],
                 screen: [DVec2::ZERO; 3],
@@ -408,22 +456,36 @@ mod tests {
             });
             for b in 0..n_bins as u32 {
                 if (k + b) % 3 != 0 {
-                    pairs.push((b, k));
+                    s.pairs.push((b, k));
                     want.push((b, 100 + k));
                 }
             }
         }
-        let batch = seal(&mut tris, &mut pairs, n_bins, 64, true);
-        assert!(tris.is_empty() && pairs.is_empty(), "buffers reset");
+        // A spare from an earlier, larger batch lends its buffers.
+        let spare = Batch {
+            tris: Vec::with_capacity(64),
+            offsets: vec![9; n_bins + 1],
+            entries: vec![7; 300],
+        };
+        let batch = seal(
+            &mut s.tris,
+            &mut s.pairs,
+            &mut s.sorting,
+            Some(spare),
+            n_bins,
+            64,
+            true,
+        );
+        assert!(s.tris.is_empty() && s.pairs.is_empty(), "buffers reset");
+        assert_eq!(batch.offsets[n_bins] as usize, batch.entries.len());
         let z = |i: u32| batch.tris[i as usize].corners[0].z;
-        assert!(batch
-            .tris
-            .windows(2)
-            .all(|w| w[0].corners[0].z <= w[1].corners[0].z));
         let mut got = Vec::new();
         for b in 0..n_bins {
+            // Front to back; equal depths in stream order.
             let list = batch.bin(b);
-            assert!(list.windows(2).all(|w| w[0] < w[1] && z(w[0]) <= z(w[1])));
+            assert!(list
+                .windows(2)
+                .all(|w| z(w[0]) < z(w[1]) || (z(w[0]) == z(w[1]) && w[0] < w[1])));
             got.extend(list.iter().map(|&i| (b as u32, batch.tris[i as usize].id)));
         }
         got.sort_unstable();

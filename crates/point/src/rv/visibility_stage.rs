@@ -71,8 +71,8 @@ pub(crate) fn process(
     // clipped against either.)
     let tri_rect = Rect::of(&t.screen);
     let inside_bin = t.whole_front && ctx.bin_rect.contains(&tri_rect, 0.0);
-    let (mut first, mut second);
-    let mut screen_buf = [DVec2::ZERO; MAX_POLY];
+    // Initialised only where clipping needs them (a few hundred bytes each).
+    let (mut first, mut second, mut screen_buf);
     let (verts, screen): (&[DVec3], &[DVec2]) = if inside_bin {
         (&t.corners, &t.screen)
     } else {
@@ -102,6 +102,7 @@ pub(crate) fn process(
             st.clipped_away += 1;
             return;
         }
+        screen_buf = [DVec2::ZERO; MAX_POLY];
         for (s, v) in screen_buf.iter_mut().zip(poly.as_slice()) {
             *s = ctx.proj.screen_of(*v);
         }
