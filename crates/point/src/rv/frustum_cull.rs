@@ -19,7 +19,7 @@
 //! `near / 2 · tan_half_x · 2 · SLACK_PX / width`, orders of magnitude above the rounding of the
 //! plane values). A box with a non-finite corner is never rejected.
 
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec3A};
 
 use super::projection::Projection;
 use super::source::SourceTriangle;
@@ -75,15 +75,17 @@ impl FrustumCull {
         if tris.is_empty() {
             return false;
         }
-        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        // In SIMD lanes (`Vec3A`): this loop reads every streamed corner.
+        let (mut lo, mut hi) = (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY));
         for t in tris {
             for c in t.corners {
+                let c = Vec3A::from(c);
                 lo = lo.min(c);
                 hi = hi.max(c);
             }
         }
-        // `min`/`max` may skip NaN corners; such triangles are never visible anyway, but an
-        // infinite or all-NaN box is simply not judged.
+        // `min`/`max` may skip or keep NaN corners; such triangles are never visible anyway,
+        // and an infinite or NaN box is simply not judged.
         if !(lo.is_finite() && hi.is_finite()) {
             return false;
         }
@@ -100,6 +102,7 @@ impl FrustumCull {
 mod tests {
     use super::super::geometry_stage::{bins_of, project, BinGrid};
     use super::*;
+    use glam::Vec3;
     use sightline_core::Camera;
 
     fn proj() -> Projection {

@@ -244,7 +244,6 @@ mod tests {
             id: 0,
             corners: s.map(|p| DVec3::new(p[0], p[1], z)),
             screen: s.map(|p| DVec2::new(p[0], p[1])),
-            plane: Some([0.0, 0.0, -1.0, z]),
             whole_front: true,
             front: true,
         }

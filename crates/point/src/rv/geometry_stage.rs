@@ -30,12 +30,18 @@ pub(crate) struct ProjTri {
     pub(crate) corners: [DVec3; 3],
     /// Screen corners (meaningful only when `whole_front`).
     pub(crate) screen: [DVec2; 3],
-    /// Eye-positive plane; `None` when seen edge-on.
-    pub(crate) plane: Option<[f64; 4]>,
     /// All corners in front of the near plane (no near clipping needed).
     pub(crate) whole_front: bool,
     /// Counter-clockwise on screen (image y down: negative signed area).
     pub(crate) front: bool,
+}
+
+impl ProjTri {
+    /// Eye-positive plane; `None` when seen edge-on. Computed where it is needed (occluder
+    /// triangles, occludees that reach a triangle test), not for every projected triangle.
+    pub(crate) fn plane(&self) -> Option<[f64; 4]> {
+        eye_plane(self.corners[0], self.corners[1], self.corners[2])
+    }
 }
 
 /// One batch of projected triangles and its per-bin index lists (counting-sorted by bin).
@@ -154,7 +160,6 @@ pub(crate) fn project(
             id: t.id,
             corners,
             screen,
-            plane: eye_plane(corners[0], corners[1], corners[2]),
             whole_front,
             front: area < 0.0,
         },

@@ -234,7 +234,7 @@ impl BinState {
         pool: &Pool,
         may_start: bool,
     ) -> AddOutcome {
-        let Some(plane) = t.plane.filter(|_| t.whole_front) else {
+        let Some(plane) = t.whole_front.then(|| t.plane()).flatten() else {
             return AddOutcome::NotEligible;
         };
         self.start_index(pool);
@@ -469,7 +469,6 @@ mod tests {
             id: 0,
             corners,
             screen,
-            plane: Some([0.0, 0.0, -1.0, 5.0]),
             whole_front: true,
             front: true,
         }

@@ -38,7 +38,7 @@
 
 use glam::{DVec2, DVec3};
 
-use super::depth::{behind, in_front, occludee_behind, OccluderView, DEPTH_EPS};
+use super::depth::{behind, eye_plane, in_front, occludee_behind, OccluderView, DEPTH_EPS};
 use super::occluders::{BinState, Edge, Occluder};
 use super::overlap::{convex_overlap, inner_point, ray_winding, segment_overlaps, Rect};
 use super::projection::Projection;
@@ -54,14 +54,24 @@ pub(crate) struct Occludee<'a> {
     /// View depth bounds.
     pub(crate) zmin: f64,
     pub(crate) zmax: f64,
-    /// Eye-positive plane of the unclipped triangle.
-    pub(crate) plane: Option<&'a [f64; 4]>,
+    /// Eye-positive plane of the unclipped triangle, computed on first use (see `plane`).
+    pub(crate) plane: std::cell::OnceCell<Option<[f64; 4]>>,
     /// View-space corners of the unclipped triangle.
     pub(crate) corners: &'a [DVec3; 3],
     /// Screen corners of the unclipped triangle, when it lies wholly in front of the near plane.
     pub(crate) tri_screen: Option<&'a [DVec2; 3]>,
     /// Positive-area semantics (see the module documentation).
     pub(crate) area: bool,
+}
+
+impl Occludee<'_> {
+    /// Eye-positive plane of the unclipped triangle (`None` when seen edge-on); only triangle
+    /// tests need it, and most occludees never reach one.
+    fn plane(&self) -> Option<&[f64; 4]> {
+        self.plane
+            .get_or_init(|| eye_plane(self.corners[0], self.corners[1], self.corners[2]))
+            .as_ref()
+    }
 }
 
 /// Counters of the test, for statistics.
@@ -162,7 +172,7 @@ fn occluded_by(
                 return true;
             }
         }
-        if p.area && behind_but_shared_corners(p.corners, p.plane, &t.corners, &t.plane) {
+        if p.area && behind_but_shared_corners(p.corners, p.plane(), &t.corners, &t.plane) {
             return true;
         }
         let view = OccluderView {
@@ -170,7 +180,7 @@ fn occluded_by(
             screen: &t.screen,
             plane: &t.plane,
         };
-        occludee_behind(p.poly, p.plane, &view, proj, margin)
+        occludee_behind(p.poly, p.plane(), &view, proj, margin)
     })
 }
 

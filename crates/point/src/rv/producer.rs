@@ -450,7 +450,6 @@ mod tests {
                 id: 100 + k,
                 corners: [DVec3::new(0.0, 0.0, z); 3],
                 screen: [DVec2::ZERO; 3],
-                plane: None,
                 whole_front: true,
                 front: true,
             });

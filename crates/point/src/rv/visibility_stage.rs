@@ -121,7 +121,7 @@ pub(crate) fn process(
         rect: Rect::of(screen),
         zmin,
         zmax,
-        plane: t.plane.as_ref(),
+        plane: std::cell::OnceCell::new(),
         corners: &t.corners,
         tri_screen: t.whole_front.then_some(&t.screen),
         area: ctx.area,
