@@ -105,11 +105,16 @@ pub(crate) fn is_occluded(
     // P's lower corner (`occluder_index.rs`).
     let (x, y) = state.index.cell_of(p.rect.min);
     let rect_margin = if p.area { 0.0 } else { margin };
+    // `occluded_by`'s first filter (`Rect::contains`), on the slot's copy of the occluder's
+    // bounds, with P's grown bounds hoisted and the four comparisons combined without
+    // branches: most candidates fail it, at unpredictable comparisons.
+    let (lo, hi) = (p.rect.min - rect_margin, p.rect.max + rect_margin);
     let hit = state.index.cell(x, y).iter().position(|&slot| {
-        // `occluded_by`'s first filter, on the slot's copy of the occluder's bounds.
         let e = state.index.slot(slot);
-        e.rect.contains(&p.rect, rect_margin)
-            && occluded_by(p, &state.occluders[e.pos as usize], proj, margin, counters)
+        let r = &e.rect;
+        let contains =
+            (r.min.x <= lo.x) & (r.min.y <= lo.y) & (r.max.x >= hi.x) & (r.max.y >= hi.y);
+        contains && occluded_by(p, &state.occluders[e.pos as usize], proj, margin, counters)
     });
     if let Some(k) = hit {
         state.index.promote(x, y, k);
