@@ -16,12 +16,12 @@ use sightline_core::TriangleSet;
 use super::source::{SourceTriangle, TriangleSource};
 use super::RvError;
 
-/// Collects one block: its vertices (indices restart at every block) and its triangles as
-/// corners, ready to hand out.
+/// Collects one block: its vertices (indices restart at every block) and its triangles, ready
+/// to hand out (ids are given when they are handed out).
 #[derive(Clone, Debug)]
 struct BlockSink {
     vertices: Vec<Vec3>,
-    triangles: Vec<[Vec3; 3]>,
+    triangles: Vec<SourceTriangle>,
 }
 
 impl TriangleSink for BlockSink {
@@ -40,8 +40,10 @@ impl TriangleSink for BlockSink {
         // A bad index would be a generator bug; give it NaN corners (never visible) rather
         // than panic, as `SceneSource` does for bad scenes.
         let corner = |i: u32| self.vertices.get(i as usize).copied().unwrap_or(Vec3::NAN);
-        self.triangles
-            .push([corner(t[0]), corner(t[1]), corner(t[2])]);
+        self.triangles.push(SourceTriangle {
+            id: 0,
+            corners: [corner(t[0]), corner(t[1]), corner(t[2])],
+        });
     }
 }
 
@@ -171,13 +173,16 @@ impl StreamingCity {
                 }
                 continue;
             }
-            out.push(SourceTriangle {
-                id: self.next_id,
-                corners: self.block.triangles[self.at],
-            });
-            self.at += 1;
-            self.next_id += 1;
-            n += 1;
+            // As many of the block's triangles as fit, numbered in stream order.
+            let k = (max - n).min(self.block.triangles.len() - self.at);
+            let start = out.len();
+            out.extend_from_slice(&self.block.triangles[self.at..self.at + k]);
+            for (t, id) in out[start..].iter_mut().zip(self.next_id..) {
+                t.id = id;
+            }
+            self.at += k;
+            self.next_id += k as u32;
+            n += k;
         }
         n
     }
