@@ -29,11 +29,14 @@ type Key = [u64; 4];
 struct Entry {
     key: Key,
     slot: u32,
+    /// The key's hash (low bits): deletion and growth move entries without rehashing keys.
+    hash: u32,
 }
 
 const VACANT: Entry = Entry {
     key: [0; 4],
     slot: EMPTY,
+    hash: 0,
 };
 
 /// The multimap (see the module documentation). An occluder with the same edge twice (a
@@ -70,8 +73,10 @@ impl EdgeMap {
         self.table.len() - 1
     }
 
-    fn home(&self, k: &Key) -> usize {
-        hash(k) as usize & self.mask()
+    /// Home position of a stored entry (tables never exceed 2^32 entries: the pool is far
+    /// smaller).
+    fn home_of(&self, e: &Entry) -> usize {
+        e.hash as usize & self.mask()
     }
 
     /// Lists `slot` under edge `e`; false when the pool cannot give the memory (the map is
@@ -81,11 +86,16 @@ impl EdgeMap {
             return false;
         }
         let key = key_of(e);
-        let mut i = self.home(&key);
+        let h = hash(&key);
+        let mut i = h as usize & self.mask();
         while self.table[i].slot != EMPTY {
             i = (i + 1) & self.mask();
         }
-        self.table[i] = Entry { key, slot };
+        self.table[i] = Entry {
+            key,
+            slot,
+            hash: h as u32,
+        };
         self.len += 1;
         true
     }
@@ -100,7 +110,7 @@ impl EdgeMap {
         bigger.resize(size, VACANT);
         let old = std::mem::replace(&mut self.table, bigger);
         for entry in old.iter().filter(|e| e.slot != EMPTY) {
-            let mut i = self.home(&entry.key);
+            let mut i = self.home_of(entry);
             while self.table[i].slot != EMPTY {
                 i = (i + 1) & self.mask();
             }
@@ -116,13 +126,14 @@ impl EdgeMap {
         if self.table.is_empty() {
             return None;
         }
-        let mut i = self.home(key);
+        let h = hash(key);
+        let mut i = h as usize & self.mask();
         loop {
             let entry = &self.table[i];
             if entry.slot == EMPTY {
                 return None;
             }
-            if entry.slot == slot && entry.key == *key {
+            if entry.slot == slot && entry.hash == h as u32 && entry.key == *key {
                 return Some(i);
             }
             i = (i + 1) & self.mask();
@@ -143,7 +154,7 @@ impl EdgeMap {
             if self.table[j].slot == EMPTY {
                 break;
             }
-            let home = self.home(&self.table[j].key);
+            let home = self.home_of(&self.table[j]);
             let home_in_gap = if hole <= j {
                 hole < home && home <= j
             } else {
@@ -177,13 +188,14 @@ impl EdgeMap {
             return;
         }
         let key = key_of(e);
-        let mut i = self.home(&key);
+        let h = hash(&key);
+        let mut i = h as usize & self.mask();
         loop {
             let entry = &self.table[i];
             if entry.slot == EMPTY {
                 return;
             }
-            if entry.key == key {
+            if entry.hash == h as u32 && entry.key == key {
                 f(entry.slot);
             }
             i = (i + 1) & self.mask();
