@@ -112,6 +112,11 @@ pub(crate) struct BinState {
     pub(crate) initialized: bool,
     /// Which occluders lie where (`occluder_index.rs`); off by default (linear scans).
     pub(crate) index: OccluderIndex,
+    /// Emptied buffers of a dropped occluder, kept (still taken from the pool) for the next new
+    /// one: in a full bin every new occluder follows an eviction, and reusing them saves an
+    /// allocation and a free of each.
+    spare_tris: Vec<OccTri>,
+    spare_edges: Vec<Edge>,
     /// At least the largest `zmin` of the occluders (an upper bound, tightened when an
     /// eviction scan finds nothing to drop): a full bin offered a triangle in front of every
     /// occluder's near point then skips the scan. Occluders only ever get nearer `zmin`s by
@@ -279,8 +284,8 @@ impl BinState {
                 return AddOutcome::Full;
             }
             let mut o = Occluder {
-                tris: Vec::new(),
-                edges: Vec::new(),
+                tris: std::mem::take(&mut self.spare_tris),
+                edges: std::mem::take(&mut self.spare_edges),
                 rect: occ_tri.rect,
                 zmin,
                 zmax,
@@ -363,8 +368,7 @@ impl BinState {
             main.rect = main.rect.union(&o.rect);
             main.zmin = main.zmin.min(o.zmin);
             main.zmax = main.zmax.max(o.zmax);
-            release_to(&mut o.tris, pool);
-            release_to(&mut o.edges, pool);
+            self.recycle(o, pool);
         }
         main.tris.push(occ_tri);
         main.rect = main.rect.union(&occ_tri.rect);
@@ -425,12 +429,28 @@ impl BinState {
             self.zmin_bound = far;
             return false;
         }
-        let mut o = self.detach(i);
+        let o = self.detach(i);
         self.unlist(&o);
         self.edge_count -= o.edges.len();
-        release_to(&mut o.tris, pool);
-        release_to(&mut o.edges, pool);
+        self.recycle(o, pool);
         true
+    }
+
+    /// Keeps a dropped occluder's buffers as the spares (emptied), or returns them to `pool`
+    /// when spares are already kept.
+    fn recycle(&mut self, mut o: Occluder, pool: &Pool) {
+        if self.spare_tris.capacity() == 0 {
+            o.tris.clear();
+            self.spare_tris = o.tris;
+        } else {
+            release_to(&mut o.tris, pool);
+        }
+        if self.spare_edges.capacity() == 0 {
+            o.edges.clear();
+            self.spare_edges = o.edges;
+        } else {
+            release_to(&mut o.edges, pool);
+        }
     }
 
     /// Returns all occluder memory to `pool`.
@@ -440,6 +460,8 @@ impl BinState {
             release_to(&mut o.edges, pool);
         }
         release_to(&mut self.occluders, pool);
+        release_to(&mut self.spare_tris, pool);
+        release_to(&mut self.spare_edges, pool);
         self.edge_count = 0;
         self.fused.clear(pool);
         self.index.clear(pool);
