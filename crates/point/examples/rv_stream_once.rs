@@ -6,11 +6,16 @@
 //! centre (an even number of blocks puts one at (-6, -6)) looking down the street along +x;
 //! `aerial` looks down over the city from 300 m.
 
+use std::io::Write;
+
 use glam::Vec3;
 use sightline_core::Camera;
 use sightline_point::rv::{conservative_visible, RvOptions, StreamingCity, TriangleSource};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
+    // Written with `writeln!` so that a closed pipe (`| head -1`) ends the run with an error
+    // instead of a panic.
+    let mut out = std::io::stdout().lock();
     let args: Vec<String> = std::env::args().skip(1).collect();
     let size: usize = args.first().map_or(Ok(1_000_000), |s| s.parse())?;
     let threads: usize = args.get(1).map_or(Ok(2), |s| s.parse())?;
@@ -34,14 +39,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             batch.clear();
         }
         let s = start.elapsed().as_secs_f64();
-        println!(
+        writeln!(
+            out,
             "{n} generated, {s:.3} s, {:.2} M triangles/s",
             n as f64 / s / 1e6
-        );
+        )?;
         return Ok(());
     }
     let r = conservative_visible(&mut source, &camera, &options)?;
-    println!(
+    writeln!(
+        out,
         "{} streamed, {} on screen, {} visible ({} after the first pass), {:.3} s, {:.2} M \
          triangles/s, peak {:.1} MiB",
         r.stats.triangles_streamed,
@@ -51,8 +58,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         r.stats.seconds,
         r.stats.triangles_streamed as f64 / r.stats.seconds / 1e6,
         r.peak_memory_bytes as f64 / (1 << 20) as f64
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "{} bin entries (first pass), {} bin tests ({} occluded, {} of them by fusion), {} \
          silhouette tests, {} triangle tests",
         r.stats.bin_entries,
@@ -61,6 +69,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         r.stats.fused_occluded,
         r.stats.silhouette_tests,
         r.stats.triangle_tests
-    );
+    )?;
     Ok(())
 }
