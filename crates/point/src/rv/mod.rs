@@ -125,8 +125,8 @@ pub struct RvOptions {
     /// left visible against the final occluders (beyond the thesis; needs a source that can
     /// [`TriangleSource::rewind`]). Triangles that arrived before their occluders existed are
     /// then found hidden, which an unsorted stream otherwise reports visible. The source is
-    /// read twice, but triangles already hidden skip all geometry work; the memory is the
-    /// same.
+    /// read twice, but triangles already hidden skip all geometry work (and a source may not
+    /// even produce them: [`TriangleSource::next_wanted`]); the memory is the same.
     pub retest_pass: bool,
     /// What "visible" means for the guarantee (see [`Guarantee`]).
     pub guarantee: Guarantee,
