@@ -27,6 +27,37 @@ pub trait TriangleSink {
     fn add_triangle(&mut self, t: [u32; 3]);
 }
 
+/// A sink that only counts what a generator emits: to size something, or to pass over part of
+/// a generated stream without keeping it (the generator's state still advances).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CountingSink {
+    /// Objects begun.
+    pub objects: usize,
+    /// Vertices added.
+    pub vertices: u32,
+    /// Triangles added.
+    pub triangles: usize,
+}
+
+impl TriangleSink for CountingSink {
+    fn begin_object(&mut self, _name: std::fmt::Arguments<'_>) {
+        self.objects += 1;
+    }
+
+    fn vertex_count(&self) -> u32 {
+        self.vertices
+    }
+
+    fn add_vertex(&mut self, _p: Vec3) -> u32 {
+        self.vertices += 1;
+        self.vertices - 1
+    }
+
+    fn add_triangle(&mut self, _t: [u32; 3]) {
+        self.triangles += 1;
+    }
+}
+
 impl TriangleSink for SceneBuilder {
     fn set_up(&mut self, up: UpAxis) {
         SceneBuilder::set_up(self, up);

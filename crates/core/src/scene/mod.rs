@@ -28,7 +28,7 @@ use serde::Serialize;
 
 use crate::geometry::Aabb;
 
-pub use builder::{SceneBuilder, TriangleSink};
+pub use builder::{CountingSink, SceneBuilder, TriangleSink};
 pub use error::{LoadError, Location};
 pub use spec::{open, LoadOptions, SceneSpec};
 

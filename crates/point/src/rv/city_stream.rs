@@ -10,7 +10,7 @@
 
 use glam::Vec3;
 use sightline_core::scene::procedural::City;
-use sightline_core::scene::TriangleSink;
+use sightline_core::scene::{CountingSink, TriangleSink};
 use sightline_core::TriangleSet;
 
 use super::source::{SourceTriangle, TriangleSource};
@@ -44,31 +44,6 @@ impl TriangleSink for BlockSink {
             id: 0,
             corners: [corner(t[0]), corner(t[1]), corner(t[2])],
         });
-    }
-}
-
-/// Counts one block's triangles without keeping them: a block nobody wants is generated into
-/// it, so the generator's random state and the ids stay those of the full stream.
-#[derive(Default)]
-struct CountingSink {
-    vertices: u32,
-    triangles: u32,
-}
-
-impl TriangleSink for CountingSink {
-    fn begin_object(&mut self, _name: std::fmt::Arguments<'_>) {}
-
-    fn vertex_count(&self) -> u32 {
-        self.vertices
-    }
-
-    fn add_vertex(&mut self, _p: Vec3) -> u32 {
-        self.vertices += 1;
-        self.vertices - 1
-    }
-
-    fn add_triangle(&mut self, _t: [u32; 3]) {
-        self.triangles += 1;
     }
 }
 
@@ -161,11 +136,13 @@ impl StreamingCity {
                 // Ids are handed out in order, so the next block's lie in this range.
                 let range = first..first + City::MAX_TRIANGLES_PER_BLOCK;
                 if wanted.is_some_and(|w| w.count_ones(range.start..range.end.min(w.len())) == 0) {
+                    // Generated but only counted: the generator's random state and the ids
+                    // stay those of the full stream.
                     let mut count = CountingSink::default();
                     if !self.city.next_block(&mut count) {
                         break;
                     }
-                    self.next_id += count.triangles;
+                    self.next_id += count.triangles as u32;
                     continue;
                 }
                 if !self.city.next_block(&mut self.block) {

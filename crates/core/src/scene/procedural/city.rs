@@ -128,37 +128,13 @@ fn add_building<S: TriangleSink + ?Sized>(b: &mut S, rng: &mut SplitMix64, x: f3
 mod tests {
     use super::*;
 
-    /// Counts what one block emits.
-    #[derive(Default)]
-    struct Count {
-        vertices: u32,
-        triangles: usize,
-        objects: usize,
-    }
-
-    impl TriangleSink for Count {
-        fn begin_object(&mut self, _name: std::fmt::Arguments<'_>) {
-            self.objects += 1;
-        }
-        fn vertex_count(&self) -> u32 {
-            self.vertices
-        }
-        fn add_vertex(&mut self, _p: Vec3) -> u32 {
-            self.vertices += 1;
-            self.vertices - 1
-        }
-        fn add_triangle(&mut self, _t: [u32; 3]) {
-            self.triangles += 1;
-        }
-    }
-
     #[test]
     fn blocks_stay_within_their_bounds_and_sum_to_the_scene() {
         let mut city = City::new(4, 5_000);
         let mut total = 0;
         let mut blocks = 0;
         loop {
-            let mut c = Count::default();
+            let mut c = crate::scene::CountingSink::default();
             if !city.next_block(&mut c) {
                 break;
             }
