@@ -254,6 +254,7 @@ mod tests {
         let limits = Limits {
             max_occluders: 16,
             max_edges: 256,
+            min_evicting_area: 0.0,
         };
         state.add(t, &limits, pool, true);
         let BinState {
@@ -350,6 +351,7 @@ mod tests {
             &Limits {
                 max_occluders: 4,
                 max_edges: 64,
+                min_evicting_area: 0.0,
             },
             &ok_pool,
             true,
@@ -359,6 +361,7 @@ mod tests {
             &Limits {
                 max_occluders: 4,
                 max_edges: 64,
+                min_evicting_area: 0.0,
             },
             &ok_pool,
             true,

@@ -551,6 +551,9 @@ fn visible_with(
     let limits = Limits {
         max_occluders: options.max_occluders_per_bin,
         max_edges: options.max_edges_per_bin,
+        // An equal share of the bin per occluder (4 px² for 32 px bins and 256 occluders).
+        min_evicting_area: (grid.width / grid.nx as f64) * (grid.height / grid.ny as f64)
+            / options.max_occluders_per_bin.max(1) as f64,
     };
     let states: Vec<Mutex<BinState>> = (0..n_bins)
         .map(|b| {

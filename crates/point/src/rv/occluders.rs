@@ -84,6 +84,9 @@ pub(crate) struct Occluder {
 pub(crate) struct Limits {
     pub(crate) max_occluders: usize,
     pub(crate) max_edges: usize,
+    /// Screen area (px²) a triangle needs to start an occluder in a full bin, where the new
+    /// occluder takes the place of an evicted one (beyond the thesis; see `add`).
+    pub(crate) min_evicting_area: f64,
 }
 
 /// What happened to a visible triangle offered to the occluders.
@@ -275,10 +278,15 @@ impl BinState {
                 return AddOutcome::NotEligible;
             }
             // A full bin makes room by dropping its farthest occluder when this triangle lies
-            // entirely in front of it (see `evict_farther_than`).
-            if self.occluders.len() >= limits.max_occluders && !self.evict_farther_than(zmax, pool)
-            {
-                return AddOutcome::Full;
+            // entirely in front of it (see `evict_farther_than`), and covers at least the
+            // bin's share per occluder: near a street's vanishing point, full bins otherwise
+            // trade occluders for sub-pixel ones that hide next to nothing, one eviction per
+            // visible speck (measured in `docs/BENCHMARKS.md`).
+            if self.occluders.len() >= limits.max_occluders {
+                let area = 0.5 * (s[1] - s[0]).perp_dot(s[2] - s[0]).abs();
+                if area < limits.min_evicting_area || !self.evict_farther_than(zmax, pool) {
+                    return AddOutcome::Full;
+                }
             }
             if !reserve_from(&mut self.occluders, 1, pool) {
                 return AddOutcome::Full;
@@ -476,6 +484,7 @@ mod tests {
         Limits {
             max_occluders: 4,
             max_edges: 64,
+            min_evicting_area: 0.0,
         }
     }
 
@@ -538,6 +547,7 @@ mod tests {
         let one = Limits {
             max_occluders: 1,
             max_edges: 64,
+            min_evicting_area: 0.0,
         };
         let mut b = BinState::default();
         let mut far = tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
@@ -614,6 +624,7 @@ mod tests {
         let lim = Limits {
             max_occluders: 40,
             max_edges: 300,
+            min_evicting_area: 0.0,
         };
         // Index on all along, and turned off half way (what an exhausted pool does).
         for fail_at in [usize::MAX, 300] {

@@ -80,8 +80,9 @@ pub(crate) fn process(
         first = Poly::from_slice(&t.corners);
         second = Poly::new();
         let (mut poly, mut other) = (&mut first, &mut second);
-        let near = ctx.proj.near_plane();
-        let near = (!t.whole_front).then_some(&near);
+        if !t.whole_front && clip_into(poly, &ctx.proj.near_plane(), other) {
+            std::mem::swap(&mut poly, &mut other);
+        }
         let b = &ctx.bin_rect;
         // `BinContext::planes` order: x >= min.x, x <= max.x, y >= min.y, y <= max.y.
         let crossed = [
@@ -90,11 +91,8 @@ pub(crate) fn process(
             tri_rect.min.y < b.min.y,
             tri_rect.max.y > b.max.y,
         ];
-        let sides = (ctx.planes.iter().zip(crossed))
-            .filter(|&(_, c)| c || !t.whole_front)
-            .map(|(plane, _)| plane);
-        for plane in near.into_iter().chain(sides) {
-            if clip_into(poly, plane, other) {
+        for (plane, crosses) in ctx.planes.iter().zip(crossed) {
+            if (crosses || !t.whole_front) && clip_into(poly, plane, other) {
                 std::mem::swap(&mut poly, &mut other);
             }
         }
