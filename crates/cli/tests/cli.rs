@@ -221,3 +221,60 @@ fn demo_writes_report_with_every_step() {
     assert!(dir.path().join("sightline-report/overview.png").exists());
     assert!(dir.path().join("sightline-report/demo.pvs").exists());
 }
+
+#[test]
+fn bench_rv_reports_both_views_and_passes_consistently() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = [
+        "bench",
+        "rv",
+        "--triangles",
+        "30000",
+        "--size",
+        "128",
+        "--rounds",
+        "1",
+        "--threads",
+        "2",
+        "--json",
+    ];
+    let o = sightline(&args, dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let rows = v.as_array().unwrap();
+    assert_eq!(
+        rows.len(),
+        4,
+        "street and aerial, each with and without the re-test"
+    );
+    for view in ["street", "aerial"] {
+        let of = |retest: bool| {
+            rows.iter()
+                .find(|r| r["view"] == view && r["retest_pass"] == retest)
+                .unwrap_or_else(|| panic!("{view} retest={retest} missing"))
+        };
+        let (two, one) = (of(true), of(false));
+        let n = |r: &serde_json::Value, k: &str| r[k].as_f64().unwrap();
+        // The same stream and the same first pass in both configurations.
+        assert_eq!(two["triangles_streamed"], one["triangles_streamed"]);
+        assert_eq!(two["first_pass_visible"], one["first_pass_visible"]);
+        assert!(n(two, "triangles_streamed") >= 24_000.0);
+        assert!(n(two, "on_screen") <= n(two, "triangles_streamed"));
+        // The re-test only removes triangles; the single pass reports its first pass.
+        assert!(n(two, "visible") <= n(two, "first_pass_visible"));
+        assert_eq!(n(one, "visible"), n(one, "first_pass_visible"));
+        for r in [two, one] {
+            assert!(n(r, "min_seconds") <= n(r, "median_seconds"));
+            assert!(n(r, "median_seconds") <= n(r, "max_seconds"));
+            assert!(n(r, "mtriangles_per_second") > 0.0);
+            assert!(n(r, "peak_memory_mib") <= 256.0);
+        }
+    }
+}
+
+#[test]
+fn bench_rv_rejects_zero_rounds() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(&["bench", "rv", "--rounds", "0"], dir.path());
+    assert_fails_with(&o, "--rounds");
+}

@@ -2,14 +2,11 @@
 //! CPU-time measurements:
 //! `cargo run --release -p sightline-point --example rv_stream_once -- TRIANGLES [THREADS]
 //! [street|aerial] [--single-pass | --source-only]`. `--source-only` only drains the city generator
-//! once (the part of the run that is not RV's). Cameras at 1024², 60°: `street` stands at a street crossing near the
-//! centre (an even number of blocks puts one at (-6, -6)) looking down the street along +x;
-//! `aerial` looks down over the city from 300 m.
+//! once (the part of the run that is not RV's). Cameras at 1024²: `StreamingCity::street_camera`
+//! and `aerial_camera` (as `sightline bench rv`, which alternates all four configurations).
 
 use std::io::Write;
 
-use glam::Vec3;
-use sightline_core::Camera;
 use sightline_point::rv::{conservative_visible, RvOptions, StreamingCity, TriangleSource};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -19,11 +16,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let size: usize = args.first().map_or(Ok(1_000_000), |s| s.parse())?;
     let threads: usize = args.get(1).map_or(Ok(2), |s| s.parse())?;
-    let (eye, target) = match args.get(2).map(String::as_str) {
-        Some("aerial") => (Vec3::new(0.0, 0.0, 300.0), Vec3::new(500.0, 500.0, 0.0)),
-        _ => (Vec3::new(-6.0, -6.0, 2.0), Vec3::new(1000.0, -6.0, 2.0)),
+    let camera = match args.get(2).map(String::as_str) {
+        Some("aerial") => StreamingCity::aerial_camera(1024)?,
+        _ => StreamingCity::street_camera(1024)?,
     };
-    let camera = Camera::look_at(eye, target, Vec3::Z, 60.0, 1024, 1024, 0.1)?;
     let options = RvOptions {
         threads,
         geometry_threads: threads,

@@ -36,6 +36,34 @@ enum What {
     /// with shared rays at several budgets; pixel error on a fixed subset of cells and the
     /// speed-up at equal error.
     Share(ShareArgs),
+    /// RV streaming throughput: a procedural city generated block by block (never held in
+    /// memory) streamed through RV from a street-level and an aerial view, with the re-test
+    /// pass (the default) and as the thesis' single pass, alternated round by round; million
+    /// triangles per second, set sizes, peak memory.
+    Rv(RvArgs),
+}
+
+/// Arguments of `sightline bench rv`.
+#[derive(clap::Args, Debug)]
+struct RvArgs {
+    /// Triangles of the streamed city (about; `procedural:city?size=N`).
+    #[arg(long, default_value_t = 10_000_000)]
+    triangles: usize,
+    /// Visibility workers, and as many geometry threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Image size (square).
+    #[arg(long, default_value_t = 1024)]
+    size: u32,
+    /// Rounds; every configuration runs once per round (the median is reported).
+    #[arg(long, default_value_t = 5)]
+    rounds: usize,
+    /// Memory budget, e.g. 256MiB.
+    #[arg(long, default_value = "256MiB", value_parser = super::visible::parse_bytes)]
+    memory: usize,
+    /// Print JSON instead of a Markdown table.
+    #[arg(long)]
+    json: bool,
 }
 
 /// Arguments of `sightline bench share`.
@@ -174,7 +202,118 @@ pub(crate) fn run(args: Args) -> Result<()> {
         What::Raster(a) => raster(a),
         What::Pvs(a) => pvs(a),
         What::Share(a) => share(a),
+        What::Rv(a) => rv(a),
     }
+}
+
+/// One configuration of `bench rv`, over all rounds.
+#[derive(Serialize, Debug)]
+struct RvRow {
+    view: &'static str,
+    retest_pass: bool,
+    triangles_streamed: u64,
+    on_screen: u64,
+    visible: usize,
+    first_pass_visible: u64,
+    /// Median, fastest and slowest wall-clock seconds over the rounds.
+    median_seconds: f64,
+    min_seconds: f64,
+    max_seconds: f64,
+    /// Triangles streamed per median second, in millions.
+    mtriangles_per_second: f64,
+    peak_memory_mib: f64,
+}
+
+fn rv(args: RvArgs) -> Result<()> {
+    use sightline_point::rv::{conservative_visible, RvOptions, StreamingCity};
+    anyhow::ensure!(args.rounds > 0, "--rounds must be at least 1");
+    anyhow::ensure!(args.triangles > 0, "--triangles must be at least 1");
+    let threads = args.threads.unwrap_or_else(|| {
+        std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+    });
+    anyhow::ensure!(threads > 0, "--threads must be at least 1");
+    let views = [
+        ("street", StreamingCity::street_camera(args.size)?),
+        ("aerial", StreamingCity::aerial_camera(args.size)?),
+    ];
+    let configs: Vec<(usize, bool)> = (0..views.len())
+        .flat_map(|v| [(v, true), (v, false)])
+        .collect();
+    let mut times = vec![Vec::with_capacity(args.rounds); configs.len()];
+    let mut rows: Vec<Option<RvRow>> = (0..configs.len()).map(|_| None).collect();
+    for round in 0..args.rounds {
+        eprintln!("round {}/{}", round + 1, args.rounds);
+        for (k, &(v, retest_pass)) in configs.iter().enumerate() {
+            let (view, camera) = &views[v];
+            let options = RvOptions {
+                memory_budget_bytes: args.memory,
+                threads,
+                geometry_threads: threads,
+                retest_pass,
+                ..RvOptions::default()
+            };
+            let mut city = StreamingCity::new(1, args.triangles);
+            let r = conservative_visible(&mut city, camera, &options)?;
+            times[k].push(r.stats.seconds);
+            rows[k].get_or_insert(RvRow {
+                view,
+                retest_pass,
+                triangles_streamed: r.stats.triangles_streamed,
+                on_screen: r.stats.triangles_on_screen,
+                visible: r.visible.count_ones(..),
+                first_pass_visible: r.stats.first_pass_visible,
+                median_seconds: 0.0,
+                min_seconds: 0.0,
+                max_seconds: 0.0,
+                mtriangles_per_second: 0.0,
+                peak_memory_mib: r.peak_memory_bytes as f64 / f64::from(1 << 20),
+            });
+        }
+    }
+    let rows: Vec<RvRow> = rows
+        .into_iter()
+        .zip(times)
+        .filter_map(|(row, mut t)| {
+            let mut row = row?;
+            t.sort_by(f64::total_cmp);
+            row.median_seconds = t[t.len() / 2];
+            row.min_seconds = t[0];
+            row.max_seconds = t[t.len() - 1];
+            row.mtriangles_per_second = row.triangles_streamed as f64 / row.median_seconds / 1e6;
+            Some(row)
+        })
+        .collect();
+    if args.json {
+        return print_json(&rows);
+    }
+    println!(
+        "RV streaming a procedural city of {} triangles, {}² px, {threads} workers + {threads} \
+         geometry threads, {} rounds (median; fastest-slowest)\n",
+        args.triangles, args.size, args.rounds
+    );
+    println!("| view | passes | streamed | on screen | visible (first pass) | seconds (fastest-slowest) | M triangles/s | peak MiB |");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|");
+    for r in &rows {
+        println!(
+            "| {} | {} | {} | {} | {} ({}) | {:.3} ({:.3}-{:.3}) | {:.1} | {:.1} |",
+            r.view,
+            if r.retest_pass {
+                "two (re-test)"
+            } else {
+                "one (thesis)"
+            },
+            r.triangles_streamed,
+            r.on_screen,
+            r.visible,
+            r.first_pass_visible,
+            r.median_seconds,
+            r.min_seconds,
+            r.max_seconds,
+            r.mtriangles_per_second,
+            r.peak_memory_mib
+        );
+    }
+    Ok(())
 }
 
 fn load(spec: &str) -> Result<Scene> {

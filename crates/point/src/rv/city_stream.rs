@@ -9,9 +9,10 @@
 //! generator is the same code, and ids are assigned in emission order as `SceneBuilder` does.
 
 use glam::Vec3;
+use sightline_core::camera::CameraError;
 use sightline_core::scene::procedural::City;
 use sightline_core::scene::{CountingSink, TriangleSink};
-use sightline_core::TriangleSet;
+use sightline_core::{Camera, TriangleSet};
 
 use super::source::{SourceTriangle, TriangleSource};
 use super::RvError;
@@ -85,6 +86,36 @@ impl StreamingCity {
     /// The city's extent in x and y (centred on the origin), in metres.
     pub fn half_extent(&self) -> f32 {
         self.city.half_extent()
+    }
+
+    /// The street-level view of RV's throughput measurements (`rv_stream_once`, `sightline
+    /// bench rv`): 2 m above the street crossing at (-6, -6) (there is one there when the city
+    /// has an even number of blocks per side, as the 10M city has), looking down the street
+    /// along +x; 60°, `size`² pixels.
+    pub fn street_camera(size: u32) -> Result<Camera, CameraError> {
+        Camera::look_at(
+            Vec3::new(-6.0, -6.0, 2.0),
+            Vec3::new(1000.0, -6.0, 2.0),
+            Vec3::Z,
+            60.0,
+            size,
+            size,
+            0.1,
+        )
+    }
+
+    /// The aerial view of the same measurements: from 300 m above the centre, looking down
+    /// over the city towards (500, 500, 0); 60°, `size`² pixels.
+    pub fn aerial_camera(size: u32) -> Result<Camera, CameraError> {
+        Camera::look_at(
+            Vec3::new(0.0, 0.0, 300.0),
+            Vec3::new(500.0, 500.0, 0.0),
+            Vec3::Z,
+            60.0,
+            size,
+            size,
+            0.1,
+        )
     }
 }
 
