@@ -117,6 +117,23 @@ fn conservative_visible_set_misses_nothing_the_reference_sees() {
     assert!(visible >= v["reference_visible"].as_u64().unwrap());
     let ids = std::fs::read_to_string(dir.path().join("ids.txt")).unwrap();
     assert_eq!(ids.lines().count() as u64, visible);
+    // Without the cross-check: the same set, and no reference figures claimed.
+    let args = [
+        "visible",
+        bunny,
+        "--conservative",
+        "--no-check",
+        "--size",
+        "128x128",
+        "--json",
+    ];
+    let o = sightline(&args, dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let unchecked: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(unchecked["visible"].as_u64(), Some(visible));
+    for key in ["reference", "reference_visible", "overestimation", "missed"] {
+        assert!(unchecked[key].is_null(), "{key}: {}", unchecked[key]);
+    }
 }
 
 #[test]
