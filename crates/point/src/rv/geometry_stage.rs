@@ -175,15 +175,27 @@ pub(crate) fn project(
 /// polygon's slice of a band is convex). This is one pass over the polygon per row instead of
 /// an overlap test per bin of the bounding rectangle (the thesis' section 6.2 test), and lists
 /// the same bins except where the polygon passes within the margin of a bin's corner
-/// diagonally, which it also lists: a superset, so no bin that needs the triangle misses it.
+/// diagonally, which it also lists: a superset, so no bin that needs the triangle misses it
+/// (whenever the polygon is farther than the margin from a bin along x or y, a bin edge
+/// separates them, so the thesis' test rejects the bin too; tested).
 pub(crate) fn bins_of(pts: &[DVec2], grid: &BinGrid, margin: f64, out: &mut Vec<u32>) {
     let r = Rect::of(pts);
+    let screen = Rect {
+        min: DVec2::ZERO,
+        max: DVec2::new(grid.width, grid.height),
+    };
+    if pts.is_empty() || !r.touches(&screen, margin) {
+        return;
+    }
     let (x0, x1) = grid.range(r.min.x - margin, r.max.x + margin, grid.nx, grid.width);
     let (y0, y1) = grid.range(r.min.y - margin, r.max.y + margin, grid.ny, grid.height);
-    if x0 == x1 || y0 == y1 || pts.len() < 3 {
-        // A connected polygon spans its bounding rectangle's x and y ranges, so within one
-        // column (row) it meets every row (column) of its rectangle; a degenerate polygon
-        // gets its whole rectangle.
+    let inside = r.min.x - margin >= 0.0
+        && r.min.y - margin >= 0.0
+        && r.max.x + margin <= grid.width
+        && r.max.y + margin <= grid.height;
+    if (x0 == x1 && y0 == y1) || (inside && (x0 == x1 || y0 == y1)) {
+        // One bin (the common case); or, on the screen, one column (row): a connected polygon
+        // spans its bounding rectangle's y (x) range, so it meets every row (column) of it.
         for y in y0..=y1 {
             out.extend((x0..=x1).map(|x| (y * grid.nx + x) as u32));
         }
@@ -211,12 +223,14 @@ pub(crate) fn bins_of(pts: &[DVec2], grid: &BinGrid, margin: f64, out: &mut Vec<
                 }
             }
         }
-        if xmin > xmax {
+        // Grown by the margin on both sides: the columns' grown bounds, and the rounding of
+        // the crossings (far below it). Nothing when this row's part lies beside the screen
+        // (the column range is clamped to it).
+        let (xmin, xmax) = (xmin - margin, xmax + margin);
+        if xmin > xmax || xmax < 0.0 || xmin > grid.width {
             continue;
         }
-        // Grown by the margin on both sides: the columns' grown bounds, and the rounding of
-        // the crossings (far below it).
-        let (c0, c1) = grid.range(xmin - margin, xmax + margin, grid.nx, grid.width);
+        let (c0, c1) = grid.range(xmin, xmax, grid.nx, grid.width);
         let (c0, c1) = (c0.max(x0), c1.min(x1));
         out.extend((c0..=c1).map(|x| (y * grid.nx + x) as u32));
     }
@@ -299,5 +313,86 @@ mod tests {
         let mut bins = Vec::new();
         bins_of(&pts[..n], &grid(), 1e-3, &mut bins);
         assert_eq!(bins.len(), 16);
+    }
+
+    /// Row-by-row binning lists every bin the thesis' test (a separating-axis overlap test,
+    /// grown by the margin, per bin of the bounding rectangle) lists, and no bin the polygon's
+    /// bounds stay clear of: random convex polygons (triangles and clipped pentagons), slivers,
+    /// polygons partly or wholly off the grid, corners placed on bin boundaries.
+    #[test]
+    fn row_binning_lists_every_overlapped_bin() {
+        use super::super::overlap::convex_overlap;
+        let g = BinGrid {
+            nx: 7,
+            ny: 5,
+            width: 70.0,
+            height: 50.0,
+        };
+        let margin = 4e-3;
+        let mut rng = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            rng
+        };
+        for case in 0..20_000 {
+            let mut coord = |extent: f64| {
+                let r = next();
+                // A third of the coordinates sit exactly on a bin boundary, or a hair off it.
+                match r % 3 {
+                    0 => (r >> 8) as f64 / u64::MAX as f64 * 256.0 * extent / 200.0 - 5.0,
+                    1 => ((r >> 8) % 8) as f64 * 10.0,
+                    _ => ((r >> 8) % 8) as f64 * 10.0 + ((r >> 20) % 3) as f64 * 1e-3 - 1e-3,
+                }
+            };
+            let mut pts: Vec<DVec2> = (0..3)
+                .map(|_| DVec2::new(coord(70.0), coord(50.0)))
+                .collect();
+            if case % 4 == 0 {
+                // A convex pentagon: the triangle with one corner cut off.
+                let (a, b, c) = (pts[0], pts[1], pts[2]);
+                pts = vec![a, a.lerp(b, 0.7), b.lerp(c, 0.3), c, c.lerp(a, 0.5)];
+            }
+            let mut got = Vec::new();
+            bins_of(&pts, &g, margin, &mut got);
+            let mut unique = got.clone();
+            unique.sort_unstable();
+            unique.dedup();
+            assert_eq!(unique.len(), got.len(), "case {case}: a bin listed twice");
+            for b in 0..g.len() {
+                let (x0, x1, y0, y1) = g.rect(b);
+                let rect = [
+                    DVec2::new(x0, y0),
+                    DVec2::new(x1, y0),
+                    DVec2::new(x1, y1),
+                    DVec2::new(x0, y1),
+                ];
+                let listed = got.contains(&(b as u32));
+                // (For polygons of zero area the thesis' test lacks the segment's own normal
+                // and over-reports; there, every bin holding a corner must be listed.)
+                let area = (0..pts.len())
+                    .map(|i| pts[i].perp_dot(pts[(i + 1) % pts.len()]))
+                    .sum::<f64>()
+                    .abs();
+                let must = if area > 1e-9 {
+                    convex_overlap(&pts, &rect, margin)
+                } else {
+                    pts.iter()
+                        .any(|p| (x0..=x1).contains(&p.x) && (y0..=y1).contains(&p.y))
+                };
+                if must {
+                    assert!(listed, "case {case}: bin {b} missing for {pts:?}");
+                }
+                // Farther than twice the margin in x or y from the bin: never listed.
+                let grown = Rect {
+                    min: DVec2::new(x0, y0) - 2.0 * margin,
+                    max: DVec2::new(x1, y1) + 2.0 * margin,
+                };
+                if !Rect::of(&pts).touches(&grown, 0.0) {
+                    assert!(!listed, "case {case}: bin {b} listed for {pts:?}");
+                }
+            }
+        }
     }
 }
