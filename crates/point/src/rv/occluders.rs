@@ -564,6 +564,32 @@ mod tests {
     }
 
     #[test]
+    fn full_bin_evicts_only_for_a_triangle_of_its_share() {
+        let pool = Pool::new(1 << 20);
+        let one = Limits {
+            max_occluders: 1,
+            max_edges: 64,
+            min_evicting_area: 2.0,
+        };
+        let mut b = BinState::default();
+        let mut far = tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
+        far.corners.iter_mut().for_each(|c| c.z = 50.0);
+        // Below the share, but the bin has room: it starts an occluder.
+        assert_eq!(b.add(&far, &one, &pool, true), AddOutcome::New);
+        // A nearer speck (0.5 px²) does not evict it...
+        let speck = tri([[5.0, 5.0], [6.0, 5.0], [5.0, 6.0]]);
+        assert_eq!(b.add(&speck, &one, &pool, true), AddOutcome::Full);
+        assert_eq!(b.occluders[0].zmin, 50.0);
+        // ...a nearer triangle of 2 px² does.
+        let big = tri([[5.0, 5.0], [7.0, 5.0], [5.0, 7.0]]);
+        assert_eq!(b.add(&big, &one, &pool, true), AddOutcome::New);
+        assert_eq!(b.occluders[0].zmin, 5.0);
+        // A speck sharing an edge with an occluder still grows it.
+        let neighbour = tri([[7.0, 5.0], [5.0, 5.0], [6.0, 4.9]]);
+        assert_eq!(b.add(&neighbour, &one, &pool, true), AddOutcome::Grown);
+    }
+
+    #[test]
     fn full_pool_refuses() {
         let pool = Pool::new(0);
         let mut b = BinState::default();
