@@ -58,13 +58,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     writeln!(
         out,
         "{} bin entries (first pass), {} bin tests ({} occluded, {} of them by fusion), {} \
-         silhouette tests, {} triangle tests",
+         silhouette tests, {} triangle tests, {} re-tests skipped (bins settled)",
         r.stats.bin_entries,
         r.stats.bin_tests,
         r.stats.bin_occluded,
         r.stats.fused_occluded,
         r.stats.silhouette_tests,
-        r.stats.triangle_tests
+        r.stats.triangle_tests,
+        r.stats.retest_settled
     )?;
     Ok(())
 }

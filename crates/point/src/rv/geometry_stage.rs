@@ -51,6 +51,9 @@ pub(crate) struct Batch {
     /// `entries[offsets[b]..offsets[b + 1]]` are the indices into `tris` binned to bin `b`.
     pub(crate) offsets: Vec<u32>,
     pub(crate) entries: Vec<u32>,
+    /// The largest id of the input batch this batch was built from (see
+    /// `producer::Settled`).
+    pub(crate) last_input_id: u32,
 }
 
 impl Batch {

@@ -225,6 +225,10 @@ pub struct RvStats {
     pub retested: bool,
     /// Triangles visible after the first pass (before the re-test pass).
     pub first_pass_visible: u64,
+    /// Of those, triangles the re-test pass kept visible without testing them again: none of
+    /// their bins' occluders changed after their first-pass test (only for streams in id
+    /// order).
+    pub retest_settled: u64,
     /// (triangle, bin) pairs the initialization phase accepted as occluders without a test
     /// ([`RvOptions::init_phase`]).
     pub init_accepted: u64,
@@ -355,12 +359,17 @@ impl Pass<'_> {
     ///
     /// With `only`, triangles outside that set are read but skip all further work (their
     /// bits in `visible` stay clear).
+    ///
+    /// With `settled` (the re-test pass over a stream in id order), triangles none of whose
+    /// bins changed after their first-pass test are marked visible untested
+    /// (`producer::Settled`).
     fn run(
         &self,
         source: &mut (dyn TriangleSource + Send),
         visible: &AtomicTriangleSet,
         build: bool,
         only: Option<&TriangleSet>,
+        settled: Option<&[Option<u32>]>,
     ) -> Result<(producer::Produced, StageStats), RvError> {
         let (grid, options, margin) = (self.grid, self.options, self.margin);
         let n_bins = grid.len();
@@ -377,6 +386,7 @@ impl Pass<'_> {
             sched: &sched,
             only,
             sort: options.sort_batches && build,
+            settled: settled.map(|after| producer::Settled { after, visible }),
         };
         let produced = std::thread::scope(|scope| {
             let workers: Vec<_> = (0..options.threads)
@@ -435,7 +445,11 @@ impl Pass<'_> {
                                         if let Some(&next) = list.get(i + 1) {
                                             prefetch(&batch.tris[next as usize]);
                                         }
+                                        let before = state.changes;
                                         process(&batch.tris[k as usize], &ctx, &mut state, &mut st);
+                                        if state.changes != before {
+                                            state.changed_up_to = Some(batch.last_input_id);
+                                        }
                                     }
                                 }
                             }
@@ -473,6 +487,7 @@ impl Pass<'_> {
                         produced.streamed += p.streamed;
                         produced.on_screen += p.on_screen;
                         produced.entries += p.entries;
+                        produced.settled += p.settled;
                     }
                     Err(panic) => {
                         sched.finish_input();
@@ -490,6 +505,8 @@ impl Pass<'_> {
             drop(guard);
             produced
         });
+        let mut produced = produced;
+        produced.ids_ascending = producers.ids_ascending();
         if let Some(e) = producers.into_error() {
             return Err(e);
         }
@@ -582,7 +599,7 @@ fn visible_with(
     };
     let mut stats = RvStats::default();
     let first = AtomicTriangleSet::new(bound as usize);
-    let (produced, mut stage) = pass.run(source, &first, true, None)?;
+    let (produced, mut stage) = pass.run(source, &first, true, None, None)?;
     stats.first_pass_visible = first.count() as u64;
     // The memory accounting's two bitsets: the concurrent set being filled and the returned
     // set (here the first pass's result, narrowed by the re-test).
@@ -599,7 +616,19 @@ fn visible_with(
         // is skipped before any geometry work (most of a large scene: 95 % of the streamed
         // city at street level).
         let only = (!retest_all).then_some(&visible);
-        let (_, retest) = pass.run(source, &second, false, only)?;
+        // Where each bin's occluders last changed, in ids (meaningful when the stream is in
+        // id order); the re-test of `retest_all` tests everything.
+        let changed_up_to: Vec<Option<u32>> = states
+            .iter()
+            .map(|s| {
+                s.lock()
+                    .unwrap_or_else(std::sync::PoisonError::into_inner)
+                    .changed_up_to
+            })
+            .collect();
+        let settled = (produced.ids_ascending && !retest_all).then_some(&changed_up_to[..]);
+        let (retested, retest) = pass.run(source, &second, false, only, settled)?;
+        stats.retest_settled = retested.settled;
         if retest_all {
             let hidden_now: Vec<usize> = visible
                 .ones()
@@ -745,6 +774,16 @@ mod tests {
         source.rewind().expect("rewinds");
         let skipping = visible_with(source, cam, options, false, Some(INDEX_FROM)).expect("runs");
         assert!(skipping.stats.retested && all.stats.retested);
+        if skipping.visible != all.visible {
+            let a: Vec<usize> = all.visible.ones().collect();
+            let b: Vec<usize> = skipping.visible.ones().collect();
+            eprintln!(
+                "all {a:?}\nskipping {b:?}\nsettled {} first {} {}",
+                skipping.stats.retest_settled,
+                skipping.stats.first_pass_visible,
+                all.stats.first_pass_visible
+            );
+        }
         assert_eq!(skipping.visible, all.visible);
         assert_eq!(
             skipping.stats.first_pass_visible,
@@ -781,6 +820,94 @@ mod tests {
                 r.stats.first_pass_visible
             );
         }
+    }
+
+    #[test]
+    fn settled_bins_skip_retests_and_keep_the_set_aerial_city() {
+        // Over the city, with few occluders per bin: bins fill, and the visible roofs that
+        // arrive after the last change of their bins (later roofs cannot join a full bin
+        // unless nearer) are kept untested.
+        let mut city = StreamingCity::new(1, 40_000);
+        let h = city.half_extent();
+        let cam = Camera::look_at(
+            Vec3::new(-h, -h, 120.0),
+            Vec3::ZERO,
+            Vec3::Z,
+            60.0,
+            128,
+            128,
+            0.1,
+        )
+        .expect("cam");
+        for guarantee in [Guarantee::PositiveArea, Guarantee::AnySample] {
+            let options = RvOptions {
+                bins: (8, 8),
+                threads: 2,
+                geometry_threads: 2,
+                batch_triangles: 512,
+                max_occluders_per_bin: 8,
+                guarantee,
+                ..RvOptions::default()
+            };
+            city.rewind().expect("rewinds");
+            let r = same_with_and_without_skipping(&mut city, &cam, &options);
+            assert!(
+                r.stats.retest_settled > r.stats.first_pass_visible / 4,
+                "{} of {} re-tests skipped",
+                r.stats.retest_settled,
+                r.stats.first_pass_visible
+            );
+        }
+    }
+
+    /// A stream whose ids do not come in ascending order (the scene read back to front).
+    struct Reversed<'a>(SceneSource<'a>, &'a sightline_core::Scene);
+
+    impl TriangleSource for Reversed<'_> {
+        fn id_bound(&self) -> u32 {
+            self.0.id_bound()
+        }
+        fn next_batch(
+            &mut self,
+            max: usize,
+            out: &mut Vec<SourceTriangle>,
+        ) -> Result<usize, RvError> {
+            let start = out.len();
+            let n = self.0.next_batch(max, out)?;
+            let bound = self.id_bound();
+            for t in &mut out[start..] {
+                t.id = bound - 1 - t.id;
+                t.corners = self.1.triangle(t.id);
+            }
+            Ok(n)
+        }
+        fn rewind(&mut self) -> Result<bool, RvError> {
+            self.0.rewind()
+        }
+    }
+
+    #[test]
+    fn no_retest_is_skipped_when_ids_are_not_in_stream_order() {
+        let mut b = SceneBuilder::new("wall and boxes");
+        for i in 0..8 {
+            let x = -4.0 + i as f32;
+            b.add_box(Vec3::new(x, -1.0, 8.0), Vec3::new(x + 0.5, 1.0, 8.5));
+        }
+        b.add_box(Vec3::new(-6.0, -3.0, 4.0), Vec3::new(6.0, 3.0, 4.2));
+        let scene = b.finish();
+        let cam = Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y, 60.0, 64, 64, 0.1).expect("cam");
+        let options = RvOptions {
+            bins: (4, 4),
+            batch_triangles: 16,
+            ..RvOptions::default()
+        };
+        let mut ordered = SceneSource::new(&scene);
+        let forward = same_with_and_without_skipping(&mut ordered, &cam, &options);
+        let mut reversed = Reversed(SceneSource::new(&scene), &scene);
+        let backward = same_with_and_without_skipping(&mut reversed, &cam, &options);
+        assert_eq!(backward.stats.retest_settled, 0);
+        // The wall (last in id order) streams first backwards: the boxes are hidden in pass 1.
+        assert!(backward.stats.first_pass_visible < forward.stats.first_pass_visible);
     }
 
     /// Runs RV with the occluder index and with linear scans; asserts the same visible sets

@@ -115,6 +115,12 @@ pub(crate) struct BinState {
     pub(crate) initialized: bool,
     /// Which occluders lie where (`occluder_index.rs`); off by default (linear scans).
     pub(crate) index: OccluderIndex,
+    /// Changes to the occluders so far (evictions, new, grown and merged occluders): what the
+    /// re-test pass needs to know whether a test would still give the same answer.
+    pub(crate) changes: u64,
+    /// The largest input id of the last batch during which the occluders changed (see
+    /// `producer::Settled`); `None` while they never did.
+    pub(crate) changed_up_to: Option<u32>,
     /// Emptied buffers of a dropped occluder, kept (still taken from the pool) for the next new
     /// one: in a full bin every new occluder follows an eviction, and reusing them saves an
     /// allocation and a free of each.
@@ -318,6 +324,7 @@ impl BinState {
             }
             self.zmin_bound = self.zmin_bound.max(zmin);
             self.occluders.push(o);
+            self.changes += 1;
             return AddOutcome::New;
         }
         let matches = &mut matches[..n_matches];
@@ -407,6 +414,7 @@ impl BinState {
             self.index.grow(main.slot, &main.rect, pool);
         }
         self.occluders.push(main);
+        self.changes += 1;
         if merged {
             AddOutcome::Merged
         } else {
@@ -441,6 +449,7 @@ impl BinState {
         self.unlist(&o);
         self.edge_count -= o.edges.len();
         self.recycle(o, pool);
+        self.changes += 1;
         true
     }
 

@@ -13,6 +13,7 @@
 
 use std::sync::{Condvar, Mutex, PoisonError};
 
+use sightline_core::atomic_set::AtomicTriangleSet;
 use sightline_core::TriangleSet;
 
 use super::frustum_cull::{FrustumCull, RUN};
@@ -28,6 +29,10 @@ pub(crate) struct Produced {
     pub(crate) streamed: u64,
     pub(crate) on_screen: u64,
     pub(crate) entries: u64,
+    /// Re-test pass: triangles kept visible untested, all their bins settled.
+    pub(crate) settled: u64,
+    /// Whether the stream came in id order (`Producers::ids_ascending`; set once per pass).
+    pub(crate) ids_ascending: bool,
 }
 
 /// The stream, shared by the geometry threads.
@@ -35,6 +40,8 @@ struct Reader<'s> {
     source: &'s mut (dyn TriangleSource + Send),
     /// Ticket of the next input batch.
     next_ticket: u64,
+    /// The last id of the last batch read.
+    last_id: Option<u32>,
     /// The stream ended, failed, or a thread found bad input.
     done: bool,
 }
@@ -49,6 +56,8 @@ pub(crate) struct Producers<'s> {
     bound: u32,
     /// A pipeline thread panicked: turn waits end at once.
     aborted: std::sync::atomic::AtomicBool,
+    /// Every id read so far exceeded all ids before it.
+    ids_ascending: std::sync::atomic::AtomicBool,
 }
 
 impl<'s> Producers<'s> {
@@ -59,6 +68,7 @@ impl<'s> Producers<'s> {
             reader: Mutex::new(Reader {
                 source,
                 next_ticket: 0,
+                last_id: None,
                 done: false,
             }),
             turn: Mutex::new(0),
@@ -66,7 +76,22 @@ impl<'s> Producers<'s> {
             error: Mutex::new(None),
             bound,
             aborted: std::sync::atomic::AtomicBool::new(false),
+            ids_ascending: std::sync::atomic::AtomicBool::new(true),
         }
+    }
+
+    /// Whether every id read exceeded all ids before it: stream order is then id order, which
+    /// lets the re-test pass tell which batch of the first pass a triangle came in (see
+    /// [`GeometryContext::settled`]).
+    pub(crate) fn ids_ascending(&self) -> bool {
+        self.ids_ascending
+            .load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    /// Records that the stream's ids are not in ascending order.
+    fn not_ascending(&self) {
+        self.ids_ascending
+            .store(false, std::sync::atomic::Ordering::Relaxed);
     }
 
     /// The first error any thread met, if any.
@@ -111,6 +136,14 @@ impl<'s> Producers<'s> {
                 None
             }
             Ok(_) => {
+                // Across batches here, in order; within a batch by the thread (`run`), outside
+                // the lock.
+                if let (Some(first), Some(last)) = (input.first(), input.last()) {
+                    if r.last_id.is_some_and(|previous| first.id <= previous) {
+                        self.not_ascending();
+                    }
+                    r.last_id = Some(last.id);
+                }
                 r.next_ticket += 1;
                 Some(r.next_ticket - 1)
             }
@@ -218,6 +251,21 @@ pub(crate) struct GeometryContext<'a> {
     /// Sort batches front to back ([`RvOptions::sort_batches`]; pointless when the occluders
     /// no longer change, as in the re-test pass).
     pub(crate) sort: bool,
+    /// Re-test pass over a stream in id order: the bins whose occluders did not change after a
+    /// triangle's first-pass test (see [`Settled`]).
+    pub(crate) settled: Option<Settled<'a>>,
+}
+
+/// What the re-test pass knows of the first pass's bins: per bin, the largest input id of the
+/// last batch during which its occluders changed (`None`: never). A triangle the first pass
+/// found visible whose id exceeds that in every bin it falls into was tested in each against
+/// the final occluders already, in the same order-independent test, so it is visible again:
+/// it is marked visible without a second test. Sound only when stream order is id order
+/// ([`Producers::ids_ascending`]) and the stream is the same (the rewind contract).
+#[derive(Clone, Copy)]
+pub(crate) struct Settled<'a> {
+    pub(crate) after: &'a [Option<u32>],
+    pub(crate) visible: &'a AtomicTriangleSet,
 }
 
 /// One geometry thread: reads input batches until the stream ends and pushes their binned,
@@ -226,6 +274,15 @@ pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scr
     let mut out = Produced::default();
     let n_bins = ctx.grid.len();
     while let Some(ticket) = shared.read(ctx.options.batch_triangles, &mut s.input, ctx.only) {
+        // The batch's largest id (its last one, in a stream in id order).
+        let ascending = s.input.windows(2).all(|w| w[0].id < w[1].id);
+        if !ascending {
+            shared.not_ascending();
+        }
+        let last_id = match (ascending, s.input.last()) {
+            (true, Some(last)) => last.id,
+            _ => s.input.iter().map(|t| t.id).max().unwrap_or(0),
+        };
         let mut bad = None;
         'input: for run in s.input.chunks(RUN) {
             // Runs wholly outside the frustum skip projection (`frustum_cull.rs`); a run with a
@@ -260,13 +317,22 @@ pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scr
                 if s.tri_bins.is_empty() {
                     continue;
                 }
+                if let Some(settled) = ctx.settled {
+                    let after = |b: &u32| settled.after[*b as usize].is_none_or(|a| t.id > a);
+                    if s.tri_bins.iter().all(after) {
+                        settled.visible.insert(t.id);
+                        out.settled += 1;
+                        continue;
+                    }
+                }
                 out.on_screen += 1;
                 if s.pairs.len() + s.tri_bins.len() > ctx.max_entries
                     || s.tris.len() == ctx.options.batch_triangles
                 {
                     // Rare (huge triangles): this input needs more than one batch.
-                    let batch =
+                    let mut batch =
                         seal_scratch(&mut s.tris, &mut s.pairs, &mut s.sorting, ctx, n_bins);
+                    batch.last_input_id = last_id;
                     shared.wait_turn(ticket);
                     ctx.sched.push(batch);
                 }
@@ -279,7 +345,8 @@ pub(crate) fn run(shared: &Producers<'_>, ctx: &GeometryContext<'_>, s: &mut Scr
         let batch = (!s.tris.is_empty())
             .then(|| seal_scratch(&mut s.tris, &mut s.pairs, &mut s.sorting, ctx, n_bins));
         shared.wait_turn(ticket);
-        if let Some(batch) = batch {
+        if let Some(mut batch) = batch {
+            batch.last_input_id = last_id;
             ctx.sched.push(batch);
         }
         shared.end_turn(ticket);
@@ -388,6 +455,7 @@ fn seal(
         tris: batch_tris,
         offsets,
         entries,
+        last_input_id: 0,
     }
 }
 
@@ -465,6 +533,7 @@ mod tests {
             tris: Vec::with_capacity(64),
             offsets: vec![9; n_bins + 1],
             entries: vec![7; 300],
+            last_input_id: 0,
         };
         let batch = seal(
             &mut s.tris,
