@@ -9,6 +9,7 @@ pub mod atomic_file;
 pub mod atomic_set;
 pub mod camera;
 pub mod geometry;
+pub mod prefetch;
 pub mod random;
 pub mod raster;
 pub mod sampling;

@@ -4,6 +4,15 @@
 //! Based on: Steele, Lea, Flood. Fast Splittable Pseudorandom Number Generators (SplitMix64).
 //! OOPSLA 2014.
 
+/// SplitMix64's output function: a bijective mix of 64 bits in which every input bit affects
+/// every output bit; also a good hash of a 64-bit key.
+#[inline]
+pub fn mix64(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
 /// SplitMix64: tiny, fast, statistically fine for geometry and sampling (not cryptographic).
 #[derive(Clone, Debug)]
 pub struct SplitMix64 {
@@ -19,10 +28,7 @@ impl SplitMix64 {
     /// The next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
         self.state = self.state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
+        mix64(self.state)
     }
 
     /// Uniform in `[0, 1)` with 24 bits of precision (exactly representable in f32).

@@ -576,55 +576,33 @@ impl OcclusionBuffer {
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn prefetch_blocks(&self, setup: &Setup8, l: usize) {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
         let (row0, row1, col0, _) = setup.bbox(l);
-        let tx = col0 as u32 / TILE_W;
         let ty0 = row0 as u32 / TILE_H;
-        let ty1 = (row1 as u32 / TILE_H).min(ty0 + 3);
-        for by in ty0 / BLOCK_TY..=ty1 / BLOCK_TY {
-            if let Some(block) = self.blocks.get(self.slot(tx, by * BLOCK_TY).0) {
-                let ptr: *const Block = block;
-                // SAFETY: prefetch hints (SSE, part of the x86_64 baseline) of the two cache
-                // lines of an element of `self.blocks`; they never fault.
-                #[allow(unused_unsafe)]
-                unsafe {
-                    _mm_prefetch::<_MM_HINT_T0>(ptr.cast());
-                    _mm_prefetch::<_MM_HINT_T0>(ptr.cast::<i8>().wrapping_add(64));
-                }
-            }
-        }
+        self.prefetch_block_rows(col0 as u32 / TILE_W, ty0, row1 as u32 / TILE_H);
     }
 
     /// Prefetches the first tile of each tile row a triangle's bounding box touches.
     #[inline(always)]
     fn prefetch(&self, p: &[[f32; 3]; 3]) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-            let ymin = p[0][1].min(p[1][1]).min(p[2][1]);
-            let ymax = p[0][1].max(p[1][1]).max(p[2][1]);
-            let xmin = p[0][0].min(p[1][0]).min(p[2][0]);
-            // Saturating float-to-int casts, clamped into the buffer: only valid tiles.
-            let clamp_x = |v: f32| (v as i32).clamp(0, self.width as i32 - 1) as u32;
-            let clamp_y = |v: f32| (v as i32).clamp(0, self.height as i32 - 1) as u32;
-            let tx = clamp_x(xmin) / TILE_W;
-            let (ty0, ty1) = (clamp_y(ymin) / TILE_H, clamp_y(ymax) / TILE_H);
-            for by in ty0 / BLOCK_TY..=ty1.min(ty0 + 3) / BLOCK_TY {
-                if let Some(block) = self.blocks.get(self.slot(tx, by * BLOCK_TY).0) {
-                    let ptr: *const Block = block;
-                    // SAFETY: prefetch hints (SSE, part of the x86_64 baseline) of the two
-                    // cache lines of an element of `self.blocks` (96 bytes, 32-byte aligned,
-                    // so it ends within the line after `ptr + 64`); they never fault.
-                    #[allow(unused_unsafe)]
-                    unsafe {
-                        _mm_prefetch::<_MM_HINT_T0>(ptr.cast());
-                        _mm_prefetch::<_MM_HINT_T0>(ptr.cast::<i8>().wrapping_add(64));
-                    }
-                }
+        let ymin = p[0][1].min(p[1][1]).min(p[2][1]);
+        let ymax = p[0][1].max(p[1][1]).max(p[2][1]);
+        let xmin = p[0][0].min(p[1][0]).min(p[2][0]);
+        // Saturating float-to-int casts, clamped into the buffer: only valid tiles.
+        let clamp_x = |v: f32| (v as i32).clamp(0, self.width as i32 - 1) as u32;
+        let clamp_y = |v: f32| (v as i32).clamp(0, self.height as i32 - 1) as u32;
+        let ty0 = clamp_y(ymin) / TILE_H;
+        self.prefetch_block_rows(clamp_x(xmin) / TILE_W, ty0, clamp_y(ymax) / TILE_H);
+    }
+
+    /// Prefetches the blocks holding tile column `tx` of tile rows `ty0..=ty1`, at most the
+    /// first four rows (two blocks).
+    #[inline(always)]
+    fn prefetch_block_rows(&self, tx: u32, ty0: u32, ty1: u32) {
+        for by in ty0 / BLOCK_TY..=ty1.min(ty0 + 3) / BLOCK_TY {
+            if let Some(block) = self.blocks.get(self.slot(tx, by * BLOCK_TY).0) {
+                sightline_core::prefetch::prefetch(block);
             }
         }
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = p;
     }
 
     /// Clips a view-space triangle to the near plane and the guard band, then fans it out.

@@ -130,8 +130,44 @@ fn check_conservative(
     w: u32,
     h: u32,
 ) -> (u32, u32) {
-    let mut rng = SplitMix64::new(seed);
     let (mut hidden, mut culled) = (0, 0);
+    for_each_view(
+        seed,
+        scenes,
+        cameras,
+        w,
+        h,
+        |rng, camera, reference, buffer| {
+            for _ in 0..boxes {
+                let aabb = random_box(rng);
+                let visible = exactly_visible(&aabb, camera, reference);
+                let reported = buffer.test_box(&aabb, camera);
+                assert!(
+                    reported || !visible,
+                    "seed {seed}: visible box {aabb:?} culled from {camera:?}"
+                );
+                if !visible {
+                    hidden += 1;
+                    culled += u32::from(!reported);
+                }
+            }
+        },
+    );
+    (hidden, culled)
+}
+
+/// For `scenes` random occluder scenes and `cameras` random cameras on each, calls `test`
+/// with the random stream, the camera, the scene's exact depth (the reference rasterizer) and
+/// an occlusion buffer holding the scene's occluders.
+fn for_each_view(
+    seed: u64,
+    scenes: u32,
+    cameras: u32,
+    w: u32,
+    h: u32,
+    mut test: impl FnMut(&mut SplitMix64, &Camera, &Frame, &OcclusionBuffer),
+) {
+    let mut rng = SplitMix64::new(seed);
     for _ in 0..scenes {
         let scene = occluder_scene(&mut rng);
         let corners: Vec<Vec3> = (0..scene.triangle_count() as u32)
@@ -142,22 +178,9 @@ fn check_conservative(
             let reference = render(&scene, &camera);
             let mut buffer = OcclusionBuffer::new(w, h);
             buffer.render_occluders(&corners, &camera);
-            for _ in 0..boxes {
-                let aabb = random_box(&mut rng);
-                let visible = exactly_visible(&aabb, &camera, &reference);
-                let reported = buffer.test_box(&aabb, &camera);
-                assert!(
-                    reported || !visible,
-                    "seed {seed}: visible box {aabb:?} culled from {camera:?}"
-                );
-                if !visible {
-                    hidden += 1;
-                    culled += u32::from(!reported);
-                }
-            }
+            test(&mut rng, &camera, &reference, &buffer);
         }
     }
-    (hidden, culled)
 }
 
 #[test]
@@ -212,43 +235,32 @@ fn random_object(rng: &mut SplitMix64, k: u32) -> Scene {
 /// against the exact depth test of the object's own triangles. Returns (truly hidden objects,
 /// of those culled by the box test, of those culled by the triangle test).
 fn check_triangles_conservative(seed: u64, cameras: u32, objects: u32, w: u32, h: u32) -> [u32; 3] {
-    let mut rng = SplitMix64::new(seed);
     let mut counts = [0u32; 3];
-    for _ in 0..2 {
-        let scene = occluder_scene(&mut rng);
-        let corners: Vec<Vec3> = (0..scene.triangle_count() as u32)
-            .flat_map(|t| scene.triangle(t))
-            .collect();
-        for _ in 0..cameras {
-            let camera = random_camera(&mut rng, w, h);
-            let reference = render(&scene, &camera);
-            let mut buffer = OcclusionBuffer::new(w, h);
-            buffer.render_occluders(&corners, &camera);
-            for k in 0..objects {
-                let object = random_object(&mut rng, k);
-                let tris: Vec<Vec3> = (0..object.triangle_count() as u32)
-                    .flat_map(|t| object.triangle(t))
-                    .collect();
-                let frame = render(&object, &camera);
-                let visible = frame
-                    .depth
-                    .iter()
-                    .zip(&reference.depth)
-                    .any(|(&o, &d)| o.is_finite() && o < d);
-                let by_triangles = buffer.test_triangles(&tris, &camera);
-                assert!(
-                    by_triangles || !visible,
-                    "seed {seed}: visible object {tris:?} culled from {camera:?}"
-                );
-                if !visible {
-                    let aabb = Aabb::from_points(tris.iter().copied());
-                    counts[0] += 1;
-                    counts[1] += u32::from(!buffer.test_box(&aabb, &camera));
-                    counts[2] += u32::from(!by_triangles);
-                }
+    for_each_view(seed, 2, cameras, w, h, |rng, camera, reference, buffer| {
+        for k in 0..objects {
+            let object = random_object(rng, k);
+            let tris: Vec<Vec3> = (0..object.triangle_count() as u32)
+                .flat_map(|t| object.triangle(t))
+                .collect();
+            let frame = render(&object, camera);
+            let visible = frame
+                .depth
+                .iter()
+                .zip(&reference.depth)
+                .any(|(&o, &d)| o.is_finite() && o < d);
+            let by_triangles = buffer.test_triangles(&tris, camera);
+            assert!(
+                by_triangles || !visible,
+                "seed {seed}: visible object {tris:?} culled from {camera:?}"
+            );
+            if !visible {
+                let aabb = Aabb::from_points(tris.iter().copied());
+                counts[0] += 1;
+                counts[1] += u32::from(!buffer.test_box(&aabb, camera));
+                counts[2] += u32::from(!by_triangles);
             }
         }
-    }
+    });
     counts
 }
 

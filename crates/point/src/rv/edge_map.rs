@@ -15,6 +15,7 @@
 //! the whole index off (the bin then scans linearly, with the same results).
 
 use glam::DVec2;
+use sightline_core::random::mix64;
 
 use super::memory::{release_to, reserve_from, Pool};
 use super::occluders::Edge;
@@ -58,14 +59,9 @@ fn key_of(e: &Edge) -> Key {
 }
 
 fn hash(k: &Key) -> u64 {
-    // Multiply-rotate mixing of the four words, then a final avalanche: screen coordinates
-    // differ mostly in low mantissa bits, which the table index must see.
-    let mut h = 0x9E37_79B9_7F4A_7C15u64;
-    for w in k {
-        h = (h ^ w).wrapping_mul(0xBF58_476D_1CE4_E5B9).rotate_left(29);
-    }
-    h ^= h >> 31;
-    h.wrapping_mul(0x94D0_49BB_1331_11EB) ^ (h >> 29)
+    // The words rotated apart and combined, then SplitMix64's mix: screen coordinates differ
+    // mostly in low mantissa bits, which the table index (the low bits) must see.
+    mix64(k[0] ^ k[1].rotate_left(16) ^ k[2].rotate_left(32) ^ k[3].rotate_left(48))
 }
 
 impl EdgeMap {
@@ -250,13 +246,8 @@ mod tests {
         let pool = Pool::new(1 << 24);
         let mut m = EdgeMap::default();
         let mut list: Vec<(Edge, u32)> = Vec::new();
-        let mut rng = 0x1234_5678u64;
-        let mut next = || {
-            rng ^= rng << 13;
-            rng ^= rng >> 7;
-            rng ^= rng << 17;
-            rng
-        };
+        let mut rng = sightline_core::random::SplitMix64::new(0x1234_5678);
+        let mut next = || rng.next_u64();
         let e = |i: u64| edge(((i % 7) as f64, 0.5), (1.0, (i % 5) as f64 * 0.25));
         for _ in 0..20_000 {
             let r = next();

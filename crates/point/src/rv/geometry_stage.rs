@@ -332,13 +332,8 @@ mod tests {
             height: 50.0,
         };
         let margin = 4e-3;
-        let mut rng = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            rng ^= rng << 13;
-            rng ^= rng >> 7;
-            rng ^= rng << 17;
-            rng
-        };
+        let mut rng = sightline_core::random::SplitMix64::new(0x2545_f491_4f6c_dd1d);
+        let mut next = || rng.next_u64();
         for case in 0..20_000 {
             let mut coord = |extent: f64| {
                 let r = next();

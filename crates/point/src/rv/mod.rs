@@ -319,25 +319,6 @@ fn check(options: &RvOptions) -> Result<(), RvError> {
     Ok(())
 }
 
-/// Hints the CPU to load `t` into the cache (no effect off x86-64).
-#[inline(always)]
-fn prefetch<T>(t: &T) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let p = (t as *const T).cast::<i8>();
-        // SAFETY: SSE is part of the x86-64 baseline, and a prefetch is only a hint: it never
-        // faults and reads nothing into the program, whatever the address. A `ProjTri` spans
-        // two cache lines.
-        unsafe {
-            _mm_prefetch::<_MM_HINT_T0>(p);
-            _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64));
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = t;
-}
-
 /// What one streaming pass over the source shares (the bins' occluder states persist from
 /// one pass to the next).
 struct Pass<'a> {
@@ -443,7 +424,9 @@ impl Pass<'_> {
                                         // A bin's triangles lie scattered over the batch: ask
                                         // for the next one while this one is processed.
                                         if let Some(&next) = list.get(i + 1) {
-                                            prefetch(&batch.tris[next as usize]);
+                                            sightline_core::prefetch::prefetch(
+                                                &batch.tris[next as usize],
+                                            );
                                         }
                                         let before = state.changes;
                                         process(&batch.tris[k as usize], &ctx, &mut state, &mut st);
@@ -888,13 +871,7 @@ mod tests {
 
     #[test]
     fn no_retest_is_skipped_when_ids_are_not_in_stream_order() {
-        let mut b = SceneBuilder::new("wall and boxes");
-        for i in 0..8 {
-            let x = -4.0 + i as f32;
-            b.add_box(Vec3::new(x, -1.0, 8.0), Vec3::new(x + 0.5, 1.0, 8.5));
-        }
-        b.add_box(Vec3::new(-6.0, -3.0, 4.0), Vec3::new(6.0, 3.0, 4.2));
-        let scene = b.finish();
+        let scene = far_boxes_then_wall();
         let cam = Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y, 60.0, 64, 64, 0.1).expect("cam");
         let options = RvOptions {
             bins: (4, 4),
@@ -1020,16 +997,22 @@ mod tests {
         }
     }
 
-    #[test]
-    fn retest_skipping_hidden_matches_retesting_all_small_scene() {
-        // Far boxes first, the wall hiding them last, unsorted: only the re-test hides them.
+    /// Four boxes (ids 0..48), then a wall in front of them (ids 48..60), seen from the origin
+    /// along +z.
+    fn far_boxes_then_wall() -> sightline_core::Scene {
         let mut b = SceneBuilder::new("far boxes, then a wall");
         for i in 0..4 {
             let x = -1.5 + i as f32;
             b.add_box(Vec3::new(x, -0.4, 8.0), Vec3::new(x + 0.8, 0.4, 9.0));
         }
         b.add_box(Vec3::new(-3.0, -2.0, 4.0), Vec3::new(3.0, 2.0, 4.5));
-        let scene = b.finish();
+        b.finish()
+    }
+
+    #[test]
+    fn retest_skipping_hidden_matches_retesting_all_small_scene() {
+        // Far boxes first, the wall hiding them last, unsorted: only the re-test hides them.
+        let scene = far_boxes_then_wall();
         let cam = Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y, 60.0, 64, 64, 0.1).expect("cam");
         let options = RvOptions {
             bins: (4, 4),

@@ -550,17 +550,22 @@ mod tests {
         assert_eq!(b.occluders[0].tris.len(), 4);
     }
 
-    #[test]
-    fn full_bin_drops_a_farther_occluder_for_a_nearer_triangle() {
-        let pool = Pool::new(1 << 20);
+    /// An empty bin with room for one occluder (`min_evicting_area` as given), and a far
+    /// triangle (depth 50, 0.5 px²).
+    fn one_slot_bin(min_evicting_area: f64) -> (Pool, Limits, BinState, ProjTri) {
         let one = Limits {
             max_occluders: 1,
             max_edges: 64,
-            min_evicting_area: 0.0,
+            min_evicting_area,
         };
-        let mut b = BinState::default();
         let mut far = tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
         far.corners.iter_mut().for_each(|c| c.z = 50.0);
+        (Pool::new(1 << 20), one, BinState::default(), far)
+    }
+
+    #[test]
+    fn full_bin_drops_a_farther_occluder_for_a_nearer_triangle() {
+        let (pool, one, mut b, far) = one_slot_bin(0.0);
         assert_eq!(b.add(&far, &one, &pool, true), AddOutcome::New);
         // A nearer, unconnected triangle replaces it...
         let near = tri([[5.0, 5.0], [6.0, 5.0], [5.0, 6.0]]);
@@ -574,15 +579,7 @@ mod tests {
 
     #[test]
     fn full_bin_evicts_only_for_a_triangle_of_its_share() {
-        let pool = Pool::new(1 << 20);
-        let one = Limits {
-            max_occluders: 1,
-            max_edges: 64,
-            min_evicting_area: 2.0,
-        };
-        let mut b = BinState::default();
-        let mut far = tri([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
-        far.corners.iter_mut().for_each(|c| c.z = 50.0);
+        let (pool, one, mut b, far) = one_slot_bin(2.0);
         // Below the share, but the bin has room: it starts an occluder.
         assert_eq!(b.add(&far, &one, &pool, true), AddOutcome::New);
         // A nearer speck (0.5 px²) does not evict it...

@@ -116,7 +116,11 @@ pub(crate) fn process(
     let p = Occludee {
         poly: verts,
         screen,
-        rect: Rect::of(screen),
+        rect: if inside_bin {
+            tri_rect
+        } else {
+            Rect::of(screen)
+        },
         zmin,
         zmax,
         plane: std::cell::OnceCell::new(),
