@@ -203,6 +203,35 @@ fn convert_keeps_triangle_ids() {
 }
 
 #[test]
+fn convert_keeps_objects_of_a_bsp() {
+    // Objects are (model, shader) pairs whose triangles are not contiguous (198 runs for 19
+    // objects), so the writers emit several nodes / `o` lines per object.
+    let dir = tempfile::tempdir().unwrap();
+    let map = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/q3dm6ish.bsp");
+    let info = |scene: &str| {
+        let o = sightline(&["info", scene, "--json"], dir.path());
+        assert!(o.status.success(), "{}", stderr(&o));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
+    };
+    let loaded = info(map);
+    let objects = loaded["objects"].as_array().unwrap();
+    assert!(objects.len() > 10, "{} objects", objects.len());
+    assert!(objects[0]["name"].as_str().unwrap().starts_with("model0/"));
+    assert_eq!(objects[0]["index"], 0);
+    assert!(objects[0]["part"].is_u64());
+    for out in ["q.obj", "q.glb"] {
+        let o = sightline(&["convert", map, "-o", out, "--json"], dir.path());
+        assert!(o.status.success(), "{}", stderr(&o));
+        let written: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(written["objects"], objects.len());
+        let back = info(out);
+        assert_eq!(back["geometry_hash"], loaded["geometry_hash"], "{out}");
+        // Names, index, part and triangle count of every object, in object order.
+        assert_eq!(back["objects"], loaded["objects"], "{out}");
+    }
+}
+
+#[test]
 fn demo_writes_report_with_every_step() {
     let dir = tempfile::tempdir().unwrap();
     let o = sightline(

@@ -275,3 +275,78 @@ fn share_rays_bake_writes_a_file_and_rejects_other_methods() {
     assert_fails_with(&sightline(&args("rand"), dir.path()), "gvs++ only");
     assert_eq!(std::fs::read(dir.path().join("s.pvs")).unwrap(), before);
 }
+
+/// Issue 15's path: a level exported as glTF, baked, and the file's object table and
+/// per-cell object sets as an engine will read them.
+#[test]
+fn gltf_level_bake_has_objects_and_object_sets() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(&["convert", SCENE, "-o", "level.glb"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = sightline(&["info", "level.glb", "--json"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let info: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let o = sightline(
+        &[
+            "pvs",
+            "bake",
+            "level.glb",
+            "--grid",
+            "2,2,1",
+            "--method",
+            "rand",
+            "--rays",
+            "20000",
+            "-o",
+            "level.pvs",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = sightline(&["pvs", "show", "level.pvs", "--json"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["version"], 2);
+    let objects = v["objects"].as_array().unwrap();
+    let total: u64 = objects
+        .iter()
+        .map(|o| o["triangles"].as_u64().unwrap())
+        .sum();
+    assert_eq!(total, v["triangle_count"].as_u64().unwrap());
+    let object_count = info["objects"]
+        .as_u64()
+        .or_else(|| info["objects"].as_array().map(|a| a.len() as u64))
+        .unwrap();
+    assert_eq!(objects.len() as u64, object_count);
+    // The objects are the loaded scene's, in its order (`convert` keeps the generator's names
+    // and its empty index/part, docs/objects.md).
+    for (o, i) in objects.iter().zip(info["objects"].as_array().unwrap()) {
+        assert_eq!(o["name"], i["name"]);
+        assert_eq!(o["triangles"], i["triangles"]);
+    }
+    for cell in v["cells"].as_array().unwrap() {
+        let ids = cell["objects"].as_array().unwrap();
+        assert!(ids
+            .iter()
+            .all(|i| i.as_u64().unwrap() < objects.len() as u64));
+        assert_eq!(ids.is_empty(), cell["pvs_size"] == 0);
+        assert!(ids.len() <= cell["pvs_size"].as_u64().unwrap() as usize);
+    }
+    let o = sightline(&["pvs", "show", "level.pvs", "--objects"], dir.path());
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("version    2"), "{text}");
+    assert!(
+        text.contains(objects[0]["name"].as_str().unwrap()),
+        "{text}"
+    );
+    let o = sightline(
+        &["pvs", "diff", "level.pvs", "level.pvs", "--json"],
+        dir.path(),
+    );
+    let rows: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(rows
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|r| r["objects_only_in_a"] == 0 && r["objects_a"] == r["objects_b"]));
+}

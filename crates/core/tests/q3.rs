@@ -318,36 +318,91 @@ fn q3_spawn_points_are_in_clusters_that_see_themselves() {
 }
 
 #[test]
-fn q3_objects_group_world_by_cluster_and_brush_models_whole() {
-    let scene = load_with("oa_dm2", 4);
+fn q3_objects_are_model_and_shader_of_every_surface() {
+    let scene = load_with("q3dm6ish", 4);
     let b = bsp(&scene);
-    let per_object = scene.triangles_by_object();
-    assert!(per_object.iter().all(|t| !t.is_empty()));
-    for name in scene.objects.iter().map(|o| &o.name) {
-        assert!(
-            name.starts_with("model0/cluster") || name.starts_with("model"),
-            "{name}"
+    assert_eq!(scene.object_of_triangle.len(), scene.triangle_count());
+    for (t, &s) in b.surface_of_triangle.iter().enumerate() {
+        let surface = &b.surfaces[s as usize];
+        let object = &scene.objects[scene.object_of_triangle[t] as usize];
+        let model = surface.model.expect("emitted surfaces belong to a model");
+        assert_eq!(object.index, Some(model), "triangle {t}");
+        assert_eq!(object.part, Some(surface.shader), "triangle {t}");
+        let shader = &b.shaders[surface.shader as usize].name;
+        assert_eq!(
+            object.name,
+            format!("model{model}/{shader}"),
+            "triangle {t}"
         );
     }
-    // 29 brush models besides the world, each one object when it has triangles (some are
-    // triggers or clips without drawn surfaces).
-    assert_eq!(b.models.len(), 30);
-    let brush = scene
+    // One object per (model, shader) pair with triangles, ordered by the pair.
+    let pairs: Vec<(u32, u32)> = scene
         .objects
         .iter()
-        .filter(|o| !o.name.starts_with("model0"))
-        .count();
-    let drawn = b.models[1..]
+        .map(|o| (o.index.unwrap(), o.part.unwrap()))
+        .collect();
+    assert!(pairs.windows(2).all(|w| w[0] < w[1]), "{pairs:?}");
+    assert!(scene.triangles_by_object().iter().all(|t| !t.is_empty()));
+    let mut used: Vec<(u32, u32)> = b
+        .surface_of_triangle
         .iter()
-        .filter(|m| {
-            m.surfaces
-                .clone()
-                .any(|s| !b.surfaces[s as usize].triangles.is_empty())
+        .map(|&s| {
+            let surface = &b.surfaces[s as usize];
+            (surface.model.unwrap(), surface.shader)
         })
+        .collect();
+    used.sort_unstable();
+    used.dedup();
+    assert_eq!(pairs, used);
+    // The world has several shaders, and brush models have objects of their own.
+    assert!(pairs.iter().filter(|p| p.0 == 0).count() > 5);
+    assert!(pairs.iter().any(|p| p.0 > 0));
+    assert!(scene.objects[0].name.starts_with("model0/"));
+}
+
+#[test]
+fn q3_objects_survive_glb_and_obj_round_trips() {
+    use sightline_core::scene::{gltf, obj};
+    let scene = load_with("q3dm6ish", 4);
+    assert!(scene.objects.len() > 10);
+    // The writers emit one node / `o` line per run of consecutive triangles; there are many
+    // more runs than objects, so joining them is what is tested.
+    let runs = 1 + scene
+        .object_of_triangle
+        .windows(2)
+        .filter(|w| w[0] != w[1])
         .count();
-    assert_eq!(brush, drawn);
-    assert!(brush > 20);
-    assert!(scene.objects.len() > 100 && scene.objects.len() <= b.clusters as usize + 31);
+    assert!(runs > 2 * scene.objects.len(), "{runs} runs");
+    for ext in ["glb", "obj"] {
+        let mut out = Vec::new();
+        let back = if ext == "glb" {
+            gltf::write_glb(&scene, &mut out).unwrap();
+            gltf::load(Path::new("back.glb"), &out).unwrap()
+        } else {
+            obj::write(&scene, &mut out).unwrap();
+            obj::load(Path::new("back.obj"), &out).unwrap()
+        };
+        assert_eq!(back.objects, scene.objects, "{ext}: names, index, part");
+        assert_eq!(
+            back.object_of_triangle, scene.object_of_triangle,
+            "{ext}: object of every triangle"
+        );
+        assert_eq!(back.geometry_hash(), scene.geometry_hash(), "{ext}: ids");
+    }
+}
+
+#[test]
+fn q3_object_counts_are_reported() {
+    for f in &MAPS {
+        let scene = load_with(f.name, LoadOptions::default().patch_subdivisions);
+        let runs = 1 + scene
+            .object_of_triangle
+            .windows(2)
+            .filter(|w| w[0] != w[1])
+            .count();
+        eprintln!("{}: {} objects {runs} runs", f.name, scene.objects.len());
+        assert!(!scene.objects.is_empty());
+    }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -59,6 +59,14 @@ fn set_from_ids(
     Ok(set)
 }
 
+impl PyPvs {
+    fn object_table(&self) -> PyResult<&sightline_region::ObjectTable> {
+        self.file.objects.as_ref().ok_or_else(|| {
+            value_error("this .pvs file has no object table (version 1); bake it again")
+        })
+    }
+}
+
 #[pymethods]
 impl PyPvs {
     /// A PVS for `scene` from cells and one id array per cell.
@@ -169,6 +177,90 @@ impl PyPvs {
             ))
         })?;
         Ok(ids_array(py, &c.visible))
+    }
+
+    /// Number of objects in the object table (0 for a version-1 file, which has none).
+    #[getter]
+    fn object_count(&self) -> usize {
+        self.file.objects.as_ref().map_or(0, |t| t.objects.len())
+    }
+
+    /// The objects' names, in id order (a list of str; see docs/objects.md per format).
+    #[getter]
+    fn object_names(&self) -> Vec<String> {
+        self.file.objects.as_ref().map_or_else(Vec::new, |t| {
+            t.objects.iter().map(|o| o.name.clone()).collect()
+        })
+    }
+
+    /// The object id of every triangle (uint32 array of length `triangle_count`); raises
+    /// `ValueError` for a version-1 file.
+    fn object_of_triangle<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<u32>>> {
+        let table = self.object_table()?;
+        Ok(PyArray1::from_slice(py, &table.object_of_triangle))
+    }
+
+    /// The triangle ranges of every object as an (R, 3) uint32 array of rows
+    /// `(object, first triangle, end triangle)`, in triangle order: object `o` owns the
+    /// triangles `first..end` of its rows.
+    fn object_ranges<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<u32>>> {
+        let table = self.object_table()?;
+        let mut rows = Vec::new();
+        let mut first = 0u32;
+        for (object, count) in table.runs() {
+            rows.push(vec![object, first, first + count]);
+            first += count;
+        }
+        if rows.is_empty() {
+            return Ok(numpy::PyArray2::zeros(py, [0, 3], false));
+        }
+        numpy::PyArray2::from_vec2(py, &rows).map_err(value_error)
+    }
+
+    /// Object bounds as two (K, 3) float32 arrays `(min, max)` (an object without triangles
+    /// has min +inf and max -inf).
+    #[allow(clippy::type_complexity)]
+    fn object_bounds<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(
+        Bound<'py, numpy::PyArray2<f32>>,
+        Bound<'py, numpy::PyArray2<f32>>,
+    )> {
+        let table = self.object_table()?;
+        let rows = |f: &dyn Fn(&sightline_region::PvsObject) -> [f32; 3]| {
+            let v: Vec<f32> = table.objects.iter().flat_map(f).collect();
+            PyArray1::from_vec(py, v).reshape([table.objects.len(), 3])
+        };
+        let min = rows(&|o| o.bounds_min.to_array())?;
+        let max = rows(&|o| o.bounds_max.to_array())?;
+        Ok((min, max))
+    }
+
+    /// The object ids visible from cell `i` (uint32, increasing): an object is visible when
+    /// any of its triangles is. Raises `ValueError` for a version-1 file.
+    fn visible_objects<'py>(
+        &self,
+        py: Python<'py>,
+        i: usize,
+    ) -> PyResult<Bound<'py, PyArray1<u32>>> {
+        self.object_table()?;
+        let set = self.file.visible_objects(i).ok_or_else(|| {
+            value_error(format!(
+                "cell {i} does not exist (the file has {})",
+                self.file.cells.len()
+            ))
+        })?;
+        Ok(ids_array(py, &set))
+    }
+
+    /// The object ids of every cell.
+    fn object_sets<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyArray1<u32>>>> {
+        self.object_table()?;
+        Ok((0..self.file.cells.len())
+            .filter_map(|i| self.file.visible_objects(i))
+            .map(|s| ids_array(py, &s))
+            .collect())
     }
 
     /// The triangle ids of every cell.

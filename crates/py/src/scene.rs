@@ -101,9 +101,7 @@ impl PyScene {
         let triangles = rows_u32(triangles, "triangles")?;
         let scene = Scene {
             object_of_triangle: vec![0; triangles.len()],
-            objects: vec![Object {
-                name: source.to_string(),
-            }],
+            objects: vec![Object::named(source)],
             positions,
             triangles,
             up: parse_up(up)?,

@@ -186,6 +186,30 @@ def test_pvs_write_read_round_trip(tmp_path, city, city_cells):
     assert not list(tmp_path.glob("*.tmp")), "no temporary file left behind"
 
 
+def test_pvs_objects_as_numpy_arrays(city, city_cells):
+    pvs = sl.bake(city, city_cells, "rand", rays=5_000, seed=1)
+    k = pvs.object_count
+    assert k > 1 and len(pvs.object_names) == k
+    owner = pvs.object_of_triangle()
+    assert owner.dtype == np.uint32 and len(owner) == city.triangle_count
+    assert owner.max() < k
+    # Ranges partition the triangles in order and agree with the per-triangle owner.
+    ranges = pvs.object_ranges()
+    assert ranges.shape[1] == 3 and ranges[0, 1] == 0 and ranges[-1, 2] == city.triangle_count
+    np.testing.assert_array_equal(ranges[1:, 1], ranges[:-1, 2])
+    for obj, first, end in ranges[:50]:
+        assert (owner[first:end] == obj).all()
+    lo, hi = pvs.object_bounds()
+    assert lo.shape == (k, 3) and (lo <= hi).all()
+    # An object is visible from a cell exactly when one of its triangles is.
+    for i in range(len(pvs)):
+        expected = np.unique(owner[pvs.visible(i)])
+        np.testing.assert_array_equal(pvs.visible_objects(i), expected)
+    assert len(pvs.object_sets()) == len(pvs)
+    with pytest.raises(ValueError):
+        pvs.visible_objects(len(pvs))
+
+
 def test_pvs_from_arrays_keeps_sets_and_metadata(tmp_path, city, city_cells):
     sets = [np.array([0, 5, 9], dtype=np.uint32), np.array([], dtype=np.int64)]
     pvs = sl.Pvs(city, city_cells[:2], sets, {"note": "hand-made"})

@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 use serde_json::json;
 
 use crate::bake::{bake_cells, bake_metadata, BakeSetup, BakedCell};
-use crate::pvs_file::{save_encoded, EncodedPvsFile, PvsError};
+use crate::pvs_file::{save_encoded, EncodedPvsFile, ObjectTable, PvsError};
 use crate::sampler::{CellResult, ConvergencePoint};
 use crate::viewcell::ViewCell;
 
@@ -253,10 +253,12 @@ impl ResumableBake<'_> {
             "cell_indices": done.keys().collect::<Vec<_>>(),
             "cells": done.values().map(BakedCell::stats).collect::<Vec<_>>(),
         });
+        // Checkpoints are version 1: their object sets would be derived again at every save.
         save_encoded(
             path,
             self.setup.scene.geometry_hash(),
             self.setup.scene.triangle_count() as u32,
+            None,
             &metadata,
             done.values().map(|c| (&self.setup.cells[c.index], &c.set)),
         )?;
@@ -370,6 +372,7 @@ impl ResumableBake<'_> {
             output,
             self.setup.scene.geometry_hash(),
             self.setup.scene.triangle_count() as u32,
+            Some(&ObjectTable::from_scene(self.setup.scene)),
             &metadata,
             cells.iter().map(|c| (&self.setup.cells[c.index], &c.set)),
         )?;

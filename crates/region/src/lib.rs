@@ -12,6 +12,7 @@ pub mod hull_box;
 pub mod incremental;
 pub mod methods;
 pub mod pvs_file;
+pub mod pvs_objects;
 pub mod rand;
 pub mod raster_sampler;
 pub mod ray_sharing;
@@ -23,7 +24,7 @@ pub mod viewcell;
 
 pub use gvs::{Gvs, GvsParams};
 pub use gvspp::{GvsPlusPlus, GvsPlusPlusParams};
-pub use pvs_file::{CellPvs, EncodedSet, PvsError, PvsFile};
+pub use pvs_file::{CellPvs, EncodedSet, ObjectTable, PvsError, PvsFile, PvsObject};
 pub use rand::RandomSampler;
 pub use raster_sampler::RasterSampler;
 pub use sampler::{Budget, CellContext, CellResult, ConvergencePoint, Sampler};

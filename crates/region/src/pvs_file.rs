@@ -1,21 +1,26 @@
 //! The `.pvs` file: one potentially visible set per view cell, bound to the scene it was
-//! computed for. Layout (all little-endian; full description in `docs/pvs-format.md`):
+//! computed for, and (version 2) the scene's objects with each cell's visible-object set.
+//! The layout is `docs/pvs-format.md`; reading is `sightline-runtime`'s (one parser for the
+//! tools and the engines), writing is here:
 //!
 //! ```text
-//! header   magic "SLPVS\r\n\x1a" | version u32 = 1 | flags u32 = 0 | scene hash u64
-//!          | scene triangle count u32 | cell count u32 | metadata length u32 | metadata (JSON)
-//!          | CRC-32 of all header bytes before it
-//! cells    per cell, 76 bytes: centre 3xf32 | axes 9xf32 | half extents 3xf32 | encoding u8
-//!          | 3 reserved bytes | set size u32 | payload length u32
-//!          | CRC-32 of the record's first 72 bytes followed by the payload
-//! payloads one per cell, in cell order: encoding 0 = ascending ids as LEB128 varints of the
-//!          gaps (first id, then id - previous id); encoding 1 = bitset, ceil(n/8) bytes,
-//!          bit i = byte i/8, bit i%8 (LSB first). The writer picks the smaller.
+//! header   magic "SLPVS\r\n\x1a" | version u32 = 2 | flags u32 = 0 | scene hash u64
+//!          | scene triangle count u32 | cell count u32 | object count u32
+//!          | metadata length u32 | metadata (JSON) | CRC-32 of all header bytes before it
+//! objects  names length u32 | run count u32 | 40-byte object records | runs (object u32,
+//!          triangle count u32) in triangle order | names (UTF-8) | CRC-32 of the section
+//! cells    per cell, 84 bytes: centre 3xf32 | axes 9xf32 | half extents 3xf32
+//!          | triangle-set encoding u8 | object-set encoding u8 | 2 reserved bytes
+//!          | triangle-set size u32 | its payload length u32 | object-set size u32
+//!          | its payload length u32 | CRC-32 of the record's first 80 bytes and both payloads
+//! payloads per cell, in cell order: triangle set then object set; encoding 0 = ascending
+//!          ids as LEB128 varints of the gaps, encoding 1 = bitset (LSB first). The writer
+//!          picks the smaller.
 //! ```
 //!
-//! The magic's CR LF and Ctrl-Z catch text-mode mangling (as PNG's does). The scene hash is
-//! [`Scene::geometry_hash`]: a file made for another scene (or another tessellation of the
-//! same map) is rejected. Files are written atomically.
+//! A file without an object table (a version-1 file read back, a checkpoint) is written as
+//! version 1. The scene hash is [`Scene::geometry_hash`]: a file made for another scene (or
+//! another tessellation of the same map) is rejected. Files are written atomically.
 
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -23,19 +28,19 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use sightline_core::atomic_file::write_atomic;
 use sightline_core::{Scene, TriangleSet};
+use sightline_runtime::format::{
+    decode_set, SetRef, CELL_RECORD_BYTES_V1, ENCODING_BITSET, ENCODING_DELTA_VARINT, MAGIC,
+    NO_INDEX,
+};
+use sightline_runtime::Pvs;
 
+pub use crate::pvs_objects::{ObjectTable, PvsObject};
 use crate::viewcell::ViewCell;
 
-/// The file's first eight bytes.
-pub const MAGIC: [u8; 8] = *b"SLPVS\r\n\x1a";
-/// The format version this code writes and reads.
-pub const VERSION: u32 = 1;
-/// Bytes of one cell record in the table (beside its payload).
-pub const CELL_RECORD_BYTES: usize = 76;
-const ENCODING_DELTA_VARINT: u8 = 0;
-const ENCODING_BITSET: u8 = 1;
-/// Refuse metadata blobs beyond this size: a corrupted length must not allocate gigabytes.
-const MAX_METADATA_BYTES: usize = 64 << 20;
+/// The format version this code writes (it reads it and version 1).
+pub const VERSION: u32 = sightline_runtime::format::VERSION;
+/// Bytes of one version-1 cell record in the table (beside its payload).
+pub const CELL_RECORD_BYTES: usize = CELL_RECORD_BYTES_V1;
 
 /// Why a `.pvs` file could not be read or used.
 #[derive(Debug, thiserror::Error)]
@@ -53,7 +58,7 @@ pub enum PvsError {
     #[error("not a .pvs file (bad magic bytes)")]
     BadMagic,
     /// The version is not one this build reads.
-    #[error("unsupported .pvs version {0} (this build reads version {VERSION})")]
+    #[error("unsupported .pvs version {0} (this build reads versions 1 and {VERSION})")]
     UnsupportedVersion(u32),
     /// The file ends early.
     #[error("truncated at byte {offset}: expected {what}")]
@@ -89,6 +94,23 @@ pub enum PvsError {
     /// The data to write is inconsistent (e.g. a set larger than the scene).
     #[error("cannot write: {0}")]
     Invalid(String),
+    /// Any other problem the reader reports (too large a file, ...).
+    #[error(transparent)]
+    Read(sightline_runtime::Error),
+}
+
+impl From<sightline_runtime::Error> for PvsError {
+    fn from(e: sightline_runtime::Error) -> Self {
+        use sightline_runtime::Error as E;
+        match e {
+            E::Io { path, source } => PvsError::Io { path, source },
+            E::BadMagic => PvsError::BadMagic,
+            E::UnsupportedVersion(v) => PvsError::UnsupportedVersion(v),
+            E::Truncated { offset, what } => PvsError::Truncated { offset, what },
+            E::Corrupt { offset, what } => PvsError::Corrupt { offset, what },
+            other => PvsError::Read(other),
+        }
+    }
 }
 
 /// The PVS of one view cell.
@@ -107,6 +129,8 @@ pub struct PvsFile {
     pub scene_hash: u64,
     /// Triangle count of that scene (every set has this capacity).
     pub triangle_count: u32,
+    /// The scene's objects (`None`: written as version 1, no object sets).
+    pub objects: Option<ObjectTable>,
     /// Free-form JSON: method, parameters, seed, statistics.
     pub metadata: serde_json::Value,
     /// One entry per view cell.
@@ -114,11 +138,12 @@ pub struct PvsFile {
 }
 
 impl PvsFile {
-    /// An empty file bound to `scene`.
+    /// An empty file bound to `scene`, with its object table.
     pub fn for_scene(scene: &Scene, metadata: serde_json::Value) -> Self {
         Self {
             scene_hash: scene.geometry_hash(),
             triangle_count: scene.triangle_count() as u32,
+            objects: Some(ObjectTable::from_scene(scene)),
             metadata,
             cells: Vec::new(),
         }
@@ -126,16 +151,13 @@ impl PvsFile {
 
     /// Checks that the file belongs to `scene`.
     pub fn check_scene(&self, scene: &Scene) -> Result<(), PvsError> {
-        let scene_hash = scene.geometry_hash();
-        if scene_hash != self.scene_hash || scene.triangle_count() != self.triangle_count as usize {
-            return Err(PvsError::SceneMismatch {
-                file_hash: self.scene_hash,
-                scene_hash,
-                file_triangles: self.triangle_count,
-                scene_triangles: scene.triangle_count(),
-            });
-        }
-        Ok(())
+        check_scene(self.scene_hash, self.triangle_count, scene)
+    }
+
+    /// The objects visible from cell `index` (`None` without an object table or cell).
+    pub fn visible_objects(&self, index: usize) -> Option<TriangleSet> {
+        let cell = self.cells.get(index)?;
+        Some(self.objects.as_ref()?.visible_objects(&cell.visible))
     }
 
     /// Serialises the file.
@@ -154,6 +176,7 @@ impl PvsFile {
             w,
             self.scene_hash,
             self.triangle_count,
+            self.objects.as_ref(),
             &self.metadata,
             cells.iter().map(|(c, s)| (c, s)),
         )
@@ -169,28 +192,42 @@ impl PvsFile {
         })
     }
 
-    /// Reads a file from `path`.
+    /// Reads a file from `path` (bounded: see [`sightline_runtime::Pvs::open`]).
     pub fn load(path: &Path) -> Result<Self, PvsError> {
-        let bytes = std::fs::read(path).map_err(|source| PvsError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        Self::read(&bytes)
+        Self::from_runtime(&Pvs::open(path)?)
     }
 
     /// Parses a file from its bytes.
     pub fn read(bytes: &[u8]) -> Result<Self, PvsError> {
-        let mut cells = Vec::new();
-        let (scene_hash, triangle_count, metadata) = parse(bytes, &mut |cell, _, visible| {
+        Self::from_runtime(&Pvs::from_bytes(bytes.to_vec())?)
+    }
+
+    fn from_runtime(pvs: &Pvs) -> Result<Self, PvsError> {
+        let mut cells = Vec::with_capacity(pvs.cell_count() as usize);
+        let (metadata, objects) = parse(pvs, &mut |cell, _, visible| {
             cells.push(CellPvs { cell, visible })
         })?;
         Ok(Self {
-            scene_hash,
-            triangle_count,
+            scene_hash: pvs.scene_hash(),
+            triangle_count: pvs.triangle_count(),
+            objects,
             metadata,
             cells,
         })
     }
+}
+
+fn check_scene(file_hash: u64, file_triangles: u32, scene: &Scene) -> Result<(), PvsError> {
+    let scene_hash = scene.geometry_hash();
+    if scene_hash != file_hash || scene.triangle_count() != file_triangles as usize {
+        return Err(PvsError::SceneMismatch {
+            file_hash,
+            scene_hash,
+            file_triangles,
+            scene_triangles: scene.triangle_count(),
+        });
+    }
+    Ok(())
 }
 
 /// A `.pvs` file with its sets left encoded: what tools handling many cells of large scenes
@@ -201,33 +238,35 @@ pub struct EncodedPvsFile {
     pub scene_hash: u64,
     /// Triangle count of that scene.
     pub triangle_count: u32,
+    /// The scene's objects (`None`: version 1).
+    pub objects: Option<ObjectTable>,
     /// Free-form JSON metadata.
     pub metadata: serde_json::Value,
-    /// One entry per view cell.
+    /// One entry per view cell (the triangle sets; object sets are derived when written).
     pub cells: Vec<(ViewCell, EncodedSet)>,
 }
 
 impl EncodedPvsFile {
     /// Parses and fully checks a file (every set is decoded once to validate it).
     pub fn read(bytes: &[u8]) -> Result<Self, PvsError> {
-        let mut cells = Vec::new();
-        let (scene_hash, triangle_count, metadata) =
-            parse(bytes, &mut |cell, set, _| cells.push((cell, set)))?;
-        Ok(Self {
-            scene_hash,
-            triangle_count,
-            metadata,
-            cells,
-        })
+        Self::from_runtime(&Pvs::from_bytes(bytes.to_vec())?)
     }
 
     /// Reads a file from `path`.
     pub fn load(path: &Path) -> Result<Self, PvsError> {
-        let bytes = std::fs::read(path).map_err(|source| PvsError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        Self::read(&bytes)
+        Self::from_runtime(&Pvs::open(path)?)
+    }
+
+    fn from_runtime(pvs: &Pvs) -> Result<Self, PvsError> {
+        let mut cells = Vec::with_capacity(pvs.cell_count() as usize);
+        let (metadata, objects) = parse(pvs, &mut |cell, set, _| cells.push((cell, set)))?;
+        Ok(Self {
+            scene_hash: pvs.scene_hash(),
+            triangle_count: pvs.triangle_count(),
+            objects,
+            metadata,
+            cells,
+        })
     }
 
     /// Writes the file to `path` atomically.
@@ -236,110 +275,99 @@ impl EncodedPvsFile {
             path,
             self.scene_hash,
             self.triangle_count,
+            self.objects.as_ref(),
             &self.metadata,
             self.cells.iter().map(|(c, s)| (c, s)),
         )
     }
 }
 
-/// Parses and checks a `.pvs` file, handing every cell to `keep` (its cell, encoded set and
-/// decoded set); returns the scene hash, triangle count and metadata.
+/// Checks everything the runtime's open does not (metadata JSON, cell geometry as a
+/// [`ViewCell`], every set decoded, every object set equal to the one its triangles give) and
+/// hands every cell to `keep` (its cell, encoded set and decoded set); returns the metadata
+/// and object table.
 fn parse(
-    bytes: &[u8],
+    pvs: &Pvs,
     keep: &mut dyn FnMut(ViewCell, EncodedSet, TriangleSet),
-) -> Result<(u64, u32, serde_json::Value), PvsError> {
-    let mut r = Reader { bytes, pos: 0 };
-    if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
-        return Err(PvsError::BadMagic);
-    }
-    r.pos = MAGIC.len();
-    let version = r.u32("version")?;
-    if version != VERSION {
-        return Err(PvsError::UnsupportedVersion(version));
-    }
-    let _flags = r.u32("flags")?;
-    let scene_hash = r.u64("scene hash")?;
-    let triangle_count = r.u32("triangle count")?;
-    let cell_count = r.u32("cell count")? as usize;
-    let metadata_len = r.u32("metadata length")? as usize;
-    if metadata_len > MAX_METADATA_BYTES {
-        return Err(PvsError::Corrupt {
-            offset: r.pos - 4,
-            what: format!("metadata length {metadata_len} is implausible"),
-        });
-    }
-    let metadata_bytes = r.take(metadata_len, "metadata")?;
-    let header_end = r.pos;
-    let header_crc = r.u32("header checksum")?;
-    if crc32fast::hash(&bytes[..header_end]) != header_crc {
-        return Err(PvsError::Corrupt {
-            offset: header_end,
-            what: "header checksum".into(),
-        });
-    }
-    let metadata = serde_json::from_slice(metadata_bytes).map_err(|e| PvsError::Corrupt {
-        offset: header_end - metadata_len,
+) -> Result<(serde_json::Value, Option<ObjectTable>), PvsError> {
+    let bytes = pvs.as_bytes();
+    let metadata = serde_json::from_str(pvs.metadata_json()).map_err(|e| PvsError::Corrupt {
+        offset: 0,
         what: format!("metadata is not JSON: {e}"),
     })?;
-    let table_start = r.pos;
-    let table_len = cell_count
-        .checked_mul(CELL_RECORD_BYTES)
-        .ok_or(PvsError::Corrupt {
-            offset: table_start,
-            what: "cell count overflows".into(),
-        })?;
-    let table = r.take(table_len, "view-cell table")?;
-    let n = triangle_count as usize;
-    for i in 0..cell_count {
-        let record = &table[i * CELL_RECORD_BYTES..(i + 1) * CELL_RECORD_BYTES];
-        let record_offset = table_start + i * CELL_RECORD_BYTES;
-        let f = |k: usize| f32::from_le_bytes(le4(&record[4 * k..]));
-        let v = |k: usize| Vec3::new(f(k), f(k + 1), f(k + 2));
-        let encoding = record[60];
-        let size = u32::from_le_bytes(le4(&record[64..])) as usize;
-        let payload_len = u32::from_le_bytes(le4(&record[68..])) as usize;
-        let crc = u32::from_le_bytes(le4(&record[72..]));
-        let payload_offset = r.pos;
-        let payload = r.take(payload_len, &format!("payload of cell {i}"))?;
-        let mut hasher = crc32fast::Hasher::new();
-        hasher.update(&record[..72]);
-        hasher.update(payload);
-        if hasher.finalize() != crc {
-            return Err(PvsError::Corrupt {
-                offset: record_offset,
-                what: format!("checksum of cell {i}"),
-            });
-        }
-        let corrupt = |what: String| PvsError::Corrupt {
-            offset: payload_offset,
-            what,
-        };
-        let visible =
-            decode_set(encoding, payload, n).map_err(|e| corrupt(format!("cell {i}: {e}")))?;
-        if visible.count_ones(..) != size {
-            return Err(corrupt(format!(
-                "cell {i}: set size does not match its record"
-            )));
-        }
+    let objects = (pvs.version() >= 2).then(|| read_objects(pvs));
+    let n = pvs.triangle_count();
+    for i in 0..pvs.cell_count() {
+        let c = pvs.cell(i)?;
+        let v = Vec3::from_array;
+        let (triangles, object_set) = pvs.raw_sets(i)?;
         let cell =
-            ViewCell::oriented(v(0), [v(3), v(6), v(9)], v(12)).map_err(|e| PvsError::Corrupt {
-                offset: record_offset,
-                what: format!("cell {i}: {e}"),
+            ViewCell::oriented(v(c.center), c.axes.map(v), v(c.half_extents)).map_err(|e| {
+                PvsError::Corrupt {
+                    offset: triangles.offset,
+                    what: format!("cell {i}: {e}"),
+                }
             })?;
+        let visible = decode_bits(bytes, triangles, n, i, "triangles")?;
+        if let (Some(table), Some(set)) = (&objects, object_set) {
+            let decoded = decode_bits(bytes, set, table.objects.len() as u32, i, "objects")?;
+            if decoded != table.visible_objects(&visible) {
+                return Err(PvsError::Corrupt {
+                    offset: set.offset,
+                    what: format!("cell {i}: its visible objects are not those of its triangles"),
+                });
+            }
+        }
         let encoded = EncodedSet {
-            encoding,
-            size: size as u32,
-            payload: payload.to_vec(),
+            encoding: triangles.encoding,
+            size: triangles.size,
+            payload: triangles.payload(bytes).to_vec(),
         };
         keep(cell, encoded, visible);
     }
-    if r.pos != bytes.len() {
-        return Err(PvsError::Corrupt {
-            offset: r.pos,
-            what: format!("{} unexpected trailing bytes", bytes.len() - r.pos),
-        });
+    Ok((metadata, objects))
+}
+
+fn decode_bits(
+    bytes: &[u8],
+    set: SetRef,
+    capacity: u32,
+    cell: u32,
+    what: &str,
+) -> Result<TriangleSet, PvsError> {
+    let mut bits = TriangleSet::with_capacity(capacity as usize);
+    decode_set(set.encoding, set.payload(bytes), capacity, set.size, |id| {
+        bits.insert(id as usize)
+    })
+    .map_err(|e| PvsError::Corrupt {
+        offset: set.offset,
+        what: format!("cell {cell}, visible {what}: {e}"),
+    })?;
+    Ok(bits)
+}
+
+fn read_objects(pvs: &Pvs) -> ObjectTable {
+    let mut object_of_triangle = vec![0u32; pvs.triangle_count() as usize];
+    let objects = pvs
+        .objects()
+        .enumerate()
+        .map(|(i, o)| {
+            for range in pvs.object_triangles(i as u32).into_iter().flatten() {
+                object_of_triangle[range.start as usize..range.end as usize].fill(i as u32);
+            }
+            PvsObject {
+                name: o.name.to_string(),
+                index: o.index,
+                part: o.part,
+                bounds_min: Vec3::from_array(o.bounds_min),
+                bounds_max: Vec3::from_array(o.bounds_max),
+            }
+        })
+        .collect();
+    ObjectTable {
+        objects,
+        object_of_triangle,
     }
-    Ok((scene_hash, triangle_count, metadata))
 }
 
 /// A set in its file encoding (the smaller of delta varints and bitset): how a bake keeps
@@ -364,7 +392,12 @@ impl EncodedSet {
 
     /// The set, with capacity `n`.
     pub fn decode(&self, n: usize) -> Result<TriangleSet, String> {
-        decode_set(self.encoding, &self.payload, n)
+        let mut set = TriangleSet::with_capacity(n);
+        let capacity = u32::try_from(n).map_err(|_| format!("{n} ids do not fit the format"))?;
+        decode_set(self.encoding, &self.payload, capacity, self.size, |id| {
+            set.insert(id as usize)
+        })?;
+        Ok(set)
     }
 
     /// Number of ids in the set.
@@ -378,7 +411,7 @@ impl EncodedSet {
     }
 
     /// Bytes of the encoded payload (what the set costs in memory and on disk, beyond the
-    /// fixed 76-byte record).
+    /// fixed cell record).
     pub fn payload_bytes(&self) -> usize {
         self.payload.len()
     }
@@ -386,31 +419,46 @@ impl EncodedSet {
 
 /// Writes a `.pvs` stream from already encoded sets, so a bake of thousands of cells never
 /// holds them all decoded. The caller guarantees every set was encoded for `triangle_count`.
+/// With `objects`, the file is version 2 and every cell's object set is derived from its
+/// triangle set (decoded one cell at a time); without, version 1.
 pub fn write_encoded<'a>(
     w: &mut impl Write,
     scene_hash: u64,
     triangle_count: u32,
+    objects: Option<&ObjectTable>,
     metadata: &serde_json::Value,
     cells: impl ExactSizeIterator<Item = (&'a ViewCell, &'a EncodedSet)>,
 ) -> Result<(), PvsError> {
+    if let Some(table) = objects {
+        table
+            .check(triangle_count as usize)
+            .map_err(PvsError::Invalid)?;
+    }
+    let version: u32 = if objects.is_some() { VERSION } else { 1 };
     let metadata =
         serde_json::to_vec(metadata).map_err(|e| PvsError::Invalid(format!("metadata: {e}")))?;
     let cell_count = cells.len();
-    let mut header = Vec::with_capacity(40 + metadata.len());
+    let mut header = Vec::with_capacity(44 + metadata.len());
     header.extend_from_slice(&MAGIC);
-    header.extend_from_slice(&VERSION.to_le_bytes());
+    header.extend_from_slice(&version.to_le_bytes());
     header.extend_from_slice(&0u32.to_le_bytes());
     header.extend_from_slice(&scene_hash.to_le_bytes());
     header.extend_from_slice(&triangle_count.to_le_bytes());
     header.extend_from_slice(&(cell_count as u32).to_le_bytes());
+    if let Some(table) = objects {
+        header.extend_from_slice(&(table.objects.len() as u32).to_le_bytes());
+    }
     header.extend_from_slice(&(metadata.len() as u32).to_le_bytes());
     header.extend_from_slice(&metadata);
     header.extend_from_slice(&crc32fast::hash(&header).to_le_bytes());
+    if let Some(table) = objects {
+        header.extend_from_slice(&object_section(table));
+    }
 
-    let mut records = Vec::with_capacity(cell_count * CELL_RECORD_BYTES);
-    let mut payloads: Vec<&[u8]> = Vec::with_capacity(cell_count);
+    let mut records = Vec::with_capacity(cell_count * 84);
+    let mut payloads: Vec<u8> = Vec::new();
     for (cell, set) in cells {
-        let mut record = Vec::with_capacity(CELL_RECORD_BYTES);
+        let mut record = Vec::with_capacity(84);
         let floats = [cell.center, cell.axes[0], cell.axes[1], cell.axes[2]]
             .into_iter()
             .chain([cell.half_extents])
@@ -418,16 +466,39 @@ pub fn write_encoded<'a>(
         for f in floats {
             record.extend_from_slice(&f.to_le_bytes());
         }
+        let object_set = match objects {
+            Some(table) => {
+                let triangles = set
+                    .decode(triangle_count as usize)
+                    .map_err(PvsError::Invalid)?;
+                Some(EncodedSet::encode(
+                    &table.visible_objects(&triangles),
+                    table.objects.len(),
+                ))
+            }
+            None => None,
+        };
         record.push(set.encoding);
-        record.extend_from_slice(&[0; 3]);
+        match &object_set {
+            Some(o) => record.extend_from_slice(&[o.encoding, 0, 0]),
+            None => record.extend_from_slice(&[0; 3]),
+        }
         record.extend_from_slice(&set.size.to_le_bytes());
         record.extend_from_slice(&(set.payload.len() as u32).to_le_bytes());
+        if let Some(o) = &object_set {
+            record.extend_from_slice(&o.size.to_le_bytes());
+            record.extend_from_slice(&(o.payload.len() as u32).to_le_bytes());
+        }
         let mut crc = crc32fast::Hasher::new();
         crc.update(&record);
         crc.update(&set.payload);
+        payloads.extend_from_slice(&set.payload);
+        if let Some(o) = &object_set {
+            crc.update(&o.payload);
+            payloads.extend_from_slice(&o.payload);
+        }
         record.extend_from_slice(&crc.finalize().to_le_bytes());
         records.extend_from_slice(&record);
-        payloads.push(&set.payload);
     }
     let io = |source| PvsError::Io {
         path: PathBuf::from("<stream>"),
@@ -435,10 +506,42 @@ pub fn write_encoded<'a>(
     };
     w.write_all(&header).map_err(io)?;
     w.write_all(&records).map_err(io)?;
-    for p in payloads {
-        w.write_all(p).map_err(io)?;
-    }
+    w.write_all(&payloads).map_err(io)?;
     Ok(())
+}
+
+/// The version-2 object section: names length, run count, records, runs, names, CRC-32.
+fn object_section(table: &ObjectTable) -> Vec<u8> {
+    let runs = table.runs();
+    let mut names = Vec::new();
+    let mut records = Vec::with_capacity(table.objects.len() * 40);
+    for o in &table.objects {
+        records.extend_from_slice(&(names.len() as u32).to_le_bytes());
+        records.extend_from_slice(&(o.name.len() as u32).to_le_bytes());
+        names.extend_from_slice(o.name.as_bytes());
+        records.extend_from_slice(&o.index.unwrap_or(NO_INDEX).to_le_bytes());
+        records.extend_from_slice(&o.part.unwrap_or(NO_INDEX).to_le_bytes());
+        for f in o
+            .bounds_min
+            .to_array()
+            .into_iter()
+            .chain(o.bounds_max.to_array())
+        {
+            records.extend_from_slice(&f.to_le_bytes());
+        }
+    }
+    let mut section = Vec::with_capacity(8 + records.len() + runs.len() * 8 + names.len() + 4);
+    section.extend_from_slice(&(names.len() as u32).to_le_bytes());
+    section.extend_from_slice(&(runs.len() as u32).to_le_bytes());
+    section.extend_from_slice(&records);
+    for (object, count) in runs {
+        section.extend_from_slice(&object.to_le_bytes());
+        section.extend_from_slice(&count.to_le_bytes());
+    }
+    section.extend_from_slice(&names);
+    let crc = crc32fast::hash(&section);
+    section.extend_from_slice(&crc.to_le_bytes());
+    section
 }
 
 /// [`write_encoded`] to `path`, atomically (an existing file is replaced only on success).
@@ -446,52 +549,23 @@ pub fn save_encoded<'a>(
     path: &Path,
     scene_hash: u64,
     triangle_count: u32,
+    objects: Option<&ObjectTable>,
     metadata: &serde_json::Value,
     cells: impl ExactSizeIterator<Item = (&'a ViewCell, &'a EncodedSet)>,
 ) -> Result<(), PvsError> {
     let mut bytes = Vec::new();
-    write_encoded(&mut bytes, scene_hash, triangle_count, metadata, cells)?;
+    write_encoded(
+        &mut bytes,
+        scene_hash,
+        triangle_count,
+        objects,
+        metadata,
+        cells,
+    )?;
     write_atomic(path, |w| w.write_all(&bytes)).map_err(|source| PvsError::Io {
         path: path.to_path_buf(),
         source,
     })
-}
-
-fn le4(b: &[u8]) -> [u8; 4] {
-    [b[0], b[1], b[2], b[3]]
-}
-
-/// Bounds-checked little-endian reading with error offsets.
-struct Reader<'a> {
-    bytes: &'a [u8],
-    pos: usize,
-}
-
-impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8], PvsError> {
-        let end = self
-            .pos
-            .checked_add(n)
-            .filter(|&e| e <= self.bytes.len())
-            .ok_or_else(|| PvsError::Truncated {
-                offset: self.bytes.len(),
-                what: format!("{what} ({n} bytes at {})", self.pos),
-            })?;
-        let s = &self.bytes[self.pos..end];
-        self.pos = end;
-        Ok(s)
-    }
-
-    fn u32(&mut self, what: &str) -> Result<u32, PvsError> {
-        self.take(4, what).map(|b| u32::from_le_bytes(le4(b)))
-    }
-
-    fn u64(&mut self, what: &str) -> Result<u64, PvsError> {
-        let b = self.take(8, what)?;
-        let mut a = [0u8; 8];
-        a.copy_from_slice(b);
-        Ok(u64::from_le_bytes(a))
-    }
 }
 
 /// Encodes a set both ways and keeps the smaller (ties go to the bitset, faster to decode).
@@ -523,63 +597,6 @@ fn encode_set(set: &TriangleSet, n: usize) -> (u8, Vec<u8>) {
     (ENCODING_BITSET, bits)
 }
 
-fn decode_set(encoding: u8, payload: &[u8], n: usize) -> Result<TriangleSet, String> {
-    let mut set = TriangleSet::with_capacity(n);
-    match encoding {
-        ENCODING_BITSET => {
-            if payload.len() != n.div_ceil(8) {
-                return Err(format!(
-                    "bitset of {} bytes for {n} triangles",
-                    payload.len()
-                ));
-            }
-            for (byte_index, &byte) in payload.iter().enumerate() {
-                let mut b = byte;
-                while b != 0 {
-                    let id = byte_index * 8 + b.trailing_zeros() as usize;
-                    if id >= n {
-                        return Err(format!("bit {id} set past the {n} triangles"));
-                    }
-                    set.insert(id);
-                    b &= b - 1;
-                }
-            }
-        }
-        ENCODING_DELTA_VARINT => {
-            let mut id: u64 = 0;
-            let mut first = true;
-            let mut value: u64 = 0;
-            let mut shift = 0u32;
-            for &byte in payload {
-                if shift > 35 {
-                    return Err("varint longer than 5 bytes".into());
-                }
-                value |= u64::from(byte & 0x7f) << shift;
-                shift += 7;
-                if byte & 0x80 != 0 {
-                    continue;
-                }
-                if !first && value == 0 {
-                    return Err("repeated id (zero gap)".into());
-                }
-                id = if first { value } else { id + value };
-                first = false;
-                if id >= n as u64 {
-                    return Err(format!("id {id} past the {n} triangles"));
-                }
-                set.insert(id as usize);
-                value = 0;
-                shift = 0;
-            }
-            if shift != 0 {
-                return Err("payload ends inside a varint".into());
-            }
-        }
-        other => return Err(format!("unknown set encoding {other}")),
-    }
-    Ok(set)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -587,9 +604,19 @@ mod tests {
 
     fn two_box_scene() -> Scene {
         let mut b = SceneBuilder::new("two boxes");
+        b.begin_object("first box");
         b.add_box(Vec3::ZERO, Vec3::ONE);
+        b.begin_object("second box");
         b.add_box(Vec3::splat(2.0), Vec3::splat(3.0));
         b.finish()
+    }
+
+    /// The sample file as version 1 (no object table).
+    fn sample_file_v1() -> PvsFile {
+        PvsFile {
+            objects: None,
+            ..sample_file()
+        }
     }
 
     fn set(n: usize, ids: &[usize]) -> TriangleSet {
@@ -648,6 +675,7 @@ mod tests {
             &mut b,
             f.scene_hash,
             f.triangle_count,
+            f.objects.as_ref(),
             &f.metadata,
             f.cells.iter().map(|c| &c.cell).zip(&encoded),
         )
@@ -735,5 +763,106 @@ mod tests {
         let back = PvsFile::read(&bytes_of(&f)).unwrap();
         assert!(back.cells.is_empty());
         assert_eq!(back.triangle_count, 0);
+    }
+
+    #[test]
+    fn version_2_holds_objects_and_their_sets() {
+        let f = sample_file();
+        let b = bytes_of(&f);
+        assert_eq!(u32::from_le_bytes([b[8], b[9], b[10], b[11]]), 2);
+        let table = f.objects.as_ref().unwrap();
+        assert_eq!(table.objects.len(), 2);
+        assert_eq!(table.objects[1].name, "second box");
+        assert_eq!(table.objects[1].bounds_min, Vec3::splat(2.0));
+        assert_eq!(table.objects[1].bounds_max, Vec3::splat(3.0));
+        // Cell 0 sees triangles 0, 5 (first box) and 23 (second box); cell 1 only the first
+        // box's 12 and 8 of the second's; cell 2 nothing.
+        let ones = |c: usize| f.visible_objects(c).unwrap().ones().collect::<Vec<_>>();
+        assert_eq!(ones(0), [0, 1]);
+        assert_eq!(ones(1), [0, 1]);
+        assert!(ones(2).is_empty());
+        let pvs = Pvs::from_bytes(b).unwrap();
+        assert_eq!(pvs.visible_objects(0).unwrap(), [0, 1]);
+        assert!(pvs.visible_objects(2).unwrap().is_empty());
+        assert_eq!(pvs.object(0).unwrap().name, "first box");
+        let runs: Vec<_> = pvs.object_triangles(1).unwrap().collect();
+        assert_eq!(runs.len(), 1);
+        assert_eq!(runs[0], 12..24);
+    }
+
+    #[test]
+    fn version_1_files_are_still_read_and_written() {
+        let f = sample_file_v1();
+        let b = bytes_of(&f);
+        assert_eq!(u32::from_le_bytes([b[8], b[9], b[10], b[11]]), 1);
+        let back = PvsFile::read(&b).unwrap();
+        assert_eq!(back, f);
+        assert!(back.visible_objects(0).is_none());
+        let pvs = Pvs::from_bytes(b).unwrap();
+        assert!(matches!(
+            pvs.visible_objects(0),
+            Err(sightline_runtime::Error::NoObjects(1))
+        ));
+        for len in 0..bytes_of(&f).len() {
+            assert!(PvsFile::read(&bytes_of(&f)[..len]).is_err());
+        }
+    }
+
+    #[test]
+    fn version_1_single_byte_corruption_is_detected() {
+        let b = bytes_of(&sample_file_v1());
+        for i in 0..b.len() {
+            let mut c = b.clone();
+            c[i] ^= 0x10;
+            assert!(PvsFile::read(&c).is_err(), "flip at byte {i} not detected");
+        }
+    }
+
+    #[test]
+    fn object_set_disagreeing_with_the_triangles_is_refused() {
+        // A file whose object sets were written from another object table: consistent
+        // checksums, wrong sets. The runtime accepts it (it cannot know); the full reader not.
+        let mut f = sample_file();
+        let table = f.objects.as_mut().unwrap();
+        table.object_of_triangle = vec![0; 24];
+        let good_checksums = bytes_of(&f);
+        let mut forged = f.clone();
+        forged.objects.as_mut().unwrap().object_of_triangle =
+            (0..24).map(|t| u32::from(t >= 12)).collect();
+        let forged_bytes = bytes_of(&forged);
+        // Splice the first file's cell records and payloads after the second's object section.
+        let object_section_end = |b: &[u8]| b.len() - f.cells.len() * 84 - payload_len(&f);
+        let mut spliced = forged_bytes[..object_section_end(&forged_bytes)].to_vec();
+        spliced.extend_from_slice(&good_checksums[object_section_end(&good_checksums)..]);
+        assert!(Pvs::from_bytes(spliced.clone()).is_ok());
+        let e = PvsFile::read(&spliced).unwrap_err();
+        assert!(e.to_string().contains("not those of its triangles"), "{e}");
+    }
+
+    fn payload_len(f: &PvsFile) -> usize {
+        let n = f.triangle_count as usize;
+        let table = f.objects.as_ref().unwrap();
+        f.cells
+            .iter()
+            .map(|c| {
+                EncodedSet::encode(&c.visible, n).payload_bytes()
+                    + EncodedSet::encode(&table.visible_objects(&c.visible), table.objects.len())
+                        .payload_bytes()
+            })
+            .sum()
+    }
+
+    #[test]
+    fn object_table_past_the_scene_cannot_be_written() {
+        let mut f = sample_file();
+        f.objects.as_mut().unwrap().object_of_triangle[3] = 7;
+        let e = f.write(&mut Vec::new()).unwrap_err();
+        assert!(e.to_string().contains("triangle 3"), "{e}");
+        let mut f = sample_file();
+        f.objects.as_mut().unwrap().object_of_triangle.pop();
+        assert!(matches!(
+            f.write(&mut Vec::new()),
+            Err(PvsError::Invalid(_))
+        ));
     }
 }

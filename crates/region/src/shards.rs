@@ -166,6 +166,15 @@ pub fn merge(
                 hb: file.scene_hash,
             });
         }
+        if file.objects != first.objects {
+            return Err(MergeError::BadIndices {
+                path: path.clone(),
+                what: format!(
+                    "its object table differs from {}'s (a version-1 file, or another scene's objects)",
+                    first_path.display()
+                ),
+            });
+        }
         let f = file
             .metadata
             .get("fingerprint")
@@ -263,6 +272,7 @@ pub fn merge(
     Ok(EncodedPvsFile {
         scene_hash: first.scene_hash,
         triangle_count: first.triangle_count,
+        objects: first.objects.clone(),
         metadata,
         cells: by_index.values().map(|(_, c, _)| (*c).clone()).collect(),
     })
@@ -286,6 +296,7 @@ mod tests {
         EncodedPvsFile {
             scene_hash: 7,
             triangle_count: 4,
+            objects: None,
             metadata: json!({
                 "fingerprint": {"seed": 1},
                 "total_cells": 4,

@@ -1,4 +1,9 @@
 //! `sightline convert`: write the scene as loaded, so other tools can use sightline's ids.
+//!
+//! Triangle ids are kept by every writer. Objects (`docs/objects.md`) are kept by `.glb` (node
+//! `extras.sightline` tags) and `.obj` (`# sightline-object` comments before the `o` lines):
+//! loading the output gives the same objects, names, `index`/`part` and object of every
+//! triangle. `.ply` has no objects.
 
 use std::path::PathBuf;
 
@@ -13,8 +18,9 @@ use crate::args::SceneArgs;
 pub(crate) struct Args {
     #[command(flatten)]
     scene: SceneArgs,
-    /// Output file: .ply (binary, no objects), .obj (objects as `o` groups) or .glb (objects as
-    /// meshes). Triangle order is kept, so triangle ids stay the same.
+    /// Output file: .ply (binary, no objects), .obj (objects as tagged `o` groups) or .glb
+    /// (objects as tagged nodes). Triangle order is kept, so triangle ids stay the same, and
+    /// .obj/.glb load back with the same objects (docs/objects.md).
     #[arg(short, long)]
     output: PathBuf,
     /// Print a JSON summary.

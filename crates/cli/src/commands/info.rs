@@ -38,6 +38,10 @@ struct Info {
 #[derive(Serialize)]
 struct ObjectInfo {
     name: String,
+    /// `Object::index` (glTF node, Quake 3 model); `null` when the format has none.
+    index: Option<u32>,
+    /// `Object::part` (glTF primitive, Quake 3 shader); `null` when the format has none.
+    part: Option<u32>,
     triangles: usize,
 }
 
@@ -70,6 +74,8 @@ pub(crate) fn run(args: Args) -> Result<()> {
             .zip(&counts)
             .map(|(o, &triangles)| ObjectInfo {
                 name: o.name.clone(),
+                index: o.index,
+                part: o.part,
                 triangles,
             })
             .collect(),

@@ -34,7 +34,8 @@ pub(crate) struct Args {
 enum What {
     /// Compute the PVS of view cells and write a .pvs file.
     Bake(Box<BakeArgs>),
-    /// Print a .pvs file's header, metadata and per-cell set sizes.
+    /// Print a .pvs file's header, metadata, object count and per-cell triangle and object set
+    /// sizes (--objects: the object table).
     Show(ShowArgs),
     /// Join the shard files of a bake (`pvs bake --shard I/N`) into one .pvs, cells in order.
     Merge(MergeArgs),
@@ -192,7 +193,10 @@ pub(crate) struct MergeArgs {
 pub(crate) struct ShowArgs {
     /// The .pvs file.
     file: PathBuf,
-    /// Print JSON (with the triangle ids of every cell).
+    /// Also list the object table (name, index, part, triangles, bounds) of a version-2 file.
+    #[arg(long)]
+    objects: bool,
+    /// Print JSON (with the triangle and object ids of every cell, and the object table).
     #[arg(long)]
     json: bool,
 }
@@ -793,33 +797,75 @@ struct CellJson {
     axes: [[f32; 3]; 3],
     pvs_size: usize,
     triangles: Vec<usize>,
+    /// Visible objects (version 2 files).
+    objects: Option<Vec<usize>>,
+}
+
+#[derive(Serialize)]
+struct ObjectJson {
+    name: String,
+    index: Option<u32>,
+    part: Option<u32>,
+    triangles: usize,
+    bounds_min: [f32; 3],
+    bounds_max: [f32; 3],
+}
+
+fn object_rows(file: &PvsFile) -> Option<Vec<ObjectJson>> {
+    let table = file.objects.as_ref()?;
+    let mut triangles = vec![0usize; table.objects.len()];
+    for &o in &table.object_of_triangle {
+        triangles[o as usize] += 1;
+    }
+    Some(
+        table
+            .objects
+            .iter()
+            .zip(triangles)
+            .map(|(o, triangles)| ObjectJson {
+                name: o.name.clone(),
+                index: o.index,
+                part: o.part,
+                triangles,
+                bounds_min: o.bounds_min.to_array(),
+                bounds_max: o.bounds_max.to_array(),
+            })
+            .collect(),
+    )
 }
 
 fn run_show(args: ShowArgs) -> Result<()> {
     let file =
         PvsFile::load(&args.file).with_context(|| format!("reading {}", args.file.display()))?;
+    let version = if file.objects.is_some() { 2 } else { 1 };
     if args.json {
         #[derive(Serialize)]
         struct Out {
+            version: u32,
             scene_hash: String,
             triangle_count: u32,
             metadata: serde_json::Value,
+            objects: Option<Vec<ObjectJson>>,
             cells: Vec<CellJson>,
         }
         let cells = file
             .cells
             .iter()
-            .map(|c| CellJson {
+            .enumerate()
+            .map(|(i, c)| CellJson {
                 center: c.cell.center.to_array(),
                 half_extents: c.cell.half_extents.to_array(),
                 axes: c.cell.axes.map(|a| a.to_array()),
                 pvs_size: c.visible.count_ones(..),
                 triangles: c.visible.ones().collect(),
+                objects: file.visible_objects(i).map(|o| o.ones().collect()),
             })
             .collect();
         return print_json(&Out {
+            version,
             scene_hash: format!("{:016x}", file.scene_hash),
             triangle_count: file.triangle_count,
+            objects: object_rows(&file),
             metadata: file.metadata,
             cells,
         });
@@ -836,11 +882,38 @@ fn run_show(args: ShowArgs) -> Result<()> {
         "method     {}",
         file.metadata["method"].as_str().unwrap_or("?")
     );
+    println!("version    {version}");
+    match &file.objects {
+        Some(t) => println!("objects    {}", t.objects.len()),
+        None => println!("objects    none (version 1: triangle sets only; bake again for objects)"),
+    }
+    if args.objects {
+        for (i, o) in object_rows(&file).unwrap_or_default().iter().enumerate() {
+            let number = |v: Option<u32>| v.map_or("-".to_string(), |v| v.to_string());
+            println!(
+                "  object {i:>5}  {:<40}  index {:>5}  part {:>4}  {:>7} triangles  bounds {:.2?} .. {:.2?}",
+                o.name,
+                number(o.index),
+                number(o.part),
+                o.triangles,
+                o.bounds_min,
+                o.bounds_max
+            );
+        }
+    }
     println!("cells      {}", file.cells.len());
+    let objects_total = file.objects.as_ref().map_or(0, |t| t.objects.len().max(1)) as f64;
     for (i, c) in file.cells.iter().enumerate() {
         let size = c.visible.count_ones(..);
+        let objects = file.visible_objects(i).map_or(String::new(), |o| {
+            let k = o.count_ones(..);
+            format!(
+                "  objects {k:>6} ({:.2}%)",
+                100.0 * k as f64 / objects_total
+            )
+        });
         println!(
-            "  cell {i:>4}  centre {:>28}  half extents {:>24}  PVS {size:>8} ({:.2}%)",
+            "  cell {i:>4}  centre {:>28}  half extents {:>24}  PVS {size:>8} ({:.2}%){objects}",
             format!("{:.2?}", c.cell.center.to_array()),
             format!("{:.2?}", c.cell.half_extents.to_array()),
             100.0 * size as f64 / n
@@ -857,6 +930,11 @@ struct CellDiff {
     only_in_a: usize,
     only_in_b: usize,
     jaccard: f64,
+    /// Objects (when both files have the same object table).
+    objects_a: Option<usize>,
+    objects_b: Option<usize>,
+    objects_only_in_a: Option<usize>,
+    objects_only_in_b: Option<usize>,
 }
 
 fn run_diff(args: DiffArgs) -> Result<()> {
@@ -878,13 +956,30 @@ fn run_diff(args: DiffArgs) -> Result<()> {
             b.cells.len()
         );
     }
+    // Objects are compared only under one object table: the same scene can be loaded with
+    // another grouping (e.g. before and after a loader change), and ids would then differ.
+    let same_objects = a.objects.is_some() && a.objects == b.objects;
     let mut rows = Vec::new();
     for (i, (ca, cb)) in a.cells.iter().zip(&b.cells).enumerate() {
         if ca.cell != cb.cell {
             bail!("cell {i} differs in geometry between the files");
         }
         let union = ca.visible.union(&cb.visible).count().max(1);
+        let (oa, ob) = match (same_objects, a.visible_objects(i), b.visible_objects(i)) {
+            (true, Some(oa), Some(ob)) => (Some(oa), Some(ob)),
+            _ => (None, None),
+        };
+        let count = |s: &Option<fixedbitset::FixedBitSet>| s.as_ref().map(|s| s.count_ones(..));
+        let only = |x: &Option<fixedbitset::FixedBitSet>, y: &Option<fixedbitset::FixedBitSet>| {
+            x.as_ref()
+                .zip(y.as_ref())
+                .map(|(x, y)| x.difference(y).count())
+        };
         rows.push(CellDiff {
+            objects_a: count(&oa),
+            objects_b: count(&ob),
+            objects_only_in_a: only(&oa, &ob),
+            objects_only_in_b: only(&ob, &oa),
             cell: i,
             size_a: ca.visible.count_ones(..),
             size_b: cb.visible.count_ones(..),
@@ -896,12 +991,32 @@ fn run_diff(args: DiffArgs) -> Result<()> {
     if args.json {
         return print_json(&rows);
     }
-    println!("| cell | |A| | |B| | only in A | only in B | Jaccard |");
-    println!("|---:|---:|---:|---:|---:|---:|");
+    if !same_objects {
+        println!(
+            "(objects not compared: {})",
+            if a.objects.is_none() || b.objects.is_none() {
+                "a version-1 file has none"
+            } else {
+                "the files' object tables differ"
+            }
+        );
+    }
+    println!("| cell | |A| | |B| | only in A | only in B | Jaccard | objects A | objects B | objects only in A | objects only in B |");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let opt = |v: Option<usize>| v.map_or("-".to_string(), |v| v.to_string());
     for r in &rows {
         println!(
-            "| {} | {} | {} | {} | {} | {:.4} |",
-            r.cell, r.size_a, r.size_b, r.only_in_a, r.only_in_b, r.jaccard
+            "| {} | {} | {} | {} | {} | {:.4} | {} | {} | {} | {} |",
+            r.cell,
+            r.size_a,
+            r.size_b,
+            r.only_in_a,
+            r.only_in_b,
+            r.jaccard,
+            opt(r.objects_a),
+            opt(r.objects_b),
+            opt(r.objects_only_in_a),
+            opt(r.objects_only_in_b)
         );
     }
     Ok(())

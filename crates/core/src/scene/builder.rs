@@ -17,6 +17,18 @@ pub trait TriangleSink {
     /// sinks that drop names do not pay for them.
     fn begin_object(&mut self, name: std::fmt::Arguments<'_>);
 
+    /// Starts a new object with the numeric identity of [`Object::index`] and
+    /// [`Object::part`] (loaders of formats that have one). The default forwards to
+    /// [`TriangleSink::begin_object`], for sinks that drop identities.
+    fn begin_object_with(
+        &mut self,
+        name: std::fmt::Arguments<'_>,
+        _index: Option<u32>,
+        _part: Option<u32>,
+    ) {
+        self.begin_object(name);
+    }
+
     /// The index the next vertex will get.
     fn vertex_count(&self) -> u32;
 
@@ -67,6 +79,22 @@ impl TriangleSink for SceneBuilder {
         SceneBuilder::begin_object(self, name.to_string());
     }
 
+    fn begin_object_with(
+        &mut self,
+        name: std::fmt::Arguments<'_>,
+        index: Option<u32>,
+        part: Option<u32>,
+    ) {
+        SceneBuilder::push_object(
+            self,
+            Object {
+                name: name.to_string(),
+                index,
+                part,
+            },
+        );
+    }
+
     fn vertex_count(&self) -> u32 {
         SceneBuilder::vertex_count(self)
     }
@@ -111,12 +139,60 @@ impl SceneBuilder {
         self.scene.object_of_triangle.reserve(triangles);
     }
 
-    /// Starts a new object; following triangles belong to it. Returns its index.
+    /// Starts a new object with only a name ([`Object::named`]); following triangles belong
+    /// to it. Returns its index.
     pub fn begin_object(&mut self, name: impl Into<String>) -> u32 {
+        self.push_object(Object::named(name))
+    }
+
+    /// Starts a new object with the given name and identity (loaders that have an
+    /// [`Object::index`] / [`Object::part`]); following triangles belong to it. Returns its
+    /// index.
+    pub fn push_object(&mut self, object: Object) -> u32 {
         let id = self.scene.objects.len() as u32;
-        self.scene.objects.push(Object { name: name.into() });
+        self.scene.objects.push(object);
         self.current_object = Some(id);
         id
+    }
+
+    /// Makes the earlier object `id` (a value [`SceneBuilder::begin_object`] or
+    /// [`SceneBuilder::push_object`] returned) current again: following triangles join it.
+    /// Loaders use it when a file names the same object in several places (repeated OBJ
+    /// groups, GLB nodes written by [`super::gltf::write_glb`]). Panics on an unknown id.
+    pub fn resume_object(&mut self, id: u32) {
+        assert!(
+            (id as usize) < self.scene.objects.len(),
+            "object {id} was never begun"
+        );
+        self.current_object = Some(id);
+    }
+
+    /// The objects begun so far, by id.
+    pub fn objects(&self) -> &[Object] {
+        &self.scene.objects
+    }
+
+    /// Renumbers the objects begun so far in ascending `key` order (`keys[id]` is object
+    /// `id`'s key; ties keep their order) and updates every triangle's object. Loaders of
+    /// files written by sightline use it to give objects back their original ids.
+    pub(crate) fn sort_objects_by_key<K: Ord + Copy>(&mut self, keys: &[K]) {
+        let n = self.scene.objects.len();
+        assert_eq!(keys.len(), n, "one key per object");
+        let mut numbered: Vec<(usize, Object)> = std::mem::take(&mut self.scene.objects)
+            .into_iter()
+            .enumerate()
+            .collect();
+        // Stable: ties keep their order.
+        numbered.sort_by_key(|&(i, _)| keys[i]);
+        let mut new_id = vec![0u32; n];
+        for (k, (i, _)) in numbered.iter().enumerate() {
+            new_id[*i] = k as u32;
+        }
+        self.scene.objects = numbered.into_iter().map(|(_, o)| o).collect();
+        for o in &mut self.scene.object_of_triangle {
+            *o = new_id[*o as usize];
+        }
+        self.current_object = self.current_object.map(|o| new_id[o as usize]);
     }
 
     /// Number of vertices so far (the index the next vertex will get).
@@ -237,6 +313,31 @@ mod tests {
         assert_eq!(s.objects.len(), 1);
         assert_eq!(s.objects[0].name, "full");
         assert_eq!(s.object_of_triangle, vec![0]);
+    }
+
+    #[test]
+    fn resumed_and_sorted_objects_keep_their_triangles() {
+        let mut b = SceneBuilder::new("x");
+        let v = b.add_vertex(Vec3::ZERO);
+        let first = b.begin_object("first");
+        b.add_triangle([v, v, v]);
+        b.push_object(Object {
+            name: "second".into(),
+            index: Some(7),
+            part: Some(1),
+        });
+        b.add_triangle([v, v, v]);
+        b.resume_object(first);
+        b.add_triangle([v, v, v]);
+        b.sort_objects_by_key(&[2, 1]);
+        // The current object follows the renumbering.
+        b.add_triangle([v, v, v]);
+        let s = b.finish();
+        let names: Vec<_> = s.objects.iter().map(|o| o.name.as_str()).collect();
+        assert_eq!(names, ["second", "first"]);
+        assert_eq!((s.objects[0].index, s.objects[0].part), (Some(7), Some(1)));
+        assert_eq!(s.objects[1], Object::named("first"));
+        assert_eq!(s.object_of_triangle, vec![1, 0, 1, 1]);
     }
 
     #[test]

@@ -16,9 +16,8 @@
 //!   node's child), depth-first in node order. World transforms compose each node's matrix or
 //!   TRS with its parents' (`world_from_node = world_from_parent * parent_from_node`). A node
 //!   reached twice (the node graph must be a forest) is an error, so cycles cannot recurse.
-//! - Each (node, mesh) pair is one object, named after the node, else the mesh, else
-//!   `node N`. Its primitives' positions are transformed to world space and appended
-//!   (instanced meshes are duplicated, each with its node's transform).
+//! - Each primitive of each node's mesh is appended with its positions transformed to world
+//!   space (instanced meshes are duplicated, each with its node's transform); see "Objects".
 //! - Primitives: `Triangles`, `TriangleStrip` (alternate winding kept) and `TriangleFan`;
 //!   `Points` and `Lines*` are skipped without error. Non-indexed primitives use sequential
 //!   indices. Positions must be `VEC3` `FLOAT`; indices `SCALAR` `UNSIGNED_BYTE/SHORT/INT`.
@@ -26,15 +25,38 @@
 //!   wrong geometry).
 //!
 //! Triangle ids follow walk order, then primitive order, then index order.
+//!
+//! # Objects
+//! One object per (node, primitive) pair that has triangle-mode primitives with positions, in
+//! walk order, then primitive order (so object ids grow with triangle ids):
+//! - [`Object::name`] is the node path: the names of the node's ancestors from its scene root
+//!   down to the node itself, joined with `/` (`Root/House/Door.001`); a node without a name
+//!   (or with an empty one) is written `#<node index>` (`Root/#7`). Names are not escaped: a
+//!   `/` inside a node name looks like a level of the path, and two sibling nodes with the
+//!   same name have the same path, so `index` is the identity to rely on.
+//! - [`Object::index`] is the node index (in the file's `nodes` array), [`Object::part`] the
+//!   primitive index in the node's mesh (the primitive's own index, counting skipped ones).
+//!   A mesh with several primitives gives several objects with the same name.
+//!
+//! Files written by [`write_glb`] carry each object in node `extras`:
+//! `"extras": {"sightline": {"object": k, "name": "...", "index": i, "part": p}}` (`index`
+//! and `part` may be `null`). Every primitive of a node with such a tag joins object `k`
+//! (several nodes may share a `k`: the writer emits one node per run of consecutive
+//! triangles), named `name` (the node path when absent) with the tag's `index` and `part`,
+//! not the node's; tagged objects are numbered in ascending `k` order, untagged ones after
+//! them in walk order. A node whose `extras.sightline` does not have this shape is loaded as
+//! an ordinary node.
 
+use std::collections::HashMap;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
+use std::rc::Rc;
 
 use glam::{Mat4, Vec3};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::{Mode, Semantic};
 
-use super::{LoadError, Location, Scene, SceneBuilder};
+use super::{LoadError, Location, Object, Scene, SceneBuilder};
 
 const GLB_MAGIC: &[u8; 4] = b"glTF";
 const CHUNK_JSON: u32 = 0x4E4F_534A;
@@ -395,14 +417,17 @@ fn build_scene(
     let mut builder = SceneBuilder::new(path.display().to_string());
     let mut visited = vec![false; doc.nodes().len()];
     // Depth-first with an explicit stack (no recursion depth limit to hit); children are
-    // pushed in reverse so they pop in node order.
-    let mut stack: Vec<(gltf::Node, Mat4)> = roots
+    // pushed in reverse so they pop in node order. Each entry carries its parent's world
+    // transform and node path.
+    let mut stack: Vec<(gltf::Node, Mat4, Rc<str>)> = roots
         .into_iter()
         .rev()
-        .map(|n| (n, Mat4::IDENTITY))
+        .map(|n| (n, Mat4::IDENTITY, Rc::from("")))
         .collect();
     let mut triangles = Vec::new();
-    while let Some((node, world_from_parent)) = stack.pop() {
+    // Objects written by `write_glb`: object id of each `sightline.object` number.
+    let mut tagged: HashMap<u32, u32> = HashMap::new();
+    while let Some((node, world_from_parent, parent_path)) = stack.pop() {
         let seen = visited
             .get_mut(node.index())
             .ok_or_else(|| LoadError::Invalid {
@@ -419,12 +444,19 @@ fn build_scene(
         *seen = true;
         let world_from_node =
             world_from_parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        let node_path: Rc<str> = {
+            let segment = match node.name() {
+                Some(name) if !name.is_empty() => name.to_string(),
+                _ => format!("#{}", node.index()),
+            };
+            if parent_path.is_empty() {
+                segment.into()
+            } else {
+                format!("{parent_path}/{segment}").into()
+            }
+        };
         if let Some(mesh) = node.mesh() {
-            let name = node
-                .name()
-                .or(mesh.name())
-                .map_or_else(|| format!("node {}", node.index()), str::to_string);
-            builder.begin_object(name);
+            let tag = SightlineTag::of(&node);
             for primitive in mesh.primitives() {
                 let err = |message: String| {
                     LoadError::parse(
@@ -455,6 +487,28 @@ fn build_scene(
                 triangles.clear();
                 triangulate(primitive.mode(), &indices, positions.len(), &mut triangles)
                     .map_err(&err)?;
+                // One object per (node, primitive); nodes tagged by `write_glb` join the
+                // object of their tag instead (module docs, "Objects").
+                match &tag {
+                    Some(tag) => match tagged.get(&tag.object) {
+                        Some(&id) => builder.resume_object(id),
+                        None => {
+                            let id = builder.push_object(Object {
+                                name: tag.name.clone().unwrap_or_else(|| node_path.to_string()),
+                                index: tag.index,
+                                part: tag.part,
+                            });
+                            tagged.insert(tag.object, id);
+                        }
+                    },
+                    None => {
+                        builder.push_object(Object {
+                            name: node_path.to_string(),
+                            index: Some(node.index() as u32),
+                            part: Some(primitive.index() as u32),
+                        });
+                    }
+                }
                 let base = builder.vertex_count();
                 for p in positions {
                     builder.add_vertex(world_from_node.transform_point3(p));
@@ -466,16 +520,58 @@ fn build_scene(
         }
         let children: Vec<_> = node.children().collect();
         for child in children.into_iter().rev() {
-            stack.push((child, world_from_node));
+            stack.push((child, world_from_node, node_path.clone()));
         }
+    }
+    if !tagged.is_empty() {
+        // Tagged objects take their `sightline.object` order (the ids they had when
+        // written), untagged ones follow in walk order.
+        let mut keys = vec![(1u8, u32::MAX); builder.objects().len()];
+        for (&object, &id) in &tagged {
+            keys[id as usize] = (0, object);
+        }
+        builder.sort_objects_by_key(&keys);
     }
     Ok(builder.finish())
 }
 
-/// Writes `scene` as a binary glTF 2.0 file (GLB): one mesh and one node per run of
-/// consecutive triangles of the same object (named after the object), each with its own
+/// The `extras.sightline` member of a node written by [`write_glb`]:
+/// `{"object": k, "name": "...", "index": i, "part": p}`. `object` is required (a `u32`);
+/// the rest are optional (`null` or missing = `None`; a missing name = the node path).
+#[derive(Debug, serde::Deserialize)]
+struct SightlineTag {
+    object: u32,
+    #[serde(default)]
+    name: Option<String>,
+    #[serde(default)]
+    index: Option<u32>,
+    #[serde(default)]
+    part: Option<u32>,
+}
+
+#[derive(serde::Deserialize)]
+struct NodeExtras {
+    sightline: SightlineTag,
+}
+
+impl SightlineTag {
+    /// The node's tag; `None` when it has none or when its extras do not have the documented
+    /// shape (such a node is then an ordinary node, not an error).
+    fn of(node: &gltf::Node) -> Option<Self> {
+        let raw = node.extras().as_ref()?;
+        serde_json::from_str::<NodeExtras>(raw.get())
+            .ok()
+            .map(|e| e.sightline)
+    }
+}
+
+/// Writes `scene` as a binary glTF 2.0 file (GLB): one mesh and one root node per run of
+/// consecutive triangles of the same object (both named after the object), each with its own
 /// `f32` VEC3 positions (only the vertices the run uses) and `u32` indices, in triangle-id
-/// order, so loading the result gives the same triangle ids and object names.
+/// order, so loading the result gives the same triangle ids. Each node's
+/// `extras.sightline = {"object", "name", "index", "part"}` names the object it belongs to
+/// (module docs, "Objects"), so loading the result with [`load`] also gives the same objects:
+/// ids, names, `index` and `part`. Objects without triangles are not written.
 pub fn write_glb(scene: &Scene, w: &mut impl Write) -> io::Result<()> {
     let mut bin: Vec<u8> = Vec::new();
     let mut meshes = Vec::new();
@@ -545,15 +641,22 @@ pub fn write_glb(scene: &Scene, w: &mut impl Write) -> io::Result<()> {
             "bufferView": 2 * run + 1, "componentType": 5125, "count": indices.len(),
             "type": "SCALAR"
         }));
-        let name = scene
+        let (name, index, part) = scene
             .objects
             .get(object as usize)
-            .map_or("default", |o| o.name.as_str());
+            .map_or(("default", None, None), |o| {
+                (o.name.as_str(), o.index, o.part)
+            });
         meshes.push(serde_json::json!({
             "name": name,
             "primitives": [{ "attributes": { "POSITION": 2 * run }, "indices": 2 * run + 1, "mode": 4 }]
         }));
-        nodes.push(serde_json::json!({ "name": name, "mesh": run }));
+        nodes.push(serde_json::json!({
+            "name": name, "mesh": run,
+            "extras": { "sightline": {
+                "object": object, "name": name, "index": index, "part": part
+            } }
+        }));
         start = end;
     }
     // glTF forbids other empty arrays, so an empty scene is `scenes[0]` with no nodes (the
@@ -653,9 +756,87 @@ mod tests {
         let s = load_gltf(&two_node_gltf(4, 3)).unwrap();
         assert_eq!(s.triangle_count(), 2);
         let names: Vec<_> = s.objects.iter().map(|o| o.name.as_str()).collect();
-        assert_eq!(names, ["parent", "tri"]);
+        assert_eq!(names, ["parent", "parent/#1"]);
+        let ids: Vec<_> = s.objects.iter().map(|o| (o.index, o.part)).collect();
+        assert_eq!(ids, [(Some(0), Some(0)), (Some(1), Some(0))]);
         assert_eq!(s.triangle(0)[1], Vec3::new(11.0, 0.0, 0.0));
         assert_eq!(s.triangle(1)[1], Vec3::new(12.0, 0.0, 0.0));
+    }
+
+    /// `Root` (no mesh) > `House` (no mesh) > `Door.001` (mesh 1: triangle, points, triangle)
+    /// and `Root` > unnamed node 3 (mesh 0), with `extras` on node 2 (not a sightline tag).
+    fn hierarchy_gltf(door_extras: &str) -> String {
+        let tri = r#"{"attributes":{"POSITION":0},"indices":1,"mode":4}"#;
+        let points = r#"{"attributes":{"POSITION":0},"mode":0}"#;
+        format!(
+            r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
+            "nodes":[{{"name":"Root","children":[1,3]}},
+                     {{"name":"House","children":[2],"translation":[0,0,5]}},
+                     {{"name":"Door.001","mesh":1,"extras":{door_extras}}},
+                     {{"mesh":0,"translation":[1,0,0]}}],
+            "meshes":[{{"primitives":[{tri}]}},
+                      {{"name":"door mesh","primitives":[{tri},{points},{tri}]}}],
+            "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+                         {{"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}}],
+            "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":6}}],
+            "buffers":[{{"byteLength":42,"uri":"{}"}}]}}"#,
+            triangle_buffer_uri()
+        )
+    }
+
+    fn identities(s: &Scene) -> Vec<(&str, Option<u32>, Option<u32>)> {
+        s.objects
+            .iter()
+            .map(|o| (o.name.as_str(), o.index, o.part))
+            .collect()
+    }
+
+    #[test]
+    fn objects_are_node_paths_per_primitive() {
+        let s = load_gltf(&hierarchy_gltf(r#"{"sightline":"not a tag"}"#)).unwrap();
+        assert_eq!(
+            identities(&s),
+            [
+                ("Root/House/Door.001", Some(2), Some(0)),
+                ("Root/House/Door.001", Some(2), Some(2)),
+                ("Root/#3", Some(3), Some(0)),
+            ]
+        );
+        // Ids in walk order, then primitive order: the door's two triangles, then node 3's.
+        assert_eq!(s.object_of_triangle, [0, 1, 2]);
+        assert_eq!(s.triangle(1)[1], Vec3::new(1.0, 0.0, 5.0));
+        assert_eq!(s.triangle(2)[1], Vec3::new(2.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn sightline_tag_names_the_object() {
+        let tag = r#"{"sightline":{"object":7,"name":"door","index":40,"part":null}}"#;
+        let s = load_gltf(&hierarchy_gltf(tag)).unwrap();
+        // Both door primitives join the tagged object, which comes first; node 3 after it.
+        assert_eq!(
+            identities(&s),
+            [("door", Some(40), None), ("Root/#3", Some(3), Some(0))]
+        );
+        assert_eq!(s.object_of_triangle, [0, 0, 1]);
+    }
+
+    #[test]
+    fn glb_round_trip_keeps_objects() {
+        let mut scene = two_objects();
+        scene.objects[0].index = Some(9);
+        scene.objects[1].part = Some(0);
+        // Object 1's triangle first, so tag order and walk order differ.
+        scene.triangles.swap(0, 1);
+        scene.object_of_triangle.swap(0, 1);
+        let mut out = Vec::new();
+        write_glb(&scene, &mut out).unwrap();
+        let back = load(Path::new("back.glb"), &out).unwrap();
+        assert_eq!(back.objects, scene.objects);
+        assert_eq!(back.object_of_triangle, scene.object_of_triangle);
+        assert_eq!(back.triangles.len(), 3);
+        for id in 0..3u32 {
+            assert_eq!(back.triangle(id), scene.triangle(id));
+        }
     }
 
     #[test]

@@ -52,11 +52,31 @@ impl UpAxis {
     }
 }
 
-/// A named group of triangles: what run-time culling moves, draws and tests.
+/// A named group of triangles: what run-time culling moves, draws and tests, and what an engine
+/// maps to one of its mesh instances. `docs/objects.md` tables, per format, how the loaders
+/// set these fields, so an engine can find its own mesh from them.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub struct Object {
-    /// Name from the file (OBJ `o`/`g`, glTF node/mesh, BSP model) or generator.
+    /// Name from the file or generator: glTF node path (`Root/House/Door.001`), OBJ `o`/`g`
+    /// name (or material), Quake 3 `model{m}/{shader}`, PLY/STL file stem or STL `solid` name.
     pub name: String,
+    /// First numeric identity: glTF = node index, Quake 3 = model number (0 = world); `None`
+    /// for other formats and for generators.
+    pub index: Option<u32>,
+    /// Second numeric identity: glTF = primitive index within the node's mesh, Quake 3 =
+    /// shader index (lump 1); `None` for other formats and for generators.
+    pub part: Option<u32>,
+}
+
+impl Object {
+    /// An object with only a name (`index` and `part` are `None`).
+    pub fn named(name: impl Into<String>) -> Self {
+        Self {
+            name: name.into(),
+            index: None,
+            part: None,
+        }
+    }
 }
 
 /// A triangle scene. See the module documentation for the id and memory rules.

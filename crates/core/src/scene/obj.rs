@@ -19,20 +19,42 @@
 //! - Triangles: `f` lines in file order; a polygon `f a b c d ...` becomes the fan
 //!   `(a b c) (a c d) ...`, so triangle ids follow the face order of the file. A face with
 //!   fewer than 3 corners is an error.
-//! - Objects: a new object starts at the first face after an `o`, `g` or `usemtl` line. It is
-//!   named after the last `o`/`g` name, or after the material when the file has no `o`/`g`
-//!   (as fzk_haus), or `default`. No material is ever read: `mtllib` is ignored, and so are
+//! - Objects: see "Objects" below. No material is ever read: `mtllib` is ignored, and so are
 //!   `vt`, `vn`, `l`, `p`, `s` and unknown statements.
 //! - Line continuation with `\` is not supported (no shipped file uses it).
 //!
 //! Errors name the file and the 1-based line.
+//!
+//! # Objects
+//! - Faces after an `o` or `g` line belong to the object of that name (the rest of the line,
+//!   trimmed; `unnamed` when empty; `g a b` is the one name `a b`). A name that comes back
+//!   later in the file continues the same object, as the OBJ specification's groups are named
+//!   sets of faces, so every `o`/`g` name is one object, in order of its first face, and
+//!   `usemtl` inside an `o`/`g` does not split it.
+//! - Faces before any `o`/`g` line: a new object starts at the first face after each `usemtl`
+//!   line, named after the material (files without `o`/`g` such as fzk_haus would otherwise be
+//!   one object), or `default` before any `usemtl`. These names may repeat (fzk_haus has 177
+//!   such objects and 11 material names); an engine that imported the file as one mesh treats
+//!   them together.
+//! - [`Object::index`] and [`Object::part`] are `None`, except in files written by [`write`].
+//!
+//! [`write`] precedes each `o` line with a comment `# sightline-object K [index I] [part P]`
+//! (K = the object's id, I and P its `index` and `part` when set). When the `o`/`g` line that
+//! starts a face run directly follows such a comment (other lines may come between, but no
+//! other `o`/`g`), the run joins object K instead of the object of its name: all runs with the
+//! same K are one object, named after the `o` line of its first run, with I and P. Objects with
+//! a tag are numbered in ascending K, the others after them. So `convert` to `.obj` keeps the
+//! objects as loaded, with two limits: names lose line breaks (written as spaces) and leading
+//! or trailing whitespace, and an empty name comes back `unnamed`. Tools that drop comments
+//! leave a file whose repeated `o` names join as above.
 
+use std::collections::HashMap;
 use std::io::{self, Write};
 use std::path::Path;
 
 use glam::Vec3;
 
-use super::{LoadError, Location, Scene, SceneBuilder};
+use super::{LoadError, Location, Object, Scene, SceneBuilder};
 
 /// Loads an OBJ file from its (decompressed) bytes; `path` is for error messages.
 ///
@@ -45,7 +67,13 @@ pub fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
 
     let mut group: Option<String> = None;
     let mut material: Option<String> = None;
+    // The `# sightline-object` tag of the last `o`/`g` line, if it had one.
+    let mut tag: Option<Tag> = None;
+    let mut pending: Option<Tag> = None;
     let mut new_object = true;
+    // Object id of each `o`/`g` name and of each tag number seen so far.
+    let mut by_name: HashMap<String, u32> = HashMap::new();
+    let mut by_tag: HashMap<u32, u32> = HashMap::new();
     let mut corners: Vec<u32> = Vec::with_capacity(8);
 
     for (line_index, raw_line) in bytes.split(|&b| b == b'\n').enumerate() {
@@ -86,11 +114,29 @@ pub fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
                     )));
                 }
                 if new_object {
-                    let name = group
-                        .as_deref()
-                        .or(material.as_deref())
-                        .unwrap_or("default");
-                    builder.begin_object(name);
+                    match (&tag, &group) {
+                        (Some(t), _) => match by_tag.get(&t.object) {
+                            Some(&id) => builder.resume_object(id),
+                            None => {
+                                let id = builder.push_object(Object {
+                                    name: group.clone().unwrap_or_else(|| "unnamed".into()),
+                                    index: t.index,
+                                    part: t.part,
+                                });
+                                by_tag.insert(t.object, id);
+                            }
+                        },
+                        (None, Some(name)) => match by_name.get(name) {
+                            Some(&id) => builder.resume_object(id),
+                            None => {
+                                let id = builder.begin_object(name.clone());
+                                by_name.insert(name.clone(), id);
+                            }
+                        },
+                        (None, None) => {
+                            builder.begin_object(material.as_deref().unwrap_or("default"));
+                        }
+                    }
                     new_object = false;
                 }
                 for k in 1..corners.len() - 1 {
@@ -103,16 +149,65 @@ pub fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
                 } else {
                     rest.to_string()
                 });
+                tag = pending.take();
                 new_object = true;
             }
             "usemtl" => {
                 material = Some(rest.to_string());
-                new_object = true;
+                // Inside an `o`/`g` the material does not change the object.
+                new_object |= group.is_none();
+            }
+            "#" => {
+                if let Some((TAG, words)) = rest.split_once(|c: char| c.is_ascii_whitespace()) {
+                    pending = Tag::parse(words);
+                }
             }
             _ => {}
         }
     }
+    if !by_tag.is_empty() {
+        // Tagged objects take their tag order (the ids they had when written), the others
+        // follow in file order.
+        let mut keys = vec![(1u8, u32::MAX); builder.objects().len()];
+        for (&object, &id) in &by_tag {
+            keys[id as usize] = (0, object);
+        }
+        builder.sort_objects_by_key(&keys);
+    }
     Ok(builder.finish())
+}
+
+/// The comment word that [`write`] puts before each `o` line.
+const TAG: &str = "sightline-object";
+
+/// A `# sightline-object K [index I] [part P]` comment (see the module docs, "Objects").
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Tag {
+    object: u32,
+    index: Option<u32>,
+    part: Option<u32>,
+}
+
+impl Tag {
+    /// Parses the words after `sightline-object`; `None` (an ordinary comment) unless they
+    /// have the documented shape.
+    fn parse(words: &str) -> Option<Self> {
+        let mut words = words.split_ascii_whitespace();
+        let mut tag = Tag {
+            object: words.next()?.parse().ok()?,
+            index: None,
+            part: None,
+        };
+        while let Some(key) = words.next() {
+            let value = Some(words.next()?.parse().ok()?);
+            match key {
+                "index" => tag.index = value,
+                "part" => tag.part = value,
+                _ => return None,
+            }
+        }
+        Some(tag)
+    }
 }
 
 /// Turns one face corner (`v`, `v/vt`, `v//vn`, `v/vt/vn`) into a 0-based position index,
@@ -140,10 +235,11 @@ fn resolve_index(word: &str, count: u32) -> Result<u32, String> {
 }
 
 /// Writes `scene` as OBJ: all positions as `v` lines, then the triangles in id order as
-/// 1-based `f` lines, with an `o NAME` line each time the object changes from one triangle to
-/// the next (so objects whose triangles are not contiguous get several `o` lines, and loading
-/// the output gives the same triangle ids). Coordinates are written in Rust's shortest form
-/// that reads back to the same `f32`.
+/// 1-based `f` lines, with a `# sightline-object K [index I] [part P]` comment and an
+/// `o NAME` line each time the object changes from one triangle to the next (so objects whose
+/// triangles are not contiguous get several `o` lines, and loading the output gives the same
+/// triangle ids; the comments give back the same objects, see the module docs, "Objects").
+/// Coordinates are written in Rust's shortest form that reads back to the same `f32`.
 pub fn write(scene: &Scene, w: &mut impl Write) -> io::Result<()> {
     let mut w = io::BufWriter::new(w);
     writeln!(w, "# written by sightline")?;
@@ -154,12 +250,21 @@ pub fn write(scene: &Scene, w: &mut impl Write) -> io::Result<()> {
     for (id, t) in scene.triangles.iter().enumerate() {
         let object = scene.object_of_triangle.get(id).copied().unwrap_or(0);
         if current != Some(object) {
-            let name = scene
+            let (name, index, part) = scene
                 .objects
                 .get(object as usize)
-                .map_or("default", |o| o.name.as_str());
+                .map_or(("default", None, None), |o| {
+                    (o.name.as_str(), o.index, o.part)
+                });
+            write!(w, "# {TAG} {object}")?;
+            if let Some(i) = index {
+                write!(w, " index {i}")?;
+            }
+            if let Some(p) = part {
+                write!(w, " part {p}")?;
+            }
             // Names with line breaks would end the statement early.
-            writeln!(w, "o {}", name.replace(['\n', '\r'], " "))?;
+            writeln!(w, "\no {}", name.replace(['\n', '\r'], " "))?;
             current = Some(object);
         }
         writeln!(
@@ -212,15 +317,44 @@ mod tests {
     }
 
     #[test]
-    fn groups_and_materials_start_objects() {
+    fn groups_join_by_name_and_materials_split_outside_groups() {
         let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\n\
-                    usemtl glass\nf 1 2 3\n\
+                    usemtl glass\nf 1 2 3\nusemtl wood\nf 1 2 3\nusemtl glass\nf 1 2 3\n\
                     g door\nusemtl wood\nf 1 2 3\nusemtl metal\nf 1 2 3\n\
-                    o door\nf 1 2 3\n";
+                    o window\nf 1 2 3\no door\nf 1 2 3\n";
         let s = load_str(text).unwrap();
         let names: Vec<_> = s.objects.iter().map(|o| o.name.as_str()).collect();
-        assert_eq!(names, ["glass", "door", "door", "door"]);
-        assert_eq!(s.object_of_triangle, vec![0, 1, 2, 3]);
+        assert_eq!(names, ["glass", "wood", "glass", "door", "window"]);
+        assert_eq!(s.object_of_triangle, vec![0, 1, 2, 3, 3, 4, 3]);
+        assert!(s
+            .objects
+            .iter()
+            .all(|o| o.index.is_none() && o.part.is_none()));
+    }
+
+    #[test]
+    fn tags_join_runs_and_restore_ids() {
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\n\
+                    # sightline-object 1 index 4 part 2\no b\nf 1 2 3\n\
+                    # sightline-object 0\no a\nf 1 2 3\n\
+                    # sightline-object 1 index 4 part 2\no b\nf 1 2 3\n\
+                    # sightline-object x\no a\nf 1 2 3\n";
+        let s = load_str(text).unwrap();
+        let ids: Vec<_> = s
+            .objects
+            .iter()
+            .map(|o| (o.name.as_str(), o.index, o.part))
+            .collect();
+        // A malformed tag is an ordinary comment: the last run is the untagged object `a`.
+        assert_eq!(
+            ids,
+            [
+                ("a", None, None),
+                ("b", Some(4), Some(2)),
+                ("a", None, None)
+            ]
+        );
+        assert_eq!(s.object_of_triangle, vec![1, 0, 1, 2]);
     }
 
     #[test]
@@ -262,10 +396,15 @@ mod tests {
             b.add_vertex(Vec3::new(i as f32 * 0.1, 1.0 / 3.0, -2.5e-7));
         }
         b.add_triangle([0, 1, 2]);
-        b.begin_object("b");
+        // A second object with the same name, told apart by its tag (and index/part).
+        b.push_object(Object {
+            name: "a".into(),
+            index: Some(3),
+            part: Some(1),
+        });
         b.add_triangle([1, 2, 3]);
         let mut scene = b.finish();
-        // Make object "a" non-contiguous: a, b, a.
+        // Make the first object non-contiguous: 0, 1, 0.
         scene.triangles.push([0, 2, 3]);
         scene.object_of_triangle.push(a);
 
@@ -273,6 +412,8 @@ mod tests {
         write(&scene, &mut out).unwrap();
         let back = load(Path::new("back.obj"), &out).unwrap();
         assert_eq!(back.triangle_count(), 3);
+        assert_eq!(back.objects, scene.objects);
+        assert_eq!(back.object_of_triangle, scene.object_of_triangle);
         for id in 0..3 {
             assert_eq!(back.triangle(id), scene.triangle(id));
             let name = |s: &Scene| {

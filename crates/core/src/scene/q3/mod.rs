@@ -29,14 +29,16 @@
 //! grids (one grid per patch, sub-patches share their border vertices).
 //!
 //! # Objects
-//! World surfaces (model 0) are grouped by the PVS cluster of the first leaf (in leaf order)
-//! with a cluster that lists them, objects named `model0/cluster12`; world surfaces in no
-//! clustered leaf go to `model0/unclustered`. Each brush model is one object, `model3`.
-//! Clusters are the map's own convex, spatially coherent cells, a few hundred to ~1,500 per
-//! map: coarse enough for per-object culling, fine enough to cull most of an indoor map; one
-//! object per surface would give thousands of slivers, one per model a single world object.
-//! Objects are ordered model0 clusters ascending, then unclustered, then models 1..n; empty
-//! ones are left out.
+//! One object per (model, shader) pair that has triangles: the world (model 0) and each brush
+//! model (doors, platforms: `model3`) split by the shader of their surfaces, which is how the
+//! engine batches its draws. Named `model{m}/{shader name}` with the shader name of lump 1 as
+//! stored (e.g. `model0/textures/base_wall/concrete_dark`); [`super::Object::index`] is the model
+//! number `m` and [`super::Object::part`] the shader index in lump 1 (two shader records with
+//! the same name stay two objects, told apart by `part`). Objects are ordered by model, then
+//! shader index; every surface's triangles belong to the object of its model and shader
+//! ([`BspData::surfaces`] has both). Before this grouping, world objects were the map's PVS
+//! clusters (`model0/cluster12`); per-shader objects spread over the whole map, so for
+//! cluster-level culling use [`BspData`] (leaves, clusters, the map's PVS) instead of objects.
 //!
 //! # Errors
 //! Every offset, count and index in the file is checked before use; errors name the lump and
@@ -581,52 +583,42 @@ fn emit_geometry(
     Ok(b.finish())
 }
 
-/// Replaces the builder's single object by the documented grouping (module docs, "Objects").
+/// Replaces the builder's single object by the documented grouping (module docs, "Objects"):
+/// one object per (model, shader) pair that has triangles, ordered by model, then shader.
 fn assign_objects(scene: &mut Scene, bsp: &BspData) {
-    // Group key per surface: cluster c of model 0 -> c, unclustered model-0 -> clusters,
-    // model m >= 1 -> clusters + m. Keys then sort in the documented object order.
-    let clusters = bsp.clusters as usize;
-    let mut group = vec![usize::MAX; bsp.surfaces.len()];
-    for (l, leaf) in bsp.leaves.iter().enumerate() {
-        let Ok(c) = usize::try_from(leaf.cluster) else {
-            continue;
-        };
-        for &s in bsp.surfaces_of_leaf(l) {
-            let s = s as usize;
-            if group[s] == usize::MAX && bsp.surfaces[s].model == Some(0) {
-                group[s] = c;
+    // Key per surface: (model, shader); surfaces of no model emit no triangles.
+    let key = |s: u32| {
+        let surface = &bsp.surfaces[s as usize];
+        (surface.model.unwrap_or(u32::MAX), surface.shader)
+    };
+    let mut keys: Vec<(u32, u32)> = bsp.surface_of_triangle.iter().map(|&s| key(s)).collect();
+    keys.sort_unstable();
+    keys.dedup();
+    scene.objects = keys
+        .iter()
+        .map(|&(model, shader)| {
+            let shader_name = bsp
+                .shaders
+                .get(shader as usize)
+                .map_or("", |sh| sh.name.as_str());
+            super::Object {
+                name: format!("model{model}/{shader_name}"),
+                index: Some(model),
+                part: Some(shader),
             }
+        })
+        .collect();
+    // Object id of each surface, looked up once per surface.
+    let mut object_of_surface = vec![u32::MAX; bsp.surfaces.len()];
+    for (s, slot) in object_of_surface.iter_mut().enumerate() {
+        if let Ok(k) = keys.binary_search(&key(s as u32)) {
+            *slot = k as u32;
         }
-    }
-    for (s, surface) in bsp.surfaces.iter().enumerate() {
-        match surface.model {
-            Some(0) if group[s] == usize::MAX => group[s] = clusters,
-            Some(m) if m > 0 => group[s] = clusters + m as usize,
-            _ => {}
-        }
-    }
-    let keys = clusters + bsp.models.len() + 1;
-    let mut used = vec![false; keys];
-    for &s in &bsp.surface_of_triangle {
-        used[group[s as usize]] = true;
-    }
-    let mut object_of_key = vec![u32::MAX; keys];
-    scene.objects.clear();
-    for (key, _) in used.iter().enumerate().filter(|(_, &u)| u) {
-        object_of_key[key] = scene.objects.len() as u32;
-        let name = if key < clusters {
-            format!("model0/cluster{key}")
-        } else if key == clusters {
-            "model0/unclustered".to_string()
-        } else {
-            format!("model{}", key - clusters)
-        };
-        scene.objects.push(super::Object { name });
     }
     scene.object_of_triangle = bsp
         .surface_of_triangle
         .iter()
-        .map(|&s| object_of_key[group[s as usize]])
+        .map(|&s| object_of_surface[s as usize])
         .collect();
 }
 
