@@ -1,0 +1,251 @@
+//! Per-frame culling: the cameras' cells, the union of their object sets, and the
+//! [`Visibility`] of the entities tied to objects.
+
+use bevy::asset::{AssetEvent, AssetId, Assets, Handle};
+use bevy::camera::visibility::Visibility;
+use bevy::camera::Camera;
+use bevy::ecs::prelude::*;
+use bevy::transform::components::GlobalTransform;
+
+use crate::asset::PvsAsset;
+
+/// Ties an entity to object `.0` of the `.pvs` its cameras cull with (the index into
+/// [`sightline_runtime::Pvs::objects`]). Set it by hand, or let [`crate::SightlineLevel`]
+/// fill it from glTF node names.
+///
+/// Only entities with this component are ever hidden by the plugin. An id past the file's
+/// objects never hides its entity.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[require(Visibility, SightlineCulled)]
+pub struct SightlineObject(pub u32);
+
+/// What the plugin did to an entity's [`Visibility`]: added with [`SightlineObject`].
+///
+/// While `hidden`, the entity's `Visibility` is `Hidden` and `saved` is the value it had
+/// before (or the last value anyone else wrote since); it is written back when the object
+/// becomes visible again or the entity loses its [`SightlineObject`].
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SightlineCulled {
+    /// True while the plugin hides the entity.
+    pub hidden: bool,
+    /// The entity's own visibility, restored when it is shown again.
+    pub saved: Visibility,
+}
+
+/// Put on a camera (any entity with a [`GlobalTransform`]) to cull with a `.pvs`: the
+/// camera's cell is the file's cell that holds its position, in the space of the
+/// [`crate::SightlineLevel`] entity using the same file if there is one (so a level may be
+/// moved), else in world space.
+///
+/// Entities without [`Camera`] count as cameras too (a headless app or a tool); a [`Camera`]
+/// with `is_active == false` does not take part.
+#[derive(Component, Clone, Debug)]
+pub struct SightlineCamera {
+    /// The baked file.
+    pub pvs: Handle<PvsAsset>,
+    /// When false the camera does not take part (as if it did not have the component).
+    pub enabled: bool,
+}
+
+impl SightlineCamera {
+    /// A camera culling with `pvs`.
+    pub fn new(pvs: Handle<PvsAsset>) -> Self {
+        Self { pvs, enabled: true }
+    }
+}
+
+/// What the culling does this frame, for UIs and tests. Updated in `PostUpdate`
+/// ([`crate::SightlineSystems::Cull`]).
+#[derive(Resource, Clone, Debug, Default, PartialEq)]
+pub struct SightlineStats {
+    /// Entities with a [`SightlineObject`] the plugin does not hide (their own visibility
+    /// may still hide them).
+    pub drawn: u32,
+    /// Entities with a [`SightlineObject`].
+    pub total: u32,
+    /// Mesh entities below a level that matched no object (never culled).
+    pub unmatched: u32,
+    /// Objects in the union of the cameras' sets (the file's object count when drawing
+    /// everything).
+    pub visible_objects: u32,
+    /// Objects of the file the cameras use (the largest, when they use several).
+    pub object_count: u32,
+    /// Each taking-part camera and its cell (`None`: outside every cell, or its `.pvs` is not
+    /// loaded or has no objects).
+    pub cameras: Vec<(Entity, Option<u32>)>,
+    /// True when nothing is culled: no camera takes part, or one is outside every cell (or
+    /// its file is not loaded, or has no object sets).
+    pub draw_all: bool,
+    /// The last problem met (a version-1 file without object sets, a corrupt set), if any.
+    pub last_error: Option<String>,
+}
+
+/// The union of the sets of the current cells, kept between frames.
+#[derive(Resource, Default)]
+pub(crate) struct CullState {
+    /// Per camera: (camera, file, cell) of the last frame.
+    key: Vec<(Entity, AssetId<PvsAsset>, Option<u32>)>,
+    /// One bit per object: visible from some camera's cell.
+    bits: Vec<u64>,
+    /// Objects the bitset covers.
+    len: u32,
+    draw_all: bool,
+    visible_objects: u32,
+    object_count: u32,
+    scratch: Vec<u32>,
+    /// Files already warned about.
+    warned: Vec<AssetId<PvsAsset>>,
+}
+
+impl CullState {
+    fn visible(&self, object: u32) -> bool {
+        if self.draw_all || object >= self.len {
+            return true;
+        }
+        self.bits[(object / 64) as usize] >> (object % 64) & 1 == 1
+    }
+}
+
+/// The culling system: see the crate documentation for the policy.
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+pub(crate) fn cull(
+    mut state: ResMut<CullState>,
+    mut stats: ResMut<SightlineStats>,
+    mut events: MessageReader<AssetEvent<PvsAsset>>,
+    assets: Res<Assets<PvsAsset>>,
+    cameras: Query<(Entity, &SightlineCamera, &GlobalTransform, Option<&Camera>)>,
+    levels: Query<(&crate::SightlineLevel, &GlobalTransform)>,
+    mut objects: Query<(Ref<SightlineObject>, &mut Visibility, &mut SightlineCulled)>,
+    mut released: Query<(&mut Visibility, &mut SightlineCulled), Without<SightlineObject>>,
+    mut removed: RemovedComponents<SightlineObject>,
+    unmatched: Query<(), With<crate::SightlineUnmatched>>,
+) {
+    let files_changed = events.read().any(|e| {
+        matches!(
+            e,
+            AssetEvent::Added { .. } | AssetEvent::Modified { .. } | AssetEvent::Removed { .. }
+        )
+    });
+
+    // 1. Where the cameras are.
+    let mut key = Vec::with_capacity(cameras.iter().len());
+    for (entity, camera, transform, bevy_camera) in &cameras {
+        if !camera.enabled || bevy_camera.is_some_and(|c| !c.is_active) {
+            continue;
+        }
+        // In the space of the level baked into this file, if one is spawned (the cells are in
+        // the coordinates of the baked scene), else in world space.
+        let mut position = transform.translation();
+        if let Some((_, level)) = levels.iter().find(|(l, _)| l.pvs.id() == camera.pvs.id()) {
+            position = level.affine().inverse().transform_point3(position);
+        }
+        let cell = assets
+            .get(&camera.pvs)
+            .and_then(|pvs| pvs.cell_at(position.to_array()));
+        key.push((entity, camera.pvs.id(), cell));
+    }
+    key.sort_unstable_by_key(|&(e, _, _)| e);
+
+    // 2. The union of their sets, only when a camera changed cell or a file changed.
+    let sets_changed = files_changed || key != state.key;
+    if sets_changed {
+        let state = &mut *state;
+        state.key = key;
+        state.draw_all = state.key.is_empty();
+        state.object_count = 0;
+        let mut len = 0;
+        for &(_, id, _) in &state.key {
+            if let Some(pvs) = assets.get(id) {
+                len = len.max(pvs.object_count());
+            }
+        }
+        state.len = len;
+        state.object_count = len;
+        state.bits.clear();
+        state.bits.resize(len.div_ceil(64) as usize, 0);
+        for &(_, id, cell) in &state.key {
+            let (Some(pvs), Some(cell)) = (assets.get(id), cell) else {
+                // Outside every cell, or the file is not loaded: this camera sees everything.
+                state.draw_all = true;
+                continue;
+            };
+            if let Err(e) = pvs.visible_objects_into(cell, &mut state.scratch) {
+                let message = format!("sightline: cell {cell}: {e}; drawing everything");
+                if !state.warned.contains(&id) {
+                    state.warned.push(id);
+                    tracing::warn!("{message}");
+                }
+                stats.last_error = Some(message);
+                state.draw_all = true;
+                continue;
+            }
+            for &o in &state.scratch {
+                if o < len {
+                    state.bits[(o / 64) as usize] |= 1 << (o % 64);
+                }
+            }
+        }
+        state.visible_objects = if state.draw_all {
+            len
+        } else {
+            state.bits.iter().map(|w| w.count_ones()).sum()
+        };
+    }
+
+    // 3. Entities that stopped being objects get their visibility back.
+    for entity in removed.read() {
+        if let Ok((mut visibility, mut culled)) = released.get_mut(entity) {
+            if culled.hidden {
+                *visibility = culled.saved;
+                culled.hidden = false;
+            }
+        }
+    }
+
+    // 4. Hide and show. Only flips write, so Bevy's visibility propagation sees changes only.
+    let (mut drawn, mut total) = (0, 0);
+    for (object, mut visibility, mut culled) in &mut objects {
+        total += 1;
+        let hide = !state.visible(object.0);
+        if culled.hidden && visibility.is_changed() && !visibility.is_added() {
+            // Someone else wrote the visibility of a hidden entity: that is its own value now.
+            culled.saved = *visibility;
+            if hide && *visibility != Visibility::Hidden {
+                *visibility = Visibility::Hidden;
+            }
+        }
+        if !sets_changed && !object.is_changed() {
+            drawn += u32::from(!culled.hidden);
+            continue;
+        }
+        match (hide, culled.hidden) {
+            (true, false) => {
+                culled.saved = *visibility;
+                culled.hidden = true;
+                if *visibility != Visibility::Hidden {
+                    *visibility = Visibility::Hidden;
+                }
+            }
+            (false, true) => {
+                culled.hidden = false;
+                if *visibility != culled.saved {
+                    *visibility = culled.saved;
+                }
+            }
+            _ => {}
+        }
+        drawn += u32::from(!culled.hidden);
+    }
+
+    let stats = &mut *stats;
+    stats.drawn = drawn;
+    stats.total = total;
+    stats.unmatched = unmatched.iter().count() as u32;
+    stats.visible_objects = state.visible_objects;
+    stats.object_count = state.object_count;
+    stats.draw_all = state.draw_all;
+    stats.cameras.clear();
+    stats
+        .cameras
+        .extend(state.key.iter().map(|&(e, _, cell)| (e, cell)));
+}
