@@ -120,11 +120,13 @@ pub(crate) fn cull(
     mut removed: RemovedComponents<SightlineObject>,
     unmatched: Query<(), With<crate::SightlineUnmatched>>,
 ) {
-    let files_changed = events.read().any(|e| {
-        matches!(
-            e,
-            AssetEvent::Added { .. } | AssetEvent::Modified { .. } | AssetEvent::Removed { .. }
-        )
+    // (Every event is read, so none is seen again next frame.)
+    let files_changed = events.read().fold(false, |changed, e| {
+        changed
+            | matches!(
+                e,
+                AssetEvent::Added { .. } | AssetEvent::Modified { .. } | AssetEvent::Removed { .. }
+            )
     });
 
     // 1. Where the cameras are.

@@ -6,14 +6,17 @@
 //!
 //! ```text
 //! L  (WorldAssetRoot, SightlineLevel)
-//! └─ scene root        Name = scene name or "Scene{i}"         (loader/mod.rs:1029-1039)
-//!    └─ node           Name = node name or "GltfNode{index}"   (loader/mod.rs:1539-1541,
-//!       │                                                      gltf_ext/scene.rs:15-21)
-//!       ├─ primitive   Mesh3d(label "Mesh{m}/Primitive{p}"),   (loader/mod.rs:1657-1673,
-//!       │              Name = "{mesh}.{material}"               label.rs:74-75,
-//!       │                                                       gltf_ext/mesh.rs:10-18)
-//!       └─ child node  ...  (children of a node come after its primitives)
+//! └─ scene root       Name = scene name or "Scene{i}"        loader/mod.rs:1029-1039
+//!    └─ node          Name = node name or "GltfNode{index}"  loader/mod.rs:1539-1542,
+//!       │             GltfExtras = node extras, if any       gltf_ext/scene.rs:15-21,
+//!       │                                                    loader/mod.rs:1563-1567
+//!       ├─ primitive  Mesh3d (label "Mesh{m}/Primitive{p}"), loader/mod.rs:1657-1673,
+//!       │             Name = "{mesh}.{material}"             label.rs:74-75, loader/mod.rs:1733,
+//!       │                                                    gltf_ext/mesh.rs:10-18
+//!       └─ child node ...  (spawned after the primitives)    loader/mod.rs:1620, 1834
 //! ```
+//!
+//! (Paths are in `~/.cargo/registry/src/*/bevy_gltf-0.19.1/src/`.)
 //!
 //! # The matching rule
 //!
@@ -45,9 +48,10 @@
 //!
 //! A matched entity gets [`SightlineObject`] and [`AutoMatched`]; an unmatched one gets
 //! [`SightlineUnmatched`] and is never culled: **entities that match nothing stay drawn**.
-//! Entities that already have a [`SightlineObject`] (set by hand) are left alone. When the
-//! level's `.pvs` is reloaded or the [`SightlineLevel`] changes, the automatic assignments
-//! below it are redone.
+//! Mesh entities below no level get [`SightlineUnmatched`] too (so they are looked at once).
+//! Entities that already have a [`SightlineObject`] (set by hand) are left alone. When a
+//! `.pvs` is (re)loaded or a [`SightlineLevel`] is added or changed, every automatic
+//! assignment is dropped and redone the next frame (which draws everything meanwhile).
 
 use std::collections::HashMap;
 
