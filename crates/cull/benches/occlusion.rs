@@ -13,6 +13,7 @@
 use criterion::measurement::{Measurement, ValueFormatter, WallTime};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
+use sightline_core::cpu_time::thread_cpu_ns;
 use sightline_core::random::SplitMix64;
 use sightline_core::{Aabb, Camera};
 use sightline_cull::{Kernel, OcclusionBuffer};
@@ -62,17 +63,6 @@ fn boxes(cam: &Camera, n: usize) -> Vec<Aabb> {
 
 /// Criterion measurement: CPU time of the calling thread, in nanoseconds.
 struct ThreadCpuTime;
-
-fn thread_cpu_ns() -> u64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `clock_gettime` writes one `timespec` through a valid pointer.
-    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    assert_eq!(rc, 0, "clock_gettime(CLOCK_THREAD_CPUTIME_ID) failed");
-    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
-}
 
 impl Measurement for ThreadCpuTime {
     type Intermediate = u64;

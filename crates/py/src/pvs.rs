@@ -22,7 +22,10 @@ pub(crate) struct PyPvs {
 
 fn pvs_error(e: PvsError) -> PyErr {
     match e {
-        PvsError::Io { .. } => io_error(e),
+        PvsError::Io { .. }
+        | PvsError::Read(
+            sightline_runtime::Error::Io { .. } | sightline_runtime::Error::TooLarge { .. },
+        ) => io_error(e),
         _ => value_error(e),
     }
 }

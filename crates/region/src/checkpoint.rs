@@ -180,6 +180,24 @@ impl BakeProgress {
     }
 }
 
+impl<'a> ResumableBake<'a> {
+    /// A bake of every cell of `setup` in memory: nothing kept, no checkpoint, no limit (set
+    /// the other fields with struct update syntax for shards, resumes and rebakes).
+    pub fn new(setup: BakeSetup<'a>, fingerprint: serde_json::Value) -> Self {
+        Self {
+            indices: (0..setup.cells.len()).collect(),
+            setup,
+            kept: BTreeMap::new(),
+            fingerprint,
+            run_key: serde_json::Value::Null,
+            checkpoint: None,
+            restart: false,
+            checkpoint_interval: Duration::ZERO,
+            max_new_cells: None,
+        }
+    }
+}
+
 impl ResumableBake<'_> {
     fn key(&self) -> serde_json::Value {
         json!({

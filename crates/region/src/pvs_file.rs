@@ -42,11 +42,11 @@ pub const VERSION: u32 = sightline_runtime::format::VERSION;
 /// Bytes of one version-1 cell record in the table (beside its payload).
 pub const CELL_RECORD_BYTES: usize = CELL_RECORD_BYTES_V1;
 
-/// Why a `.pvs` file could not be read or used.
+/// Why a `.pvs` file could not be read, written or used.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum PvsError {
-    /// The file could not be read or written.
+    /// The file could not be written.
     #[error("{path}: {source}")]
     Io {
         /// The file.
@@ -54,28 +54,10 @@ pub enum PvsError {
         /// The I/O error.
         source: io::Error,
     },
-    /// The file does not start with the `.pvs` magic.
-    #[error("not a .pvs file (bad magic bytes)")]
-    BadMagic,
-    /// The version is not one this build reads.
-    #[error("unsupported .pvs version {0} (this build reads versions 1 and {VERSION})")]
-    UnsupportedVersion(u32),
-    /// The file ends early.
-    #[error("truncated at byte {offset}: expected {what}")]
-    Truncated {
-        /// Where the data ran out.
-        offset: usize,
-        /// What was being read.
-        what: String,
-    },
-    /// A checksum or value does not match.
-    #[error("corrupt at byte {offset}: {what}")]
-    Corrupt {
-        /// Where.
-        offset: usize,
-        /// What is wrong.
-        what: String,
-    },
+    /// The file could not be read: what the reader (`sightline-runtime`) reports, and the
+    /// further checks of this crate's full reader, as [`sightline_runtime::Error::Corrupt`].
+    #[error(transparent)]
+    Read(#[from] sightline_runtime::Error),
     /// The file was made for another scene.
     #[error(
         "this PVS was computed for another scene (file: {file_triangles} triangles, hash \
@@ -94,23 +76,10 @@ pub enum PvsError {
     /// The data to write is inconsistent (e.g. a set larger than the scene).
     #[error("cannot write: {0}")]
     Invalid(String),
-    /// Any other problem the reader reports (too large a file, ...).
-    #[error(transparent)]
-    Read(sightline_runtime::Error),
 }
 
-impl From<sightline_runtime::Error> for PvsError {
-    fn from(e: sightline_runtime::Error) -> Self {
-        use sightline_runtime::Error as E;
-        match e {
-            E::Io { path, source } => PvsError::Io { path, source },
-            E::BadMagic => PvsError::BadMagic,
-            E::UnsupportedVersion(v) => PvsError::UnsupportedVersion(v),
-            E::Truncated { offset, what } => PvsError::Truncated { offset, what },
-            E::Corrupt { offset, what } => PvsError::Corrupt { offset, what },
-            other => PvsError::Read(other),
-        }
-    }
+fn corrupt(offset: usize, what: String) -> PvsError {
+    PvsError::Read(sightline_runtime::Error::Corrupt { offset, what })
 }
 
 /// The PVS of one view cell.
@@ -163,6 +132,8 @@ impl PvsFile {
     /// Serialises the file.
     pub fn write(&self, w: &mut impl Write) -> Result<(), PvsError> {
         let n = self.triangle_count as usize;
+        // The table is checked before it maps any set (its ids index the sets' bits).
+        check_object_table(self.objects.as_ref(), self.triangle_count)?;
         let mut cells = Vec::with_capacity(self.cells.len());
         for (i, c) in self.cells.iter().enumerate() {
             if c.visible.ones().any(|id| id >= n) {
@@ -170,15 +141,19 @@ impl PvsFile {
                     "cell {i} names a triangle id >= the scene's {n} triangles"
                 )));
             }
-            cells.push((c.cell, EncodedSet::encode(&c.visible, n)));
+            // The sets are at hand decoded: their object sets come from them directly.
+            let objects = self.objects.as_ref().map(|table| {
+                EncodedSet::encode(&table.visible_objects(&c.visible), table.objects.len())
+            });
+            cells.push((c.cell, EncodedSet::encode(&c.visible, n), objects));
         }
-        write_encoded(
+        write_cells(
             w,
             self.scene_hash,
             self.triangle_count,
             self.objects.as_ref(),
             &self.metadata,
-            cells.iter().map(|(c, s)| (c, s)),
+            cells,
         )
     }
 
@@ -282,8 +257,8 @@ impl EncodedPvsFile {
     }
 }
 
-/// Checks everything the runtime's open does not (metadata JSON, cell geometry as a
-/// [`ViewCell`], every set decoded, every object set equal to the one its triangles give) and
+/// Checks everything the runtime's open does not (metadata JSON, every set decoded, every
+/// object set equal to the one its triangles give) and
 /// hands every cell to `keep` (its cell, encoded set and decoded set); returns the metadata
 /// and object table.
 fn parse(
@@ -291,31 +266,28 @@ fn parse(
     keep: &mut dyn FnMut(ViewCell, EncodedSet, TriangleSet),
 ) -> Result<(serde_json::Value, Option<ObjectTable>), PvsError> {
     let bytes = pvs.as_bytes();
-    let metadata = serde_json::from_str(pvs.metadata_json()).map_err(|e| PvsError::Corrupt {
-        offset: 0,
-        what: format!("metadata is not JSON: {e}"),
-    })?;
+    let metadata = serde_json::from_str(pvs.metadata_json())
+        .map_err(|e| corrupt(0, format!("metadata is not JSON: {e}")))?;
     let objects = (pvs.version() >= 2).then(|| read_objects(pvs));
     let n = pvs.triangle_count();
     for i in 0..pvs.cell_count() {
         let c = pvs.cell(i)?;
         let v = Vec3::from_array;
+        // Opening checked the geometry with `ViewCell::oriented`'s rule (one function).
+        let cell = ViewCell {
+            center: v(c.center),
+            axes: c.axes.map(v),
+            half_extents: v(c.half_extents),
+        };
         let (triangles, object_set) = pvs.raw_sets(i)?;
-        let cell =
-            ViewCell::oriented(v(c.center), c.axes.map(v), v(c.half_extents)).map_err(|e| {
-                PvsError::Corrupt {
-                    offset: triangles.offset,
-                    what: format!("cell {i}: {e}"),
-                }
-            })?;
         let visible = decode_bits(bytes, triangles, n, i, "triangles")?;
         if let (Some(table), Some(set)) = (&objects, object_set) {
             let decoded = decode_bits(bytes, set, table.objects.len() as u32, i, "objects")?;
             if decoded != table.visible_objects(&visible) {
-                return Err(PvsError::Corrupt {
-                    offset: set.offset,
-                    what: format!("cell {i}: its visible objects are not those of its triangles"),
-                });
+                return Err(corrupt(
+                    set.offset,
+                    format!("cell {i}: its visible objects are not those of its triangles"),
+                ));
             }
         }
         let encoded = EncodedSet {
@@ -339,10 +311,7 @@ fn decode_bits(
     decode_set(set.encoding, set.payload(bytes), capacity, set.size, |id| {
         bits.insert(id as usize)
     })
-    .map_err(|e| PvsError::Corrupt {
-        offset: set.offset,
-        what: format!("cell {cell}, visible {what}: {e}"),
-    })?;
+    .map_err(|e| corrupt(set.offset, format!("cell {cell}, visible {what}: {e}")))?;
     Ok(bits)
 }
 
@@ -429,10 +398,57 @@ pub fn write_encoded<'a>(
     metadata: &serde_json::Value,
     cells: impl ExactSizeIterator<Item = (&'a ViewCell, &'a EncodedSet)>,
 ) -> Result<(), PvsError> {
-    if let Some(table) = objects {
-        table
+    check_object_table(objects, triangle_count)?;
+    let mut with_objects = Vec::with_capacity(cells.len());
+    for (cell, set) in cells {
+        let object_set = match objects {
+            Some(table) => {
+                let triangles = set
+                    .decode(triangle_count as usize)
+                    .map_err(PvsError::Invalid)?;
+                Some(EncodedSet::encode(
+                    &table.visible_objects(&triangles),
+                    table.objects.len(),
+                ))
+            }
+            None => None,
+        };
+        with_objects.push((*cell, set, object_set));
+    }
+    write_cells(
+        w,
+        scene_hash,
+        triangle_count,
+        objects,
+        metadata,
+        with_objects,
+    )
+}
+
+fn check_object_table(objects: Option<&ObjectTable>, triangle_count: u32) -> Result<(), PvsError> {
+    match objects {
+        Some(table) => table
             .check(triangle_count as usize)
-            .map_err(PvsError::Invalid)?;
+            .map_err(PvsError::Invalid),
+        None => Ok(()),
+    }
+}
+
+/// The writer: each cell with its encoded triangle set and, exactly when `objects` is given,
+/// its encoded object set.
+fn write_cells<S: std::borrow::Borrow<EncodedSet>>(
+    w: &mut impl Write,
+    scene_hash: u64,
+    triangle_count: u32,
+    objects: Option<&ObjectTable>,
+    metadata: &serde_json::Value,
+    cells: Vec<(ViewCell, S, Option<EncodedSet>)>,
+) -> Result<(), PvsError> {
+    check_object_table(objects, triangle_count)?;
+    if cells.iter().any(|c| c.2.is_some() != objects.is_some()) {
+        return Err(PvsError::Invalid(
+            "object sets are given exactly when there is an object table".into(),
+        ));
     }
     let version: u32 = if objects.is_some() { VERSION } else { 1 };
     let metadata =
@@ -457,7 +473,8 @@ pub fn write_encoded<'a>(
 
     let mut records = Vec::with_capacity(cell_count * 84);
     let mut payloads: Vec<u8> = Vec::new();
-    for (cell, set) in cells {
+    for (cell, set, object_set) in &cells {
+        let set: &EncodedSet = set.borrow();
         let mut record = Vec::with_capacity(84);
         let floats = [cell.center, cell.axes[0], cell.axes[1], cell.axes[2]]
             .into_iter()
@@ -466,18 +483,6 @@ pub fn write_encoded<'a>(
         for f in floats {
             record.extend_from_slice(&f.to_le_bytes());
         }
-        let object_set = match objects {
-            Some(table) => {
-                let triangles = set
-                    .decode(triangle_count as usize)
-                    .map_err(PvsError::Invalid)?;
-                Some(EncodedSet::encode(
-                    &table.visible_objects(&triangles),
-                    table.objects.len(),
-                ))
-            }
-            None => None,
-        };
         record.push(set.encoding);
         match &object_set {
             Some(o) => record.extend_from_slice(&[o.encoding, 0, 0]),
@@ -697,7 +702,17 @@ mod tests {
 
     #[test]
     fn every_truncation_is_an_error() {
-        let b = bytes_of(&sample_file());
+        assert_every_truncation_refused(&bytes_of(&sample_file()));
+        assert_every_truncation_refused(&bytes_of(&sample_file_v1()));
+    }
+
+    #[test]
+    fn every_single_byte_corruption_is_detected() {
+        assert_every_flip_refused(&bytes_of(&sample_file()));
+        assert_every_flip_refused(&bytes_of(&sample_file_v1()));
+    }
+
+    fn assert_every_truncation_refused(b: &[u8]) {
         for len in 0..b.len() {
             assert!(
                 PvsFile::read(&b[..len]).is_err(),
@@ -706,11 +721,9 @@ mod tests {
         }
     }
 
-    #[test]
-    fn every_single_byte_corruption_is_detected() {
-        let b = bytes_of(&sample_file());
+    fn assert_every_flip_refused(b: &[u8]) {
         for i in 0..b.len() {
-            let mut c = b.clone();
+            let mut c = b.to_vec();
             c[i] ^= 0x10;
             assert!(PvsFile::read(&c).is_err(), "flip at byte {i} not detected");
         }
@@ -722,7 +735,9 @@ mod tests {
         b[8] = 9;
         assert!(matches!(
             PvsFile::read(&b),
-            Err(PvsError::UnsupportedVersion(9))
+            Err(PvsError::Read(
+                sightline_runtime::Error::UnsupportedVersion(9)
+            ))
         ));
     }
 
@@ -803,19 +818,6 @@ mod tests {
             pvs.visible_objects(0),
             Err(sightline_runtime::Error::NoObjects(1))
         ));
-        for len in 0..bytes_of(&f).len() {
-            assert!(PvsFile::read(&bytes_of(&f)[..len]).is_err());
-        }
-    }
-
-    #[test]
-    fn version_1_single_byte_corruption_is_detected() {
-        let b = bytes_of(&sample_file_v1());
-        for i in 0..b.len() {
-            let mut c = b.clone();
-            c[i] ^= 0x10;
-            assert!(PvsFile::read(&c).is_err(), "flip at byte {i} not detected");
-        }
     }
 
     #[test]

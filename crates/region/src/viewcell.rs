@@ -133,24 +133,17 @@ impl ViewCell {
         axes: [Vec3; 3],
         half_extents: Vec3,
     ) -> Result<Self, ViewCellError> {
-        if !center.is_finite() || !half_extents.is_finite() || axes.iter().any(|a| !a.is_finite()) {
-            return Err(ViewCellError::NotFinite);
-        }
-        let zeros = half_extents
-            .to_array()
-            .iter()
-            .filter(|&&e| e == 0.0)
-            .count();
-        if half_extents.min_element() < 0.0 || zeros > 1 {
-            return Err(ViewCellError::BadExtent(half_extents.to_array()));
-        }
-        let orthonormal = axes.iter().all(|a| (a.length() - 1.0).abs() < 1e-4)
-            && axes[0].dot(axes[1]).abs() < 1e-4
-            && axes[1].dot(axes[2]).abs() < 1e-4
-            && axes[0].dot(axes[2]).abs() < 1e-4;
-        if !orthonormal {
-            return Err(ViewCellError::BadAxes);
-        }
+        use sightline_runtime::format::{check_cell_geometry, CellGeometryError};
+        check_cell_geometry(
+            center.to_array(),
+            axes.map(|a| a.to_array()),
+            half_extents.to_array(),
+        )
+        .map_err(|e| match e {
+            CellGeometryError::NotFinite => ViewCellError::NotFinite,
+            CellGeometryError::BadExtent(extent) => ViewCellError::BadExtent(extent),
+            CellGeometryError::BadAxes => ViewCellError::BadAxes,
+        })?;
         Ok(Self {
             center,
             axes,

@@ -6,7 +6,6 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::time::Duration;
 
 use glam::Vec3;
 use sightline_core::scene::{self, LoadOptions, SceneBuilder};
@@ -52,17 +51,7 @@ fn with_job<R>(
         seed,
     };
     let fp = fingerprint(&setup, "rand", serde_json::Value::Null);
-    f(ResumableBake {
-        setup,
-        indices: (0..cells.len()).collect(),
-        kept: BTreeMap::new(),
-        fingerprint: fp,
-        run_key: serde_json::Value::Null,
-        checkpoint: None,
-        restart: false,
-        checkpoint_interval: Duration::ZERO,
-        max_new_cells: None,
-    })
+    f(ResumableBake::new(setup, fp))
 }
 
 /// Bakes completely and writes `out`.
@@ -280,16 +269,10 @@ fn incremental_rebake_redoes_every_cell_that_can_see_the_edit_and_skips_others()
             budget: Budget::rays(400_000),
             seed: 11,
         };
+        let fp = fingerprint(&setup, "gvs++", serde_json::Value::Null);
         let job = ResumableBake {
-            fingerprint: fingerprint(&setup, "gvs++", serde_json::Value::Null),
-            setup,
-            indices: (0..cells.len()).collect(),
             kept,
-            run_key: serde_json::Value::Null,
-            checkpoint: None,
-            restart: false,
-            checkpoint_interval: Duration::ZERO,
-            max_new_cells: None,
+            ..ResumableBake::new(setup, fp)
         };
         let p = job.run(&|_, _| {}, &mut |_, _| {}).unwrap();
         (bake_to(&job, &dir.path().join(out)), p.baked)

@@ -10,10 +10,9 @@
 
 #![allow(clippy::unwrap_used)]
 
-use std::collections::BTreeMap;
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use glam::Vec3;
@@ -67,17 +66,7 @@ fn baked(scene: &Scene, name: &str, n: [u32; 3]) -> PathBuf {
         seed: 1,
     };
     let fp = fingerprint(&setup, "rand", serde_json::Value::Null);
-    let job = ResumableBake {
-        setup,
-        indices: (0..cells.len()).collect(),
-        kept: BTreeMap::new(),
-        fingerprint: fp,
-        run_key: serde_json::Value::Null,
-        checkpoint: None,
-        restart: false,
-        checkpoint_interval: Duration::ZERO,
-        max_new_cells: None,
-    };
+    let job = ResumableBake::new(setup, fp);
     let start = Instant::now();
     let progress = job.run(&|_, _| {}, &mut |_, _| {}).unwrap();
     job.write_output(&path, &progress, serde_json::Value::Null)
@@ -153,6 +142,7 @@ fn queries(c: &mut Criterion) {
         "lookup: {found} of {} positions inside a cell",
         positions.len()
     );
+    lookup_against_a_scan(&big, &positions);
     let mut k = 0;
     c.bench_function("cell_at (64x64x4 cells)", |bench| {
         bench.iter(|| {
@@ -202,6 +192,51 @@ fn queries(c: &mut Criterion) {
     c.bench_function("open from file (10,000 cells)", |bench| {
         bench.iter(|| black_box(Pvs::open(&ten_k_path).unwrap().cell_count()))
     });
+}
+
+/// The index against the baseline a user would write first, a scan of every cell for the
+/// lowest index that holds the position (the documented policy, with the same containment
+/// test): both answer every position alike, and their CPU times are measured alternately,
+/// round by round, on this thread.
+fn lookup_against_a_scan(pvs: &Pvs, positions: &[[f32; 3]]) {
+    use sightline_core::cpu_time::thread_cpu_ns;
+    let cells: Vec<_> = (0..pvs.cell_count())
+        .map(|c| pvs.cell(c).unwrap())
+        .collect();
+    let scan = |p: [f32; 3]| (0..cells.len() as u32).find(|&c| cells[c as usize].contains(p));
+    let sample = &positions[..256];
+    for &p in sample {
+        assert_eq!(
+            pvs.cell_at(p),
+            scan(p),
+            "the index and the scan disagree at {p:?}"
+        );
+    }
+    let (mut indexed, mut scanned) = (Vec::new(), Vec::new());
+    for _ in 0..9 {
+        let t = thread_cpu_ns();
+        for &p in sample {
+            black_box(pvs.cell_at(black_box(p)));
+        }
+        indexed.push((thread_cpu_ns() - t) as f64 / sample.len() as f64);
+        let t = thread_cpu_ns();
+        for &p in sample {
+            black_box(scan(black_box(p)));
+        }
+        scanned.push((thread_cpu_ns() - t) as f64 / sample.len() as f64);
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let (i, s) = (median(&mut indexed), median(&mut scanned));
+    eprintln!(
+        "cell_at against a scan of {} cells, 9 alternated rounds of {} positions, thread CPU \
+         time: index {i:.0} ns, scan {s:.0} ns per lookup ({:.0}x), same answers",
+        cells.len(),
+        sample.len(),
+        s / i
+    );
 }
 
 criterion_group!(benches, queries);

@@ -10,16 +10,10 @@
 //!
 //! Memory: 32 bytes per node, about one node per two cells, and 4 bytes per cell.
 
-/// A cell's box, as the index needs it.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct CellBox {
-    pub center: [f32; 3],
-    pub axes: [[f32; 3]; 3],
-    pub half_extents: [f32; 3],
-}
+use crate::Cell;
 
-impl CellBox {
-    /// The tolerance of [`CellBox::contains`]: 1e-5 of the cell's size (and of its distance
+impl Cell {
+    /// The tolerance of [`Cell::contains`]: 1e-5 of the cell's size (and of its distance
     /// from the origin, which bounds the rounding of its coordinates).
     fn tolerance(&self) -> f32 {
         let size = self.half_extents.iter().fold(0f32, |m, &h| m.max(h));
@@ -27,6 +21,8 @@ impl CellBox {
         1e-5 * (size + far).max(1e-3)
     }
 
+    /// True when `p` lies in the cell or on its boundary, within 1e-5 of the cell's size (the
+    /// test behind [`crate::Pvs::cell_at`]).
     pub fn contains(&self, p: [f32; 3]) -> bool {
         let d = [
             p[0] - self.center[0],
@@ -78,11 +74,11 @@ pub(crate) struct CellIndex {
 const LEAF_CELLS: usize = 4;
 
 impl CellIndex {
-    pub fn build(cells: &[CellBox]) -> Self {
+    pub fn build(cells: &[Cell]) -> Self {
         if cells.is_empty() {
             return Self::default();
         }
-        let bounds: Vec<_> = cells.iter().map(CellBox::bounds).collect();
+        let bounds: Vec<_> = cells.iter().map(Cell::bounds).collect();
         let mut order: Vec<u32> = (0..cells.len() as u32).collect();
         let mut nodes = Vec::with_capacity(cells.len() / 2 + 1);
         nodes.push(Node {
@@ -147,7 +143,7 @@ impl CellIndex {
     }
 
     /// The lowest-index cell whose box holds `p` (see the module's policy).
-    pub fn cell_at(&self, p: [f32; 3], cell: impl Fn(u32) -> CellBox) -> Option<u32> {
+    pub fn cell_at(&self, p: [f32; 3], cell: impl Fn(u32) -> Cell) -> Option<u32> {
         if self.nodes.is_empty() || p.iter().any(|v| !v.is_finite()) {
             return None;
         }

@@ -221,7 +221,12 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Layout, Error> {
     for i in 0..cell_count as usize {
         let record = &table[i * cell_record_bytes..(i + 1) * cell_record_bytes];
         let record_offset = cell_table + i * cell_record_bytes;
-        check_cell_geometry(record)
+        let axes = [
+            read_vec3(record, 12),
+            read_vec3(record, 24),
+            read_vec3(record, 36),
+        ];
+        check_cell_geometry(read_vec3(record, 0), axes, read_vec3(record, 48))
             .map_err(|e| Error::corrupt(record_offset, format!("cell {i}: {e}")))?;
         let crc_at = cell_record_bytes - 4;
         let mut payload_len = read_u32(record, 68) as usize;
@@ -392,22 +397,38 @@ fn parse_objects(
     Ok((objects, run_start, runs, runs_in_order))
 }
 
-/// Cell geometry rules (the same as `ViewCell::oriented` in sightline-region): finite, half
-/// extents >= 0 with at most one 0, axes orthonormal within 1e-4.
-fn check_cell_geometry(record: &[u8]) -> Result<(), String> {
-    let center = read_vec3(record, 0);
-    let axes = [
-        read_vec3(record, 12),
-        read_vec3(record, 24),
-        read_vec3(record, 36),
-    ];
-    let half = read_vec3(record, 48);
-    let all = center.iter().chain(axes.iter().flatten()).chain(&half);
+/// Why a cell's geometry is not a view cell.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum CellGeometryError {
+    /// A coordinate is NaN or infinite.
+    #[error("view cell has a non-finite coordinate")]
+    NotFinite,
+    /// Negative extent, or zero extent along two or more axes (a line or a point).
+    #[error("view cell extents {0:?} must be >= 0 with at most one zero (a rectangle)")]
+    BadExtent([f32; 3]),
+    /// The axes are not orthonormal.
+    #[error("view cell axes are not orthonormal")]
+    BadAxes,
+}
+
+/// The rule a view cell's geometry obeys, in the file and in memory (sightline-region's
+/// `ViewCell::oriented` applies it too): finite, half extents >= 0 with at most one 0, axes
+/// orthonormal within 1e-4.
+pub fn check_cell_geometry(
+    center: [f32; 3],
+    axes: [[f32; 3]; 3],
+    half_extents: [f32; 3],
+) -> Result<(), CellGeometryError> {
+    let all = center
+        .iter()
+        .chain(axes.iter().flatten())
+        .chain(&half_extents);
     if all.clone().any(|v| !v.is_finite()) {
-        return Err("cell geometry is not finite".into());
+        return Err(CellGeometryError::NotFinite);
     }
-    if half.iter().any(|&h| h < 0.0) || half.iter().filter(|&&h| h == 0.0).count() > 1 {
-        return Err(format!("bad half extents {half:?}"));
+    let zeros = half_extents.iter().filter(|&&h| h == 0.0).count();
+    if half_extents.iter().any(|&h| h < 0.0) || zeros > 1 {
+        return Err(CellGeometryError::BadExtent(half_extents));
     }
     let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     let orthonormal = axes.iter().all(|&a| (dot(a, a).sqrt() - 1.0).abs() < 1e-4)
@@ -415,7 +436,7 @@ fn check_cell_geometry(record: &[u8]) -> Result<(), String> {
         && dot(axes[1], axes[2]).abs() < 1e-4
         && dot(axes[0], axes[2]).abs() < 1e-4;
     if !orthonormal {
-        return Err("axes are not orthonormal".into());
+        return Err(CellGeometryError::BadAxes);
     }
     Ok(())
 }

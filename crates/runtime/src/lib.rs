@@ -36,7 +36,7 @@ use std::ops::Range;
 use std::path::Path;
 use std::sync::Arc;
 
-use cell_index::{CellBox, CellIndex};
+use cell_index::CellIndex;
 pub use error::Error;
 use format::{decode_set, read_vec3, Layout, NO_INDEX};
 
@@ -154,8 +154,8 @@ impl Pvs {
 
     fn new(bytes: Bytes) -> Result<Self, Error> {
         let layout = format::parse(bytes.get())?;
-        let boxes: Vec<CellBox> = (0..layout.cell_count)
-            .map(|i| cell_box(layout.record(bytes.get(), i)))
+        let boxes: Vec<Cell> = (0..layout.cell_count)
+            .map(|i| read_cell(layout.record(bytes.get(), i)))
             .collect();
         let index = CellIndex::build(&boxes);
         Ok(Self {
@@ -200,12 +200,7 @@ impl Pvs {
     /// The cell at `index`.
     pub fn cell(&self, index: u32) -> Result<Cell, Error> {
         self.check_cell(index)?;
-        let b = cell_box(self.layout.record(self.bytes.get(), index));
-        Ok(Cell {
-            center: b.center,
-            axes: b.axes,
-            half_extents: b.half_extents,
-        })
+        Ok(read_cell(self.layout.record(self.bytes.get(), index)))
     }
 
     /// The cell that holds `position`, or `None` when no cell does (then draw everything).
@@ -214,7 +209,7 @@ impl Pvs {
     pub fn cell_at(&self, position: [f32; 3]) -> Option<u32> {
         let bytes = self.bytes.get();
         self.index
-            .cell_at(position, |c| cell_box(self.layout.record(bytes, c)))
+            .cell_at(position, |c| read_cell(self.layout.record(bytes, c)))
     }
 
     /// The object at `index`.
@@ -383,8 +378,8 @@ impl Pvs {
     }
 }
 
-fn cell_box(record: &[u8]) -> CellBox {
-    CellBox {
+fn read_cell(record: &[u8]) -> Cell {
+    Cell {
         center: read_vec3(record, 0),
         axes: [
             read_vec3(record, 12),
