@@ -217,12 +217,20 @@ fn report_loads_in_chromium_with_the_pvs_numbers() {
         let row = cell_row(&dom, i);
         assert_eq!(row[0], i.to_string());
         assert_eq!(row[3], size, "cell {i}: {row:?}");
+        // A version 2 bake: the cell's visible-object count, as `pvs show` lists the set.
+        let objects = c["objects"].as_array().expect("a version 2 file").len();
+        assert_eq!(row[5], objects.to_string(), "cell {i}: {row:?}");
         let rays = pvs["metadata"]["cells"][i]["rays"].as_u64().unwrap();
-        assert_eq!(row[5], rays.to_string());
+        assert_eq!(row[6], rays.to_string());
         let max_error = summary["cells"][i]["max_error_pixels"].as_u64().unwrap();
-        assert_eq!(row[8], max_error.to_string());
+        assert_eq!(row[9], max_error.to_string());
         assert!(dom.contains(&format!("<tr data-cell=\"{i}\" data-pvs=\"{size}\"")));
     }
+    let table = pvs["objects"].as_array().unwrap().len();
+    assert!(
+        dom.contains(&format!("<th>objects</th><td>{table}</td>")),
+        "the summary names the object table's size"
+    );
     assert!(
         dom.contains("<td>gvs++</td>")
             && dom.contains("<td>procedural:city?seed=1&amp;size=3000</td>")

@@ -56,6 +56,7 @@ pub(crate) fn summary(
         ("seed", or_missing(text(m, "seed"))),
         ("budget per cell", or_missing(budget(m))),
         ("cells", file.cells.len().to_string()),
+        ("objects", object_count(file)),
         (
             "bake time",
             or_missing(m["seconds"].as_f64().map(|s| format!("{s:.2} s"))),
@@ -73,6 +74,7 @@ pub(crate) fn summary(
                 100.0 * mean(&|o| o.eval.pvs_size as f64) / n
             ),
         ),
+        ("mean visible objects", mean_visible_objects(file)),
         (
             "mean erroneous pixels per view",
             format!("{:.3}", mean(&|o| o.eval.avg_error_pixels)),
@@ -103,6 +105,29 @@ pub(crate) fn summary(
     )
 }
 
+/// The object table's size, or why there is none.
+fn object_count(file: &PvsFile) -> String {
+    match &file.objects {
+        Some(table) => table.objects.len().to_string(),
+        None => "none (a version 1 file: triangle sets only; bake again for objects)".into(),
+    }
+}
+
+/// The mean size of the cells' visible-object sets (what an engine draws), or "—".
+fn mean_visible_objects(file: &PvsFile) -> String {
+    let Some(table) = &file.objects else {
+        return MISSING.into();
+    };
+    let total = table.objects.len().max(1) as f64;
+    let cells = file.cells.len().max(1) as f64;
+    let mean = (0..file.cells.len())
+        .filter_map(|i| file.visible_objects(i))
+        .map(|set| set.count_ones(..) as f64)
+        .sum::<f64>()
+        / cells;
+    format!("{mean:.1} objects ({:.2} %)", 100.0 * mean / total)
+}
+
 /// One row per cell: PVS size, bake cost, pixel error.
 pub(crate) fn cell_table(scene: &Scene, file: &PvsFile, outcomes: &[CellOutcome]) -> Section {
     let n = scene.triangle_count().max(1) as f64;
@@ -114,6 +139,7 @@ pub(crate) fn cell_table(scene: &Scene, file: &PvsFile, outcomes: &[CellOutcome]
             "half extents",
             "PVS triangles",
             "PVS %",
+            "PVS objects",
             "rays",
             "bake s",
             "avg error px",
@@ -130,6 +156,7 @@ pub(crate) fn cell_table(scene: &Scene, file: &PvsFile, outcomes: &[CellOutcome]
     for (i, (c, o)) in file.cells.iter().zip(outcomes).enumerate() {
         let bake = cell_bake(&file.metadata, i);
         let pvs = c.visible.count_ones(..);
+        let objects = file.visible_objects(i).map(|set| set.count_ones(..));
         let e = &o.eval;
         let v3 = |v: glam::Vec3| format!("{:.2}, {:.2}, {:.2}", v.x, v.y, v.z);
         t.row(
@@ -139,6 +166,7 @@ pub(crate) fn cell_table(scene: &Scene, file: &PvsFile, outcomes: &[CellOutcome]
                 Cell::Text(v3(c.cell.half_extents)),
                 Cell::Num(pvs.to_string()),
                 Cell::Num(format!("{:.3}", 100.0 * pvs as f64 / n)),
+                Cell::Num(or_missing(objects.map(|k| k.to_string()))),
                 Cell::Num(or_missing(bake.rays.map(|r| r.to_string()))),
                 Cell::Num(or_missing(bake.seconds.map(|s| format!("{s:.3}")))),
                 Cell::Num(format!("{:.3}", e.avg_error_pixels)),
@@ -271,11 +299,14 @@ pub(crate) fn cell_map(scene: &Scene, file: &PvsFile) -> Result<Section> {
         .enumerate()
         .map(|(i, c)| {
             let pvs = c.visible.count_ones(..);
+            let objects = file
+                .visible_objects(i)
+                .map_or(String::new(), |set| format!(", {} objects", set.count_ones(..)));
             MapCell {
                 cell: c.cell,
                 value: pvs as f64,
                 title: format!(
-                    "cell {i}: PVS {pvs} triangles ({:.3} %)",
+                    "cell {i}: PVS {pvs} triangles ({:.3} %){objects}",
                     100.0 * pvs as f64 / n
                 ),
             }
