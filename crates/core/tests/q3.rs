@@ -317,11 +317,20 @@ fn q3_spawn_points_are_in_clusters_that_see_themselves() {
     assert_eq!(bsp(&load_with("czest3ctf", 0)).spawn_points.len(), 56);
 }
 
+/// The lowest cluster of the leaves that list surface `s` (None: no leaf in a cluster does).
+fn lowest_cluster(b: &q3::BspData, s: u32) -> Option<u32> {
+    (0..b.leaves.len())
+        .filter(|&l| b.surfaces_of_leaf(l).contains(&s))
+        .filter_map(|l| u32::try_from(b.leaves[l].cluster).ok())
+        .min()
+}
+
 #[test]
-fn q3_objects_are_model_and_shader_of_every_surface() {
+fn q3_objects_are_cluster_and_shader_in_the_world_model_and_shader_elsewhere() {
     let scene = load_with("q3dm6ish", 4);
     let b = bsp(&scene);
     assert_eq!(scene.object_of_triangle.len(), scene.triangle_count());
+    let mut names = std::collections::HashMap::new();
     for (t, &s) in b.surface_of_triangle.iter().enumerate() {
         let surface = &b.surfaces[s as usize];
         let object = &scene.objects[scene.object_of_triangle[t] as usize];
@@ -329,35 +338,70 @@ fn q3_objects_are_model_and_shader_of_every_surface() {
         assert_eq!(object.index, Some(model), "triangle {t}");
         assert_eq!(object.part, Some(surface.shader), "triangle {t}");
         let shader = &b.shaders[surface.shader as usize].name;
-        assert_eq!(
-            object.name,
-            format!("model{model}/{shader}"),
-            "triangle {t}"
-        );
+        let expected = names.entry(s).or_insert_with(|| match model {
+            0 => match lowest_cluster(b, s) {
+                Some(c) => format!("model0/cluster{c}/{shader}"),
+                None => format!("model0/nocluster/{shader}"),
+            },
+            m => format!("model{m}/{shader}"),
+        });
+        assert_eq!(object.name, *expected, "triangle {t}");
     }
-    // One object per (model, shader) pair with triangles, ordered by the pair.
-    let pairs: Vec<(u32, u32)> = scene
+    // One object per key with triangles (names and parts distinct), every one used.
+    let mut keys: Vec<(&str, u32)> = scene
         .objects
         .iter()
-        .map(|o| (o.index.unwrap(), o.part.unwrap()))
+        .map(|o| (o.name.as_str(), o.part.unwrap()))
         .collect();
-    assert!(pairs.windows(2).all(|w| w[0] < w[1]), "{pairs:?}");
+    let count = keys.len();
+    keys.sort_unstable();
+    keys.dedup();
+    assert_eq!(keys.len(), count, "no two objects share name and shader");
     assert!(scene.triangles_by_object().iter().all(|t| !t.is_empty()));
-    let mut used: Vec<(u32, u32)> = b
-        .surface_of_triangle
-        .iter()
-        .map(|&s| {
-            let surface = &b.surfaces[s as usize];
-            (surface.model.unwrap(), surface.shader)
-        })
-        .collect();
-    used.sort_unstable();
-    used.dedup();
-    assert_eq!(pairs, used);
-    // The world has several shaders, and brush models have objects of their own.
-    assert!(pairs.iter().filter(|p| p.0 == 0).count() > 5);
-    assert!(pairs.iter().any(|p| p.0 > 0));
-    assert!(scene.objects[0].name.starts_with("model0/"));
+    // Ordered by model; the world has many rooms, brush models have objects of their own.
+    let models: Vec<u32> = scene.objects.iter().map(|o| o.index.unwrap()).collect();
+    assert!(models.windows(2).all(|w| w[0] <= w[1]));
+    assert!(
+        scene
+            .objects
+            .iter()
+            .filter(|o| o.name.starts_with("model0/cluster"))
+            .count()
+            > 100
+    );
+    assert!(models.iter().any(|&m| m > 0));
+}
+
+/// Per-object culling with the map's own cluster PVS stays close to the triangle sets: the
+/// share of triangles drawn when every object with a visible triangle is drawn, mean over
+/// clusters, at most 1.15x the triangle PVS's (one object per world shader drew 2x).
+#[test]
+fn q3_objects_cull_close_to_the_triangle_sets() {
+    for name in ["q3dm6ish", "oa_dm2"] {
+        let scene = load_with(name, 4);
+        let b = bsp(&scene);
+        let by_object = scene.triangles_by_object();
+        let (mut triangles, mut drawn) = (0usize, 0usize);
+        for c in 0..b.clusters {
+            let visible = b.triangles_visible_from_cluster(c);
+            let mut objects: Vec<u32> = visible
+                .iter()
+                .map(|&t| scene.object_of_triangle[t as usize])
+                .collect();
+            objects.sort_unstable();
+            objects.dedup();
+            triangles += visible.len();
+            drawn += objects
+                .iter()
+                .map(|&o| by_object[o as usize].len())
+                .sum::<usize>();
+        }
+        let ratio = drawn as f64 / triangles as f64;
+        assert!(
+            triangles > 0 && ratio <= 1.15,
+            "{name}: objects draw {ratio:.3}x the triangle PVS"
+        );
+    }
 }
 
 #[test]

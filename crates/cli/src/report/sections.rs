@@ -299,9 +299,9 @@ pub(crate) fn cell_map(scene: &Scene, file: &PvsFile) -> Result<Section> {
         .enumerate()
         .map(|(i, c)| {
             let pvs = c.visible.count_ones(..);
-            let objects = file
-                .visible_objects(i)
-                .map_or(String::new(), |set| format!(", {} objects", set.count_ones(..)));
+            let objects = file.visible_objects(i).map_or(String::new(), |set| {
+                format!(", {} objects", set.count_ones(..))
+            });
             MapCell {
                 cell: c.cell,
                 value: pvs as f64,

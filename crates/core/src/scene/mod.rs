@@ -58,7 +58,8 @@ impl UpAxis {
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub struct Object {
     /// Name from the file or generator: glTF node path (`Root/House/Door.001`), OBJ `o`/`g`
-    /// name (or material), Quake 3 `model{m}/{shader}`, PLY/STL file stem or STL `solid` name.
+    /// name (or material), Quake 3 `model0/cluster{c}/{shader}` (world) or `model{m}/{shader}`,
+    /// PLY/STL file stem or STL `solid` name.
     pub name: String,
     /// First numeric identity: glTF = node index, Quake 3 = model number (0 = world); `None`
     /// for other formats and for generators.
