@@ -211,6 +211,30 @@ pub fn bake_metadata(
     metadata
 }
 
+/// [`bake`] of plain cells (all space free) without progress reports or extra metadata: what
+/// examples, tests and embedders that only want the file call.
+pub fn bake_plain(
+    scene: &Scene,
+    caster: &dyn RayCaster,
+    cells: &[ViewCell],
+    sampler: &dyn Sampler,
+    budget: &Budget,
+    seed: u64,
+) -> PvsFile {
+    bake(
+        scene,
+        caster,
+        cells,
+        sampler,
+        &|_, _| true,
+        budget,
+        seed,
+        serde_json::Value::Null,
+        &|_, _| {},
+        &mut |_, _| {},
+    )
+}
+
 /// Bakes `cells` (all of them, in parallel) into a file in memory. `free_space(cell, point)`
 /// tells whether a point of cell `cell` is empty space (see [`CellContext::free_space`]; pass
 /// `&|_, _| true` for plain cells). `on_progress(cell, point)` is called after every batch;
@@ -317,18 +341,7 @@ mod tests {
         b.add_box(Vec3::ZERO, Vec3::ONE);
         let scene = b.finish();
         let bvh = Bvh::build(&scene);
-        let f = bake(
-            &scene,
-            &bvh,
-            &[],
-            &RandomSampler,
-            &|_, _| true,
-            &Budget::rays(10),
-            1,
-            serde_json::Value::Null,
-            &|_, _| {},
-            &mut |_, _| {},
-        );
+        let f = bake_plain(&scene, &bvh, &[], &RandomSampler, &Budget::rays(10), 1);
         assert!(f.cells.is_empty());
         assert!(f.check_scene(&scene).is_ok());
         assert_eq!(f.metadata["method"], "rand");

@@ -9,20 +9,16 @@
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
+use sightline_runtime::format::{check_cell_geometry, CellGeometryError};
 
 /// Why a view cell is not usable.
 #[derive(Debug, thiserror::Error, PartialEq)]
 #[non_exhaustive]
 pub enum ViewCellError {
-    /// A coordinate is NaN or infinite.
-    #[error("view cell has a non-finite coordinate")]
-    NotFinite,
-    /// Negative extent, or zero extent along two or more axes (a line or a point).
-    #[error("view cell extents {0:?} must be >= 0 with at most one zero (a rectangle)")]
-    BadExtent([f32; 3]),
-    /// The axes are not orthonormal.
-    #[error("view cell axes are not orthonormal")]
-    BadAxes,
+    /// Non-finite coordinates, bad extents or axes: the check every reader of `.pvs` files
+    /// runs too (`sightline_runtime::format::check_cell_geometry`).
+    #[error(transparent)]
+    Geometry(#[from] CellGeometryError),
     /// A `--cell` spec could not be parsed.
     #[error("view cell spec '{spec}': {message}")]
     Spec {
@@ -133,17 +129,11 @@ impl ViewCell {
         axes: [Vec3; 3],
         half_extents: Vec3,
     ) -> Result<Self, ViewCellError> {
-        use sightline_runtime::format::{check_cell_geometry, CellGeometryError};
         check_cell_geometry(
             center.to_array(),
             axes.map(|a| a.to_array()),
             half_extents.to_array(),
-        )
-        .map_err(|e| match e {
-            CellGeometryError::NotFinite => ViewCellError::NotFinite,
-            CellGeometryError::BadExtent(extent) => ViewCellError::BadExtent(extent),
-            CellGeometryError::BadAxes => ViewCellError::BadAxes,
-        })?;
+        )?;
         Ok(Self {
             center,
             axes,
@@ -404,11 +394,11 @@ mod tests {
     fn line_and_nan_cells_are_rejected() {
         assert!(matches!(
             ViewCell::aabb(Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0)),
-            Err(ViewCellError::BadExtent(_))
+            Err(ViewCellError::Geometry(CellGeometryError::BadExtent(_)))
         ));
         assert_eq!(
             ViewCell::aabb(Vec3::NAN, Vec3::ONE),
-            Err(ViewCellError::NotFinite)
+            Err(ViewCellError::Geometry(CellGeometryError::NotFinite))
         );
     }
 

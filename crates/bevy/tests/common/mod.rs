@@ -77,18 +77,7 @@ pub fn cells() -> Vec<ViewCell> {
 /// Bakes `scene` over `cells` with RAND (deterministic for its seed and ray budget).
 pub fn bake(scene: &Scene, cells: &[ViewCell]) -> PvsFile {
     let bvh = Bvh::build(scene);
-    sightline_region::bake::bake(
-        scene,
-        &bvh,
-        cells,
-        &RandomSampler,
-        &|_, _| true,
-        &Budget::rays(20_000),
-        1,
-        serde_json::Value::Null,
-        &|_, _| {},
-        &mut |_, _| {},
-    )
+    sightline_region::bake::bake_plain(scene, &bvh, cells, &RandomSampler, &Budget::rays(20_000), 1)
 }
 
 /// Bakes the corridor into `dir/name` and returns the scene.

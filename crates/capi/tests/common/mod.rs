@@ -107,17 +107,13 @@ pub fn bake() -> Baked {
     let scene = scene();
     let cells = cells();
     let bvh = Bvh::build(&scene);
-    let file = sightline_region::bake::bake(
+    let file = sightline_region::bake::bake_plain(
         &scene,
         &bvh,
         &cells,
         &RandomSampler,
-        &|_, _| true,
         &Budget::rays(20_000),
         1,
-        serde_json::Value::Null,
-        &|_, _| {},
-        &mut |_, _| {},
     );
     save(file, "scene.pvs")
 }
