@@ -315,7 +315,7 @@ fn main() {
                 continue;
             };
             let e = exact.visible.count_ones(..);
-            if exact.stats.warnings.intersecting_overlaps > 0 {
+            if exact.stats.crossing_pairs > 0 {
                 intersecting_angles += 1;
             }
             exact_sum += e;

@@ -112,7 +112,7 @@ fn check_scene(name: &str, scene: &Scene, placement: Placement) -> (f64, f64) {
         // Interpenetrating triangles break the exact method's precondition (it says so): its
         // set is then no reference, and the 8x samples are, with a sample RV dropped allowed
         // only on a triangle whose exact visible area is zero (a silhouette contact).
-        let judged = if exact.stats.warnings.intersecting_overlaps > 0 {
+        let judged = if exact.stats.warnings.unresolved_crossings > 0 {
             &reference
         } else {
             area_checked += 1;

@@ -47,7 +47,7 @@ fn assert_conservative(scene: &Scene, bins: u32) {
     let area = exact.visible_area(n);
     // Interpenetrating triangles break the exact method's precondition (it says so): then
     // only the samples are the reference, the exact areas only excuse zero-area contacts.
-    let judged: Vec<usize> = if exact.stats.warnings.intersecting_overlaps > 0 {
+    let judged: Vec<usize> = if exact.stats.warnings.unresolved_crossings > 0 {
         reference.ones().collect()
     } else {
         reference.union(&exact.visible).collect()

@@ -15,22 +15,58 @@
 
 use super::bin::Polys;
 use super::hidden_line::{scan_report, Event};
-use super::intersect::{in_front, Counters, Edge, Overlap, Side};
+use super::intersect::{depth_order, Counters, Edge, Order, Overlap, Side};
 
 /// A boundary segment of a visible region: polygon index in [`Polys`] and its end points
 /// (pixels), oriented with the region on the left.
 pub(crate) type Segment = (u32, glam::DVec2, glam::DVec2);
 
-/// Reports the completion segments of edge `e` (whose visible intervals are `visible`).
+/// Scratch space and outputs shared by the completion steps of one bin.
+pub(crate) struct Scratch<'a> {
+    /// Counters of the bin.
+    pub(crate) counters: &'a mut Counters,
+    /// Scan events.
+    pub(crate) events: &'a mut Vec<Event>,
+    /// Reported intervals.
+    pub(crate) intervals: &'a mut Vec<(f64, f64)>,
+    /// Pairs of polygons found to intersect (their order flips along an edge).
+    pub(crate) crossings: &'a mut Vec<(u32, u32)>,
+}
+
+/// Pushes the occlusion events of polygon `x` over `[lo, hi]` of `e` where it is in front of
+/// `o` (both covering the side given by `normal`); where their order flips, only the part with
+/// `x` in front occludes, and the pair is recorded as intersecting.
 #[allow(clippy::too_many_arguments)]
+fn occlude_where_in_front(
+    polys: &Polys,
+    e: &Edge,
+    (lo, hi): (f64, f64),
+    normal: glam::DVec2,
+    x: u32,
+    o: u32,
+    scratch: &mut Scratch<'_>,
+) {
+    let (px, po) = (&polys.polys[x as usize], &polys.polys[o as usize]);
+    let order = depth_order(e, lo, hi, normal, (&px.plane, px.id), (&po.plane, po.id));
+    if matches!(order, Order::Flips { .. }) {
+        scratch.counters.intersecting += 1;
+        scratch.crossings.push((x, o));
+    }
+    for (s, t, front) in order.parts(lo, hi) {
+        if front {
+            scratch.events.push(Event { t: s, v: 1 });
+            scratch.events.push(Event { t, v: -1 });
+        }
+    }
+}
+
+/// Reports the completion segments of edge `e` (whose visible intervals are `visible`).
 pub(crate) fn complete(
     polys: &Polys,
     e: &Edge,
     overlaps: &[Overlap],
     visible: &[(f64, f64)],
-    counters: &mut Counters,
-    events: &mut Vec<Event>,
-    scratch: &mut Vec<(f64, f64)>,
+    scratch: &mut Scratch<'_>,
     out: &mut Vec<Segment>,
 ) {
     if visible.is_empty() {
@@ -45,13 +81,12 @@ pub(crate) fn complete(
         if !visible.iter().any(|&(s, t)| s < o.hi && t > o.lo) {
             continue;
         }
-        let po = &polys.polys[o.poly as usize];
-        events.clear();
-        events.push(Event { t: o.lo, v: -1 });
-        events.push(Event { t: o.hi, v: 1 });
+        scratch.events.clear();
+        scratch.events.push(Event { t: o.lo, v: -1 });
+        scratch.events.push(Event { t: o.hi, v: 1 });
         for &(s, t) in visible {
-            events.push(Event { t: s, v: -1 });
-            events.push(Event { t, v: 1 });
+            scratch.events.push(Event { t: s, v: -1 });
+            scratch.events.push(Event { t, v: 1 });
         }
         for x in overlaps {
             if x.poly == o.poly
@@ -62,19 +97,12 @@ pub(crate) fn complete(
             {
                 continue;
             }
-            let px = &polys.polys[x.poly as usize];
-            let (lo, hi) = (x.lo.max(o.lo), x.hi.min(o.hi));
-            let (front, crossing) =
-                in_front(e, lo, hi, right, (&px.plane, px.id), (&po.plane, po.id));
-            counters.intersecting += u64::from(crossing);
-            if front {
-                events.push(Event { t: x.lo, v: 1 });
-                events.push(Event { t: x.hi, v: -1 });
-            }
+            let part = (x.lo.max(o.lo), x.hi.min(o.hi));
+            occlude_where_in_front(polys, e, part, right, x.poly, o.poly, scratch);
         }
-        scratch.clear();
-        scan_report(events, 1, scratch);
-        for &(s, t) in scratch.iter() {
+        scratch.intervals.clear();
+        scan_report(scratch.events, 1, scratch.intervals);
+        for &(s, t) in scratch.intervals.iter() {
             out.push((o.poly, e.at_px(t), e.at_px(s)));
         }
     }
@@ -89,9 +117,7 @@ pub(crate) fn border(
     polys: &Polys,
     e: &Edge,
     overlaps: &[Overlap],
-    counters: &mut Counters,
-    events: &mut Vec<Event>,
-    scratch: &mut Vec<(f64, f64)>,
+    scratch: &mut Scratch<'_>,
     out: &mut Vec<Segment>,
 ) {
     let left = e.left_normal();
@@ -99,27 +125,19 @@ pub(crate) fn border(
         if o.side != Side::Both {
             continue;
         }
-        let po = &polys.polys[o.poly as usize];
-        events.clear();
-        events.push(Event { t: o.lo, v: -1 });
-        events.push(Event { t: o.hi, v: 1 });
+        scratch.events.clear();
+        scratch.events.push(Event { t: o.lo, v: -1 });
+        scratch.events.push(Event { t: o.hi, v: 1 });
         for x in overlaps {
             if x.poly == o.poly || x.side == Side::Right || x.hi <= o.lo || x.lo >= o.hi {
                 continue;
             }
-            let px = &polys.polys[x.poly as usize];
-            let (lo, hi) = (x.lo.max(o.lo), x.hi.min(o.hi));
-            let (front, crossing) =
-                in_front(e, lo, hi, left, (&px.plane, px.id), (&po.plane, po.id));
-            counters.intersecting += u64::from(crossing);
-            if front {
-                events.push(Event { t: x.lo, v: 1 });
-                events.push(Event { t: x.hi, v: -1 });
-            }
+            let part = (x.lo.max(o.lo), x.hi.min(o.hi));
+            occlude_where_in_front(polys, e, part, left, x.poly, o.poly, scratch);
         }
-        scratch.clear();
-        scan_report(events, 0, scratch);
-        for &(s, t) in scratch.iter() {
+        scratch.intervals.clear();
+        scan_report(scratch.events, 0, scratch.intervals);
+        for &(s, t) in scratch.intervals.iter() {
             out.push((o.poly, e.at_px(s), e.at_px(t)));
         }
     }

@@ -17,13 +17,16 @@
 //! gets its boundary from its own edge).
 //!
 //! # Depth order
-//! The input triangles are assumed not to intersect, so along an overlap interval the sign of
-//! `1/z_C - 1/z_T` is constant; it is evaluated at the interval's midpoint (f64, relative
-//! tolerance [`DEPTH_TOL`] plus the change of `1/z` that snapping to the grid can cause). When it vanishes there the two triangles touch along `e` (e.g. a
-//! fold at a silhouette) and the order is the one of their depth *slopes* towards the side
-//! considered; when that vanishes too they are coplanar and the lower triangle id is in front,
-//! the rasterizer's tie rule. A sign change between the interval's ends means the triangles
-//! intersect: the order at the midpoint is used and a warning is counted.
+//! Along an overlap interval the difference `1/z_C - 1/z_T` is affine in the edge parameter
+//! (both are planes over the screen), so it is evaluated at the interval's ends (f64, relative
+//! tolerance [`DEPTH_TOL`] plus the change of `1/z` that snapping to the grid can cause). When
+//! it has one sign the order is that sign; when it changes sign beyond the tolerance the two
+//! triangles *intersect*, and the interval is split at the zero of the affine difference into
+//! two parts with opposite orders ([`Order::Flips`]; the projected intersection line itself is
+//! added as an edge by `crossing.rs`). When it vanishes at the middle the triangles touch along
+//! `e` (e.g. a fold at a silhouette) and the order is the one of their depth *slopes* towards
+//! the side considered; when that vanishes too they are coplanar and the lower triangle id is in
+//! front, the rasterizer's tie rule.
 
 use glam::DVec2;
 
@@ -68,7 +71,7 @@ pub(crate) struct Counters {
     pub(crate) intersections: u64,
     /// Predicates decided by the exact fallback.
     pub(crate) exact_fallbacks: u64,
-    /// Overlaps whose depth order changes along the interval (intersecting input).
+    /// Overlaps whose depth order flips along the interval (intersecting input), split there.
     pub(crate) intersecting: u64,
 }
 
@@ -169,42 +172,93 @@ fn eval(plane: &[f64; 3], p: DVec2) -> (f64, f64) {
     (x + y + plane[2], x.abs() + y.abs() + plane[2].abs())
 }
 
-/// Depth order of two polygons over the overlap `[lo, hi]` of edge `e`, on the side of `e`
-/// given by the unit `normal`: whether `c` (id `id_c`) is in front of `t` (id `id_t`), and
-/// whether the order changes along the interval (the triangles intersect).
-pub(crate) fn in_front(
-    e: &Edge,
+/// A directed segment in screen pixels, parameterised over `[0, 1]`: a polygon's edge, a side
+/// of a bin, or the projected intersection line of two polygons (`crossing.rs`).
+pub(crate) trait Line {
+    /// The point at parameter `t`, in pixels.
+    fn at_px(&self, t: f64) -> DVec2;
+}
+
+impl Line for Edge {
+    fn at_px(&self, t: f64) -> DVec2 {
+        Edge::at_px(self, t)
+    }
+}
+
+/// The depth order of two polygons along a part `[lo, hi]` of a line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Order {
+    /// One order over the whole part: whether `c` is in front.
+    Same(bool),
+    /// The polygons intersect: the order flips at parameter `at` (`lo < at < hi`); `c` is in
+    /// front before it exactly when `front_before`.
+    Flips {
+        /// Parameter of the flip.
+        at: f64,
+        /// Whether `c` is in front on `[lo, at]`.
+        front_before: bool,
+    },
+}
+
+impl Order {
+    /// The parts of `[lo, hi]` with one order each: `(lo, hi, c in front)`.
+    pub(crate) fn parts(self, lo: f64, hi: f64) -> impl Iterator<Item = (f64, f64, bool)> {
+        let parts = match self {
+            Order::Same(front) => [Some((lo, hi, front)), None],
+            Order::Flips { at, front_before } => {
+                [Some((lo, at, front_before)), Some((at, hi, !front_before))]
+            }
+        };
+        parts.into_iter().flatten().filter(|p| p.0 < p.1)
+    }
+}
+
+/// Depth order of two polygons over the part `[lo, hi]` of `line`, on the side of it given by
+/// the unit `normal`: whether `c` (plane, id) is in front of `t`, or where the order flips.
+pub(crate) fn depth_order(
+    line: &impl Line,
     lo: f64,
     hi: f64,
     normal: DVec2,
     c: (&[f64; 3], u32),
     t: (&[f64; 3], u32),
-) -> (bool, bool) {
+) -> Order {
     // Snapping moved the edge by up to 2^-21 px, which changes 1/z by up to that times the
     // planes' gradients: differences below that are ties too.
     let slope = c.0[0].abs() + c.0[1].abs() + t.0[0].abs() + t.0[1].abs();
     let snap_tol = slope / GRID;
     let diff = |s: f64| {
-        let p = e.at_px(s);
+        let p = line.at_px(s);
         let (zc, mc) = eval(c.0, p);
         let (zt, mt) = eval(t.0, p);
         (zc - zt, DEPTH_TOL * (mc + mt) + snap_tol)
     };
     let (d0, t0) = diff(lo);
     let (d1, t1) = diff(hi);
-    let crossing = (d0 > t0 && d1 < -t1) || (d0 < -t0 && d1 > t1);
+    if (d0 > t0 && d1 < -t1) || (d0 < -t0 && d1 > t1) {
+        // The difference is affine in the parameter: its zero is exact up to rounding. The
+        // same ends give the same `at` wherever the overlap is classified (bit for bit), so
+        // the split points of one edge agree between bins and with `crossing.rs`.
+        let at = lo + (hi - lo) * (d0 / (d0 - d1));
+        if at > lo && at < hi {
+            return Order::Flips {
+                at,
+                front_before: d0 > 0.0,
+            };
+        }
+    }
     let (mid, tol) = diff(0.5 * (lo + hi));
     if mid.abs() > tol {
-        return (mid > 0.0, crossing);
+        return Order::Same(mid > 0.0);
     }
     // Touching along the edge: compare the slopes of 1/z towards the side.
     let g = (c.0[0] - t.0[0]) * normal.x + (c.0[1] - t.0[1]) * normal.y;
     let g_tol = DEPTH_TOL * (c.0[0].abs() + c.0[1].abs() + t.0[0].abs() + t.0[1].abs());
     if g.abs() > g_tol {
-        return (g > 0.0, crossing);
+        return Order::Same(g > 0.0);
     }
     // Coplanar: the lower id is in front (the rasterizer's rule).
-    (c.1 < t.1, crossing)
+    Order::Same(c.1 < t.1)
 }
 
 /// Which candidates [`edge_intersections`] considers, by depth range against the edge's owner.
@@ -223,7 +277,7 @@ pub(crate) enum Pass {
 /// Whether polygon `c` may be in front of polygon `t` somewhere (by their `1/z` ranges; the
 /// margin covers rounding and snapping, so the test is conservative).
 #[inline]
-fn may_be_in_front(c: &BinPoly, t: &BinPoly) -> bool {
+pub(crate) fn may_be_in_front(c: &BinPoly, t: &BinPoly) -> bool {
     let slope = c.plane[0].abs() + c.plane[1].abs() + t.plane[0].abs() + t.plane[1].abs();
     let margin = 1e-6 * (c.inv_z_range[1].abs() + t.inv_z_range[0].abs()) + slope / GRID;
     c.inv_z_range[1] >= t.inv_z_range[0] - margin
@@ -231,7 +285,9 @@ fn may_be_in_front(c: &BinPoly, t: &BinPoly) -> bool {
 
 /// EDGEINTERSECTIONS for one edge: all overlaps with the candidate polygons selected by `pass`
 /// (appended to `out`), each classified as occluding (in front of the edge's polygon on its
-/// side) or not. Border edges (no owner) get no classification and need [`Pass::All`].
+/// side) or not; an overlap along which the order flips is split in two, and the pair of
+/// polygons (owner, other) is appended to `crossings`. Border edges (no owner) get no
+/// classification and need [`Pass::All`].
 pub(crate) fn edge_intersections(
     polys: &Polys,
     candidates: &[u32],
@@ -239,6 +295,7 @@ pub(crate) fn edge_intersections(
     pass: Pass,
     counters: &mut Counters,
     out: &mut Vec<Overlap>,
+    crossings: &mut Vec<(u32, u32)>,
 ) {
     let ebox = e.bbox();
     let owner = polys.polys.get(e.owner as usize);
@@ -273,22 +330,25 @@ pub(crate) fn edge_intersections(
             continue;
         };
         counters.intersections += 1;
-        let occluding = match owner {
+        let order = match owner {
             Some(owner) if side != Side::Right && in_front_pass => {
-                let (front, crossing) =
-                    in_front(e, lo, hi, left, (&p.plane, p.id), (&owner.plane, owner.id));
-                counters.intersecting += u64::from(crossing);
-                front
+                depth_order(e, lo, hi, left, (&p.plane, p.id), (&owner.plane, owner.id))
             }
-            _ => false,
+            _ => Order::Same(false),
         };
-        out.push(Overlap {
-            poly: k,
-            lo,
-            hi,
-            side,
-            occluding,
-        });
+        if matches!(order, Order::Flips { .. }) {
+            counters.intersecting += 1;
+            crossings.push((e.owner, k));
+        }
+        for (lo, hi, occluding) in order.parts(lo, hi) {
+            out.push(Overlap {
+                poly: k,
+                lo,
+                hi,
+                side,
+                occluding,
+            });
+        }
     }
 }
 
@@ -342,15 +402,21 @@ mod tests {
         let e = edge([0, 0], [10, 0]);
         let plane = [0.0, 0.0, 0.5];
         let n = e.left_normal();
-        assert!(in_front(&e, 0.0, 1.0, n, (&plane, 1), (&plane, 2)).0);
-        assert!(!in_front(&e, 0.0, 1.0, n, (&plane, 2), (&plane, 1)).0);
+        assert_eq!(
+            depth_order(&e, 0.0, 1.0, n, (&plane, 1), (&plane, 2)),
+            Order::Same(true)
+        );
+        assert_eq!(
+            depth_order(&e, 0.0, 1.0, n, (&plane, 2), (&plane, 1)),
+            Order::Same(false)
+        );
     }
 
     #[test]
     fn nearer_plane_is_in_front() {
         let e = edge([0, 0], [10, 0]);
         let n = e.left_normal();
-        let (front, crossing) = in_front(
+        let order = depth_order(
             &e,
             0.0,
             1.0,
@@ -358,6 +424,23 @@ mod tests {
             (&[0.0, 0.0, 1.0], 5),
             (&[0.0, 0.0, 0.5], 1),
         );
-        assert!(front && !crossing);
+        assert_eq!(order, Order::Same(true));
+    }
+
+    #[test]
+    fn crossing_planes_flip_at_their_intersection() {
+        // Along the edge x = 0..10 px (grid units scaled away), c's 1/z rises through t's
+        // constant 1/z at x = 2.5 px: c is behind before, in front after.
+        let e = edge([0, 0], [10 * GRID as i64, 0]);
+        let n = e.left_normal();
+        let c = [0.4, 0.0, -1.0];
+        let t = [0.0, 0.0, 0.0];
+        let order = depth_order(&e, 0.0, 1.0, n, (&c, 1), (&t, 2));
+        let Order::Flips { at, front_before } = order else {
+            panic!("expected a flip, got {order:?}");
+        };
+        assert!((at - 0.25).abs() < 1e-12 && !front_before, "{order:?}");
+        let parts: Vec<_> = order.parts(0.0, 1.0).collect();
+        assert_eq!(parts, vec![(0.0, at, false), (at, 1.0, true)]);
     }
 }

@@ -21,11 +21,13 @@
 //! Bins run in parallel with `rayon`; inside a bin, edges run one after another.
 //!
 //! # Input assumptions and what happens when they are violated
-//! - Triangles are assumed *not to intersect* each other (they may touch and share edges or
-//!   vertices, and cyclic overlap is fine). Intersecting triangles give a visibility that is
-//!   wrong near their intersection line (each overlap uses the depth order at its midpoint), and
-//!   every overlap whose depth order changes along it is counted in
-//!   [`AnalyticWarnings::intersecting_overlaps`]. Nothing panics, every loop is bounded.
+//! - Triangles may intersect (walls piercing roofs, interpenetrating props, terrain through
+//!   buildings), touch, share edges or vertices, and overlap cyclically. The paper assumes they
+//!   do not intersect; here an overlap along which two polygons' depth order flips is split at
+//!   the flip, and their projected intersection segment is added as an edge of both
+//!   (`crossing.rs`), so each side of it gets the right order. Pairs whose flip exists only
+//!   within rounding are counted in [`AnalyticWarnings::unresolved_crossings`] (each side then
+//!   keeps the order found there). Nothing panics, every loop is bounded.
 //! - Triangles are double-sided; no orientation is needed.
 //! - Coplanar overlapping triangles: the lower triangle id is in front (the rasterizer's rule).
 //! - Triangles seen exactly edge-on (their plane passes through the eye) cover no area and are
@@ -59,6 +61,7 @@
 
 mod bin;
 mod boundary;
+mod crossing;
 mod gauss;
 mod hidden_line;
 mod integrate;
@@ -130,14 +133,15 @@ pub struct VisiblePolygon {
 pub struct AnalyticWarnings {
     /// Triangles skipped for out-of-range indices or non-finite corners.
     pub invalid_triangles: u64,
-    /// Edge overlaps whose depth order changes along the overlap: intersecting triangles.
-    pub intersecting_overlaps: u64,
+    /// Intersecting pairs (per bin) whose depth order flips along an edge, but whose
+    /// intersection segment could not be built (its end points exist only within rounding).
+    pub unresolved_crossings: u64,
 }
 
 impl AnalyticWarnings {
     /// Sum of all warnings.
     pub fn total(&self) -> u64 {
-        self.invalid_triangles + self.intersecting_overlaps
+        self.invalid_triangles + self.unresolved_crossings
     }
 }
 
@@ -158,6 +162,11 @@ pub struct AnalyticStats {
     pub visible_segments: u64,
     /// Segments added by boundary completion.
     pub completion_segments: u64,
+    /// Intersecting triangle pairs resolved by their intersection segment, counted per bin
+    /// (a pair whose segment crosses several bins counts in each).
+    pub crossing_pairs: u64,
+    /// Edge overlaps split where the depth order of two intersecting polygons flips.
+    pub flipped_overlaps: u64,
     /// 2D predicates decided by the exact fallback.
     pub exact_fallbacks: u64,
     /// Input problems.
@@ -299,7 +308,9 @@ pub fn visible_fragments(
     for (bin, o) in bins.iter().zip(outputs) {
         stats.intersections += o.counters.intersections;
         stats.exact_fallbacks += o.counters.exact_fallbacks;
-        stats.warnings.intersecting_overlaps += o.counters.intersecting;
+        stats.flipped_overlaps += o.counters.intersecting;
+        stats.crossing_pairs += o.crossing_pairs;
+        stats.warnings.unresolved_crossings += o.unresolved_pairs;
         stats.visible_segments += o.visible_segments;
         stats.completion_segments += o.completion_segments;
         let first = polygons.len();

@@ -9,6 +9,7 @@ use glam::DVec2;
 
 use super::bin::{self, Bin, Polys};
 use super::boundary::{self, Segment};
+use super::crossing::{self, CrossingScratch};
 use super::intersect::{self, Counters, Edge, Pass};
 use super::{hidden_line, polygon, predicates, project, VisiblePolygon};
 
@@ -23,6 +24,11 @@ pub(crate) struct BinOutput {
     pub(crate) visible_segments: u64,
     /// Boundary-completion segments.
     pub(crate) completion_segments: u64,
+    /// Intersecting pairs whose intersection segment bounds regions in the bin.
+    pub(crate) crossing_pairs: u64,
+    /// Pairs whose order flips in the bin but whose segment could not be built (the flip is
+    /// on an edge only within rounding): resolved by the order at each part, as before.
+    pub(crate) unresolved_pairs: u64,
 }
 
 /// Runs steps 3–6 of the pipeline on one bin.
@@ -47,8 +53,8 @@ pub(crate) fn process_bin(polys: &Polys, bin: &Bin) -> BinOutput {
         return out;
     }
     let mut segments: Vec<Segment> = Vec::new();
-    let (mut overlaps, mut events, mut visible, mut scratch) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut overlaps, mut events, mut visible, mut intervals, mut crossings) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut index = bin::BinIndex::new(polys, bin);
     let mut candidates = Vec::new();
     let r = bin.rect;
@@ -76,6 +82,7 @@ pub(crate) fn process_bin(polys: &Polys, bin: &Bin) -> BinOutput {
                 Pass::MaybeInFront,
                 &mut out.counters,
                 &mut overlaps,
+                &mut crossings,
             );
             hidden_line::visible_intervals(&overlaps, range, &mut events, &mut visible);
             if visible.is_empty() {
@@ -99,18 +106,16 @@ pub(crate) fn process_bin(polys: &Polys, bin: &Bin) -> BinOutput {
                 Pass::Behind,
                 &mut out.counters,
                 &mut overlaps,
+                &mut crossings,
             );
             let before = segments.len();
-            boundary::complete(
-                polys,
-                &e,
-                &overlaps,
-                &visible,
-                &mut out.counters,
-                &mut events,
-                &mut scratch,
-                &mut segments,
-            );
+            let mut scratch = boundary::Scratch {
+                counters: &mut out.counters,
+                events: &mut events,
+                intervals: &mut intervals,
+                crossings: &mut crossings,
+            };
+            boundary::complete(polys, &e, &overlaps, &visible, &mut scratch, &mut segments);
             out.completion_segments += (segments.len() - before) as u64;
         }
     }
@@ -132,16 +137,39 @@ pub(crate) fn process_bin(polys: &Polys, bin: &Bin) -> BinOutput {
             Pass::All,
             &mut out.counters,
             &mut overlaps,
+            &mut crossings,
         );
-        boundary::border(
+        let mut scratch = boundary::Scratch {
+            counters: &mut out.counters,
+            events: &mut events,
+            intervals: &mut intervals,
+            crossings: &mut crossings,
+        };
+        boundary::border(polys, &e, &overlaps, &mut scratch, &mut segments);
+    }
+    // Intersecting pairs: their projected intersection segments are edges of both.
+    for pair in crossings.iter_mut() {
+        *pair = (pair.0.min(pair.1), pair.0.max(pair.1));
+    }
+    crossings.sort_unstable();
+    crossings.dedup();
+    let mut crossing_scratch = CrossingScratch::default();
+    for &pair in &crossings {
+        let built = crossing::bound_regions(
             polys,
-            &e,
-            &overlaps,
+            bin,
+            rect_px,
+            &mut index,
+            pair,
             &mut out.counters,
-            &mut events,
-            &mut scratch,
+            &mut crossing_scratch,
             &mut segments,
         );
+        if built {
+            out.crossing_pairs += 1;
+        } else {
+            out.unresolved_pairs += 1;
+        }
     }
     segments.sort_by_key(|s| s.0);
     let mut pieces = Vec::new();
