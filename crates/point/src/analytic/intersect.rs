@@ -14,7 +14,8 @@
 //! one side. This makes shared edges, T-junctions, stacked coplanar edges and the bin border
 //! exact without special cases: an occluder only matters on the side where `T` is, and only
 //! polygons covering *both* sides can be completed across `e` (a polygon that ends on `e`'s line
-//! gets its boundary from its own edge).
+//! gets its boundary from its own edge). Edges within [`NEAR_COLLINEAR_GRID`] of collinear at
+//! both ends count as collinear: snapping breaks the collinearity of edges on one 3D line.
 //!
 //! # Depth order
 //! Along an overlap interval the difference `1/z_C - 1/z_T` is affine in the edge parameter
@@ -133,8 +134,9 @@ pub(crate) fn intersect(e: &Edge, c: &[Pt], counters: &mut Counters) -> Option<(
         let beta = cross(edge, e.d);
         let alpha = cross(edge, sub(e.a, ci));
         counters.exact_fallbacks += u64::from(beta.exact) + u64::from(alpha.exact);
-        if beta.sign == 0 {
-            match alpha.sign {
+        if beta.sign == 0 || near_collinear(alpha.value, beta.value, edge) {
+            let alpha_sign = if beta.sign == 0 { alpha.sign } else { 0 };
+            match alpha_sign {
                 1 => continue,
                 -1 => return None,
                 _ => {
@@ -163,6 +165,22 @@ pub(crate) fn intersect(e: &Edge, c: &[Pt], counters: &mut Counters) -> Option<(
         }
     }
     (lo < hi).then_some((lo, hi, side))
+}
+
+/// Grid units within which an edge of a polygon counts as collinear with the edge being
+/// intersected. Snapping moves every vertex by up to half a grid unit per coordinate, so two
+/// edges on one 3D line (the vertical corner of two walls of different heights, a T-junction)
+/// end up a grid unit or so apart at a tiny angle. Taken as crossing, such an edge would make
+/// the other polygon cover both sides over a sliver 1e-6 px wide, and the depth slopes at the
+/// two edges would each hide the other: both polygons' boundaries would vanish there.
+const NEAR_COLLINEAR_GRID: f64 = 2.0;
+
+/// Whether the line of `edge` (grid units) passes within [`NEAR_COLLINEAR_GRID`] of both ends
+/// of the edge whose edge function is `alpha + beta t` (`t` in `[0, 1]`).
+#[inline]
+fn near_collinear(alpha: f64, beta: f64, edge: Pt) -> bool {
+    let tol = NEAR_COLLINEAR_GRID * (edge[0] as f64).hypot(edge[1] as f64);
+    alpha.abs() <= tol && (alpha + beta).abs() <= tol
 }
 
 /// `1/z` of `plane` at `p` and the magnitude of its terms (for the tolerance).
