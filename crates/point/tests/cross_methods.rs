@@ -11,7 +11,7 @@ use glam::{DVec2, Vec3};
 use sightline_core::raster::render;
 use sightline_core::scene::{open, LoadOptions};
 use sightline_core::{Camera, Scene};
-use sightline_point::analytic::{visible_fragments, AnalyticOptions};
+use sightline_point::analytic::{visible_fragments, AnalyticOptions, MIN_VISIBLE_AREA_PX2};
 use sightline_point::rv::{conservative_visible, Guarantee, RvOptions, SceneSource};
 
 fn scene(spec: &str) -> Scene {
@@ -69,7 +69,7 @@ fn check(spec: &str, angles: usize) {
             let missed: Vec<(usize, f64)> = sampled
                 .difference(&rv.visible)
                 .map(|t| (t, area[t]))
-                .filter(|&(_, a)| a >= 1e-6)
+                .filter(|&(_, a)| a >= MIN_VISIBLE_AREA_PX2)
                 .collect();
             assert!(
                 missed.is_empty(),

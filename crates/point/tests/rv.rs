@@ -11,7 +11,7 @@ use glam::Vec3;
 use sightline_core::raster::render;
 use sightline_core::scene::{open, LoadOptions};
 use sightline_core::{Camera, Scene};
-use sightline_point::analytic::{visible_fragments, AnalyticOptions};
+use sightline_point::analytic::{visible_fragments, AnalyticOptions, MIN_VISIBLE_AREA_PX2};
 use sightline_point::rv::{
     conservative_visible, Guarantee, HiddenOccluders, RvOptions, RvResult, SceneSource,
 };
@@ -121,7 +121,7 @@ fn check_scene(name: &str, scene: &Scene, placement: Placement) -> (f64, f64) {
         let missing: Vec<(usize, f64)> = judged
             .difference(&rv.visible)
             .map(|t| (t, area[t]))
-            .filter(|&(_, a)| a >= 1e-6)
+            .filter(|&(_, a)| a >= MIN_VISIBLE_AREA_PX2)
             .collect();
         assert!(
             missing.is_empty(),
@@ -348,7 +348,7 @@ fn check_against_exact(scene: &Scene, options: &RvOptions, check: impl Fn(&RvRes
         let missing: Vec<usize> = exact
             .visible
             .difference(&rv.visible)
-            .filter(|&t| area[t] >= 1e-6)
+            .filter(|&t| area[t] >= MIN_VISIBLE_AREA_PX2)
             .collect();
         assert!(missing.is_empty(), "angle {k} ({options:?}): {missing:?}");
     }

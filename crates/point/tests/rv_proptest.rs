@@ -9,7 +9,7 @@ use proptest::prelude::*;
 use sightline_core::raster::render;
 use sightline_core::scene::SceneBuilder;
 use sightline_core::{Camera, Scene};
-use sightline_point::analytic::{visible_fragments, AnalyticOptions};
+use sightline_point::analytic::{visible_fragments, AnalyticOptions, MIN_VISIBLE_AREA_PX2};
 use sightline_point::rv::{conservative_visible, Guarantee, RvOptions, SceneSource};
 
 fn scene_of(tris: &[[Vec3; 3]]) -> Scene {
@@ -56,7 +56,7 @@ fn assert_conservative(scene: &Scene, bins: u32) {
         .into_iter()
         .filter(|t| !rv.visible.contains(*t))
         .map(|t| (t, area[t]))
-        .filter(|&(_, a)| a >= 1e-6)
+        .filter(|&(_, a)| a >= MIN_VISIBLE_AREA_PX2)
         .collect();
     assert!(missing.is_empty(), "positive-area RV misses {missing:?}");
 }

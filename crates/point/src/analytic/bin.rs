@@ -33,6 +33,8 @@ pub(crate) struct BinPoly {
     pub(crate) bbox: [i64; 4],
     /// Smallest and largest `1/z` over the polygon (at its vertices, `1/z` being affine).
     pub(crate) inv_z_range: [f64; 2],
+    /// Relative uncertainty of its `1/z` from the f32 input (see `project.rs`).
+    pub(crate) noise: f64,
 }
 
 /// All projected polygons, in triangle id order.
@@ -62,6 +64,7 @@ impl Polys {
                 plane: p.plane,
                 bbox: bbox(&p.verts),
                 inv_z_range: range,
+                noise: p.noise,
             });
             out.verts.extend_from_slice(&p.verts);
         }
@@ -272,6 +275,7 @@ mod tests {
             id: 0,
             verts: vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]],
             plane: [0.0, 0.0, 1.0],
+            noise: 0.0,
         }
     }
 

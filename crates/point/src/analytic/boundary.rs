@@ -15,7 +15,7 @@
 
 use super::bin::Polys;
 use super::hidden_line::{scan_report, Event};
-use super::intersect::{depth_order, Counters, Edge, Order, Overlap, Side};
+use super::intersect::{depth_of, depth_order, Counters, Edge, Order, Overlap, Side};
 
 /// A boundary segment of a visible region: polygon index in [`Polys`] and its end points
 /// (pixels), oriented with the region on the left.
@@ -47,7 +47,7 @@ fn occlude_where_in_front(
     scratch: &mut Scratch<'_>,
 ) {
     let (px, po) = (&polys.polys[x as usize], &polys.polys[o as usize]);
-    let order = depth_order(e, lo, hi, normal, (&px.plane, px.id), (&po.plane, po.id));
+    let order = depth_order(e, lo, hi, normal, depth_of(px), depth_of(po));
     if matches!(order, Order::Flips { .. }) {
         scratch.counters.intersecting += 1;
         scratch.crossings.push((x, o));

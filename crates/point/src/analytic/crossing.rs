@@ -33,7 +33,7 @@ use super::bin::{Bin, BinIndex, Polys};
 use super::boundary::Segment;
 use super::hidden_line::{self, Event};
 use super::intersect::{
-    depth_order, intersect, may_be_in_front, Counters, Edge, Line, Order, Overlap, Side,
+    depth_of, depth_order, intersect, may_be_in_front, Counters, Edge, Line, Order, Overlap, Side,
 };
 use super::project::GRID;
 
@@ -181,14 +181,7 @@ fn flip_points(polys: &Polys, t: u32, u: u32, counters: &mut Counters) -> Vec<DV
             if side == Side::Right {
                 continue;
             }
-            let order = depth_order(
-                &e,
-                lo,
-                hi,
-                e.left_normal(),
-                (&pc.plane, pc.id),
-                (&po.plane, po.id),
-            );
+            let order = depth_order(&e, lo, hi, e.left_normal(), depth_of(pc), depth_of(po));
             if let Order::Flips { at, .. } = order {
                 points.push(e.at_px(at));
             }
@@ -321,14 +314,7 @@ pub(crate) fn bound_regions(
                 continue;
             }
             counters.intersections += 1;
-            let order = depth_order(
-                &line,
-                lo,
-                hi,
-                left,
-                (&p.plane, p.id),
-                (&owner.plane, owner.id),
-            );
+            let order = depth_order(&line, lo, hi, left, depth_of(p), depth_of(owner));
             for (lo, hi, occluding) in order.parts(lo, hi) {
                 scratch.overlaps.push(Overlap {
                     poly: k,

@@ -231,25 +231,38 @@ impl Order {
     }
 }
 
+/// One side of a depth comparison: a polygon's `1/z` plane, its id (for coplanar ties) and the
+/// relative uncertainty of its `1/z` from the f32 input.
+pub(crate) type Depth<'a> = (&'a [f64; 3], u32, f64);
+
+/// The [`Depth`] of polygon `p`.
+pub(crate) fn depth_of(p: &BinPoly) -> Depth<'_> {
+    (&p.plane, p.id, p.noise)
+}
+
 /// Depth order of two polygons over the part `[lo, hi]` of `line`, on the side of it given by
-/// the unit `normal`: whether `c` (plane, id) is in front of `t`, or where the order flips.
+/// the unit `normal`: whether `c` is in front of `t`, or where the order flips. Differences
+/// within the tolerance (relative [`DEPTH_TOL`], the f32 input's noise of either polygon, and
+/// what snapping can change) are ties: then the depth slopes towards the side decide, and when
+/// those tie too (coincident faces, up to the input's precision) the lower id is in front.
 pub(crate) fn depth_order(
     line: &impl Line,
     lo: f64,
     hi: f64,
     normal: DVec2,
-    c: (&[f64; 3], u32),
-    t: (&[f64; 3], u32),
+    c: Depth<'_>,
+    t: Depth<'_>,
 ) -> Order {
     // Snapping moved the edge by up to 2^-21 px, which changes 1/z by up to that times the
     // planes' gradients: differences below that are ties too.
     let slope = c.0[0].abs() + c.0[1].abs() + t.0[0].abs() + t.0[1].abs();
     let snap_tol = slope / GRID;
+    let (rel_c, rel_t) = (DEPTH_TOL + c.2, DEPTH_TOL + t.2);
     let diff = |s: f64| {
         let p = line.at_px(s);
         let (zc, mc) = eval(c.0, p);
         let (zt, mt) = eval(t.0, p);
-        (zc - zt, DEPTH_TOL * (mc + mt) + snap_tol)
+        (zc - zt, rel_c * mc + rel_t * mt + snap_tol)
     };
     let (d0, t0) = diff(lo);
     let (d1, t1) = diff(hi);
@@ -271,7 +284,7 @@ pub(crate) fn depth_order(
     }
     // Touching along the edge: compare the slopes of 1/z towards the side.
     let g = (c.0[0] - t.0[0]) * normal.x + (c.0[1] - t.0[1]) * normal.y;
-    let g_tol = DEPTH_TOL * (c.0[0].abs() + c.0[1].abs() + t.0[0].abs() + t.0[1].abs());
+    let g_tol = rel_c.max(rel_t) * slope;
     if g.abs() > g_tol {
         return Order::Same(g > 0.0);
     }
@@ -350,7 +363,7 @@ pub(crate) fn edge_intersections(
         counters.intersections += 1;
         let order = match owner {
             Some(owner) if side != Side::Right && in_front_pass => {
-                depth_order(e, lo, hi, left, (&p.plane, p.id), (&owner.plane, owner.id))
+                depth_order(e, lo, hi, left, depth_of(p), depth_of(owner))
             }
             _ => Order::Same(false),
         };
@@ -421,11 +434,11 @@ mod tests {
         let plane = [0.0, 0.0, 0.5];
         let n = e.left_normal();
         assert_eq!(
-            depth_order(&e, 0.0, 1.0, n, (&plane, 1), (&plane, 2)),
+            depth_order(&e, 0.0, 1.0, n, (&plane, 1, 0.0), (&plane, 2, 0.0)),
             Order::Same(true)
         );
         assert_eq!(
-            depth_order(&e, 0.0, 1.0, n, (&plane, 2), (&plane, 1)),
+            depth_order(&e, 0.0, 1.0, n, (&plane, 2, 0.0), (&plane, 1, 0.0)),
             Order::Same(false)
         );
     }
@@ -439,8 +452,8 @@ mod tests {
             0.0,
             1.0,
             n,
-            (&[0.0, 0.0, 1.0], 5),
-            (&[0.0, 0.0, 0.5], 1),
+            (&[0.0, 0.0, 1.0], 5, 0.0),
+            (&[0.0, 0.0, 0.5], 1, 0.0),
         );
         assert_eq!(order, Order::Same(true));
     }
@@ -453,7 +466,7 @@ mod tests {
         let n = e.left_normal();
         let c = [0.4, 0.0, -1.0];
         let t = [0.0, 0.0, 0.0];
-        let order = depth_order(&e, 0.0, 1.0, n, (&c, 1), (&t, 2));
+        let order = depth_order(&e, 0.0, 1.0, n, (&c, 1, 0.0), (&t, 2, 0.0));
         let Order::Flips { at, front_before } = order else {
             panic!("expected a flip, got {order:?}");
         };

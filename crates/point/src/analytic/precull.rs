@@ -129,9 +129,11 @@ fn inv_z_range(plane: &[f64; 3], verts: &[Pt]) -> (f64, f64) {
     (lo, hi)
 }
 
-/// The depth margin of a polygon: relative, plus what snapping (half a grid unit) can change.
-fn depth_margin(plane: &[f64; 3], hi: f64) -> f64 {
-    DEPTH_MARGIN * (hi.abs() + plane[2].abs()) + 4.0 * (plane[0].abs() + plane[1].abs()) / GRID
+/// The depth margin of a polygon: relative (far above the pipeline's tie tolerance, which
+/// includes the polygon's input noise), plus what snapping (half a grid unit) can change.
+fn depth_margin(plane: &[f64; 3], hi: f64, noise: f64) -> f64 {
+    (DEPTH_MARGIN + 10.0 * noise) * (hi.abs() + plane[2].abs())
+        + 4.0 * (plane[0].abs() + plane[1].abs()) / GRID
 }
 
 /// Smallest and largest `1/z` of `plane` over the square of pixel `(x, y)`.
@@ -279,7 +281,7 @@ fn occlusion_bounds(polys: &[ScreenPoly], width: u32, height: u32) -> Vec<f64> {
                     if r1 >= lo_row && r0 <= hi_row {
                         let p = &polys[members[m] as usize];
                         let (lo, hi) = inv_z_range(&p.plane, &p.verts);
-                        let margin = depth_margin(&p.plane, hi);
+                        let margin = depth_margin(&p.plane, hi, p.noise);
                         for_each_touched_pixel(
                             &p.verts,
                             TOUCH_MARGIN,
@@ -315,7 +317,7 @@ fn occlusion_bounds(polys: &[ScreenPoly], width: u32, height: u32) -> Vec<f64> {
 /// per-pixel occlusion bounds.
 fn is_hidden(p: &ScreenPoly, bound: &[f64], width: u32, height: u32) -> bool {
     let (_, hi) = inv_z_range(&p.plane, &p.verts);
-    let margin = depth_margin(&p.plane, hi);
+    let margin = depth_margin(&p.plane, hi, p.noise);
     for_each_touched_pixel(
         &p.verts,
         TOUCH_MARGIN,
@@ -367,11 +369,13 @@ mod tests {
                 id,
                 verts: vec![[x0, y0], [x1, y1], [x0, y1]],
                 plane,
+                noise: 0.0,
             },
             ScreenPoly {
                 id: id + 1,
                 verts: vec![[x0, y0], [x1, y0], [x1, y1]],
                 plane,
+                noise: 0.0,
             },
         ]
     }
@@ -381,6 +385,7 @@ mod tests {
             id,
             verts: verts.to_vec(),
             plane: [0.0, 0.0, inv_z],
+            noise: 0.0,
         }
     }
 

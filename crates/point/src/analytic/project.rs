@@ -37,7 +37,15 @@ pub(crate) struct ScreenPoly {
     pub(crate) verts: Vec<Pt>,
     /// `1/z` plane over screen pixels.
     pub(crate) plane: [f64; 3],
+    /// Relative uncertainty of the polygon's `1/z` from its f32 input: [`F32_NOISE`] times its
+    /// largest world coordinate (or the eye's) over its smallest view depth. Two polygons
+    /// whose depths differ by less are coincident as far as the input can tell.
+    pub(crate) noise: f64,
 }
+
+/// Rounding of an f32 coordinate, relative to its magnitude (two ulps: the vertex was
+/// rounded once when stored, and once more by whatever produced it).
+pub(crate) const F32_NOISE: f64 = 1.0 / (1u64 << 22) as f64;
 
 /// The camera mapping of `camera.rs` in f64: `sightline_core::camera::ScreenMapping`, the one
 /// the rasterizer uses, plus this algorithm's clipping helpers.
@@ -136,9 +144,13 @@ pub(crate) fn project_triangle(scene: &Scene, proj: &Projection, id: u32) -> Pro
         return Projected::Invalid;
     };
     let mut corners = [DVec3::ZERO; 3];
+    let mut magnitude = proj.eye.abs().max_element();
     for (c, &i) in corners.iter_mut().zip(tri) {
         match scene.positions.get(i as usize) {
-            Some(p) if p.is_finite() => *c = proj.view_of(p.as_dvec3()),
+            Some(p) if p.is_finite() => {
+                *c = proj.view_of(p.as_dvec3());
+                magnitude = magnitude.max(f64::from(p.abs().max_element()));
+            }
             _ => return Projected::Invalid,
         }
     }
@@ -149,6 +161,8 @@ pub(crate) fn project_triangle(scene: &Scene, proj: &Projection, id: u32) -> Pro
     if clipped.len() < 3 {
         return Projected::Empty;
     }
+    let nearest = clipped.iter().map(|v| v.z).fold(f64::INFINITY, f64::min);
+    let noise = F32_NOISE * magnitude / nearest.max(proj.near);
     let mut verts: Vec<Pt> = Vec::with_capacity(clipped.len());
     for v in clipped {
         let s = proj.screen_of(v);
@@ -171,7 +185,12 @@ pub(crate) fn project_triangle(scene: &Scene, proj: &Projection, id: u32) -> Pro
         // Double-sided triangles: every polygon is made counter-clockwise (interior on the left).
         verts.reverse();
     }
-    Projected::Poly(ScreenPoly { id, verts, plane })
+    Projected::Poly(ScreenPoly {
+        id,
+        verts,
+        plane,
+        noise,
+    })
 }
 
 #[cfg(test)]

@@ -7,7 +7,9 @@
 use glam::{DVec2, DVec3, Vec3};
 use sightline_core::raster::render;
 use sightline_core::{Camera, Scene};
-use sightline_point::analytic::{integrate, visible_fragments, AnalyticOptions, Filter};
+use sightline_point::analytic::{
+    integrate, visible_fragments, AnalyticOptions, Filter, MIN_VISIBLE_AREA_PX2,
+};
 
 pub fn scaled(c: &Camera, k: u32) -> Camera {
     Camera::looking(
@@ -422,7 +424,7 @@ pub fn check_against_brute_with(scene: &Scene, cam: &Camera, options: &AnalyticO
         // A triangle with visible area is in the set, and only then.
         assert_eq!(
             r.visible.contains(id),
-            *a > 0.0,
+            *a >= MIN_VISIBLE_AREA_PX2,
             "triangle {id} set/area mismatch"
         );
     }
