@@ -33,7 +33,8 @@ use super::bin::{Bin, BinIndex, Polys};
 use super::boundary::Segment;
 use super::hidden_line::{self, Event};
 use super::intersect::{
-    depth_of, depth_order, intersect, may_be_in_front, Counters, Edge, Line, Order, Overlap, Side,
+    depth_of, depth_order, intersect, may_be_in_front, narrow, Counters, Edge, Line, Order,
+    Overlap, Side,
 };
 use super::project::GRID;
 
@@ -249,16 +250,8 @@ fn intersect_line(line: &CrossingLine, verts: &[[i64; 2]]) -> Option<(f64, f64, 
                 return None;
             }
             side = this;
-        } else {
-            let t = -alpha / beta;
-            if beta > 0.0 {
-                lo = lo.max(t);
-            } else {
-                hi = hi.min(t);
-            }
-            if lo >= hi {
-                return None;
-            }
+        } else if !narrow(&mut lo, &mut hi, -alpha / beta, beta > 0.0) {
+            return None;
         }
     }
     (lo < hi).then_some((lo, hi, side))

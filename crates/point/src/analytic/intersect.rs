@@ -152,19 +152,23 @@ pub(crate) fn intersect(e: &Edge, c: &[Pt], counters: &mut Counters) -> Option<(
                     side = this;
                 }
             }
-        } else {
-            let t = -alpha.value / beta.value;
-            if beta.sign > 0 {
-                lo = lo.max(t);
-            } else {
-                hi = hi.min(t);
-            }
-            if lo >= hi {
-                return None;
-            }
+        } else if !narrow(&mut lo, &mut hi, -alpha.value / beta.value, beta.sign > 0) {
+            return None;
         }
     }
     (lo < hi).then_some((lo, hi, side))
+}
+
+/// One Cyrus–Beck step: the edge function is zero at `t` and grows with `t` (`entering`) or
+/// falls; narrows `[lo, hi]` to its positive side. False when nothing is left.
+#[inline]
+pub(crate) fn narrow(lo: &mut f64, hi: &mut f64, t: f64, entering: bool) -> bool {
+    if entering {
+        *lo = lo.max(t);
+    } else {
+        *hi = hi.min(t);
+    }
+    *lo < *hi
 }
 
 /// Grid units within which an edge of a polygon counts as collinear with the edge being
