@@ -183,8 +183,11 @@ const NEAR_COLLINEAR_GRID: f64 = 2.0;
 /// of the edge whose edge function is `alpha + beta t` (`t` in `[0, 1]`).
 #[inline]
 fn near_collinear(alpha: f64, beta: f64, edge: Pt) -> bool {
-    let tol = NEAR_COLLINEAR_GRID * (edge[0] as f64).hypot(edge[1] as f64);
-    alpha.abs() <= tol && (alpha + beta).abs() <= tol
+    // Squared, to keep a square root out of the innermost loop.
+    let (ex, ey) = (edge[0] as f64, edge[1] as f64);
+    let tol2 = NEAR_COLLINEAR_GRID * NEAR_COLLINEAR_GRID * (ex * ex + ey * ey);
+    let end = alpha + beta;
+    alpha * alpha <= tol2 && end * end <= tol2
 }
 
 /// `1/z` of `plane` at `p` and the magnitude of its terms (for the tolerance).
