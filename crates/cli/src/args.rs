@@ -2,6 +2,7 @@
 
 use anyhow::{bail, Context, Result};
 use glam::Vec3;
+use sightline_core::near_plane::{default_near, near_clipping, nearest_distance};
 use sightline_core::scene::{self, LoadOptions};
 use sightline_core::validate::validate;
 use sightline_core::{Camera, Scene};
@@ -64,14 +65,27 @@ pub(crate) struct CameraArgs {
     /// Image size `WxH` in pixels.
     #[arg(long, value_name = "WxH", default_value = "1024x768", value_parser = parse_size)]
     pub size: (u32, u32),
-    /// Near-plane distance (default: 1e-4 of the scene's bounding-box diagonal).
+    /// Near-plane distance. Default: 1/100 of the distance from the eye to the nearest
+    /// triangle, at most 1e-4 of the scene's bounding-box diagonal and at least 1e-4 of the
+    /// median triangle's longest edge, so nothing in view is clipped unless the eye touches a
+    /// surface. A warning names the triangles in view that the near plane hides entirely.
     #[arg(long)]
     pub near: Option<f32>,
 }
 
 impl CameraArgs {
-    /// The camera for `scene`, filling defaults from its bounds and up axis.
+    /// The camera for `scene`, filling defaults from its bounds, up axis and geometry (the near
+    /// plane: [`sightline_core::near_plane`]), with a warning on stderr when its near plane
+    /// hides triangles in view ([`CameraArgs::warn_if_near_hides`]).
     pub fn camera(&self, scene: &Scene) -> Result<Camera> {
+        let camera = self.camera_unchecked(scene)?;
+        self.warn_if_near_hides(scene, &[camera]);
+        Ok(camera)
+    }
+
+    /// [`CameraArgs::camera`] without the near-plane check, for commands that check the
+    /// cameras they derive from it instead (`render --cube`).
+    pub fn camera_unchecked(&self, scene: &Scene) -> Result<Camera> {
         let bounds = scene.bounds();
         let diagonal = bounds.diagonal().max(1e-6);
         let up = self.up.unwrap_or(scene.up.vector());
@@ -80,9 +94,46 @@ impl CameraArgs {
             Some(e) => e,
             None => default_eye(scene, look, diagonal),
         };
-        let near = self.near.unwrap_or(diagonal * 1e-4);
+        let near = match self.near {
+            Some(near) => near,
+            None => default_near(scene, eye),
+        };
         let (w, h) = self.size;
         Camera::look_at(eye, look, up, self.fov, w, h, near).context("invalid camera")
+    }
+
+    /// Warns on stderr (once) when the near plane of one of `cameras` hides triangles of its
+    /// view frustum entirely: no method can report them, and the result would otherwise look
+    /// complete. Of a long path only 16 cameras spread along it are checked (each check scans
+    /// the scene).
+    pub fn warn_if_near_hides(&self, scene: &Scene, cameras: &[Camera]) {
+        const CHECKED: usize = 16;
+        let step = cameras.len().div_ceil(CHECKED).max(1);
+        let Some((camera, clip)) = cameras
+            .iter()
+            .step_by(step)
+            .map(|c| (c, near_clipping(scene, c)))
+            .find(|(_, clip)| clip.hidden > 0)
+        else {
+            return;
+        };
+        let near = camera.near;
+        let (hidden, in_view) = (clip.hidden, clip.in_frustum);
+        if self.near.is_some() {
+            eprintln!(
+                "warning: the near plane at {near} (--near) hides {hidden} of the {in_view} \
+                 triangles in the view frustum: they lie entirely nearer than {near} to the eye, \
+                 so no method reports them; give a smaller --near (the default here is {})",
+                default_near(scene, camera.eye)
+            );
+        } else {
+            eprintln!(
+                "warning: the default near plane at {near} hides {hidden} of the {in_view} \
+                 triangles in the view frustum: the eye is {} from the nearest triangle; give a \
+                 smaller --near to see them",
+                nearest_distance(scene, camera.eye) as f32
+            );
+        }
     }
 }
 

@@ -10,6 +10,7 @@ pub mod atomic_set;
 pub mod camera;
 pub mod cpu_time;
 pub mod geometry;
+pub mod near_plane;
 pub mod prefetch;
 pub mod random;
 pub mod raster;
@@ -20,6 +21,7 @@ pub mod validate;
 
 pub use camera::Camera;
 pub use geometry::{Aabb, Hit, Ray};
+pub use near_plane::{default_near, NearPlaneRule};
 pub use scene::{LoadError, Object, Scene, UpAxis};
 
 /// A set of triangle ids (bit `i` set = triangle `i` is in the set).

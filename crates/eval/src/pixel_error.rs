@@ -80,7 +80,8 @@ pub struct WorstView {
 }
 
 impl WorstView {
-    /// The camera of this view at `resolution` (square, 90 degrees).
+    /// The camera of this view at `resolution` (square, 90 degrees). The evaluation's views
+    /// have the near plane [`ViewCell::default_near`] of their cell.
     pub fn camera(&self, resolution: u32, near: f32) -> Option<Camera> {
         Camera::looking(
             Vec3::from(self.eye),
@@ -150,8 +151,7 @@ pub fn evaluate_cell_in(
     progress: &dyn Fn(usize, usize),
 ) -> Vec<CellEvaluation> {
     let n = scene.triangle_count();
-    let diagonal = scene.bounds().diagonal().max(1e-6);
-    let near = diagonal * 1e-5;
+    let near = cell.default_near(scene);
     let cameras: Vec<Camera> = view_cameras(scene, cell, params, near)
         .into_iter()
         .filter(|c| free_space(c.eye))
@@ -463,7 +463,7 @@ mod tests {
         let none = TriangleSet::with_capacity(scene.triangle_count());
         let e = &evaluate_cell(&scene, &cell(), &[&none], &params(), &|_, _| {})[0];
         let worst = e.worst_view.unwrap();
-        let camera = worst.camera(params().resolution, 1e-5 * scene.bounds().diagonal());
+        let camera = worst.camera(params().resolution, cell().default_near(&scene));
         let bvh = Bvh::build(&scene);
         let v = view_errors(&scene, &bvh, &camera.unwrap(), &none);
         assert_eq!(v.error_count(), e.max_error_pixels);
@@ -471,7 +471,7 @@ mod tests {
         // With everything in the PVS nothing is wrong.
         let mut all = TriangleSet::with_capacity(scene.triangle_count());
         all.insert_range(..);
-        let camera = worst.camera(params().resolution, 1e-5 * scene.bounds().diagonal());
+        let camera = worst.camera(params().resolution, cell().default_near(&scene));
         let v = view_errors(&scene, &bvh, &camera.unwrap(), &all);
         assert_eq!((v.error_count(), v.unconfirmed_count()), (0, 0));
     }

@@ -4,7 +4,7 @@
 use glam::Vec3;
 use numpy::PyArray1;
 use pyo3::prelude::*;
-use sightline_core::Camera;
+use sightline_core::{default_near, Camera};
 use sightline_point::analytic::{visible_fragments, AnalyticOptions};
 use sightline_point::rv::{conservative_visible, Guarantee, RvOptions, SceneSource};
 
@@ -12,7 +12,7 @@ use crate::scene::{PyScene, SceneData};
 use crate::{ids_array, value_error};
 
 /// The camera of `sightline visible` from its options; defaults as the CLI's (up: the scene's
-/// up axis, near: 1e-4 of the bounds' diagonal).
+/// up axis, near: [`sightline_core::near_plane`]'s rule at the eye).
 fn camera(
     data: &SceneData,
     eye: [f32; 3],
@@ -22,22 +22,16 @@ fn camera(
     size: (u32, u32),
     near: Option<f32>,
 ) -> PyResult<Camera> {
-    let diagonal = data.scene.bounds().diagonal().max(1e-6);
     let up = up.map_or(data.scene.up.vector(), Vec3::from_array);
-    let near = near.unwrap_or(diagonal * 1e-4);
-    Camera::look_at(
-        Vec3::from_array(eye),
-        Vec3::from_array(look),
-        up,
-        fov,
-        size.0,
-        size.1,
-        near,
-    )
-    .map_err(|e| value_error(format!("invalid camera: {e}")))
+    let eye = Vec3::from_array(eye);
+    let near = near.unwrap_or_else(|| default_near(&data.scene, eye));
+    Camera::look_at(eye, Vec3::from_array(look), up, fov, size.0, size.1, near)
+        .map_err(|e| value_error(format!("invalid camera: {e}")))
 }
 
 /// Triangles with a visible region of positive area from `eye` looking at `look` (exact).
+/// `near` defaults as the CLI's `--near`: 1/100 of the distance from the eye to the nearest
+/// triangle, clamped to the scene's scale.
 #[pyfunction]
 #[pyo3(signature = (scene, eye, look, up = None, fov = 60.0, size = (1024, 768), near = None,
     bin_size = 16))]

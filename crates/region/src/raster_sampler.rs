@@ -55,7 +55,7 @@ impl Sampler for RasterSampler {
         let mut tally = Tally::new(ctx.scene.triangle_count(), budget);
         let surface = CellSurface::new(ctx.cell);
         let halton = ShiftedHalton::<3>::new(ctx.seed ^ 0x7261_7374);
-        let near = ctx.scene.bounds().diagonal().max(1e-6) * 1e-5;
+        let near = ctx.cell.default_near(ctx.scene);
         let mut rasterizer = Rasterizer::new(ctx.scene);
         let mut frame = Frame::new(r, r);
         let mut view = 0u64;

@@ -9,6 +9,7 @@
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
+use sightline_core::{Aabb, NearPlaneRule, Scene};
 use sightline_runtime::format::{check_cell_geometry, CellGeometryError};
 
 /// Why a view cell is not usable.
@@ -331,6 +332,13 @@ impl ViewCell {
             let sign = |bit: usize| if i & bit != 0 { 1.0 } else { -1.0 };
             self.center + ax * h.x * sign(1) + ay * h.y * sign(2) + az * h.z * sign(4)
         })
+    }
+
+    /// The near plane of cameras anywhere in the cell: the default rule of
+    /// [`sightline_core::near_plane`] for the cell's bounding box, so a cell away from the
+    /// geometry clips none of it from any of its points.
+    pub fn default_near(&self, scene: &Scene) -> f32 {
+        NearPlaneRule::new(scene).within(&Aabb::from_points(self.corners()))
     }
 }
 

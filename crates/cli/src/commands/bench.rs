@@ -332,7 +332,7 @@ fn overview_camera(scene: &Scene, size: u32) -> Result<Camera> {
         60.0,
         size,
         size,
-        b.diagonal() * 1e-4,
+        sightline_core::default_near(scene, eye),
     )?)
 }
 

@@ -19,7 +19,7 @@ use anyhow::{bail, Context, Result};
 use glam::{Quat, Vec3};
 use serde::Serialize;
 use sightline_core::scene::{self, LoadOptions};
-use sightline_core::Camera;
+use sightline_core::{Camera, NearPlaneRule};
 use sightline_cull::scenes::{animate, graveyard, the_grid, walk_keys, CullScene};
 use sightline_cull::{
     simulate_methods_with_cameras, FrameStats, Method, SimConfig, SimReport, SoftwareBackend,
@@ -241,31 +241,13 @@ fn cameras(args: &Args, scene: &CullScene, config: &SimConfig) -> Result<Vec<Cam
     let up = scene.scene.up.vector();
     let (w, h, fov) = (config.width, config.height, config.fov_y_deg);
     let bounds = scene.scene.bounds();
-    let near = if args.scene.starts_with("procedural:grid")
-        || args.scene.starts_with("procedural:graveyard")
-    {
-        0.1
-    } else {
-        (bounds.diagonal() * 1e-4).max(1e-6)
-    };
     let n = config.frames as usize;
-    if let Some(path) = &args.path {
+    // (eye, look) per frame.
+    let poses: Vec<(Vec3, Vec3)> = if let Some(path) = &args.path {
         // The viewer reads the same path files (`sightline view --path`).
         let keys = read_camera_path(path)?;
-        return (0..n)
-            .map(|f| {
-                let (eye, look) = interpolate(&keys, f, n);
-                Camera::look_at(eye, look, up, fov, w, h, near).with_context(|| {
-                    format!(
-                        "{}: frame {f}: no camera from eye {eye} looking at {look} (eye equal \
-                         to look, or looking along the up axis?)",
-                        path.display()
-                    )
-                })
-            })
-            .collect();
-    }
-    if scene.scene.source.starts_with("procedural:grid")
+        (0..n).map(|f| interpolate(&keys, f, n)).collect()
+    } else if scene.scene.source.starts_with("procedural:grid")
         || scene.scene.source.starts_with("procedural:graveyard")
     {
         return (0..config.frames)
@@ -276,22 +258,46 @@ fn cameras(args: &Args, scene: &CullScene, config: &SimConfig) -> Result<Vec<Cam
                     .context("the scene's camera path gave no camera")
             })
             .collect();
-    }
-    // A walk through the bounds, looking around (see `animate`).
-    let (start, end) = walk_keys(&bounds, up);
-    let dir = (end - start).normalize_or(Vec3::X);
-    (0..n)
-        .map(|f| {
-            let t = f as f32 / config.fps;
-            let s = if n > 1 {
-                f as f32 / (n - 1) as f32
-            } else {
-                0.0
-            };
-            let eye = start.lerp(end, s);
-            let yaw = 40f32.to_radians() * (std::f32::consts::TAU * t / 8.0).sin();
-            let look = eye + Quat::from_axis_angle(up, yaw) * dir;
-            Camera::look_at(eye, look, up, fov, w, h, near).context("default camera path")
+    } else {
+        // A walk through the bounds, looking around (see `animate`).
+        let (start, end) = walk_keys(&bounds, up);
+        let dir = (end - start).normalize_or(Vec3::X);
+        (0..n)
+            .map(|f| {
+                let t = f as f32 / config.fps;
+                let s = if n > 1 {
+                    f as f32 / (n - 1) as f32
+                } else {
+                    0.0
+                };
+                let eye = start.lerp(end, s);
+                let yaw = 40f32.to_radians() * (std::f32::consts::TAU * t / 8.0).sin();
+                (eye, eye + Quat::from_axis_angle(up, yaw) * dir)
+            })
+            .collect()
+    };
+    let near = if args.scene.starts_with("procedural:grid")
+        || args.scene.starts_with("procedural:graveyard")
+    {
+        // These scenes' own scale (a person-height camera on a street), kept for a --path.
+        0.1
+    } else {
+        // One near plane for the whole path, by the default rule at every eye on it.
+        let eyes: Vec<Vec3> = poses.iter().map(|&(eye, _)| eye).collect();
+        NearPlaneRule::new(&scene.scene).along(&eyes)
+    };
+    poses
+        .into_iter()
+        .enumerate()
+        .map(|(f, (eye, look))| {
+            Camera::look_at(eye, look, up, fov, w, h, near).with_context(|| match &args.path {
+                Some(path) => format!(
+                    "{}: frame {f}: no camera from eye {eye} looking at {look} (eye equal to \
+                     look, or looking along the up axis?)",
+                    path.display()
+                ),
+                None => "default camera path".to_string(),
+            })
         })
         .collect()
 }

@@ -17,7 +17,7 @@ use sightline_core::atomic_file::write_atomic;
 use sightline_core::raster;
 use sightline_core::trace::{Bvh, RayCaster};
 use sightline_core::validate::validate;
-use sightline_core::{Camera, Hit, Ray, TriangleSet};
+use sightline_core::{Camera, Hit, NearPlaneRule, Ray, TriangleSet};
 use sightline_cull::scenes::{animate, walk_keys};
 use sightline_cull::{simulate_methods_with_cameras, Method, SimConfig, SoftwareBackend};
 use sightline_eval::EvalParams;
@@ -107,7 +107,8 @@ pub(crate) fn run(args: Args) -> Result<()> {
     let up = scene.up.vector();
     let center = bounds.center();
     let eye = default_eye(&scene, center, bounds.diagonal());
-    let near = bounds.diagonal().max(1e-6) * 1e-4;
+    let near_rule = NearPlaneRule::new(&scene);
+    let near = near_rule.at(eye);
     let overview = Camera::look_at(eye, center, up, 60.0, args.size, args.size, near)?;
     let frame = raster::render(&scene, &overview);
     let overview_images = [shaded_image(&frame, &scene, &overview), id_image(&frame)];
@@ -140,7 +141,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
     let street_eye = center + up * (bounds.extent().dot(up) * 0.02 + 1.7);
     let mut cube_visible = TriangleSet::with_capacity(scene.triangle_count());
     let mut cube_images = Vec::new();
-    for (i, face) in Camera::cube_faces(street_eye, args.size / 2, near)?
+    for (i, face) in Camera::cube_faces(street_eye, args.size / 2, near_rule.at(street_eye))?
         .iter()
         .enumerate()
     {
@@ -328,17 +329,22 @@ pub(crate) fn run(args: Args) -> Result<()> {
     let (start, end) = walk_keys(&bounds, up);
     let dir = (end - start).normalize_or(Vec3::X);
     let frames = args.frames;
-    // The default walk of `sightline cull` (start to end, looking around), in `frames` frames.
-    let camera_of = |f: u32| {
+    // The default walk of `sightline cull` (start to end, looking around), in `frames` frames,
+    // with its near plane: the default rule at every eye on the walk.
+    let walk_eye = |f: u32| {
         let s = if frames > 1 {
             f as f32 / (frames - 1) as f32
         } else {
             0.0
         };
-        let eye = start.lerp(end, s);
+        start.lerp(end, s)
+    };
+    let walk_near = near_rule.along(&(0..frames).map(walk_eye).collect::<Vec<_>>());
+    let camera_of = |f: u32| {
+        let eye = walk_eye(f);
         let yaw = 40f32.to_radians() * (std::f32::consts::TAU * f as f32 / 30.0 / 8.0).sin();
         let look = eye + Quat::from_axis_angle(up, yaw) * dir;
-        Camera::look_at(eye, look, up, config.fov_y_deg, 320, 180, near).ok()
+        Camera::look_at(eye, look, up, config.fov_y_deg, 320, 180, walk_near).ok()
     };
     let mut backend = SoftwareBackend::new(config.width, config.height);
     let culling =

@@ -124,7 +124,8 @@ pub(crate) fn run(args: Args) -> Result<()> {
         )
         .remove(0);
         if let (Some(dir), Some(worst)) = (&args.images, e.worst_view) {
-            let near = scene.bounds().diagonal().max(1e-6) * 1e-5;
+            // The near plane the evaluation rendered the view with.
+            let near = cell.cell.default_near(&scene);
             if let Some(camera) = worst.camera(args.resolution, near) {
                 let frame = render(&scene, &camera);
                 let img = RgbImage::from_fn(frame.width, frame.height, |x, y| {

@@ -40,7 +40,8 @@ struct Summary {
 
 pub(crate) fn run(args: Args) -> Result<()> {
     let scene = args.scene.load()?;
-    let main_camera = args.camera.camera(&scene)?;
+    // The near plane is checked on the cameras rendered: with --cube, the six faces.
+    let main_camera = args.camera.camera_unchecked(&scene)?;
     let cameras: Vec<(Camera, PathBuf)> = if args.cube {
         const SUFFIX: [&str; 6] = ["px", "nx", "py", "ny", "pz", "nz"];
         let stem = args
@@ -59,6 +60,8 @@ pub(crate) fn run(args: Args) -> Result<()> {
     } else {
         vec![(main_camera, args.output.clone())]
     };
+    let rendered: Vec<Camera> = cameras.iter().map(|(c, _)| *c).collect();
+    args.camera.warn_if_near_hides(&scene, &rendered);
     let start = Instant::now();
     let mut visible = sightline_core::TriangleSet::with_capacity(scene.triangle_count());
     let mut outputs = Vec::new();

@@ -6,7 +6,8 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use sightline_core::Camera;
+use glam::Vec3;
+use sightline_core::{Camera, NearPlaneRule};
 use sightline_region::PvsFile;
 use sightline_view::{
     interpolate, orbit, read_camera_path, run_headless, run_window, FlyCamera, Lens, Method,
@@ -57,7 +58,8 @@ pub(crate) struct Args {
 
 pub(crate) fn run(args: Args) -> Result<()> {
     let scene = args.scene.load()?;
-    let camera = args.camera.camera(&scene)?;
+    // The near plane is checked on the cameras used: the start (window) or the path (headless).
+    let camera = args.camera.camera_unchecked(&scene)?;
     let look = args.camera.look.unwrap_or(scene.bounds().center());
     let up = args.camera.up.unwrap_or(scene.up.vector());
     let pvs = match &args.pvs {
@@ -96,6 +98,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
     viewer.shading.xray = args.xray;
 
     let (Some(frames), Some(out)) = (args.frames, &args.out) else {
+        args.camera.warn_if_near_hides(viewer.scene(), &[camera]);
         let speed = args.speed.unwrap_or(diagonal * 0.05);
         let fly = FlyCamera::new(camera.eye, look, up, speed).context("invalid camera")?;
         let lens = Lens {
@@ -116,6 +119,15 @@ pub(crate) fn run(args: Args) -> Result<()> {
         }
         None => orbit(camera.eye, look, up, n),
     };
+    // One near plane for the whole path, by the default rule at every eye on it (the start
+    // eye's could clip what a later frame passes close to).
+    let near = match args.camera.near {
+        Some(near) => near,
+        None => {
+            let eyes: Vec<Vec3> = poses.iter().map(|&(eye, _)| eye).collect();
+            NearPlaneRule::new(viewer.scene()).along(&eyes)
+        }
+    };
     let cameras = poses
         .into_iter()
         .enumerate()
@@ -127,7 +139,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
                 camera.fov_y_deg,
                 camera.width,
                 camera.height,
-                camera.near,
+                near,
             )
             .with_context(|| {
                 format!(
@@ -137,6 +149,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
             })
         })
         .collect::<Result<Vec<_>>>()?;
+    args.camera.warn_if_near_hides(viewer.scene(), &cameras);
     let (device, queue, info) = sightline_gpu::vulkan_device()?;
     let report = run_headless(&device, &queue, &info.name, &mut viewer, &cameras, out)?;
     if args.json {

@@ -103,12 +103,12 @@ pub(crate) fn worst_views(
         return Vec::new();
     }
     let bvh = Bvh::build(scene);
-    let near = scene.bounds().diagonal().max(1e-6) * 1e-5;
     ranked
         .into_iter()
         .filter_map(|i| {
             let worst = outcomes[i].eval.worst_view?;
-            let camera = worst.camera(resolution, near)?;
+            // The near plane the evaluation rendered the view with.
+            let camera = worst.camera(resolution, file.cells[i].cell.default_near(scene))?;
             let v = view_errors(scene, &bvh, &camera, &file.cells[i].visible);
             let base = shaded_image(&v.frame, scene, &camera);
             Some(WorstImage {
