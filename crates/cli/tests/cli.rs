@@ -94,6 +94,72 @@ fn empty_scene_file_is_rejected() {
 }
 
 #[test]
+fn exact_png_is_srgb_encoded_and_tagged() {
+    // The anti-aliased values are linear light (area averages); the file must hold their sRGB
+    // codes and say so. Expected codes: the library's image through the sRGB formula, written
+    // out here independently of the CLI's own.
+    use glam::Vec3;
+    use sightline_point::analytic::{
+        antialiased_image, visible_fragments, AnalyticOptions, Filter,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let bunny = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/bunny.obj");
+    let scene = sightline_core::scene::open(bunny, &Default::default()).unwrap();
+    let b = scene.bounds();
+    let (look, near) = (b.center(), 1e-3 * b.diagonal());
+    let eye = look + Vec3::new(0.0, 0.0, 1.2 * b.diagonal());
+    let camera = sightline_core::Camera::look_at(eye, look, Vec3::Y, 45.0, 48, 32, near).unwrap();
+    let result = visible_fragments(&scene, &camera, &AnalyticOptions::default()).unwrap();
+    let srgb = |v: f32| {
+        let v = f64::from(v).clamp(0.0, 1.0);
+        let e = if v <= 0.003_130_8 {
+            12.92 * v
+        } else {
+            1.055 * v.powf(1.0 / 2.4) - 0.055
+        };
+        (e * 255.0).round() as u8
+    };
+    let vec3 = |v: Vec3| format!("{},{},{}", v.x, v.y, v.z);
+    let (eye, look, near) = (vec3(eye), vec3(look), near.to_string());
+    for (name, filter) in [
+        ("box", Filter::Box),
+        ("gauss", Filter::Gauss { radius_px: 2.3 }),
+    ] {
+        let file = format!("{name}.png");
+        let args = [
+            "visible", bunny, "--exact", "--size", "48x32", "--eye", &eye, "--look", &look, "--up",
+            "0,1,0", "--fov", "45", "--near", &near, "--png", &file, "--filter", name,
+        ];
+        let o = sightline(&args, dir.path());
+        assert!(o.status.success(), "{}", stderr(&o));
+        let bytes = std::fs::read(dir.path().join(&file)).unwrap();
+        let chunk = |tag: &[u8]| bytes.windows(4).position(|w| w == tag);
+        let (tag, idat) = (chunk(b"sRGB"), chunk(b"IDAT"));
+        assert!(
+            tag.is_some() && tag < idat,
+            "{name}: no sRGB chunk before the image data"
+        );
+        let codes = image::open(dir.path().join(&file)).unwrap().into_luma8();
+        assert_eq!(codes.dimensions(), (48, 32));
+        let linear = antialiased_image(&result, &scene, &camera, filter);
+        let worst = codes
+            .pixels()
+            .zip(&linear)
+            .map(|(c, &v)| c.0[0].abs_diff(srgb(v)))
+            .max()
+            .unwrap();
+        assert_eq!(
+            worst, 0,
+            "{name}: a code differs from the sRGB encoding by {worst}"
+        );
+        // And the encoding is not the identity: mid-grey values gain 30-60 codes.
+        assert!(linear
+            .iter()
+            .any(|&v| srgb(v) > (v * 255.0).round() as u8 + 30));
+    }
+}
+
+#[test]
 fn conservative_visible_set_misses_nothing_the_reference_sees() {
     let dir = tempfile::tempdir().unwrap();
     let bunny = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/bunny.obj");

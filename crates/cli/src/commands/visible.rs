@@ -446,16 +446,10 @@ fn run_exact(args: &Args, start: Instant) -> Result<()> {
         } else {
             Filter::Box
         };
+        // The filtered values are linear light (area averages of the shading); the file is
+        // sRGB-encoded and says so, so that partial coverage shows as the right brightness.
         let values = antialiased_image(&result, &scene, &camera, filter);
-        let img = image::GrayImage::from_fn(camera.width, camera.height, |x, y| {
-            let v = values[(y * camera.width + x) as usize];
-            image::Luma([(v.clamp(0.0, 1.0) * 255.0).round() as u8])
-        });
-        sightline_core::atomic_file::write_atomic(path, |w| {
-            img.write_to(w, image::ImageFormat::Png)
-                .map_err(std::io::Error::other)
-        })
-        .with_context(|| format!("writing {}", path.display()))?;
+        crate::output::save_linear_grey_png(&values, camera.width, camera.height, path)?;
     }
     if let Some(path) = &args.output {
         let text: String = result.visible.ones().map(|id| format!("{id}\n")).collect();

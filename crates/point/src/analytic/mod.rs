@@ -16,7 +16,8 @@
 //!    visible edges (Algorithm 3).
 //! 6. `polygon.rs` — the boundary segments of each triangle's visible region, as convex pieces.
 //! 7. `integrate.rs` — the exact box-filtered image (Algorithm 4); `gauss.rs` — the
-//!    Gaussian-filtered image (Green's theorem, quadrature along the edges).
+//!    Gaussian-filtered image (Green's theorem with the window-truncated kernel: each edge is cut
+//!    at the window borders, and one quadrature per piece serves every pixel it reaches).
 //!
 //! Bins run in parallel with `rayon`; inside a bin, edges run one after another.
 //!
@@ -229,14 +230,18 @@ impl AnalyticResult {
     }
 }
 
-/// The reconstruction filter of [`integrate`].
+/// The reconstruction filter of [`integrate`]. Both are weighted area integrals of the value, so
+/// the image is linear in it: for shading values, linear light, to be encoded (e.g. with the
+/// sRGB transfer function, as `sightline visible --png` does) before being shown as 8-bit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[non_exhaustive]
 pub enum Filter {
     /// The pixel's unit square.
     Box,
     /// A Gaussian with `σ = radius_px / 3` over the square window of half-width `radius_px`
-    /// around the pixel centre, normalised to unit mass (the paper uses radius 2.3 px).
+    /// around the pixel centre, normalised to unit mass (the paper uses radius 2.3 px). At radius
+    /// 2.3 it takes 1.3x the box filter's time on a city view, 2.9x on the bunny's sub-pixel
+    /// triangles (docs/BENCHMARKS.md).
     Gauss {
         /// Window half-width in pixels (0.1..=16).
         radius_px: f64,
@@ -351,8 +356,9 @@ pub fn visible_fragments(
 /// The image of `result` filtered with `filter`: pixel `(x, y)` (row-major, top row first) is
 /// the integral of `value(triangle)` over the visible polygons against the filter centred on the
 /// pixel: for [`Filter::Box`] exactly the sum of value × area inside the pixel's square, for
-/// [`Filter::Gauss`] to about 1e-6 (see `gauss.rs`). A radius outside 0.1..=16 is clamped, a
-/// non-finite one replaced by the paper's 2.3 px.
+/// [`Filter::Gauss`] to 3e-8 of value × the window's mass (see `gauss.rs`). A radius outside
+/// 0.1..=16 is clamped, a non-finite one replaced by the paper's 2.3 px. The result is linear in
+/// `value` (see [`Filter`]).
 pub fn integrate(
     result: &AnalyticResult,
     filter: Filter,
@@ -383,7 +389,8 @@ pub fn integrate(
 }
 
 /// A grey anti-aliased image of `result`: every triangle is shaded flat with a headlight,
-/// `0.1 + 0.9 |cos θ|` (θ between its normal and the ray to its centroid), background 0.
+/// `0.1 + 0.9 |cos θ|` (θ between its normal and the ray to its centroid), background 0; the
+/// values are linear light (see [`Filter`]).
 /// `scene` and `camera` must be the ones `result` was computed for.
 pub fn antialiased_image(
     result: &AnalyticResult,
