@@ -30,7 +30,11 @@ pub(crate) struct Args {
     /// Conservative visible set (RV: never misses a visible triangle) in bounded memory.
     #[arg(long, conflicts_with = "exact")]
     conservative: bool,
-    /// Exact visible set (analytic hidden-surface removal).
+    /// Exact visible set (analytic hidden-surface removal). Exact range: --fov up to 170.00°
+    /// (also horizontally), and an image at least tan(fov/2)/4 px high (any size up to fov
+    /// 151.9°); other cameras are refused (use several narrower views, e.g. cube faces).
+    /// Screen positions are snapped to 2^-20 px, so geometry far below a pixel (a tiny model
+    /// seen from far away) loses slivers; depth gaps below ~2e-9 of the distance are ties.
     #[arg(long)]
     exact: bool,
     /// Memory budget of --conservative, e.g. 256MiB, 1GiB, 64000000.
@@ -259,9 +263,17 @@ fn reference_set(
             use sightline_point::analytic::{visible_fragments, AnalyticOptions};
             let exact = visible_fragments(scene, camera, &AnalyticOptions::default())?;
             warn_unresolved_crossings(exact.stats.warnings.unresolved_crossings);
-            // The exact set leaves out pieces under MIN_VISIBLE_AREA_PX2 (rounding on shared
-            // edges): the positive-area guarantee means that threshold.
-            exact.visible
+            // Pieces under MIN_VISIBLE_AREA_PX2 are the exact method's rounding on shared
+            // edges: the positive-area guarantee means that threshold.
+            let area = exact.visible_area(scene.triangle_count());
+            let mut set = TriangleSet::with_capacity(scene.triangle_count());
+            set.extend(
+                exact
+                    .visible
+                    .ones()
+                    .filter(|&t| area[t] >= sightline_point::analytic::MIN_VISIBLE_AREA_PX2),
+            );
+            set
         }
         Guarantee::AnySample => {
             let mut fine = *camera;

@@ -45,6 +45,17 @@
 //! resolved by slope, then by id). Polygons are never clipped to bins, so the result does not
 //! depend on the bin size (beyond f64 rounding: 2e-10 px² on the bunny between 8 and 32 px bins).
 //!
+//! The exact range: the result is exact for the snapped scene, so it can differ from the
+//! unsnapped one only where a visible part lies within about a grid unit of an edge (slivers),
+//! and where two surfaces are closer than about 2e-9 of their distance (0.2 mm at 100 km). The
+//! grid is per pixel: a 1×1 image resolves 2^-20 of the view, 1024² resolves 2^-30, and a model
+//! covering a thousandth of a pixel (15 cm seen from 100 km) is as coarse as a 1×1 image.
+//! [`visible_fragments`] refuses with [`AnalyticError::OutsideExactRange`] the cameras where
+//! the grid unit at the image centre exceeds 2^-17 of the tangent plane (`2 tan(fov_y/2) /
+//! (height · 2^20)`: a 1×1 image beyond fov 151.9°) or `tan(fov/2) > 16` on either axis (fov
+//! beyond 170.00°, where depth gaps below `1.3e-8 tan(fov/2)` of the distance become ties); for
+//! wider views use several cameras ([`Camera::cube_faces`]). See `domain.rs`.
+//!
 //! ```
 //! use glam::Vec3;
 //! use sightline_core::scene::SceneBuilder;
@@ -63,6 +74,7 @@
 mod bin;
 mod boundary;
 mod crossing;
+mod domain;
 mod gauss;
 mod hidden_line;
 mod integrate;
@@ -87,12 +99,13 @@ use project::{project_triangle, Projected, Projection};
 
 pub use svg::write_svg;
 
-/// The smallest visible area (square pixels) that puts a triangle in [`AnalyticResult::visible`].
-/// Smaller pieces are what the 2^-20 px snapping and f64 rounding leave along shared edges and
-/// intersection lines (measured up to 1e-10 px² on the shared scenes; snapping moves a region's
-/// boundary by up to 6.7e-7 px, so a sliver of a few pixels' length reaches 1e-6 px²): they are
-/// kept in [`AnalyticResult::polygons`] (images integrate them) but do not make a triangle
-/// visible. RV's positive-area guarantee is checked against the same threshold.
+/// The visible area (square pixels) below which a piece is what the 2^-20 px snapping and f64
+/// rounding leave along shared edges and intersection lines at ordinary image sizes (measured
+/// up to 1e-10 px² on the shared scenes; snapping moves a region's boundary by up to 6.7e-7 px,
+/// so a sliver of a few pixels' length reaches 1e-6 px²). [`AnalyticResult::visible`] keeps
+/// every positive area (at tiny image sizes whole triangles are smaller than this); RV's
+/// positive-area guarantee, and `visible --exact`'s `-o` listing through the CLI's check, are
+/// judged against this threshold.
 pub const MIN_VISIBLE_AREA_PX2: f64 = 1e-6;
 
 /// Options of [`visible_fragments`].
@@ -125,6 +138,16 @@ pub enum AnalyticError {
     /// The bin size is outside 1..=4096.
     #[error("bin size {0} is outside 1..=4096")]
     BadBinSize(u32),
+    /// The camera is valid but outside the range where the result is exact (see the module
+    /// docs, "Exactness"): a field of view beyond 170.00° on either axis, or an image too small
+    /// for its field of view.
+    #[error("{parameter} is outside the exact range of the analytic visibility: {detail}")]
+    OutsideExactRange {
+        /// The camera parameter: `field of view`, `horizontal field of view` or `image size`.
+        parameter: &'static str,
+        /// The value, the exact range, and what to use instead.
+        detail: String,
+    },
 }
 
 /// A convex piece of the visible region of one triangle, in screen pixels (the mapping of
@@ -195,7 +218,8 @@ pub struct AnalyticStats {
 /// The exact visibility from one camera.
 #[derive(Clone, Debug)]
 pub struct AnalyticResult {
-    /// Triangles whose visible region has an area of at least [`MIN_VISIBLE_AREA_PX2`].
+    /// Triangles whose visible region has a positive area (see [`MIN_VISIBLE_AREA_PX2`] for the
+    /// pieces that rounding leaves).
     pub visible: TriangleSet,
     /// Visible regions as convex pieces, grouped by bin (row-major), then by triangle id.
     pub polygons: Vec<VisiblePolygon>,
@@ -268,12 +292,12 @@ fn check_camera(c: &Camera) -> Result<(), AnalyticError> {
             "basis vectors are not unit length",
         ));
     }
-    Ok(())
+    domain::check(c)
 }
 
 /// The exact visible fragments of `scene` seen from `camera`: for every triangle, convex
 /// polygons covering exactly its visible region inside the image (however small), and the set
-/// of triangles whose visible region reaches [`MIN_VISIBLE_AREA_PX2`]. See the module docs for the assumptions.
+/// of triangles with a visible region of positive area. See the module docs for the assumptions.
 pub fn visible_fragments(
     scene: &Scene,
     camera: &Camera,
@@ -340,7 +364,7 @@ pub fn visible_fragments(
         });
     }
     let mut visible = TriangleSet::with_capacity(n);
-    visible.extend((0..n).filter(|&t| area[t] >= MIN_VISIBLE_AREA_PX2));
+    visible.extend((0..n).filter(|&t| area[t] > 0.0));
     stats.visibility_time = start.elapsed();
     Ok(AnalyticResult {
         visible,

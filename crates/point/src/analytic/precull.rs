@@ -27,9 +27,13 @@
 //! pixels within 4 grid units (more than the touch margin, so a pixel touched only through the
 //! margin is always marked when it is outside the union).
 //!
-//! Memory: 8 bytes per pixel (the bound), 16 bytes per pixel of each band in flight (patch
+//! The "pixels" are the cells of a [`Raster`]: the image's pixels, or, when the whole scene
+//! covers only a few pixels (a tiny image, a far camera), power-of-two fractions of a pixel
+//! over it, so that pre-culling still works there.
+//!
+//! Memory: 8 bytes per cell (the bound), 16 bytes per cell of each band in flight (patch
 //! bound, two stamps), 48 bytes per polygon edge and 16 per
-//! vertex for the matching.
+//! vertex for the matching; at most the image's pixels or about 2^20 cells.
 
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
@@ -47,13 +51,92 @@ const CONTOUR_MARGIN: f64 = 4.0;
 /// culled polygon is never a tie for the pipeline.
 const DEPTH_MARGIN: f64 = 1000.0 * DEPTH_TOL;
 
-/// Calls `f(x, y)` for every pixel whose closed square is within `margin` grid units of the
-/// convex polygon (or segment) `verts`, clamped to the `width` x `height` image and to the pixel
-/// rows `rows`; stops early (and returns false) when `f` returns false.
+/// Cells per raster of a sub-pixel [`Raster`] (about the pixels of a 1024² image).
+const MAX_CELLS: u64 = 1 << 20;
+/// Finest sub-pixel cells: `2^-MAX_SPLIT` px (256 grid units, far above the margins).
+const MAX_SPLIT: u32 = 12;
+
+/// The square cells the occlusion bounds are kept on: `cols × rows` cells of `cell` grid units
+/// from `origin` (grid units). Normally the image's pixels; when the polygons' box spans at
+/// most a quarter of [`MAX_CELLS`] pixels (a tiny image, a far camera, a field of view near
+/// 180°: a whole scene in a few pixels, where no pixel lies inside one patch alone), the finest
+/// power-of-two fractions of a pixel over that box that stay within about [`MAX_CELLS`] cells.
+/// Nothing in the argument needs cells to be pixels: every test is on grid coordinates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Raster {
+    origin: [f64; 2],
+    cell: f64,
+    cols: u32,
+    rows: u32,
+}
+
+impl Raster {
+    /// The raster for `polys` on a `width × height` image.
+    fn new(polys: &[ScreenPoly], width: u32, height: u32) -> Self {
+        let pixels = Self {
+            origin: [0.0, 0.0],
+            cell: GRID,
+            cols: width,
+            rows: height,
+        };
+        let mut b = [i64::MAX, i64::MAX, i64::MIN, i64::MIN];
+        for p in polys {
+            for v in &p.verts {
+                b = [
+                    b[0].min(v[0]),
+                    b[1].min(v[1]),
+                    b[2].max(v[0]),
+                    b[3].max(v[1]),
+                ];
+            }
+        }
+        if b[0] > b[2] {
+            return pixels;
+        }
+        // Cells of 2^-k px aligned to multiples of their size, covering the box.
+        let layout = |k: u32| {
+            let cell = (GRID as i64) >> k;
+            let (x0, y0) = (b[0].div_euclid(cell), b[1].div_euclid(cell));
+            let (cols, rows) = (
+                b[2].div_euclid(cell) - x0 + 1,
+                b[3].div_euclid(cell) - y0 + 1,
+            );
+            (cell, x0 * cell, y0 * cell, cols as u64, rows as u64)
+        };
+        let (_, _, _, cols, rows) = layout(0);
+        if cols * rows * 4 > MAX_CELLS {
+            return pixels;
+        }
+        let mut k = 1;
+        while k < MAX_SPLIT {
+            let (_, _, _, cols, rows) = layout(k + 1);
+            if cols * rows > MAX_CELLS {
+                break;
+            }
+            k += 1;
+        }
+        let (cell, x0, y0, cols, rows) = layout(k);
+        Self {
+            origin: [x0 as f64, y0 as f64],
+            cell: cell as f64,
+            cols: cols as u32,
+            rows: rows as u32,
+        }
+    }
+
+    /// Number of cells.
+    fn len(&self) -> usize {
+        self.cols as usize * self.rows as usize
+    }
+}
+
+/// Calls `f(x, y)` for every cell of `raster` whose closed square is within `margin` grid units
+/// of the convex polygon (or segment) `verts`, clamped to the raster and to the cell rows
+/// `rows`; stops early (and returns false) when `f` returns false.
 fn for_each_touched_pixel(
     verts: &[Pt],
     margin: f64,
-    (width, height): (u32, u32),
+    raster: &Raster,
     rows: std::ops::Range<u32>,
     mut f: impl FnMut(u32, u32) -> bool,
 ) -> bool {
@@ -62,16 +145,18 @@ fn for_each_touched_pixel(
         y_min = y_min.min(v[1] as f64);
         y_max = y_max.max(v[1] as f64);
     }
+    let [ox, oy] = raster.origin;
+    let cell = raster.cell;
     // Clamping before the cast makes the truncating cast a floor (and avoids a libm call).
-    let row_of = |y: f64| ((y / GRID).max(0.0) as i64).min(height as i64 - 1);
+    let row_of = |y: f64| (((y - oy) / cell).max(0.0) as i64).min(raster.rows as i64 - 1);
     let row_lo = row_of(y_min - margin).max(rows.start as i64);
     let row_hi = row_of(y_max + margin).min(rows.end as i64 - 1);
     let n = verts.len();
     for row in row_lo..=row_hi {
         // The polygon's x extent inside the strip of this row (grown by the margin): a convex
         // polygon's extent in a strip is reached on its boundary.
-        let strip_lo = row as f64 * GRID - margin;
-        let strip_hi = (row + 1) as f64 * GRID + margin;
+        let strip_lo = oy + row as f64 * cell - margin;
+        let strip_hi = oy + (row + 1) as f64 * cell + margin;
         let (mut x_lo, mut x_hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for i in 0..n {
             let (a, b) = (verts[i], verts[(i + 1) % n]);
@@ -95,7 +180,7 @@ fn for_each_touched_pixel(
         if x_lo > x_hi {
             continue;
         }
-        let col_of = |x: f64| ((x / GRID).max(0.0) as i64).min(width as i64 - 1);
+        let col_of = |x: f64| (((x - ox) / cell).max(0.0) as i64).min(raster.cols as i64 - 1);
         for col in col_of(x_lo - margin - 1.0)..=col_of(x_hi + margin + 1.0) {
             if !f(col as u32, row as u32) {
                 return false;
@@ -105,16 +190,17 @@ fn for_each_touched_pixel(
     true
 }
 
-/// The pixel rows a polygon (or segment) grown by `margin` can touch.
-fn row_span(verts: &[Pt], margin: f64) -> (f64, f64) {
+/// The cell rows of `raster` a polygon (or segment) grown by `margin` can touch.
+fn row_span(verts: &[Pt], margin: f64, raster: &Raster) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for v in verts {
         lo = lo.min(v[1] as f64);
         hi = hi.max(v[1] as f64);
     }
+    let oy = raster.origin[1];
     (
-        ((lo - margin) / GRID).floor(),
-        ((hi + margin) / GRID).floor(),
+        ((lo - margin - oy) / raster.cell).floor(),
+        ((hi + margin - oy) / raster.cell).floor(),
     )
 }
 
@@ -136,11 +222,15 @@ fn depth_margin(plane: &[f64; 3], hi: f64, noise: f64) -> f64 {
         + 4.0 * (plane[0].abs() + plane[1].abs()) / GRID
 }
 
-/// Smallest and largest `1/z` of `plane` over the square of pixel `(x, y)`.
+/// Smallest and largest `1/z` of `plane` over the square of cell `(x, y)` of `raster`.
 #[inline]
-fn pixel_range(plane: &[f64; 3], x: u32, y: u32) -> (f64, f64) {
-    let base = plane[0] * x as f64 + plane[1] * y as f64 + plane[2];
-    let (dx, dy) = (plane[0], plane[1]);
+fn pixel_range(plane: &[f64; 3], raster: &Raster, x: u32, y: u32) -> (f64, f64) {
+    let (cx, cy) = (
+        (raster.origin[0] + x as f64 * raster.cell) / GRID,
+        (raster.origin[1] + y as f64 * raster.cell) / GRID,
+    );
+    let base = plane[0] * cx + plane[1] * cy + plane[2];
+    let (dx, dy) = (plane[0] * raster.cell / GRID, plane[1] * raster.cell / GRID);
     (
         base + dx.min(0.0) + dy.min(0.0),
         base + dx.max(0.0) + dy.max(0.0),
@@ -209,19 +299,19 @@ fn patches(polys: &[ScreenPoly]) -> (Vec<u32>, Vec<(u32, u32)>) {
 /// Rows per band of the parallel occlusion-bound pass.
 const BAND_ROWS: u32 = 64;
 
-/// For every pixel, a lower bound of the nearest surface's `1/z` over the whole pixel square
-/// (`-inf` where nothing is known). Horizontal bands of pixels run in parallel; each walks the
-/// patches in the same order and touches only its own rows.
-fn occlusion_bounds(polys: &[ScreenPoly], width: u32, height: u32) -> Vec<f64> {
+/// For every cell of `raster`, a lower bound of the nearest surface's `1/z` over the whole cell
+/// square (`-inf` where nothing is known). Horizontal bands of cells run in parallel; each walks
+/// the patches in the same order and touches only its own rows.
+fn occlusion_bounds(polys: &[ScreenPoly], raster: &Raster) -> Vec<f64> {
     let (patch, unmatched) = patches(polys);
-    let size = (width, height);
-    let mut bound = vec![f64::NEG_INFINITY; width as usize * height as usize];
+    let (width, height) = (raster.cols, raster.rows);
+    let mut bound = vec![f64::NEG_INFINITY; raster.len()];
     // Polygons and unmatched edges grouped by patch, with the rows they may touch.
     let mut members: Vec<u32> = (0..polys.len() as u32).collect();
     members.sort_unstable_by_key(|&k| patch[k as usize]);
     let member_rows: Vec<(f64, f64)> = members
         .iter()
-        .map(|&k| row_span(&polys[k as usize].verts, TOUCH_MARGIN))
+        .map(|&k| row_span(&polys[k as usize].verts, TOUCH_MARGIN, raster))
         .collect();
     // Patch ids in member order, so the bands' walks read memory sequentially.
     let member_patch: Vec<u32> = members.iter().map(|&k| patch[k as usize]).collect();
@@ -238,7 +328,7 @@ fn occlusion_bounds(polys: &[ScreenPoly], width: u32, height: u32) -> Vec<f64> {
     contour.sort_unstable_by_key(|c| c.0);
     let contour_rows: Vec<(f64, f64)> = contour
         .iter()
-        .map(|c| row_span(&c.1, CONTOUR_MARGIN))
+        .map(|c| row_span(&c.1, CONTOUR_MARGIN, raster))
         .collect();
     let band_len = (BAND_ROWS * width) as usize;
     bound
@@ -265,7 +355,7 @@ fn occlusion_bounds(polys: &[ScreenPoly], width: u32, height: u32) -> Vec<f64> {
                         for_each_touched_pixel(
                             &contour[c].1,
                             CONTOUR_MARGIN,
-                            size,
+                            raster,
                             rows.clone(),
                             |x, y| {
                                 contour_of[local(x, y)] = id;
@@ -285,11 +375,11 @@ fn occlusion_bounds(polys: &[ScreenPoly], width: u32, height: u32) -> Vec<f64> {
                         for_each_touched_pixel(
                             &p.verts,
                             TOUCH_MARGIN,
-                            size,
+                            raster,
                             rows.clone(),
                             |x, y| {
                                 let at = local(x, y);
-                                let v = lo.max(pixel_range(&p.plane, x, y).0) - margin;
+                                let v = lo.max(pixel_range(&p.plane, raster, x, y).0) - margin;
                                 if touched_by[at] != id {
                                     touched_by[at] = id;
                                     patch_bound[at] = v;
@@ -314,20 +404,14 @@ fn occlusion_bounds(polys: &[ScreenPoly], width: u32, height: u32) -> Vec<f64> {
 }
 
 /// Whether polygon `p` is hidden at every point by more than the depth margin, given the
-/// per-pixel occlusion bounds.
-fn is_hidden(p: &ScreenPoly, bound: &[f64], width: u32, height: u32) -> bool {
+/// per-cell occlusion bounds.
+fn is_hidden(p: &ScreenPoly, bound: &[f64], raster: &Raster) -> bool {
     let (_, hi) = inv_z_range(&p.plane, &p.verts);
     let margin = depth_margin(&p.plane, hi, p.noise);
-    for_each_touched_pixel(
-        &p.verts,
-        TOUCH_MARGIN,
-        (width, height),
-        0..height,
-        |x, y| {
-            let top = hi.min(pixel_range(&p.plane, x, y).1) + margin;
-            top < bound[(y * width + x) as usize]
-        },
-    )
+    for_each_touched_pixel(&p.verts, TOUCH_MARGIN, raster, 0..raster.rows, |x, y| {
+        let top = hi.min(pixel_range(&p.plane, raster, x, y).1) + margin;
+        top < bound[(y * raster.cols + x) as usize]
+    })
 }
 
 /// Splits `polys` into (possibly visible, provably hidden count): the polygons kept are in
@@ -340,10 +424,11 @@ pub(crate) fn cull_hidden(
     if polys.len() < 2 || width == 0 || height == 0 {
         return (polys, 0);
     }
-    let bound = occlusion_bounds(&polys, width, height);
+    let raster = Raster::new(&polys, width, height);
+    let bound = occlusion_bounds(&polys, &raster);
     let hidden: Vec<bool> = polys
         .par_iter()
-        .map(|p| is_hidden(p, &bound, width, height))
+        .map(|p| is_hidden(p, &bound, &raster))
         .collect();
     let culled = hidden.iter().filter(|&&h| h).count();
     let kept = polys
@@ -359,6 +444,15 @@ mod tests {
     use super::*;
 
     const G: i64 = GRID as i64;
+
+    fn pixels(cols: u32, rows: u32) -> Raster {
+        Raster {
+            origin: [0.0, 0.0],
+            cell: GRID,
+            cols,
+            rows,
+        }
+    }
 
     fn square(x0: i64, y0: i64, x1: i64, y1: i64, inv_z: f64, id: u32) -> [ScreenPoly; 2] {
         // Two counter-clockwise triangles (y down: cross(b - a, c - a) > 0) sharing a diagonal
@@ -405,7 +499,7 @@ mod tests {
             [2 * G + 10, 3 * G + 20],
             [2 * G + 20, 3 * G + 20],
         ];
-        for_each_touched_pixel(&t, TOUCH_MARGIN, (8, 8), 0..8, |x, y| {
+        for_each_touched_pixel(&t, TOUCH_MARGIN, &pixels(8, 8), 0..8, |x, y| {
             seen.push((x, y));
             true
         });
@@ -414,7 +508,7 @@ mod tests {
         // A segment along the pixel border x = 4 touches columns 3 and 4.
         seen.clear();
         let seg = [[4 * G, G / 2], [4 * G, G / 2 + 5]];
-        for_each_touched_pixel(&seg, CONTOUR_MARGIN, (8, 8), 0..8, |x, y| {
+        for_each_touched_pixel(&seg, CONTOUR_MARGIN, &pixels(8, 8), 0..8, |x, y| {
             seen.push((x, y));
             true
         });
@@ -433,6 +527,30 @@ mod tests {
         let (kept, culled) = cull_hidden(polys, 8, 8);
         assert_eq!(culled, 1);
         assert_eq!(kept.iter().map(|p| p.id).collect::<Vec<_>>(), vec![0, 1]);
+    }
+
+    #[test]
+    fn a_scene_inside_one_pixel_is_culled_on_sub_pixel_cells() {
+        // The first scene shrunk into the only pixel of a 1x1 image (u = 1/1024 px): a pixel
+        // raster has one cell, touched by the square's border, and could cull nothing.
+        let u = G / 1024;
+        let mut polys = square(100 * u, 100 * u, 700 * u, 700 * u, 1.0, 0).to_vec();
+        polys.push(tri(
+            [[300 * u, 300 * u], [300 * u, 400 * u], [400 * u, 400 * u]],
+            0.5,
+            2,
+        ));
+        let raster = Raster::new(&polys, 1, 1);
+        assert!(
+            raster.cell < GRID && raster.len() <= MAX_CELLS as usize,
+            "{raster:?}"
+        );
+        let (kept, culled) = cull_hidden(polys, 1, 1);
+        assert_eq!(culled, 1);
+        assert_eq!(kept.len(), 2);
+        // A scene covering the image keeps the pixel raster.
+        let polys = square(0, 0, 1024 * G, 1024 * G, 1.0, 0).to_vec();
+        assert_eq!(Raster::new(&polys, 1024, 1024), pixels(1024, 1024));
     }
 
     #[test]

@@ -38,7 +38,7 @@ pub(crate) struct ScreenPoly {
     /// `1/z` plane over screen pixels.
     pub(crate) plane: [f64; 3],
     /// Relative uncertainty of the polygon's `1/z` from its f32 input: [`F32_NOISE`] times its
-    /// largest world coordinate (or the eye's) over its smallest view depth. Two polygons
+    /// largest world coordinate over its smallest view depth. Two polygons
     /// whose depths differ by less are coincident as far as the input can tell.
     pub(crate) noise: f64,
 }
@@ -144,7 +144,9 @@ pub(crate) fn project_triangle(scene: &Scene, proj: &Projection, id: u32) -> Pro
         return Projected::Invalid;
     };
     let mut corners = [DVec3::ZERO; 3];
-    let mut magnitude = proj.eye.abs().max_element();
+    // The vertices' own rounding: the eye's is a common shift of every triangle, which
+    // changes no depth order (the view transform itself is exact enough in f64).
+    let mut magnitude = 0.0f64;
     for (c, &i) in corners.iter_mut().zip(tri) {
         match scene.positions.get(i as usize) {
             Some(p) if p.is_finite() => {
