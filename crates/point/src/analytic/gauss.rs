@@ -621,13 +621,17 @@ mod tests {
                 value(id) as f32
             });
             let slow = reference_image(w, h, &polys, radius, |id| f64::from(value(id) as f32));
-            let worst = fast
-                .iter()
-                .zip(&slow)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
+            let worst = max_difference(&fast, &slow);
             assert!(worst < 5e-8, "radius {radius}: worst pixel error {worst:e}");
         }
+    }
+
+    /// The largest per-pixel difference of two images.
+    fn max_difference(a: &[f64], b: &[f64]) -> f64 {
+        a.iter()
+            .zip(b)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max)
     }
 
     #[test]
@@ -648,11 +652,7 @@ mod tests {
         ];
         let a = gauss_image_f64(10, 10, &two, &polys, 2.3, &|_| 1.0);
         let b = gauss_image_f64(10, 10, &one_bin(&polys), &polys, 2.3, &|_| 1.0);
-        let worst = a
-            .iter()
-            .zip(&b)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
+        let worst = max_difference(&a, &b);
         assert!(worst < 1e-12, "{worst}");
     }
 
