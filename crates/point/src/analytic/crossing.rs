@@ -33,8 +33,8 @@ use super::bin::{Bin, BinIndex, Polys};
 use super::boundary::Segment;
 use super::hidden_line::{self, Event};
 use super::intersect::{
-    depth_of, depth_order, intersect, may_be_in_front, narrow, Counters, Edge, Line, Order,
-    Overlap, Side,
+    collinear_side, depth_of, depth_order, intersect, may_be_in_front, narrow, Counters, Edge,
+    Line, Order, Overlap, Side,
 };
 use super::project::GRID;
 
@@ -241,15 +241,7 @@ fn intersect_line(line: &CrossingLine, verts: &[[i64; 2]]) -> Option<(f64, f64, 
             if alpha < 0.0 {
                 return None;
             }
-            let this = if edge.dot(d) > 0.0 {
-                Side::Left
-            } else {
-                Side::Right
-            };
-            if side != Side::Both && side != this {
-                return None;
-            }
-            side = this;
+            side = collinear_side(side, edge.dot(d) > 0.0)?;
         } else if !narrow(&mut lo, &mut hi, -alpha / beta, beta > 0.0) {
             return None;
         }

@@ -139,24 +139,26 @@ pub(crate) fn intersect(e: &Edge, c: &[Pt], counters: &mut Counters) -> Option<(
             match alpha_sign {
                 1 => continue,
                 -1 => return None,
-                _ => {
-                    // Collinear: the polygon lies on the side its interior points to.
-                    let this = if dot(edge, e.d) > 0 {
-                        Side::Left
-                    } else {
-                        Side::Right
-                    };
-                    if side != Side::Both && side != this {
-                        return None;
-                    }
-                    side = this;
-                }
+                _ => side = collinear_side(side, dot(edge, e.d) > 0)?,
             }
         } else if !narrow(&mut lo, &mut hi, -alpha.value / beta.value, beta.sign > 0) {
             return None;
         }
     }
     (lo < hi).then_some((lo, hi, side))
+}
+
+/// A polygon edge collinear with the intersected edge: the polygon lies on the side its
+/// interior points to (left when the two run the same way). `None` when an earlier collinear
+/// edge put it on the other side (it then covers no side).
+#[inline]
+pub(crate) fn collinear_side(side: Side, same_direction: bool) -> Option<Side> {
+    let this = if same_direction {
+        Side::Left
+    } else {
+        Side::Right
+    };
+    (side == Side::Both || side == this).then_some(this)
 }
 
 /// One Cyrus–Beck step: the edge function is zero at `t` and grows with `t` (`entering`) or
