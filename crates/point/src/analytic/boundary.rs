@@ -46,8 +46,7 @@ fn occlude_where_in_front(
     o: u32,
     scratch: &mut Scratch<'_>,
 ) {
-    let (px, po) = (&polys.polys[x as usize], &polys.polys[o as usize]);
-    let order = depth_order(e, lo, hi, normal, depth_of(px), depth_of(po));
+    let order = depth_order(e, lo, hi, normal, depth_of(polys, x), depth_of(polys, o));
     if matches!(order, Order::Flips { .. }) {
         scratch.counters.intersecting += 1;
         scratch.crossings.push((x, o));

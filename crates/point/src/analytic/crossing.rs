@@ -164,7 +164,6 @@ fn flip_points(polys: &Polys, t: u32, u: u32, counters: &mut Counters) -> Vec<DV
     let mut points = Vec::new();
     for (owner, other) in [(t, u), (u, t)] {
         let verts = polys.verts_of(owner);
-        let (po, pc) = (&polys.polys[owner as usize], &polys.polys[other as usize]);
         let n = verts.len();
         for j in 0..n {
             let d = super::predicates::sub(verts[(j + 1) % n], verts[j]);
@@ -182,7 +181,14 @@ fn flip_points(polys: &Polys, t: u32, u: u32, counters: &mut Counters) -> Vec<DV
             if side == Side::Right {
                 continue;
             }
-            let order = depth_order(&e, lo, hi, e.left_normal(), depth_of(pc), depth_of(po));
+            let order = depth_order(
+                &e,
+                lo,
+                hi,
+                e.left_normal(),
+                depth_of(polys, other),
+                depth_of(polys, owner),
+            );
             if let Order::Flips { at, .. } = order {
                 points.push(e.at_px(at));
             }
@@ -299,7 +305,14 @@ pub(crate) fn bound_regions(
                 continue;
             }
             counters.intersections += 1;
-            let order = depth_order(&line, lo, hi, left, depth_of(p), depth_of(owner));
+            let order = depth_order(
+                &line,
+                lo,
+                hi,
+                left,
+                depth_of(polys, k),
+                depth_of(polys, front),
+            );
             for (lo, hi, occluding) in order.parts(lo, hi) {
                 scratch.overlaps.push(Overlap {
                     poly: k,

@@ -204,11 +204,21 @@ fn eval(plane: &[f64; 3], p: DVec2) -> (f64, f64) {
 pub(crate) trait Line {
     /// The point at parameter `t`, in pixels.
     fn at_px(&self, t: f64) -> DVec2;
+
+    /// The end points on the grid when the line is a polygon's edge (to tell it from the
+    /// polygons' other edges).
+    fn grid_ends(&self) -> Option<(Pt, Pt)> {
+        None
+    }
 }
 
 impl Line for Edge {
     fn at_px(&self, t: f64) -> DVec2 {
         Edge::at_px(self, t)
+    }
+
+    fn grid_ends(&self) -> Option<(Pt, Pt)> {
+        Some((self.a, [self.a[0] + self.d[0], self.a[1] + self.d[1]]))
     }
 }
 
@@ -240,20 +250,36 @@ impl Order {
     }
 }
 
-/// One side of a depth comparison: a polygon's `1/z` plane, its id (for coplanar ties) and the
-/// relative uncertainty of its `1/z` from the f32 input.
-pub(crate) type Depth<'a> = (&'a [f64; 3], u32, f64);
+/// One side of a depth comparison: a polygon's `1/z` plane, its id (for coplanar ties), the
+/// relative uncertainty of its `1/z` from the f32 input, and its vertices (to tell whether it
+/// ends where its plane meets the other's).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Depth<'a> {
+    /// `1/z` over screen pixels.
+    pub(crate) plane: &'a [f64; 3],
+    /// Triangle id.
+    pub(crate) id: u32,
+    /// Relative uncertainty of `1/z`.
+    pub(crate) noise: f64,
+    /// Vertices on the grid (empty when unknown).
+    pub(crate) verts: &'a [Pt],
+}
 
-/// The [`Depth`] of polygon `p`.
-pub(crate) fn depth_of(p: &BinPoly) -> Depth<'_> {
-    (&p.plane, p.id, p.noise)
+/// The [`Depth`] of polygon `k`.
+pub(crate) fn depth_of(polys: &Polys, k: u32) -> Depth<'_> {
+    let p = &polys.polys[k as usize];
+    Depth {
+        plane: &p.plane,
+        id: p.id,
+        noise: p.noise,
+        verts: polys.verts_of(k),
+    }
 }
 
 /// Depth order of two polygons over the part `[lo, hi]` of `line`, on the side of it given by
 /// the unit `normal`: whether `c` is in front of `t`, or where the order flips. Differences
 /// within the tolerance (relative [`DEPTH_TOL`], the f32 input's noise of either polygon, and
-/// what snapping can change) are ties: then the depth slopes towards the side decide, and when
-/// those tie too (coincident faces, up to the input's precision) the lower id is in front.
+/// what snapping can change) are ties, decided as in [`tie_order`].
 pub(crate) fn depth_order(
     line: &impl Line,
     lo: f64,
@@ -264,17 +290,16 @@ pub(crate) fn depth_order(
 ) -> Order {
     // Snapping moved the edge by up to 2^-21 px, which changes 1/z by up to that times the
     // planes' gradients: differences below that are ties too.
-    let slope = c.0[0].abs() + c.0[1].abs() + t.0[0].abs() + t.0[1].abs();
+    let slope = c.plane[0].abs() + c.plane[1].abs() + t.plane[0].abs() + t.plane[1].abs();
     let snap_tol = slope / GRID;
-    let (rel_c, rel_t) = (DEPTH_TOL + c.2, DEPTH_TOL + t.2);
-    let diff = |s: f64| {
-        let p = line.at_px(s);
-        let (zc, mc) = eval(c.0, p);
-        let (zt, mt) = eval(t.0, p);
+    let (rel_c, rel_t) = (DEPTH_TOL + c.noise, DEPTH_TOL + t.noise);
+    let diff = |p: DVec2| {
+        let (zc, mc) = eval(c.plane, p);
+        let (zt, mt) = eval(t.plane, p);
         (zc - zt, rel_c * mc + rel_t * mt + snap_tol)
     };
-    let (d0, t0) = diff(lo);
-    let (d1, t1) = diff(hi);
+    let (d0, t0) = diff(line.at_px(lo));
+    let (d1, t1) = diff(line.at_px(hi));
     if (d0 > t0 && d1 < -t1) || (d0 < -t0 && d1 > t1) {
         // The difference is affine in the parameter: its zero is exact up to rounding. The
         // same ends give the same `at` wherever the overlap is classified (bit for bit), so
@@ -287,18 +312,102 @@ pub(crate) fn depth_order(
             };
         }
     }
-    let (mid, tol) = diff(0.5 * (lo + hi));
+    let (mid, tol) = diff(line.at_px(0.5 * (lo + hi)));
     if mid.abs() > tol {
         return Order::Same(mid > 0.0);
     }
-    // Touching along the edge: compare the slopes of 1/z towards the side.
-    let g = (c.0[0] - t.0[0]) * normal.x + (c.0[1] - t.0[1]) * normal.y;
     let g_tol = rel_c.max(rel_t) * slope;
-    if g.abs() > g_tol {
-        return Order::Same(g > 0.0);
+    let tie = Tie {
+        line,
+        normal,
+        ends: (d0, mid, d1),
+        g_tol,
+        diff: &diff,
+    };
+    Order::Same(tie_order(&tie, c, t))
+}
+
+/// A depth difference within the tolerance along a part of a line.
+struct Tie<'a, L: Line, D: Fn(DVec2) -> (f64, f64)> {
+    line: &'a L,
+    normal: DVec2,
+    /// The difference at the part's start, middle and end.
+    ends: (f64, f64, f64),
+    g_tol: f64,
+    /// The difference and its tolerance at a point.
+    diff: &'a D,
+}
+
+/// Whether `c` is in front of `t` where their depths tie along the line.
+///
+/// The rule must depend on the pair and the place, not on the line that asks: another edge of
+/// either polygon may look at the same sliver, and two answers that disagree there leave a
+/// region with no boundary (each hides the other). With `L` the line where the two planes meet:
+/// 1. Coplanar up to the input's precision: the lower id is in front (the rasterizer's rule).
+/// 2. The line lies on `L` (a fold, a shared edge; within the snapping of collinear edges):
+///    the two touch along it, and the slopes of `1/z` towards the side decide.
+/// 3. Off `L` (within the input's noise), the sign of the difference is the order at the line,
+///    and the slopes give the order beyond `L`. When they agree, that is the answer.
+/// 4. When they disagree, `L` lies between the line and the side asked about. If either
+///    polygon ends at `L` (an edge of it lies on `L`: a ledge leaving a wall), the other side
+///    of `L` is outside it and only the order at the line counts: the sign decides, the same
+///    answer the edge on `L` gets by rule 2 on its side.
+/// 5. Otherwise the sliver between the line and `L` (within the input's noise) is taken as
+///    part of the side: the slopes decide, as if the line were on `L`.
+fn tie_order<L: Line, D: Fn(DVec2) -> (f64, f64)>(
+    tie: &Tie<'_, L, D>,
+    c: Depth<'_>,
+    t: Depth<'_>,
+) -> bool {
+    let grad = DVec2::new(c.plane[0] - t.plane[0], c.plane[1] - t.plane[1]);
+    if grad.x.abs() + grad.y.abs() <= tie.g_tol {
+        return c.id < t.id;
     }
-    // Coplanar: the lower id is in front (the rasterizer's rule).
-    Order::Same(c.1 < t.1)
+    let (d0, mid, d1) = tie.ends;
+    let g = grad.dot(tie.normal);
+    let beyond = if g.abs() > tie.g_tol {
+        Some(g > 0.0)
+    } else {
+        None
+    };
+    let contact = NEAR_COLLINEAR_GRID / GRID * grad.length();
+    let on_l = d0.abs() <= contact && d1.abs() <= contact;
+    let signed = if mid != 0.0 { mid } else { d0 + d1 };
+    let here = if signed != 0.0 {
+        Some(signed > 0.0)
+    } else {
+        None
+    };
+    match (beyond, here) {
+        (Some(b), _) if on_l => b,
+        (Some(b), Some(h)) if b == h => b,
+        (Some(b), Some(h)) => {
+            let skip = tie.line.grid_ends();
+            if ends_on(c.verts, skip, tie.diff) || ends_on(t.verts, skip, tie.diff) {
+                h
+            } else {
+                b
+            }
+        }
+        (None, Some(h)) => h,
+        (Some(b), None) => b,
+        (None, None) => c.id < t.id,
+    }
+}
+
+/// Whether one of the edges of the polygon `verts` (other than `skip`, either direction) lies
+/// on the line where the depth difference `diff` vanishes: within its tolerance at both ends.
+fn ends_on(verts: &[Pt], skip: Option<(Pt, Pt)>, diff: &impl Fn(DVec2) -> (f64, f64)) -> bool {
+    let px = |v: Pt| DVec2::new(v[0] as f64, v[1] as f64) / GRID;
+    let n = verts.len();
+    (0..n).any(|j| {
+        let (a, b) = (verts[j], verts[(j + 1) % n]);
+        if a == b || skip.is_some_and(|(p, q)| (a, b) == (p, q) || (a, b) == (q, p)) {
+            return false;
+        }
+        let ((da, ta), (db, tb)) = (diff(px(a)), diff(px(b)));
+        da.abs() <= ta && db.abs() <= tb
+    })
 }
 
 /// Which candidates [`edge_intersections`] considers, by depth range against the edge's owner.
@@ -371,9 +480,14 @@ pub(crate) fn edge_intersections(
         };
         counters.intersections += 1;
         let order = match owner {
-            Some(owner) if side != Side::Right && in_front_pass => {
-                depth_order(e, lo, hi, left, depth_of(p), depth_of(owner))
-            }
+            Some(_) if side != Side::Right && in_front_pass => depth_order(
+                e,
+                lo,
+                hi,
+                left,
+                depth_of(polys, k),
+                depth_of(polys, e.owner),
+            ),
             _ => Order::Same(false),
         };
         if matches!(order, Order::Flips { .. }) {
@@ -401,6 +515,15 @@ mod tests {
             owner: 0,
             a,
             d: sub(b, a),
+        }
+    }
+
+    fn plain(plane: &[f64; 3], id: u32) -> Depth<'_> {
+        Depth {
+            plane,
+            id,
+            noise: 0.0,
+            verts: &[],
         }
     }
 
@@ -443,11 +566,11 @@ mod tests {
         let plane = [0.0, 0.0, 0.5];
         let n = e.left_normal();
         assert_eq!(
-            depth_order(&e, 0.0, 1.0, n, (&plane, 1, 0.0), (&plane, 2, 0.0)),
+            depth_order(&e, 0.0, 1.0, n, plain(&plane, 1), plain(&plane, 2)),
             Order::Same(true)
         );
         assert_eq!(
-            depth_order(&e, 0.0, 1.0, n, (&plane, 2, 0.0), (&plane, 1, 0.0)),
+            depth_order(&e, 0.0, 1.0, n, plain(&plane, 2), plain(&plane, 1)),
             Order::Same(false)
         );
     }
@@ -461,8 +584,8 @@ mod tests {
             0.0,
             1.0,
             n,
-            (&[0.0, 0.0, 1.0], 5, 0.0),
-            (&[0.0, 0.0, 0.5], 1, 0.0),
+            plain(&[0.0, 0.0, 1.0], 5),
+            plain(&[0.0, 0.0, 0.5], 1),
         );
         assert_eq!(order, Order::Same(true));
     }
@@ -475,7 +598,7 @@ mod tests {
         let n = e.left_normal();
         let c = [0.4, 0.0, -1.0];
         let t = [0.0, 0.0, 0.0];
-        let order = depth_order(&e, 0.0, 1.0, n, (&c, 1, 0.0), (&t, 2, 0.0));
+        let order = depth_order(&e, 0.0, 1.0, n, plain(&c, 1), plain(&t, 2));
         let Order::Flips { at, front_before } = order else {
             panic!("expected a flip, got {order:?}");
         };
