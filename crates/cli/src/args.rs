@@ -36,6 +36,7 @@ impl SceneArgs {
     pub fn load_unchecked(&self) -> Result<Scene> {
         let options = LoadOptions {
             patch_subdivisions: self.patch_subdivisions,
+            ..LoadOptions::default()
         };
         if self.patch_subdivisions > 64 {
             bail!(
