@@ -100,12 +100,70 @@ pub fn load_with(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Sce
     } else {
         (bytes, None)
     };
+    check_index_widths(path, json)?;
     let root = gltf::json::Root::from_slice(json)
         .map_err(|e| json_error(path, gltf::Error::Deserialize(e)))?;
     check_position_indices(path, &root)?;
     let document = gltf::Document::from_json(root).map_err(|e| json_error(path, e))?;
     let buffers = load_buffers(path, &document, blob, options)?;
     build_scene(path, &document, &buffers, options)
+}
+
+/// gltf-json 1.4 reads every index as `value as u32`, so `"mesh": 4294967296` would silently
+/// be mesh 0: every integer above `u32::MAX` is an error here, except in the size and count
+/// members (`byteLength`, `byteOffset`, `byteStride`, `count`, read as 64-bit) and in
+/// `extras` and `extensions` (application data that is not read). JSON that does not parse is
+/// left to the `gltf` crate, whose error names the line.
+fn check_index_widths(path: &Path, json: &[u8]) -> Result<(), LoadError> {
+    /// The JSON path and value of the first integer too wide for an index.
+    fn walk(value: &serde_json::Value, at: &mut String) -> Option<(String, u64)> {
+        match value {
+            serde_json::Value::Number(n) => n
+                .as_u64()
+                .filter(|&v| v > u64::from(u32::MAX))
+                .map(|v| (at.clone(), v)),
+            serde_json::Value::Array(items) => items.iter().enumerate().find_map(|(i, item)| {
+                let len = at.len();
+                at.push_str(&format!("[{i}]"));
+                let found = walk(item, at);
+                at.truncate(len);
+                found
+            }),
+            serde_json::Value::Object(members) => members.iter().find_map(|(key, item)| {
+                let skip = [
+                    "extras",
+                    "extensions",
+                    "byteLength",
+                    "byteOffset",
+                    "byteStride",
+                    "count",
+                ];
+                if skip.contains(&key.as_str()) {
+                    return None;
+                }
+                let len = at.len();
+                if !at.is_empty() {
+                    at.push('.');
+                }
+                at.push_str(key);
+                let found = walk(item, at);
+                at.truncate(len);
+                found
+            }),
+            _ => None,
+        }
+    }
+    let Ok(value) = serde_json::from_slice::<serde_json::Value>(json) else {
+        return Ok(());
+    };
+    match walk(&value, &mut String::new()) {
+        Some((at, v)) => Err(LoadError::parse(
+            path,
+            Location::Element(at),
+            format!("{v} is not a valid index (above 2^32 - 1)"),
+        )),
+        None => Ok(()),
+    }
 }
 
 /// gltf-json 1.4 validation indexes `accessors[POSITION]` without a bounds check (a panic on
@@ -1303,6 +1361,14 @@ mod tests {
             "{:?}",
             s.load_warnings
         );
+    }
+
+    #[test]
+    fn index_past_u32_is_error_not_index_0() {
+        let text = one_triangle_gltf("", &triangle_buffer_uri(), 42, "x")
+            .replace(r#""mesh":0"#, r#""mesh":4294967296"#);
+        let e = load_gltf(&text).unwrap_err();
+        assert!(e.to_string().contains("nodes[0].mesh"), "{e}");
     }
 
     #[test]

@@ -26,7 +26,7 @@
 //!   (`x y z r g b`, the common vertex-colour extension) numbers: anything else is an error,
 //!   as extra words usually mean lines that were not split (a file whose line ends were
 //!   lost would otherwise load as its first vertex).
-//! - A file with vertices but no faces loads empty with a load warning. The scene memory
+//! - A file without faces loads empty with a load warning. The scene memory
 //!   grows with the file and is checked against [`LoadOptions::max_scene_bytes`] as it grows.
 //!
 //! Errors name the file and the 1-based line.
@@ -203,9 +203,9 @@ pub fn load_with(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Sce
             ));
         }
     }
-    if builder.triangle_count() == 0 && builder.vertex_count() > 0 {
+    if builder.triangle_count() == 0 {
         let n = builder.vertex_count();
-        builder.warn(format!("{n} vertices but no 'f' lines: no triangles"));
+        builder.warn(format!("{n} vertices and no 'f' lines: no triangles"));
     }
     if !by_tag.is_empty() {
         // Tagged objects take their tag order (the ids they had when written), the others
