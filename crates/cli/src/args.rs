@@ -19,9 +19,69 @@ pub(crate) struct SceneArgs {
     /// Quake 3 maps: tessellate each bezier sub-patch into N x N quads (0 = leave patches out).
     #[arg(long, value_name = "N", default_value_t = LoadOptions::default().patch_subdivisions)]
     pub patch_subdivisions: u32,
+    #[command(flatten)]
+    pub limits: LoadLimitArgs,
+}
+
+/// The limits of loading a scene file (part of [`SceneArgs`]; `cull`, which takes its scene
+/// spec its own way, flattens them too).
+#[derive(clap::Args, Debug, Clone)]
+pub(crate) struct LoadLimitArgs {
+    /// The most memory loading a scene may take: the file's bytes (after gzip inflation) and
+    /// the geometry (12 bytes a vertex, 16 a triangle) are each checked against it, declared
+    /// counts before anything is allocated. Bytes, or with a K, M, G or T suffix (powers of
+    /// 1024); the default is 4 GiB.
+    #[arg(
+        long,
+        value_name = "BYTES",
+        default_value_t = LoadOptions::DEFAULT_MAX_SCENE_BYTES,
+        value_parser = parse_bytes
+    )]
+    pub max_scene_bytes: u64,
+    /// glTF: also read external buffer files outside the folder of the .gltf file (absolute
+    /// paths, `../`); by default only files in that folder or below it are read.
+    #[arg(long)]
+    pub allow_outside_refs: bool,
+}
+
+impl Default for LoadLimitArgs {
+    fn default() -> Self {
+        let options = LoadOptions::default();
+        Self {
+            max_scene_bytes: options.max_scene_bytes,
+            allow_outside_refs: options.allow_outside_refs,
+        }
+    }
+}
+
+impl LoadLimitArgs {
+    /// The load options with these limits and `patch_subdivisions`.
+    pub fn options(&self, patch_subdivisions: u32) -> LoadOptions {
+        LoadOptions {
+            patch_subdivisions,
+            max_scene_bytes: self.max_scene_bytes,
+            allow_outside_refs: self.allow_outside_refs,
+        }
+    }
+}
+
+/// Prints the load warnings of `scene` (loaded from `spec`) on stderr.
+pub(crate) fn print_load_warnings(spec: &str, scene: &Scene) {
+    for w in &scene.load_warnings {
+        eprintln!("warning: {spec}: {w}");
+    }
 }
 
 impl SceneArgs {
+    /// The scene `spec` with default limits (commands that load a second scene of their own).
+    pub fn new(spec: impl Into<String>, patch_subdivisions: u32) -> Self {
+        Self {
+            scene: spec.into(),
+            patch_subdivisions,
+            limits: LoadLimitArgs::default(),
+        }
+    }
+
     /// Loads the scene and rejects unusable ones (empty, bad indices, NaN coordinates).
     pub fn load(&self) -> Result<Scene> {
         let scene = self.load_unchecked()?;
@@ -32,18 +92,19 @@ impl SceneArgs {
         Ok(scene)
     }
 
-    /// Loads the scene without rejecting it (for `info`, which reports the problems).
+    /// Loads the scene without rejecting it (for `info`, which reports the problems); its
+    /// load warnings go to stderr.
     pub fn load_unchecked(&self) -> Result<Scene> {
-        let options = LoadOptions {
-            patch_subdivisions: self.patch_subdivisions,
-        };
+        let options = self.limits.options(self.patch_subdivisions);
         if self.patch_subdivisions > 64 {
             bail!(
                 "--patch-subdivisions {} is above the maximum of 64",
                 self.patch_subdivisions
             );
         }
-        Ok(scene::open(&self.scene, &options)?)
+        let scene = scene::open(&self.scene, &options)?;
+        print_load_warnings(&self.scene, &scene);
+        Ok(scene)
     }
 }
 
@@ -169,6 +230,35 @@ pub(crate) fn parse_vec3(s: &str) -> Result<Vec3, String> {
     Ok(Vec3::from_array(v))
 }
 
+/// Parses a byte count: digits with an optional K, M, G or T suffix (powers of 1024, an
+/// optional trailing `B` or `iB` allowed: `512M`, `8GiB`).
+pub(crate) fn parse_bytes(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let t = t
+        .strip_suffix("iB")
+        .or_else(|| t.strip_suffix('B'))
+        .unwrap_or(t);
+    let (digits, shift) = match t.char_indices().last() {
+        Some((i, c)) if c.is_ascii_alphabetic() => {
+            let shift = match c.to_ascii_uppercase() {
+                'K' => 10,
+                'M' => 20,
+                'G' => 30,
+                'T' => 40,
+                _ => return Err(format!("'{s}': unknown unit '{c}' (use K, M, G or T)")),
+            };
+            (&t[..i], shift)
+        }
+        _ => (t, 0),
+    };
+    let n: u64 = digits
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a byte count (e.g. 4294967296, 512M, 8G)"))?;
+    n.checked_mul(1u64 << shift)
+        .ok_or_else(|| format!("'{s}' is more than 2^64 bytes"))
+}
+
 /// Parses `WxH` with both in 1..=16384.
 pub(crate) fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s
@@ -201,6 +291,17 @@ mod tests {
         assert!(parse_vec3("nan,0,0").unwrap_err().contains("not finite"));
         assert!(parse_vec3("1,2").unwrap_err().contains("three"));
         assert!(parse_vec3("1,a,2").unwrap_err().contains("'a'"));
+    }
+
+    #[test]
+    fn bytes_parse_with_units() {
+        assert_eq!(parse_bytes("1000").unwrap(), 1000);
+        assert_eq!(parse_bytes("512M").unwrap(), 512 << 20);
+        assert_eq!(parse_bytes("8GiB").unwrap(), 8 << 30);
+        assert_eq!(parse_bytes("4g").unwrap(), 4 << 30);
+        assert!(parse_bytes("12X").is_err());
+        assert!(parse_bytes("-1").is_err());
+        assert!(parse_bytes("99999999T").is_err());
     }
 
     #[test]

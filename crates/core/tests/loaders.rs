@@ -4,7 +4,10 @@
 //! - `empty_*`: empty input per format, through `scene::open`;
 //! - `round_trip_*`: writers then loaders keep triangle corners (and object names) in id order;
 //! - `fuzz_*`: seeded mutations of small valid files never panic a loader, and no loaded scene
-//!   has an out-of-range index.
+//!   has an out-of-range index;
+//! - `header_fuzz_*`: every header count set to 0, 1, huge, `u32::MAX`, negative...,
+//!   keywords swapped, cuts at every header line: each case loads with the triangles its
+//!   header declares (or a load warning saying why not) or fails naming the file.
 
 // Tests may unwrap (STYLE: no unwrap on input data in library code); helpers here are not
 // `#[test]` functions, so clippy's `allow-unwrap-in-tests` does not cover them.
@@ -593,4 +596,553 @@ fn base64_encode(bytes: &[u8]) -> String {
         }
     }
     out
+}
+
+// ---------------------------------------------------------------------------------------------
+// Header fuzzing: every count of a header set to 0, 1, huge, u32::MAX, past u32 and u64,
+// negative or not an integer; pairs of header keywords swapped; the file cut at every line
+// (and, in binary headers, every byte). Each case must load with the triangles its (mutated)
+// header declares, or fail with an error naming the file; never panic.
+
+/// What a header count is replaced with.
+const COUNT_TEXTS: &[&str] = &[
+    "0",
+    "1",
+    "2",
+    "7",
+    "65536",
+    "99999999999",
+    "4294967295",
+    "4294967296",
+    "18446744073709551616",
+    "-1",
+    "-4294967295",
+    "3.5",
+    "",
+];
+
+/// What a binary 4-byte count is replaced with.
+const COUNT_WORDS: &[u32] = &[0, 1, 2, 4, 0xFFFF, 0x7FFF_FFFF, 0x8000_0000, 0xFFFF_FFFF];
+
+/// Checks a scene that loaded from `bytes` against the counts `bytes` declare.
+type Consistent = fn(&[u8], &Scene) -> Result<(), String>;
+
+/// The header of a fixture to mutate: its bytes, where counts and keywords may be mutated
+/// (`bytes[..header_len]`), its keywords, and the offsets of binary `u32` counts.
+struct Header<'a> {
+    name: &'a str,
+    bytes: Vec<u8>,
+    header_len: usize,
+    keywords: &'a [&'a str],
+    words: &'a [usize],
+}
+
+/// The byte ranges of the decimal numbers in `text` (digits, optionally signed; `1e3` and
+/// `0.5` count as one number each).
+fn number_ranges(text: &[u8]) -> Vec<std::ops::Range<usize>> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < text.len() {
+        let starts = text[i].is_ascii_digit()
+            && (i == 0 || !(text[i - 1].is_ascii_alphanumeric() || text[i - 1] == b'_'));
+        if !starts {
+            i += 1;
+            continue;
+        }
+        let start = if i > 0 && text[i - 1] == b'-' {
+            i - 1
+        } else {
+            i
+        };
+        let mut end = i;
+        while end < text.len() && (text[end].is_ascii_digit() || b".eE".contains(&text[end])) {
+            end += 1;
+        }
+        out.push(start..end);
+        i = end;
+    }
+    out
+}
+
+/// The byte ranges of whole-word occurrences of `keywords` in `text`.
+fn keyword_ranges(text: &[u8], keywords: &[&str]) -> Vec<std::ops::Range<usize>> {
+    let word = |b: u8| b.is_ascii_alphanumeric() || b == b'_';
+    let mut out = Vec::new();
+    for k in keywords {
+        let k = k.as_bytes();
+        for at in 0..text.len().saturating_sub(k.len() - 1) {
+            let before = at == 0 || !word(text[at - 1]);
+            let after = text.get(at + k.len()).is_none_or(|&b| !word(b));
+            if before && after && &text[at..at + k.len()] == k {
+                out.push(at..at + k.len());
+            }
+        }
+    }
+    out.sort_by_key(|r| r.start);
+    out
+}
+
+/// Every header mutation of `h` (see the section comment).
+fn header_cases(h: &Header) -> Vec<(String, Vec<u8>)> {
+    let (b, header) = (&h.bytes, &h.bytes[..h.header_len]);
+    let mut cases = Vec::new();
+    for r in number_ranges(header) {
+        for text in COUNT_TEXTS {
+            let mut m = b.clone();
+            m.splice(r.clone(), text.bytes());
+            cases.push((format!("number at {} = '{text}'", r.start), m));
+        }
+    }
+    let keywords = keyword_ranges(header, h.keywords);
+    for (i, x) in keywords.iter().enumerate() {
+        for y in &keywords[i + 1..] {
+            if b[x.clone()] == b[y.clone()] {
+                continue;
+            }
+            let mut m = b[..x.start].to_vec();
+            m.extend_from_slice(&b[y.clone()]);
+            m.extend_from_slice(&b[x.end..y.start]);
+            m.extend_from_slice(&b[x.clone()]);
+            m.extend_from_slice(&b[y.end..]);
+            cases.push((
+                format!("keywords at {} and {} swapped", x.start, y.start),
+                m,
+            ));
+        }
+    }
+    for &at in h.words {
+        for w in COUNT_WORDS {
+            let mut m = b.clone();
+            if let Some(slot) = m.get_mut(at..at + 4) {
+                slot.copy_from_slice(&w.to_le_bytes());
+                cases.push((format!("u32 at {at} = {w}"), m));
+            }
+        }
+    }
+    // Every line end of the header, and every byte of a binary header.
+    for cut in 0..=h.header_len.min(b.len()) {
+        let at_line = cut > 0 && b[cut - 1] == b'\n';
+        if at_line || !h.words.is_empty() || cut == h.header_len {
+            cases.push((format!("cut at {cut}"), b[..cut].to_vec()));
+        }
+    }
+    cases
+}
+
+/// Runs every header case of `h` through `load`: no panic, an `Ok` scene passes
+/// [`check_loaded`] and `consistent`, an error names the file. Some cases must load and some
+/// must fail, else the mutations miss the loader.
+fn header_fuzz(h: &Header, load: Loader, consistent: Consistent) {
+    let path = PathBuf::from(h.name);
+    let original = load(&path, &h.bytes).unwrap();
+    consistent(&h.bytes, &original).unwrap();
+    let (mut loaded, mut failed) = (0usize, 0usize);
+    for (what, bytes) in header_cases(h) {
+        match catch_unwind(AssertUnwindSafe(|| load(&path, &bytes))) {
+            Err(_) => panic!("{}: loader panicked on {what}", h.name),
+            Ok(Ok(scene)) => {
+                check_loaded(&scene, &what);
+                if let Err(e) = consistent(&bytes, &scene) {
+                    panic!(
+                        "{}: {what} loaded inconsistently: {e}\n{}",
+                        h.name,
+                        String::from_utf8_lossy(&bytes)
+                    );
+                }
+                loaded += 1;
+            }
+            Ok(Err(e)) => {
+                assert!(e.to_string().contains(h.name), "{what}: {e}");
+                failed += 1;
+            }
+        }
+    }
+    assert!(
+        loaded > 0 && failed > 0,
+        "{}: {loaded} loaded, {failed} failed",
+        h.name
+    );
+}
+
+/// An empty result must say why (item: no silently empty scene).
+fn empty_is_explained(scene: &Scene) -> Result<(), String> {
+    if scene.is_empty() && scene.load_warnings.is_empty() {
+        return Err("no triangles and no load warning".into());
+    }
+    Ok(())
+}
+
+/// The count of `element NAME N` in a PLY header, if declared.
+fn ply_count(bytes: &[u8], element: &str) -> Option<u64> {
+    let text = String::from_utf8_lossy(bytes);
+    let header = text.split("end_header").next()?;
+    header.lines().find_map(|l| {
+        let w: Vec<&str> = l.split_whitespace().collect();
+        (w.len() >= 3 && w[0] == "element" && w[1] == element)
+            .then(|| w[2].parse().ok())
+            .flatten()
+    })
+}
+
+fn ply_consistent(bytes: &[u8], scene: &Scene) -> Result<(), String> {
+    empty_is_explained(scene)?;
+    let vertices = ply_count(bytes, "vertex").unwrap_or(0);
+    if scene.positions.len() as u64 != vertices {
+        return Err(format!(
+            "{} positions, {vertices} declared",
+            scene.positions.len()
+        ));
+    }
+    let faces = ply_count(bytes, "face").unwrap_or(0);
+    // Short faces, or a face element without its index list, are warned about.
+    let short = scene
+        .load_warnings
+        .iter()
+        .any(|w| w.contains("fewer than 3") || w.contains("'vertex_indices' list"));
+    if (scene.triangle_count() as u64) < faces && !short {
+        return Err(format!(
+            "{} triangles from {faces} faces, no warning",
+            scene.triangle_count()
+        ));
+    }
+    Ok(())
+}
+
+fn stl_consistent(bytes: &[u8], scene: &Scene) -> Result<(), String> {
+    empty_is_explained(scene)?;
+    let n = scene.triangle_count() as u64;
+    let binary = bytes
+        .get(80..84)
+        .map(|b| u64::from(u32::from_le_bytes([b[0], b[1], b[2], b[3]])));
+    let fits = binary.is_some_and(|d| d == n && 84 + 50 * d <= bytes.len() as u64);
+    let ascii = keyword_ranges(bytes, &["endloop"]).len() as u64;
+    if fits || ascii == n {
+        return Ok(());
+    }
+    Err(format!(
+        "{n} triangles: binary count {binary:?}, {ascii} ASCII loops"
+    ))
+}
+
+/// Vertices and fan triangles of `v` and `f` lines, counted independently of the loader.
+fn obj_counts(bytes: &[u8]) -> (usize, usize) {
+    let text = String::from_utf8_lossy(bytes)
+        .replace("\r\n", "\n")
+        .replace('\r', "\n");
+    let (mut v, mut t) = (0, 0);
+    for line in text.lines() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => v += 1,
+            Some("f") => t += words.count().saturating_sub(2),
+            _ => {}
+        }
+    }
+    (v, t)
+}
+
+fn obj_consistent(bytes: &[u8], scene: &Scene) -> Result<(), String> {
+    empty_is_explained(scene)?;
+    let (v, t) = obj_counts(bytes);
+    if (scene.positions.len(), scene.triangle_count()) != (v, t) {
+        return Err(format!(
+            "{} positions and {} triangles, the file has {v} and {t}",
+            scene.positions.len(),
+            scene.triangle_count()
+        ));
+    }
+    Ok(())
+}
+
+/// Triangles the glTF JSON declares: over the nodes reachable from the scene (the default
+/// one, else scene 0), each triangle-mode primitive of their meshes (indices count, else
+/// POSITION count; `n / 3` for triangles, `n - 2` for strips and fans).
+fn gltf_declared_triangles(json: &serde_json::Value) -> Option<u64> {
+    let scene_index = json.get("scene").and_then(|s| s.as_u64()).unwrap_or(0) as usize;
+    let roots = json["scenes"][scene_index]["nodes"].as_array()?;
+    let mut stack: Vec<u64> = roots.iter().filter_map(|n| n.as_u64()).collect();
+    let mut total = 0u64;
+    while let Some(n) = stack.pop() {
+        let node = &json["nodes"][n as usize];
+        if let Some(children) = node["children"].as_array() {
+            stack.extend(children.iter().filter_map(|c| c.as_u64()));
+        }
+        let Some(mesh) = node["mesh"].as_u64() else {
+            continue;
+        };
+        for p in json["meshes"][mesh as usize]["primitives"].as_array()? {
+            let mode = p.get("mode").map_or(Some(4), |m| m.as_u64())?;
+            let accessor = p.get("indices").or(p["attributes"].get("POSITION"))?;
+            let count = json["accessors"][accessor.as_u64()? as usize]["count"].as_u64()?;
+            total += match mode {
+                4 => count / 3,
+                5 | 6 => count.saturating_sub(2),
+                _ => 0,
+            };
+        }
+    }
+    Some(total)
+}
+
+fn gltf_json_consistent(json: &[u8], scene: &Scene) -> Result<(), String> {
+    empty_is_explained(scene)?;
+    let value: serde_json::Value = serde_json::from_slice(json).map_err(|e| e.to_string())?;
+    let declared = gltf_declared_triangles(&value);
+    if declared != Some(scene.triangle_count() as u64) {
+        return Err(format!(
+            "{} triangles, declared {declared:?}",
+            scene.triangle_count()
+        ));
+    }
+    Ok(())
+}
+
+fn gltf_consistent(bytes: &[u8], scene: &Scene) -> Result<(), String> {
+    gltf_json_consistent(bytes, scene)
+}
+
+fn glb_consistent(bytes: &[u8], scene: &Scene) -> Result<(), String> {
+    let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    gltf_json_consistent(&bytes[20..20 + len], scene)
+}
+
+/// A GLB file of `json` (padded with spaces) and `bin`, with consistent lengths.
+fn glb_of(json: &[u8], bin: &[u8]) -> Vec<u8> {
+    let mut json = json.to_vec();
+    json.resize(json.len().next_multiple_of(4), b' ');
+    let mut out = b"glTF".to_vec();
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&((12 + 8 + json.len() + 8 + bin.len()) as u32).to_le_bytes());
+    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&json);
+    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(bin);
+    out
+}
+
+const PLY_KEYWORDS: &[&str] = &[
+    "ply",
+    "format",
+    "ascii",
+    "binary_little_endian",
+    "binary_big_endian",
+    "element",
+    "vertex",
+    "face",
+    "property",
+    "list",
+    "float",
+    "uchar",
+    "int",
+    "x",
+    "y",
+    "z",
+    "vertex_indices",
+    "end_header",
+];
+
+const PLY_ASCII: &str = "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\n\
+    property float y\nproperty float z\nelement face 3\nproperty list uchar int vertex_indices\n\
+    end_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 2 2\n4 0 1 2 3\n3 4 3 2\n3 0 4 1\n";
+
+#[test]
+fn header_fuzz_ply_ascii() {
+    let bytes = PLY_ASCII.as_bytes().to_vec();
+    let header_len = PLY_ASCII.find("end_header").unwrap() + 11;
+    let h = Header {
+        name: "h.ply",
+        bytes,
+        header_len,
+        keywords: PLY_KEYWORDS,
+        words: &[],
+    };
+    header_fuzz(&h, scene::ply::load, ply_consistent);
+}
+
+#[test]
+fn header_fuzz_ply_binary() {
+    let mut bytes = Vec::new();
+    scene::ply::write(&fixture_scene(), &mut bytes).unwrap();
+    let header_len = bytes
+        .windows(11)
+        .position(|w| w == b"end_header\n")
+        .unwrap()
+        + 11;
+    let h = Header {
+        name: "h.ply",
+        bytes,
+        header_len,
+        keywords: PLY_KEYWORDS,
+        words: &[],
+    };
+    header_fuzz(&h, scene::ply::load, ply_consistent);
+}
+
+const STL_ASCII: &str = "solid one\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n\
+    vertex 0 1 0\nendloop\nendfacet\nfacet normal 0 0 1\nouter loop\nvertex 0 0 1\n\
+    vertex 1 0 1\nvertex 0 1 1\nendloop\nendfacet\nendsolid one\n";
+
+const STL_KEYWORDS: &[&str] = &[
+    "solid", "facet", "normal", "outer", "loop", "vertex", "endloop", "endfacet", "endsolid",
+];
+
+#[test]
+fn header_fuzz_stl_ascii() {
+    let h = Header {
+        name: "h.stl",
+        bytes: STL_ASCII.as_bytes().to_vec(),
+        header_len: STL_ASCII.len(),
+        keywords: STL_KEYWORDS,
+        words: &[],
+    };
+    header_fuzz(&h, scene::stl::load, stl_consistent);
+}
+
+#[test]
+fn header_fuzz_stl_binary() {
+    let mut b = b"solid but binary 3 facets".to_vec();
+    b.resize(80, b' ');
+    b.extend_from_slice(&3u32.to_le_bytes());
+    for t in 0..3 {
+        for c in 0..12 {
+            b.extend_from_slice(&((t * 12 + c) as f32 * 0.25).to_le_bytes());
+        }
+        b.extend_from_slice(&[0, 0]);
+    }
+    let h = Header {
+        name: "h.stl",
+        bytes: b,
+        header_len: 84,
+        keywords: STL_KEYWORDS,
+        words: &[80],
+    };
+    header_fuzz(&h, scene::stl::load, stl_consistent);
+}
+
+#[test]
+fn header_fuzz_obj() {
+    let text = "# fixture\no first\nv 0 0 0\nv 1 0 0 1\nv 1 1 0 0.5 0.5 0.5\nv 0 1 0\n\
+                vt 0 0\nvn 0 0 1\nf 1/1/1 2/1/1 3/1/1 4/1/1\ng second\nusemtl stone\n\
+                v 2 2 2\nf -1 -2 -3\nf 5//1 1//1 2//1\n";
+    let h = Header {
+        name: "h.obj",
+        bytes: text.as_bytes().to_vec(),
+        header_len: text.len(),
+        keywords: &["v", "f", "o", "g", "usemtl", "vt", "vn"],
+        words: &[],
+    };
+    header_fuzz(&h, scene::obj::load, obj_consistent);
+}
+
+const GLTF_KEYWORDS: &[&str] = &[
+    "count",
+    "byteLength",
+    "byteOffset",
+    "bufferView",
+    "buffer",
+    "POSITION",
+    "indices",
+    "mode",
+    "nodes",
+    "children",
+    "mesh",
+    "byteStride",
+    "VEC3",
+    "SCALAR",
+    "componentType",
+];
+
+/// Positions (4 x VEC3 f32, 48 bytes) and u16 indices of a strip and a fan (16 bytes).
+fn gltf_fixture_bin() -> Vec<u8> {
+    let mut bin = Vec::new();
+    for v in [
+        0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0,
+    ] {
+        bin.extend_from_slice(&v.to_le_bytes());
+    }
+    for i in [0u16, 1, 2, 3, 0, 1, 3, 2] {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    bin
+}
+
+/// Two nodes in a hierarchy, a strip, a fan and a non-indexed fan, over buffer 0 = `buffer`.
+fn gltf_fixture_json(buffer: &str) -> String {
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
+"nodes":[{{"name":"a","mesh":0,"children":[1]}},{{"mesh":1,"rotation":[0,0,10,0]}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1,"mode":5}}]}},
+{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":2,"mode":6}},{{"attributes":{{"POSITION":0}},"mode":6}}]}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+{{"bufferView":1,"byteOffset":0,"componentType":5123,"count":4,"type":"SCALAR"}},
+{{"bufferView":1,"byteOffset":8,"componentType":5123,"count":4,"type":"SCALAR"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":48,"byteStride":12}},{{"buffer":0,"byteOffset":48,"byteLength":16}}],
+"buffers":[{{"byteLength":64{buffer}}}]}}"#
+    )
+}
+
+#[test]
+fn header_fuzz_gltf() {
+    let uri = format!(
+        r#","uri":"data:application/octet-stream;base64,{}""#,
+        base64_encode(&gltf_fixture_bin())
+    );
+    let text = gltf_fixture_json(&uri);
+    // Mutate only the JSON before the data URI (its base64 has digits of its own).
+    let header_len = text.find("data:").unwrap();
+    let h = Header {
+        name: "h.gltf",
+        bytes: text.into_bytes(),
+        header_len,
+        keywords: GLTF_KEYWORDS,
+        words: &[],
+    };
+    header_fuzz(&h, scene::gltf::load, gltf_consistent);
+}
+
+#[test]
+fn header_fuzz_glb() {
+    let bin = gltf_fixture_bin();
+    let json = gltf_fixture_json("");
+    // The container: lengths and chunk types of the GLB header and chunk headers.
+    let glb = glb_of(json.as_bytes(), &bin);
+    let bin_header = 20 + json.len().next_multiple_of(4);
+    let h = Header {
+        name: "h.glb",
+        bytes: glb.clone(),
+        header_len: bin_header + 8,
+        keywords: &[],
+        words: &[4, 8, 12, 16, bin_header, bin_header + 4],
+    };
+    header_fuzz(&h, scene::gltf::load, |bytes, scene| {
+        let len = bytes
+            .get(12..16)
+            .map_or(0, |b| u32::from_le_bytes(b.try_into().unwrap()));
+        match bytes.get(20..20 + len as usize) {
+            Some(json) => gltf_json_consistent(json, scene),
+            None => Err("loaded without a JSON chunk".into()),
+        }
+    });
+    // The JSON inside, with the container rebuilt around each mutation.
+    let cases = header_cases(&Header {
+        name: "h.glb",
+        bytes: json.clone().into_bytes(),
+        header_len: json.len(),
+        keywords: GLTF_KEYWORDS,
+        words: &[],
+    });
+    let path = Path::new("h.glb");
+    for (what, json) in cases {
+        let bytes = glb_of(&json, &bin);
+        match catch_unwind(AssertUnwindSafe(|| scene::gltf::load(path, &bytes))) {
+            Err(_) => panic!("h.glb: loader panicked on JSON {what}"),
+            Ok(Ok(scene)) => {
+                check_loaded(&scene, &what);
+                glb_consistent(&bytes, &scene).unwrap_or_else(|e| panic!("{what}: {e}"));
+            }
+            Ok(Err(e)) => assert!(e.to_string().contains("h.glb"), "{what}: {e}"),
+        }
+    }
 }

@@ -41,6 +41,7 @@ fn load_with(name: &str, n: u32) -> Scene {
         &map_bytes(name),
         &LoadOptions {
             patch_subdivisions: n,
+            ..LoadOptions::default()
         },
     )
     .unwrap_or_else(|e| panic!("{e}"))
@@ -722,6 +723,7 @@ fn q3_fuzzed_czest3ctf_patches_never_panic() {
         put_i32(&mut buf, at, values[rng.below(values.len())]);
         let options = LoadOptions {
             patch_subdivisions: rng.below(4) as u32,
+            ..LoadOptions::default()
         };
         let input = &buf[..];
         let result = std::panic::catch_unwind(|| q3::load(Path::new("fuzz.bsp"), input, &options));
@@ -750,6 +752,7 @@ fn q3_czest3ctf_load_time_is_reported() {
     for n in [0, 4] {
         let options = LoadOptions {
             patch_subdivisions: n,
+            ..LoadOptions::default()
         };
         let start = std::time::Instant::now();
         let scene = q3::load(&map_path("czest3ctf"), &bytes, &options).expect("loads");

@@ -75,7 +75,10 @@ impl PyScene {
                 "patch_subdivisions {patch_subdivisions} is above the maximum of 64"
             )));
         }
-        let options = LoadOptions { patch_subdivisions };
+        let options = LoadOptions {
+            patch_subdivisions,
+            ..LoadOptions::default()
+        };
         let loaded = py.detach(|| scene::open(spec, &options));
         let scene = loaded.map_err(|e| match e {
             LoadError::Io { .. } => io_error(e),
@@ -107,6 +110,7 @@ impl PyScene {
             up: parse_up(up)?,
             source: source.to_string(),
             bsp: None,
+            load_warnings: Vec::new(),
         };
         checked(scene, source)
     }

@@ -9,7 +9,9 @@
 //! 40) and `procedural:graveyard` (Teapot Graveyard, `size` = teapots, default 5000) come with
 //! their own motion and camera path; any other scene spec is loaded and animated by
 //! `sightline_cull::scenes::animate` (small objects sway sideways; documented there) with a
-//! default walk through its bounds. `--path camera.json` replaces the path:
+//! default walk through its bounds; such a scene goes through the same validation as in every
+//! other command (no triangles, bad indices or NaN coordinates are an error). `--path
+//! camera.json` replaces the path:
 //! `{"frames": [{"eye": [x, y, z], "look": [x, y, z]}, ...]}`, interpolated linearly when it
 //! has fewer keyframes than frames.
 
@@ -19,6 +21,7 @@ use anyhow::{bail, Context, Result};
 use glam::{Quat, Vec3};
 use serde::Serialize;
 use sightline_core::scene::{self, LoadOptions};
+use sightline_core::validate::validate;
 use sightline_core::{Camera, NearPlaneRule};
 use sightline_cull::scenes::{animate, graveyard, the_grid, walk_keys, CullScene};
 use sightline_cull::{
@@ -26,7 +29,7 @@ use sightline_cull::{
 };
 use sightline_view::{interpolate, read_camera_path};
 
-use crate::args::parse_size;
+use crate::args::{parse_size, print_load_warnings, LoadLimitArgs};
 use crate::output::print_json;
 
 /// Arguments of `sightline cull`.
@@ -54,6 +57,8 @@ pub(crate) struct Args {
     /// Write an SVG plot of objects drawn, queries and popping pixels per frame.
     #[arg(long, value_name = "FILE")]
     plot: Option<PathBuf>,
+    #[command(flatten)]
+    limits: LoadLimitArgs,
 }
 
 /// Per-method summary of a run.
@@ -102,7 +107,12 @@ pub(crate) fn run(args: Args) -> Result<()> {
         bail!("--frames must be at least 1");
     }
     let (width, height) = args.size;
-    let scene = load_scene(&args.scene)?;
+    let scene = load_scene(
+        &args.scene,
+        &args
+            .limits
+            .options(LoadOptions::default().patch_subdivisions),
+    )?;
     let config = SimConfig {
         frames: args.frames,
         width,
@@ -189,8 +199,9 @@ pub(crate) fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-/// `procedural:grid` / `procedural:graveyard` with `?seed=&size=`, or any scene spec animated.
-fn load_scene(spec: &str) -> Result<CullScene> {
+/// `procedural:grid` / `procedural:graveyard` with `?seed=&size=`, or any scene spec animated
+/// (loaded with `options` and validated as every command does).
+fn load_scene(spec: &str, options: &LoadOptions) -> Result<CullScene> {
     let (name, query) = spec.split_once('?').unwrap_or((spec, ""));
     let ours = match name {
         "procedural:grid" => Some(true),
@@ -198,10 +209,12 @@ fn load_scene(spec: &str) -> Result<CullScene> {
         _ => None,
     };
     let Some(is_grid) = ours else {
-        let loaded = scene::open(spec, &LoadOptions::default())
-            .with_context(|| format!("loading scene {spec}"))?;
-        if loaded.triangles.is_empty() {
-            bail!("scene {spec} has no triangles");
+        let loaded = scene::open(spec, options).with_context(|| format!("loading scene {spec}"))?;
+        print_load_warnings(spec, &loaded);
+        // The check of `SceneArgs::load`: NaN coordinates or bad indices would reach the
+        // rasterizer and the grid otherwise.
+        if let Err(e) = validate(&loaded).check() {
+            bail!("{spec}: {e}");
         }
         return Ok(animate(loaded));
     };
@@ -407,11 +420,24 @@ mod tests {
         assert_eq!(interpolate(&[key(3.0)], 7, 11).0.x, 3.0);
     }
 
+    fn load_scene(spec: &str) -> Result<CullScene> {
+        super::load_scene(spec, &LoadOptions::default())
+    }
+
     #[test]
     fn procedural_specs_parse_and_reject_bad_parameters() {
         assert!(load_scene("procedural:grid?seed=2&size=1").is_ok());
         assert!(load_scene("procedural:grid?size=x").is_err());
         assert!(load_scene("procedural:grid?colour=red").is_err());
         assert!(load_scene("procedural:graveyard?size=99999999").is_err());
+    }
+
+    #[test]
+    fn nan_vertex_scene_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("nan.obj");
+        std::fs::write(&p, "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n").unwrap();
+        let e = load_scene(&p.to_string_lossy()).err().unwrap();
+        assert!(format!("{e:#}").contains("NaN"), "{e:#}");
     }
 }

@@ -1,8 +1,10 @@
-//! `sightline info`: counts, bounds, objects and the validation report of a scene.
+//! `sightline info`: counts, bounds, objects and the validation report of a scene. Like a
+//! validator, it exits with status 1 after the report when the report has errors (the scene
+//! is empty, has NaN coordinates, ...), so scripts can rely on the status.
 
 use std::time::Instant;
 
-use anyhow::Result;
+use anyhow::{bail, Result};
 use serde::Serialize;
 use sightline_core::validate::{validate, Report};
 
@@ -32,6 +34,8 @@ struct Info {
     validation: Report,
     errors: Vec<String>,
     warnings: Vec<String>,
+    /// What the loader found questionable (`Scene::load_warnings`; also printed on stderr).
+    load_warnings: Vec<String>,
     objects: Vec<ObjectInfo>,
 }
 
@@ -68,6 +72,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
             .map(ToString::to_string)
             .collect(),
         warnings: validation.warnings(),
+        load_warnings: scene.load_warnings.clone(),
         objects: scene
             .objects
             .iter()
@@ -82,7 +87,8 @@ pub(crate) fn run(args: Args) -> Result<()> {
         validation,
     };
     if args.json {
-        return print_json(&info);
+        print_json(&info)?;
+        return exit_status(&info);
     }
     let v = &info.validation;
     println!("scene      {}", info.source);
@@ -117,6 +123,18 @@ pub(crate) fn run(args: Args) -> Result<()> {
         println!(
             "  ... {} more objects (--objects lists all)",
             info.objects.len() - shown
+        );
+    }
+    exit_status(&info)
+}
+
+/// An error (exit status 1) when the report has errors; they were printed with the report.
+fn exit_status(info: &Info) -> Result<()> {
+    if !info.errors.is_empty() {
+        bail!(
+            "{}: {} validation error(s), see the report above",
+            info.source,
+            info.errors.len()
         );
     }
     Ok(())

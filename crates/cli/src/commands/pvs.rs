@@ -588,7 +588,7 @@ fn plan_incremental(
 ) -> Result<(BTreeMap<usize, BakedCell>, IncrementalReport)> {
     let old_scene_args = SceneArgs {
         scene: old_scene.to_string(),
-        patch_subdivisions: args.scene.patch_subdivisions,
+        ..args.scene.clone()
     };
     let old = old_scene_args.load()?;
     let old_file =
@@ -1036,10 +1036,7 @@ struct ClusterComparison {
 }
 
 fn run_compare_q3(args: CompareQ3Args) -> Result<()> {
-    let scene_args = SceneArgs {
-        scene: args.map.display().to_string(),
-        patch_subdivisions: args.patch_subdivisions,
-    };
+    let scene_args = SceneArgs::new(args.map.display().to_string(), args.patch_subdivisions);
     let scene = scene_args.load()?;
     let file =
         PvsFile::load(&args.pvs).with_context(|| format!("reading {}", args.pvs.display()))?;

@@ -73,11 +73,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if args.views == 0 || args.size == 0 || args.size > 4096 {
         bail!("--views must be >= 1 and --size in 1..=4096");
     }
-    let scene = SceneArgs {
-        scene: args.scene.clone(),
-        patch_subdivisions: args.patch_subdivisions,
-    }
-    .load()?;
+    let scene = SceneArgs::new(args.scene.clone(), args.patch_subdivisions).load()?;
     let file = load_pvs_of(&scene, &args.pvs)?;
     let options = PvsReportOptions {
         params: EvalParams {

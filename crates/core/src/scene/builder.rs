@@ -195,6 +195,19 @@ impl SceneBuilder {
         self.current_object = self.current_object.map(|o| new_id[o as usize]);
     }
 
+    /// Records a load warning ([`Scene::load_warnings`]).
+    pub fn warn(&mut self, warning: impl Into<String>) {
+        self.scene.load_warnings.push(warning.into());
+    }
+
+    /// Scene memory of the vertices and triangles so far, as [`super::limits`] counts it.
+    pub(crate) fn geometry_bytes(&self) -> u64 {
+        super::limits::geometry_bytes(
+            self.scene.positions.len() as u64,
+            self.scene.triangles.len() as u64,
+        )
+    }
+
     /// Number of vertices so far (the index the next vertex will get).
     pub fn vertex_count(&self) -> u32 {
         self.scene.positions.len() as u32

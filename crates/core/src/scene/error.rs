@@ -54,6 +54,17 @@ pub enum LoadError {
         /// What is wrong.
         message: String,
     },
+    /// Loading would go past a limit of [`super::LoadOptions`] (memory, or a reference outside
+    /// the scene's folder); the message names the option that raises it.
+    #[error("{path}: {location}: {message}")]
+    Limit {
+        /// The file.
+        path: PathBuf,
+        /// Where in the file the count or reference that exceeds the limit is.
+        location: Location,
+        /// What exceeds which limit, and how to raise it.
+        message: String,
+    },
     /// The file extension names no format we read.
     #[error("{path}: unknown scene format (expected .obj, .ply, .gltf, .glb, .stl, .bsp, optionally .gz)")]
     UnknownFormat {
@@ -74,6 +85,15 @@ impl LoadError {
     /// A parse error at `location` in `path`.
     pub fn parse(path: impl Into<PathBuf>, location: Location, message: impl Into<String>) -> Self {
         LoadError::Parse {
+            path: path.into(),
+            location,
+            message: message.into(),
+        }
+    }
+
+    /// A [`LoadError::Limit`] at `location` in `path`.
+    pub fn limit(path: impl Into<PathBuf>, location: Location, message: impl Into<String>) -> Self {
+        LoadError::Limit {
             path: path.into(),
             location,
             message: message.into(),

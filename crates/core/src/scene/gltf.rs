@@ -11,18 +11,34 @@
 //! - GLB container: header and chunks are read here (errors name the byte offset), then the
 //!   JSON chunk goes to the `gltf` crate.
 //! - Buffers: the GLB `BIN` chunk, `data:...;base64,` URIs, or files relative to the directory
-//!   of the `.gltf` file (URIs are taken as plain relative paths: no percent-decoding).
+//!   of the `.gltf` file (URIs are taken as plain relative paths: no percent-decoding). Only
+//!   buffers that a triangle primitive's `POSITION` or `indices` accessor uses are read, so
+//!   images and animation data never are; each is cut to its `byteLength` (views must fit in
+//!   that, not in whatever the file holds), and the sum of their `byteLength`s must fit in
+//!   [`LoadOptions::max_scene_bytes`]. External files are read only up to `byteLength` bytes
+//!   (a shorter file is an error), only when they are regular files (a FIFO or `/dev/zero` is
+//!   an error, never read: checked before opening, and the open does not block), and only
+//!   when their canonical path lies in the `.gltf` file's folder or below it, unless
+//!   [`LoadOptions::allow_outside_refs`] is set; URIs with a scheme (`http:`, `file:`) are
+//!   refused.
 //! - Scene walk: the default scene, else scene 0, else every root node (a node that is no
 //!   node's child), depth-first in node order. World transforms compose each node's matrix or
 //!   TRS with its parents' (`world_from_node = world_from_parent * parent_from_node`). A node
 //!   reached twice (the node graph must be a forest) is an error, so cycles cannot recurse.
+//!   Rotation quaternions further than 1e-5 from unit length (in squared length) are
+//!   normalised, as a scaled quaternion would scale the mesh by its squared length; unit ones
+//!   are used as written, so the geometry of valid files stays bit for bit the same. A zero
+//!   or non-finite rotation, translation, scale or matrix is an error naming the node.
 //! - Each primitive of each node's mesh is appended with its positions transformed to world
 //!   space (instanced meshes are duplicated, each with its node's transform); see "Objects".
 //! - Primitives: `Triangles`, `TriangleStrip` (alternate winding kept) and `TriangleFan`;
 //!   `Points` and `Lines*` are skipped without error. Non-indexed primitives use sequential
 //!   indices. Positions must be `VEC3` `FLOAT`; indices `SCALAR` `UNSIGNED_BYTE/SHORT/INT`.
 //!   Sparse accessors and accessors without a buffer view are rejected (an error, not silently
-//!   wrong geometry).
+//!   wrong geometry). Primitives skipped for their mode or for having no positions are
+//!   counted in a load warning, and so is a scene without triangles. The geometry is checked
+//!   against [`LoadOptions::max_scene_bytes`] before each primitive is read (instancing a
+//!   mesh in many nodes multiplies it).
 //!
 //! Triangle ids follow walk order, then primitive order, then index order.
 //!
@@ -49,22 +65,29 @@
 
 use std::collections::HashMap;
 use std::io::{self, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::rc::Rc;
 
 use glam::{Mat4, Vec3};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::{Mode, Semantic};
 
-use super::{LoadError, Location, Object, Scene, SceneBuilder};
+use super::limits::{check_geometry, show_bytes, RAISE};
+use super::{LoadError, LoadOptions, Location, Object, Scene, SceneBuilder};
 
 const GLB_MAGIC: &[u8; 4] = b"glTF";
 const CHUNK_JSON: u32 = 0x4E4F_534A;
 const CHUNK_BIN: u32 = 0x004E_4942;
 
-/// Loads a glTF 2.0 file (`.gltf` JSON or `.glb` binary) from its (decompressed) bytes. `path`
-/// is used for error messages and to find external buffer files next to it.
+/// Loads a glTF 2.0 file (`.gltf` JSON or `.glb` binary) from its (decompressed) bytes with the
+/// default [`LoadOptions`]. `path` is used for error messages and to find external buffer
+/// files next to it.
 pub fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
+    load_with(path, bytes, &LoadOptions::default())
+}
+
+/// [`load`] with the limits of `options` (memory, and which external files may be read).
+pub fn load_with(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene, LoadError> {
     let (json, blob) = if bytes.starts_with(GLB_MAGIC) {
         let (json, blob) = split_glb(path, bytes)?;
         (json, blob)
@@ -77,12 +100,70 @@ pub fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
     } else {
         (bytes, None)
     };
+    check_index_widths(path, json)?;
     let root = gltf::json::Root::from_slice(json)
         .map_err(|e| json_error(path, gltf::Error::Deserialize(e)))?;
     check_position_indices(path, &root)?;
     let document = gltf::Document::from_json(root).map_err(|e| json_error(path, e))?;
-    let buffers = load_buffers(path, &document, blob)?;
-    build_scene(path, &document, &buffers)
+    let buffers = load_buffers(path, &document, blob, options)?;
+    build_scene(path, &document, &buffers, options)
+}
+
+/// gltf-json 1.4 reads every index as `value as u32`, so `"mesh": 4294967296` would silently
+/// be mesh 0: every integer above `u32::MAX` is an error here, except in the size and count
+/// members (`byteLength`, `byteOffset`, `byteStride`, `count`, read as 64-bit) and in
+/// `extras` and `extensions` (application data that is not read). JSON that does not parse is
+/// left to the `gltf` crate, whose error names the line.
+fn check_index_widths(path: &Path, json: &[u8]) -> Result<(), LoadError> {
+    /// The JSON path and value of the first integer too wide for an index.
+    fn walk(value: &serde_json::Value, at: &mut String) -> Option<(String, u64)> {
+        match value {
+            serde_json::Value::Number(n) => n
+                .as_u64()
+                .filter(|&v| v > u64::from(u32::MAX))
+                .map(|v| (at.clone(), v)),
+            serde_json::Value::Array(items) => items.iter().enumerate().find_map(|(i, item)| {
+                let len = at.len();
+                at.push_str(&format!("[{i}]"));
+                let found = walk(item, at);
+                at.truncate(len);
+                found
+            }),
+            serde_json::Value::Object(members) => members.iter().find_map(|(key, item)| {
+                let skip = [
+                    "extras",
+                    "extensions",
+                    "byteLength",
+                    "byteOffset",
+                    "byteStride",
+                    "count",
+                ];
+                if skip.contains(&key.as_str()) {
+                    return None;
+                }
+                let len = at.len();
+                if !at.is_empty() {
+                    at.push('.');
+                }
+                at.push_str(key);
+                let found = walk(item, at);
+                at.truncate(len);
+                found
+            }),
+            _ => None,
+        }
+    }
+    let Ok(value) = serde_json::from_slice::<serde_json::Value>(json) else {
+        return Ok(());
+    };
+    match walk(&value, &mut String::new()) {
+        Some((at, v)) => Err(LoadError::parse(
+            path,
+            Location::Element(at),
+            format!("{v} is not a valid index (above 2^32 - 1)"),
+        )),
+        None => Ok(()),
+    }
 }
 
 /// gltf-json 1.4 validation indexes `accessors[POSITION]` without a bounds check (a panic on
@@ -199,14 +280,67 @@ fn split_glb<'a>(path: &Path, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [
     Ok((json, blob))
 }
 
-/// Fetches every buffer's bytes (GLB blob, data URI or external file).
+/// Indices of the buffers that the `POSITION` and `indices` accessors of triangle primitives
+/// use: the only ones geometry needs.
+fn geometry_buffers(doc: &gltf::Document) -> Vec<bool> {
+    let mut needed = vec![false; doc.buffers().len()];
+    for mesh in doc.meshes() {
+        for primitive in mesh.primitives() {
+            if !is_triangle_mode(primitive.mode()) {
+                continue;
+            }
+            let accessors = primitive.get(&Semantic::Positions).into_iter();
+            for accessor in accessors.chain(primitive.indices()) {
+                if let Some(view) = accessor.view() {
+                    if let Some(flag) = needed.get_mut(view.buffer().index()) {
+                        *flag = true;
+                    }
+                }
+            }
+        }
+    }
+    needed
+}
+
+fn is_triangle_mode(mode: Mode) -> bool {
+    matches!(
+        mode,
+        Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+    )
+}
+
+/// Fetches the bytes of every buffer geometry needs (GLB blob, data URI or external file),
+/// each cut to its `byteLength`; the others are left empty.
 fn load_buffers<'a>(
     path: &Path,
     doc: &gltf::Document,
     blob: Option<&'a [u8]>,
+    options: &LoadOptions,
 ) -> Result<Vec<std::borrow::Cow<'a, [u8]>>, LoadError> {
+    let needed = geometry_buffers(doc);
+    let total: u64 = doc
+        .buffers()
+        .filter(|b| needed[b.index()])
+        .map(|b| b.length() as u64)
+        .sum();
+    if total > options.max_scene_bytes {
+        return Err(LoadError::limit(
+            path,
+            Location::Element("buffers".into()),
+            format!(
+                "the buffers geometry needs declare {} (byteLength), above the limit of {}; \
+                 {RAISE}",
+                show_bytes(total),
+                show_bytes(options.max_scene_bytes)
+            ),
+        ));
+    }
     let mut out = Vec::new();
     for buffer in doc.buffers() {
+        if !needed[buffer.index()] {
+            out.push(std::borrow::Cow::Borrowed(&[][..]));
+            continue;
+        }
         let err = |message: String| {
             LoadError::parse(
                 path,
@@ -230,10 +364,7 @@ fn load_buffers<'a>(
                         .map_err(|e| err(format!("bad base64 in data URI: {e}")))?
                         .into()
                 } else {
-                    let file: PathBuf = path.parent().unwrap_or(Path::new("")).join(uri);
-                    std::fs::read(&file)
-                        .map_err(|source| LoadError::Io { path: file, source })?
-                        .into()
+                    read_external(path, buffer.index(), uri, buffer.length(), options)?.into()
                 }
             }
         };
@@ -244,9 +375,104 @@ fn load_buffers<'a>(
                 data.len()
             )));
         }
+        // Views must fit in the declared length, not in what the chunk or URI happens to hold.
+        let data = match data {
+            std::borrow::Cow::Borrowed(b) => std::borrow::Cow::Borrowed(&b[..buffer.length()]),
+            std::borrow::Cow::Owned(mut v) => {
+                v.truncate(buffer.length());
+                std::borrow::Cow::Owned(v)
+            }
+        };
         out.push(data);
     }
     Ok(out)
+}
+
+/// Reads the first `length` bytes of the external buffer file `uri` of buffer `index`, under
+/// the rules of the module docs (regular files only, inside the `.gltf` file's folder unless
+/// [`LoadOptions::allow_outside_refs`]).
+fn read_external(
+    path: &Path,
+    index: usize,
+    uri: &str,
+    length: usize,
+    options: &LoadOptions,
+) -> Result<Vec<u8>, LoadError> {
+    let location = || Location::Element(format!("buffer {index}"));
+    let err = |message: String| LoadError::parse(path, location(), message);
+    // `scheme:` before any `/` (http:, file:, ...): not a relative path.
+    if let Some(colon) = uri.find(':') {
+        if !uri[..colon].contains('/') {
+            return Err(err(format!(
+                "uri '{uri}' has a scheme; only data: URIs and relative file paths are read"
+            )));
+        }
+    }
+    let folder = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let file = folder.join(uri);
+    let io = |source| LoadError::Io {
+        path: file.clone(),
+        source,
+    };
+    // Before opening: a FIFO would block the open, a device would never end.
+    let meta = std::fs::metadata(&file).map_err(io)?;
+    if !meta.is_file() {
+        return Err(err(format!(
+            "uri '{uri}' ({}) is not a regular file",
+            file.display()
+        )));
+    }
+    if !options.allow_outside_refs {
+        let base = folder.canonicalize().map_err(io)?;
+        let real = file.canonicalize().map_err(io)?;
+        if !real.starts_with(&base) {
+            return Err(LoadError::limit(
+                path,
+                location(),
+                format!(
+                    "uri '{uri}' resolves to {}, outside the folder of the glTF file ({}); \
+                     allow it with --allow-outside-refs (LoadOptions::allow_outside_refs)",
+                    real.display(),
+                    base.display()
+                ),
+            ));
+        }
+    }
+    let mut open = std::fs::OpenOptions::new();
+    open.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        // The file may have been swapped for a FIFO since the check: never block on it.
+        open.custom_flags(libc::O_NONBLOCK);
+    }
+    let handle = open.open(&file).map_err(io)?;
+    let meta = handle.metadata().map_err(io)?;
+    if !meta.is_file() {
+        return Err(err(format!(
+            "uri '{uri}' ({}) is not a regular file",
+            file.display()
+        )));
+    }
+    if meta.len() < length as u64 {
+        return Err(err(format!(
+            "uri '{uri}' has {} bytes, byteLength is {length}",
+            meta.len()
+        )));
+    }
+    let mut data = Vec::with_capacity(length);
+    std::io::Read::read_to_end(&mut std::io::Read::take(handle, length as u64), &mut data)
+        .map_err(io)?;
+    if data.len() < length {
+        return Err(err(format!(
+            "uri '{uri}' ended after {} bytes, byteLength is {length}",
+            data.len()
+        )));
+    }
+    Ok(data)
 }
 
 /// The bytes of each element of `accessor`: `(data, first element offset, stride)`, with every
@@ -395,10 +621,52 @@ fn triangulate(
     Ok(())
 }
 
+/// The node's local transform (`parent_from_node`), with its rotation normalised (module docs).
+fn node_matrix(node: &gltf::Node) -> Result<Mat4, String> {
+    let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
+    match node.transform() {
+        gltf::scene::Transform::Matrix { matrix } => {
+            if !matrix.iter().all(|c| finite(c)) {
+                return Err("matrix has a NaN or infinite value".into());
+            }
+            Ok(Mat4::from_cols_array_2d(&matrix))
+        }
+        gltf::scene::Transform::Decomposed {
+            translation,
+            rotation,
+            scale,
+        } => {
+            if !(finite(&translation) && finite(&rotation) && finite(&scale)) {
+                return Err("translation, rotation or scale has a NaN or infinite value".into());
+            }
+            let q = glam::Quat::from_array(rotation);
+            let length_squared = q.length_squared();
+            if length_squared == 0.0 || !length_squared.is_finite() {
+                return Err(format!(
+                    "rotation {rotation:?} is not a rotation (zero length)"
+                ));
+            }
+            // Unit within exporters' rounding: as written, so valid files keep their bits.
+            let rotation = if (length_squared - 1.0).abs() <= 1e-5 {
+                rotation
+            } else {
+                q.normalize().to_array()
+            };
+            let transform = gltf::scene::Transform::Decomposed {
+                translation,
+                rotation,
+                scale,
+            };
+            Ok(Mat4::from_cols_array_2d(&transform.matrix()))
+        }
+    }
+}
+
 fn build_scene(
     path: &Path,
     doc: &gltf::Document,
     buffers: &[std::borrow::Cow<'_, [u8]>],
+    options: &LoadOptions,
 ) -> Result<Scene, LoadError> {
     let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
         Some(scene) => scene.nodes().collect(),
@@ -427,6 +695,8 @@ fn build_scene(
     let mut triangles = Vec::new();
     // Objects written by `write_glb`: object id of each `sightline.object` number.
     let mut tagged: HashMap<u32, u32> = HashMap::new();
+    // Primitives skipped: not triangles, or without positions.
+    let (mut not_triangles, mut no_positions) = (0usize, 0usize);
     while let Some((node, world_from_parent, parent_path)) = stack.pop() {
         let seen = visited
             .get_mut(node.index())
@@ -442,8 +712,14 @@ fn build_scene(
             ));
         }
         *seen = true;
-        let world_from_node =
-            world_from_parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        let parent_from_node = node_matrix(&node).map_err(|message| {
+            LoadError::parse(
+                path,
+                Location::Element(format!("node {}", node.index())),
+                message,
+            )
+        })?;
+        let world_from_node = world_from_parent * parent_from_node;
         let node_path: Rc<str> = {
             let segment = match node.name() {
                 Some(name) if !name.is_empty() => name.to_string(),
@@ -469,16 +745,40 @@ fn build_scene(
                         message,
                     )
                 };
-                if !matches!(
-                    primitive.mode(),
-                    Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
-                ) {
+                if !is_triangle_mode(primitive.mode()) {
+                    not_triangles += 1;
                     continue;
                 }
                 // A primitive without positions has nothing to draw (spec 3.7.2.1).
                 let Some(position_accessor) = primitive.get(&Semantic::Positions) else {
+                    no_positions += 1;
                     continue;
                 };
+                // Before reading: the scene this primitive would make (the accessors' counts
+                // are checked against their views when read).
+                let vertices = position_accessor.count() as u64;
+                let corners = primitive.indices().map_or(vertices, |a| a.count() as u64);
+                let new_triangles = match primitive.mode() {
+                    Mode::Triangles => corners / 3,
+                    _ => corners.saturating_sub(2),
+                };
+                let total_vertices = u64::from(builder.vertex_count()) + vertices;
+                check_geometry(
+                    path,
+                    Location::Element(format!(
+                        "mesh {}, primitive {}",
+                        mesh.index(),
+                        primitive.index()
+                    )),
+                    total_vertices,
+                    builder.triangle_count() as u64 + new_triangles,
+                    options,
+                )?;
+                if total_vertices > u64::from(u32::MAX) {
+                    return Err(err(format!(
+                        "the scene would have {total_vertices} vertices, more than 2^32 - 1"
+                    )));
+                }
                 let positions = read_positions(&position_accessor, buffers).map_err(&err)?;
                 let indices = match primitive.indices() {
                     Some(a) => read_indices(&a, buffers).map_err(&err)?,
@@ -522,6 +822,19 @@ fn build_scene(
         for child in children.into_iter().rev() {
             stack.push((child, world_from_node, node_path.clone()));
         }
+    }
+    if not_triangles > 0 {
+        builder.warn(format!(
+            "{not_triangles} primitive(s) of points or lines skipped (no triangles)"
+        ));
+    }
+    if no_positions > 0 {
+        builder.warn(format!(
+            "{no_positions} triangle primitive(s) without POSITION skipped"
+        ));
+    }
+    if builder.triangle_count() == 0 {
+        builder.warn("the scene's nodes have no triangle primitives");
     }
     if !tagged.is_empty() {
         // Tagged objects take their `sightline.object` order (the ids they had when
@@ -897,6 +1210,165 @@ mod tests {
     fn bad_json_names_line() {
         let e = load_gltf("{\n\"asset\": [\n").unwrap_err();
         assert!(e.to_string().contains("line"), "{e}");
+    }
+
+    /// The 42 bytes of [`triangle_buffer_uri`].
+    fn triangle_buffer() -> Vec<u8> {
+        let uri = triangle_buffer_uri();
+        base64::decode(uri.split_once(',').unwrap().1).unwrap()
+    }
+
+    /// One node (with `node_extra` members) and one triangle whose buffer 0 has `uri` and
+    /// `byte_length`; buffer 1 (`unused_uri`) is used by no accessor.
+    fn one_triangle_gltf(
+        node_extra: &str,
+        uri: &str,
+        byte_length: usize,
+        unused_uri: &str,
+    ) -> String {
+        format!(
+            r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
+            "nodes":[{{"mesh":0{node_extra}}}],
+            "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],
+            "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+                         {{"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}}],
+            "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":6}}],
+            "buffers":[{{"byteLength":{byte_length},"uri":"{uri}"}},{{"byteLength":8,"uri":"{unused_uri}"}}]}}"#
+        )
+    }
+
+    /// Writes `text` as `dir/model.gltf` and `triangle_buffer()` as `dir/tri.bin`, loads it.
+    fn load_in_dir(dir: &Path, text: &str, options: &LoadOptions) -> Result<Scene, LoadError> {
+        std::fs::write(dir.join("tri.bin"), triangle_buffer()).unwrap();
+        let path = dir.join("model.gltf");
+        std::fs::write(&path, text).unwrap();
+        load_with(&path, text.as_bytes(), options)
+    }
+
+    #[test]
+    fn scaled_rotation_is_normalised() {
+        // [0, 0, 10, 0] is 180 degrees about z, scaled by 100 if used as is.
+        let text = one_triangle_gltf(r#","rotation":[0,0,10,0]"#, &triangle_buffer_uri(), 42, "x");
+        let s = load_gltf(&text).unwrap();
+        let corner = s.triangle(0)[1];
+        assert!((corner - Vec3::NEG_X).length() < 1e-6, "{corner}");
+    }
+
+    #[test]
+    fn zero_rotation_is_error() {
+        let text = one_triangle_gltf(r#","rotation":[0,0,0,0]"#, &triangle_buffer_uri(), 42, "x");
+        let e = load_gltf(&text).unwrap_err();
+        assert!(e.to_string().contains("node 0"), "{e}");
+    }
+
+    #[test]
+    fn view_past_byte_length_is_error() {
+        // The data URI holds 42 bytes, but the buffer declares 40: the index view ends at 42.
+        let text = one_triangle_gltf("", &triangle_buffer_uri(), 40, "x");
+        let e = load_gltf(&text).unwrap_err();
+        assert!(e.to_string().contains("exceeds its buffer"), "{e}");
+    }
+
+    #[test]
+    fn unused_buffer_is_never_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let text = one_triangle_gltf("", "tri.bin", 42, "/nonexistent/image.bin");
+        let s = load_in_dir(dir.path(), &text, &LoadOptions::default()).unwrap();
+        assert_eq!(s.triangle_count(), 1);
+    }
+
+    #[test]
+    fn external_buffer_reads_only_byte_length() {
+        let dir = tempfile::tempdir().unwrap();
+        let text = one_triangle_gltf("", "tri.bin", 42, "x");
+        assert_eq!(
+            load_in_dir(dir.path(), &text, &LoadOptions::default())
+                .unwrap()
+                .triangle_count(),
+            1
+        );
+        let text = one_triangle_gltf("", "tri.bin", 50, "x");
+        let e = load_in_dir(dir.path(), &text, &LoadOptions::default()).unwrap_err();
+        assert!(e.to_string().contains("byteLength is 50"), "{e}");
+    }
+
+    #[test]
+    fn outside_refs_need_the_option() {
+        let dir = tempfile::tempdir().unwrap();
+        let inner = dir.path().join("inner");
+        std::fs::create_dir(&inner).unwrap();
+        std::fs::write(dir.path().join("up.bin"), triangle_buffer()).unwrap();
+        let absolute = dir.path().join("up.bin").display().to_string();
+        for uri in ["../up.bin", absolute.as_str()] {
+            let text = one_triangle_gltf("", uri, 42, "x");
+            let e = load_in_dir(&inner, &text, &LoadOptions::default()).unwrap_err();
+            assert!(matches!(e, LoadError::Limit { .. }), "{uri}: {e}");
+            assert!(e.to_string().contains("--allow-outside-refs"), "{e}");
+            let allowed = LoadOptions {
+                allow_outside_refs: true,
+                ..LoadOptions::default()
+            };
+            let s = load_in_dir(&inner, &text, &allowed).unwrap();
+            assert_eq!(s.triangle_count(), 1, "{uri}");
+        }
+    }
+
+    #[test]
+    fn uri_with_scheme_is_error() {
+        let text = one_triangle_gltf("", "file:///etc/passwd", 42, "x");
+        let e = load_gltf(&text).unwrap_err();
+        assert!(e.to_string().contains("scheme"), "{e}");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn devices_and_fifos_are_not_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("fifo.bin");
+        let name = std::ffi::CString::new(fifo.display().to_string()).unwrap();
+        // SAFETY: `name` is a valid NUL-terminated path.
+        assert_eq!(unsafe { libc::mkfifo(name.as_ptr(), 0o600) }, 0);
+        std::os::unix::fs::symlink("/dev/zero", dir.path().join("zero.bin")).unwrap();
+        let allowed = LoadOptions {
+            allow_outside_refs: true,
+            ..LoadOptions::default()
+        };
+        for uri in ["fifo.bin", "zero.bin", "/dev/zero"] {
+            let text = one_triangle_gltf("", uri, 42, "x");
+            let e = load_in_dir(dir.path(), &text, &allowed).unwrap_err();
+            assert!(e.to_string().contains("not a regular file"), "{uri}: {e}");
+        }
+    }
+
+    #[test]
+    fn buffers_above_the_limit_are_error() {
+        let text = one_triangle_gltf("", &triangle_buffer_uri(), 42, "x");
+        let options = LoadOptions {
+            max_scene_bytes: 41,
+            ..LoadOptions::default()
+        };
+        let e = load_with(Path::new("m.gltf"), text.as_bytes(), &options).unwrap_err();
+        assert!(matches!(e, LoadError::Limit { .. }), "{e}");
+    }
+
+    #[test]
+    fn points_only_scene_warns() {
+        let s = load_gltf(&two_node_gltf(0, 3)).unwrap();
+        assert!(
+            s.load_warnings
+                .iter()
+                .any(|w| w.contains("points or lines")),
+            "{:?}",
+            s.load_warnings
+        );
+    }
+
+    #[test]
+    fn index_past_u32_is_error_not_index_0() {
+        let text = one_triangle_gltf("", &triangle_buffer_uri(), 42, "x")
+            .replace(r#""mesh":0"#, r#""mesh":4294967296"#);
+        let e = load_gltf(&text).unwrap_err();
+        assert!(e.to_string().contains("nodes[0].mesh"), "{e}");
     }
 
     #[test]

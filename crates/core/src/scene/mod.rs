@@ -16,12 +16,14 @@
 mod builder;
 mod error;
 pub mod gltf;
+mod limits;
 pub mod obj;
 pub mod ply;
 pub mod procedural;
 pub mod q3;
 mod spec;
 pub mod stl;
+mod text;
 
 use glam::Vec3;
 use serde::Serialize;
@@ -97,6 +99,11 @@ pub struct Scene {
     pub source: String,
     /// Quake 3 map data (clusters, leaves, the compiled PVS) when loaded from a `.bsp`.
     pub bsp: Option<Box<q3::BspData>>,
+    /// What the loader found questionable but loaded anyway, one sentence each (e.g. PLY faces
+    /// with fewer than 3 indices, glTF primitives of points or lines, bytes after the last
+    /// STL record): the file loaded, but maybe not as its author meant. Empty for generators.
+    /// The CLI prints them on stderr.
+    pub load_warnings: Vec<String>,
 }
 
 impl Scene {

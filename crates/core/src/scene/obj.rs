@@ -22,6 +22,12 @@
 //! - Objects: see "Objects" below. No material is ever read: `mtllib` is ignored, and so are
 //!   `vt`, `vn`, `l`, `p`, `s` and unknown statements.
 //! - Line continuation with `\` is not supported (no shipped file uses it).
+//! - Lines end at `\n`, `\r\n` or a lone `\r`. A `v` line has exactly 3, 4 (`x y z w`) or 6
+//!   (`x y z r g b`, the common vertex-colour extension) numbers: anything else is an error,
+//!   as extra words usually mean lines that were not split (a file whose line ends were
+//!   lost would otherwise load as its first vertex).
+//! - A file without faces loads empty with a load warning. The scene memory
+//!   grows with the file and is checked against [`LoadOptions::max_scene_bytes`] as it grows.
 //!
 //! Errors name the file and the 1-based line.
 //!
@@ -54,13 +60,20 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use super::{LoadError, Location, Object, Scene, SceneBuilder};
+use super::limits::{show_bytes, RAISE};
+use super::{text, LoadError, LoadOptions, Location, Object, Scene, SceneBuilder};
 
-/// Loads an OBJ file from its (decompressed) bytes; `path` is for error messages.
+/// Loads an OBJ file from its (decompressed) bytes with the default [`LoadOptions`]; `path` is
+/// for error messages.
 ///
 /// A file without faces gives an empty scene, not an error. See the module documentation for
 /// how faces and groups become triangles and objects.
 pub fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
+    load_with(path, bytes, &LoadOptions::default())
+}
+
+/// [`load`] with the limits of `options`.
+pub fn load_with(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene, LoadError> {
     let mut builder = SceneBuilder::new(path.display().to_string());
     // About 30 bytes per `v` or `f` line in typical files; a hint, never a limit.
     builder.reserve(bytes.len() / 64, bytes.len() / 64);
@@ -76,7 +89,7 @@ pub fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
     let mut by_tag: HashMap<u32, u32> = HashMap::new();
     let mut corners: Vec<u32> = Vec::with_capacity(8);
 
-    for (line_index, raw_line) in bytes.split(|&b| b == b'\n').enumerate() {
+    for (line_index, raw_line) in text::lines(bytes).enumerate() {
         let line_no = line_index + 1;
         let err = |message: String| LoadError::parse(path, Location::Line(line_no), message);
         let line = String::from_utf8_lossy(raw_line);
@@ -97,8 +110,21 @@ pub fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
                         .parse()
                         .map_err(|_| err(format!("vertex coordinate '{word}' is not a number")))?;
                 }
-                // A 4th value (w) or vertex colours may follow; neither changes the position
-                // for polygonal geometry, so they are ignored.
+                // A 4th value (w) or vertex colours (r g b) may follow; neither changes the
+                // position for polygonal geometry, so they are checked and not kept.
+                let mut extra = 0usize;
+                for word in words {
+                    word.parse::<f32>()
+                        .map_err(|_| err(format!("vertex value '{word}' is not a number")))?;
+                    extra += 1;
+                }
+                if !matches!(extra, 0 | 1 | 3) {
+                    return Err(err(format!(
+                        "vertex has {} values, expected 3 (x y z), 4 (x y z w) or 6 \
+                         (x y z r g b): are line ends missing?",
+                        3 + extra
+                    )));
+                }
                 builder.add_vertex(Vec3::from_array(xyz));
             }
             "f" => {
@@ -164,6 +190,22 @@ pub fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
             }
             _ => {}
         }
+        if builder.geometry_bytes() > options.max_scene_bytes {
+            return Err(LoadError::limit(
+                path,
+                Location::Line(line_no),
+                format!(
+                    "{} vertices and {} triangles so far, above the limit of {}; {RAISE}",
+                    builder.vertex_count(),
+                    builder.triangle_count(),
+                    show_bytes(options.max_scene_bytes)
+                ),
+            ));
+        }
+    }
+    if builder.triangle_count() == 0 {
+        let n = builder.vertex_count();
+        builder.warn(format!("{n} vertices and no 'f' lines: no triangles"));
     }
     if !by_tag.is_empty() {
         // Tagged objects take their tag order (the ids they had when written), the others
@@ -386,6 +428,57 @@ mod tests {
     fn crlf_and_missing_mtllib_are_fine() {
         let text = "mtllib missing.mtl\r\nv 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nf 1 2 3\r\n";
         assert_eq!(load_str(text).unwrap().triangle_count(), 1);
+    }
+
+    #[test]
+    fn cr_only_line_ends_split_lines() {
+        let s = load_str(&quad_file().replace('\n', "\r")).unwrap();
+        assert_eq!(s.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+    }
+
+    #[test]
+    fn vertex_colours_and_w_are_accepted() {
+        let text = "v 0 0 0 1\nv 1 0 0 0.5 0.5 0.5\nv 0 1 0\nf 1 2 3\n";
+        assert_eq!(load_str(text).unwrap().positions[1], Vec3::X);
+    }
+
+    #[test]
+    fn extra_vertex_values_name_line() {
+        for line in ["v 0 0 0 1 2", "v 0 0 0 1 2 3 4", "v 0 0 0 v 1 0 0"] {
+            let text = format!("v 1 1 1\n{line}\n");
+            let e = load_str(&text).unwrap_err();
+            assert!(e.to_string().contains("line 2"), "{line}: {e}");
+        }
+    }
+
+    #[test]
+    fn growth_above_the_limit_is_error() {
+        let options = LoadOptions {
+            max_scene_bytes: 100,
+            ..LoadOptions::default()
+        };
+        let text = "v 0 0 0\n".repeat(20);
+        let e = load_with(Path::new("big.obj"), text.as_bytes(), &options).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                LoadError::Limit {
+                    location: Location::Line(9),
+                    ..
+                }
+            ),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn vertices_without_faces_warn() {
+        let s = load_str("v 1 2 3\n").unwrap();
+        assert!(
+            s.load_warnings[0].contains("no 'f' lines"),
+            "{:?}",
+            s.load_warnings
+        );
     }
 
     #[test]

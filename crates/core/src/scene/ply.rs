@@ -12,11 +12,18 @@
 //!   other properties, in any order, are skipped.
 //! - `face` element: the `vertex_indices` (or `vertex_index`) list, any count and index types.
 //!   A polygon `a b c d ...` becomes the fan `(a b c) (a c d) ...`; faces with fewer than 3
-//!   indices give no triangle. Triangle ids follow face order.
+//!   indices give no triangle and are counted in a load warning. Triangle ids follow face
+//!   order.
 //! - Any other element (edges, materials, ...) is skipped, lists included. Elements may come in
 //!   any order; face indices are checked against the header's vertex count, so a face that
 //!   names a vertex that does not exist is an error naming the face, wherever it sits.
 //! - The whole file is one object named after the file stem.
+//! - Counts are checked against the data: two elements of the same name are an error; each
+//!   ASCII item is one line with exactly the values its properties declare (a misaligned file,
+//!   `element vertex 10` with data for 8, is an error, not garbage geometry), and lines after
+//!   the last item are an error; binary counts must fit in the bytes left (checked before any
+//!   allocation), and bytes after the last item are a load warning. The geometry the header
+//!   declares is checked against [`LoadOptions::max_scene_bytes`] before it is read.
 //!
 //! Binary data is read straight from the byte slice with no per-byte dispatch: vertices with
 //! only scalar properties are read at a fixed stride, and the `list uchar int|uint` face
@@ -28,7 +35,8 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use super::{LoadError, Location, Scene, SceneBuilder};
+use super::limits::check_geometry;
+use super::{LoadError, LoadOptions, Location, Scene, SceneBuilder};
 
 /// A scalar type of the PLY header.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -157,13 +165,24 @@ struct Header {
 struct Mesh {
     positions: Vec<Vec3>,
     triangles: Vec<[u32; 3]>,
+    /// Faces with fewer than 3 indices (no triangle), and the first of them.
+    short_faces: u64,
+    first_short_face: u64,
+    /// Load warnings.
+    warnings: Vec<String>,
 }
 
-/// Loads a PLY file from its (decompressed) bytes; `path` is for error messages.
+/// Loads a PLY file from its (decompressed) bytes with the default [`LoadOptions`]; `path` is
+/// for error messages.
 ///
 /// The result has one object named after the file stem. See the module documentation for
 /// which elements and properties are read.
 pub fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
+    load_with(path, bytes, &LoadOptions::default())
+}
+
+/// [`load`] with the limits of `options`.
+pub fn load_with(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene, LoadError> {
     let header = parse_header(path, bytes)?;
     let vertex_count = header
         .elements
@@ -178,10 +197,34 @@ pub fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
             format!("{vertex_count} vertices is more than 2^32 - 1"),
         ));
     }
+    // Each face gives at least one triangle unless it is short; polygons give more, but
+    // their bytes bound those (and the whole input is capped by the same limit).
+    let face_count = header
+        .elements
+        .iter()
+        .find(|e| face_list(e).is_some())
+        .map_or(0, |e| e.count);
+    check_geometry(
+        path,
+        Location::Element("header".into()),
+        vertex_count,
+        face_count,
+        options,
+    )?;
     let mut mesh = Mesh {
         positions: Vec::new(),
         triangles: Vec::new(),
+        short_faces: 0,
+        first_short_face: 0,
+        warnings: Vec::new(),
     };
+    match header.elements.iter().find(|e| face_list(e).is_some()) {
+        None => mesh
+            .warnings
+            .push("no 'face' element with a 'vertex_indices' list: no triangles".into()),
+        Some(e) if e.count == 0 => mesh.warnings.push("'element face 0': no triangles".into()),
+        Some(_) => {}
+    }
     match header.encoding {
         Encoding::Ascii => read_ascii(path, bytes, &header, vertex_count as u32, &mut mesh)?,
         Encoding::BinaryLittle | Encoding::BinaryBig => {
@@ -201,6 +244,15 @@ pub fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
         .unwrap_or("ply")
         .to_string();
     let mut builder = SceneBuilder::new(path.display().to_string());
+    if mesh.short_faces > 0 {
+        builder.warn(format!(
+            "{} face(s) with fewer than 3 vertex indices give no triangle (first: face {})",
+            mesh.short_faces, mesh.first_short_face
+        ));
+    }
+    for w in mesh.warnings.drain(..) {
+        builder.warn(w);
+    }
     builder.reserve(mesh.positions.len(), mesh.triangles.len());
     for p in mesh.positions {
         builder.add_vertex(p);
@@ -258,6 +310,12 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header, LoadError> {
                 let count = count
                     .parse::<u64>()
                     .map_err(|_| line_err(line_no, format!("bad element count '{count}'")))?;
+                if elements.iter().any(|e| e.name == name) {
+                    return Err(line_err(
+                        line_no,
+                        format!("a second 'element {name}' (each element is declared once)"),
+                    ));
+                }
                 elements.push(Element {
                     name: name.to_string(),
                     count,
@@ -339,13 +397,14 @@ fn face_list(e: &Element) -> Option<usize> {
 }
 
 /// Appends the fan triangulation of `face` (index `face_index` in the face element) after
-/// checking every index against `vertex_count`.
+/// checking every index against `vertex_count`; a face of fewer than 3 indices is counted in
+/// `mesh.short_faces`.
 #[inline]
 fn add_face(
     face: &[i64],
     face_index: u64,
     vertex_count: u32,
-    triangles: &mut Vec<[u32; 3]>,
+    mesh: &mut Mesh,
 ) -> Result<(), String> {
     for &i in face {
         if i < 0 || i >= i64::from(vertex_count) {
@@ -354,8 +413,15 @@ fn add_face(
             ));
         }
     }
+    if face.len() < 3 {
+        if mesh.short_faces == 0 {
+            mesh.first_short_face = face_index;
+        }
+        mesh.short_faces += 1;
+    }
     for k in 1..face.len().saturating_sub(1) {
-        triangles.push([face[0] as u32, face[k] as u32, face[k + 1] as u32]);
+        mesh.triangles
+            .push([face[0] as u32, face[k] as u32, face[k + 1] as u32]);
     }
     Ok(())
 }
@@ -537,7 +603,7 @@ fn read_binary(
                         for (k, slot) in face[..n].iter_mut().enumerate() {
                             *slot = as_index(ty.read(&data[4 * k..], big));
                         }
-                        add_face(&face[..n], item, vertex_count, &mut mesh.triangles)
+                        add_face(&face[..n], item, vertex_count, mesh)
                             .map_err(|m| face_err(start, m))?;
                     }
                     pos = end;
@@ -551,8 +617,7 @@ fn read_binary(
                     pos =
                         read_item_binary(bytes, pos, e, big, &mut values, Some((list, &mut face)))
                             .ok_or_else(|| truncated(start, e, item))?;
-                    add_face(&face, item, vertex_count, &mut mesh.triangles)
-                        .map_err(|m| face_err(start, m))?;
+                    add_face(&face, item, vertex_count, mesh).map_err(|m| face_err(start, m))?;
                 }
             }
         } else if let Some(stride) = stride {
@@ -564,6 +629,12 @@ fn read_binary(
                     .ok_or_else(|| truncated(pos, e, item))?;
             }
         }
+    }
+    if pos < bytes.len() {
+        mesh.warnings.push(format!(
+            "{} bytes after the last element (from byte offset {pos}) are ignored",
+            bytes.len() - pos
+        ));
     }
     Ok(())
 }
@@ -681,12 +752,33 @@ fn read_ascii(
                     }
                 }
             }
+            let extra = w.count();
+            if extra > 0 {
+                return Err(err(format!(
+                    "{extra} value(s) more than the element's properties declare ({} on the \
+                     line): the data does not match the header",
+                    words.len()
+                )));
+            }
             if is_vertex {
                 let [x, y, z] = axes.map(|a| values[a.unwrap_or(0)] as f32);
                 mesh.positions.push(Vec3::new(x, y, z));
             } else if list.is_some() {
-                add_face(&face, item, vertex_count, &mut mesh.triangles).map_err(err)?;
+                add_face(&face, item, vertex_count, mesh).map_err(err)?;
             }
+        }
+    }
+    for (n, l) in lines {
+        if !l.trim_ascii().is_empty() {
+            let last = header.elements.last().map_or("header", |e| e.name.as_str());
+            return Err(LoadError::parse(
+                path,
+                Location::Line(n),
+                format!(
+                    "data after the last item of element {last}: the element counts of the \
+                     header do not match the data"
+                ),
+            ));
         }
     }
     Ok(())
@@ -858,6 +950,92 @@ mod tests {
         let text = ascii_square().replace("1 1 0", "1 x 0");
         let e = load_bytes(text.as_bytes()).unwrap_err();
         assert!(e.to_string().contains("line 13"), "{e}");
+    }
+
+    #[test]
+    fn short_faces_are_counted_in_a_warning() {
+        let text = ascii_square()
+            .replace("element face 1", "element face 3")
+            .replace("4 0 1 2 3\n", "2 0 1\n4 0 1 2 3\n0\n");
+        let s = load_bytes(text.as_bytes()).unwrap();
+        assert_eq!(s.triangle_count(), 2);
+        assert_eq!(s.load_warnings.len(), 1, "{:?}", s.load_warnings);
+        assert!(
+            s.load_warnings[0].contains("2 face(s)"),
+            "{:?}",
+            s.load_warnings
+        );
+        assert!(
+            s.load_warnings[0].contains("first: face 0"),
+            "{:?}",
+            s.load_warnings
+        );
+    }
+
+    #[test]
+    fn ascii_extra_value_is_error() {
+        let text = ascii_square().replace("1 1 0\n", "1 1 0 7\n");
+        let e = load_bytes(text.as_bytes()).unwrap_err();
+        assert!(e.to_string().contains("line 13"), "{e}");
+    }
+
+    #[test]
+    fn ascii_count_above_the_data_is_error() {
+        // 5 vertices declared, 4 given: the face line would be read as a vertex.
+        let text = ascii_square().replace("element vertex 4", "element vertex 5");
+        assert!(load_bytes(text.as_bytes()).is_err());
+    }
+
+    #[test]
+    fn ascii_count_below_the_data_is_error() {
+        let text = ascii_square()
+            .replace("element vertex 4", "element vertex 3")
+            .replace("4 0 1 2 3", "3 0 1 2");
+        let e = load_bytes(text.as_bytes()).unwrap_err();
+        assert!(e.to_string().contains("line 14"), "{e}");
+    }
+
+    #[test]
+    fn trailing_ascii_line_is_error() {
+        let text = format!("{}3 0 1 2\n", ascii_square());
+        let e = load_bytes(text.as_bytes()).unwrap_err();
+        assert!(e.to_string().contains("after the last item"), "{e}");
+    }
+
+    #[test]
+    fn second_element_of_a_name_is_error() {
+        let text = ascii_square().replace(
+            "element face 1",
+            "element vertex 1\nproperty float x\nelement face 1",
+        );
+        let e = load_bytes(text.as_bytes()).unwrap_err();
+        assert!(e.to_string().contains("second 'element vertex'"), "{e}");
+    }
+
+    #[test]
+    fn declared_counts_above_the_limit_are_error() {
+        let text = "ply\nformat binary_little_endian 1.0\nelement vertex 4294967295\n\
+                    property float x\nproperty float y\nproperty float z\nend_header\n";
+        let options = LoadOptions {
+            max_scene_bytes: 1 << 30,
+            ..LoadOptions::default()
+        };
+        let e = load_with(Path::new("big.ply"), text.as_bytes(), &options).unwrap_err();
+        assert!(matches!(e, LoadError::Limit { .. }), "{e}");
+    }
+
+    #[test]
+    fn binary_trailing_bytes_are_a_warning() {
+        let mut out = Vec::new();
+        write(&two_triangles(), &mut out).unwrap();
+        out.extend_from_slice(b"junk");
+        let s = load_bytes(&out).unwrap();
+        assert_eq!(s.triangle_count(), 2);
+        assert!(
+            s.load_warnings[0].contains("4 bytes"),
+            "{:?}",
+            s.load_warnings
+        );
     }
 
     #[test]

@@ -1,22 +1,44 @@
 //! Scene specs: a file path or `procedural:NAME?seed=S&size=N`, and the loader dispatch.
 
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
+use super::limits::read_capped;
 use super::{procedural, LoadError, Scene};
 
-/// Options that change how files are turned into triangles.
+/// Options that change how files are turned into triangles, and the limits of loading.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LoadOptions {
     /// Quake 3 bezier patches: each 3x3 sub-patch is tessellated into an `n x n` grid of quads
     /// (`2 n²` triangles). 0 leaves patches out.
     pub patch_subdivisions: u32,
+    /// The most memory one load may take, in bytes, checked separately for the file's bytes
+    /// (after gzip inflation; a larger file is an error, never read to the end) and for the
+    /// geometry (12 bytes per vertex, 16 per triangle, see [`Scene`]): counts a file declares
+    /// are checked before anything is allocated for them. Default
+    /// [`LoadOptions::DEFAULT_MAX_SCENE_BYTES`].
+    pub max_scene_bytes: u64,
+    /// glTF external buffers (`"uri": "file.bin"`): `false` (the default) reads only regular
+    /// files whose canonical path lies in the folder of the `.gltf` file or below it, so a
+    /// file from elsewhere cannot make the loader read `/etc/passwd` or `../../secret`;
+    /// `true` also follows absolute paths and paths that leave the folder.
+    pub allow_outside_refs: bool,
+}
+
+impl LoadOptions {
+    /// 4 GiB: a load holds the file's bytes and the geometry at once, so this bounds it to
+    /// about 8 GiB, what a machine that runs these tools can spare; and 4 GiB of geometry is
+    /// about 190 million triangles (22 bytes each for a closed mesh), past any scene the
+    /// visibility methods handle in reasonable time. A fixed figure rather than a fraction
+    /// of RAM, so a scene that loads on one machine loads on every other.
+    pub const DEFAULT_MAX_SCENE_BYTES: u64 = 4 << 30;
 }
 
 impl Default for LoadOptions {
     fn default() -> Self {
         Self {
             patch_subdivisions: 4,
+            max_scene_bytes: Self::DEFAULT_MAX_SCENE_BYTES,
+            allow_outside_refs: false,
         }
     }
 }
@@ -53,36 +75,63 @@ pub fn open(spec: &str, options: &LoadOptions) -> Result<Scene, LoadError> {
     }
 }
 
-/// Loads a scene file, choosing the format by extension; `.gz` files are decompressed first.
+/// Loads a scene file, choosing the format by extension; `.gz` files are inflated while they
+/// are read (the compressed bytes are never held), both capped at
+/// [`LoadOptions::max_scene_bytes`].
 pub fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene, LoadError> {
-    let io = |source| LoadError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let raw = std::fs::read(path).map_err(io)?;
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    let (bytes, inner) = match name.strip_suffix(".gz") {
-        Some(inner) => {
-            let mut out = Vec::new();
-            flate2::read::MultiGzDecoder::new(raw.as_slice())
-                .read_to_end(&mut out)
-                .map_err(|e| LoadError::Invalid {
-                    path: path.to_path_buf(),
-                    message: format!("gzip decompression failed: {e}"),
-                })?;
-            (out, inner.to_string())
-        }
-        None => (raw, name),
+    let (inner, gzipped) = match name.strip_suffix(".gz") {
+        Some(inner) => (inner, true),
+        None => (name.as_str(), false),
     };
     let ext = inner.rsplit('.').next().unwrap_or("");
+    if !matches!(ext, "obj" | "ply" | "stl" | "gltf" | "glb" | "bsp") {
+        return Err(LoadError::UnknownFormat {
+            path: path.to_path_buf(),
+        });
+    }
+    let io = |source| LoadError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let file = std::fs::File::open(path).map_err(io)?;
+    // The size of a regular file sizes the buffer; devices and pipes report 0 and are read
+    // through the same cap.
+    let size = file
+        .metadata()
+        .ok()
+        .filter(|m| m.is_file())
+        .map(|m| m.len());
+    let limit = options.max_scene_bytes;
+    let bytes = match gzipped {
+        true => {
+            let inflate = flate2::read::MultiGzDecoder::new(std::io::BufReader::new(file));
+            read_capped(path, inflate, limit, None, "the inflated gzip data")?
+        }
+        false => {
+            if let Some(len) = size.filter(|&len| len > limit) {
+                return Err(LoadError::limit(
+                    path,
+                    super::Location::Byte(limit),
+                    format!(
+                        "the file has {}, above the limit of {}; {}",
+                        super::limits::show_bytes(len),
+                        super::limits::show_bytes(limit),
+                        super::limits::RAISE
+                    ),
+                ));
+            }
+            read_capped(path, file, limit, size, "the file")?
+        }
+    };
     let mut scene = match ext {
-        "obj" => super::obj::load(path, &bytes)?,
-        "ply" => super::ply::load(path, &bytes)?,
-        "stl" => super::stl::load(path, &bytes)?,
-        "gltf" | "glb" => super::gltf::load(path, &bytes)?,
+        "obj" => super::obj::load_with(path, &bytes, options)?,
+        "ply" => super::ply::load_with(path, &bytes, options)?,
+        "stl" => super::stl::load_with(path, &bytes, options)?,
+        "gltf" | "glb" => super::gltf::load_with(path, &bytes, options)?,
         "bsp" => super::q3::load(path, &bytes, options)?,
         _ => {
             return Err(LoadError::UnknownFormat {
@@ -120,6 +169,72 @@ mod tests {
         std::fs::write(&p, b"not gzip at all").unwrap();
         let e = load_file(&p, &LoadOptions::default()).unwrap_err();
         assert!(e.to_string().contains("gzip"), "{e}");
+    }
+
+    fn gzip(bytes: &[u8]) -> Vec<u8> {
+        use std::io::Write;
+        let mut z = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+        z.write_all(bytes).unwrap();
+        z.finish().unwrap()
+    }
+
+    #[test]
+    fn gzip_bomb_stops_at_the_limit() {
+        // 64 MiB of zeros inflate from about 64 KiB; a 1 MiB limit stops the inflation there.
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("bomb.ply.gz");
+        std::fs::write(&p, gzip(&vec![0u8; 64 << 20])).unwrap();
+        let options = LoadOptions {
+            max_scene_bytes: 1 << 20,
+            ..LoadOptions::default()
+        };
+        let e = load_file(&p, &options).unwrap_err();
+        let msg = e.to_string();
+        assert!(matches!(e, LoadError::Limit { .. }), "{msg}");
+        assert!(
+            msg.contains("bomb.ply.gz") && msg.contains("--max-scene-bytes"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn gzip_under_the_limit_loads() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.obj.gz");
+        std::fs::write(&p, gzip(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")).unwrap();
+        assert_eq!(
+            load_file(&p, &LoadOptions::default())
+                .unwrap()
+                .triangle_count(),
+            1
+        );
+    }
+
+    #[test]
+    fn file_above_the_limit_is_not_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("big.obj");
+        std::fs::write(&p, vec![b' '; 4096]).unwrap();
+        let options = LoadOptions {
+            max_scene_bytes: 1000,
+            ..LoadOptions::default()
+        };
+        let e = load_file(&p, &options).unwrap_err();
+        assert!(matches!(e, LoadError::Limit { .. }), "{e}");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn endless_device_is_read_only_up_to_the_limit() {
+        let options = LoadOptions {
+            max_scene_bytes: 1 << 16,
+            ..LoadOptions::default()
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("zero.obj");
+        std::os::unix::fs::symlink("/dev/zero", &p).unwrap();
+        let e = load_file(&p, &options).unwrap_err();
+        assert!(matches!(e, LoadError::Limit { .. }), "{e}");
     }
 
     #[test]

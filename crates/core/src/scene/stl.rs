@@ -7,8 +7,15 @@
 //!
 //! Binary or ASCII: many binary exporters start the 80-byte header with `solid`, so the word
 //! alone decides nothing. A file is binary when its size is exactly `84 + 50 n` for the count
-//! `n` it declares, or when it does not start with `solid` (then trailing bytes after the `n`
-//! records are tolerated, as several exporters pad). Anything else is parsed as ASCII.
+//! `n` it declares, or when it does not start with `solid`. Anything else is parsed as ASCII,
+//! and read as binary after all when that fails and its `n` records fit in the file (a binary
+//! file with a `solid` header and a few bytes of padding).
+//!
+//! Counts: a binary file shorter than its `n` records is an error; so is one with room for
+//! more records than `n` (50 or more bytes after them: the count and the data disagree, and
+//! either could be the truth); fewer than 50 extra bytes (padding) are a load warning. An ASCII
+//! file without facets is an error (it is empty or not STL); one whose last `solid` has no
+//! `endsolid` loads with a warning (it may be cut short).
 //!
 //! Vertices are not welded: each triangle gets its own 3 vertices (STL has no shared vertices
 //! and welding would cost a hash map for no gain in visibility). One object per ASCII `solid`
@@ -19,24 +26,48 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use super::{LoadError, Location, Scene, SceneBuilder};
+use super::limits::check_geometry;
+use super::{text, LoadError, LoadOptions, Location, Scene, SceneBuilder};
 
-/// Loads an STL file (ASCII or binary) from its (decompressed) bytes; `path` is for error
-/// messages.
+/// Binary record size: normal, three corners (12 bytes each), `u16` attribute.
+const RECORD: u64 = 50;
+
+/// Loads an STL file (ASCII or binary) from its (decompressed) bytes with the default
+/// [`LoadOptions`]; `path` is for error messages.
 pub fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
+    load_with(path, bytes, &LoadOptions::default())
+}
+
+/// [`load`] with the limits of `options`.
+pub fn load_with(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene, LoadError> {
     let declared = bytes
         .get(80..84)
         .map(|b| u64::from(u32::from_le_bytes([b[0], b[1], b[2], b[3]])));
-    let exact_binary = declared.is_some_and(|n| 84 + 50 * n == bytes.len() as u64);
+    let len = bytes.len() as u64;
+    let exact_binary = declared.is_some_and(|n| 84 + RECORD * n == len);
     let looks_ascii = bytes.trim_ascii_start().starts_with(b"solid");
     if exact_binary || !looks_ascii {
-        load_binary(path, bytes, declared)
-    } else {
-        load_ascii(path, bytes)
+        return load_binary(path, bytes, declared, options);
+    }
+    match load_ascii(path, bytes) {
+        Ok(scene) => Ok(scene),
+        // A `solid` header on binary data that is not exactly `84 + 50 n` bytes long: when
+        // its records fit, the binary reading (and its error) is the one that counts.
+        Err(ascii) => match declared {
+            Some(n) if n > 0 && 84 + RECORD * n <= len => {
+                load_binary(path, bytes, declared, options)
+            }
+            _ => Err(ascii),
+        },
     }
 }
 
-fn load_binary(path: &Path, bytes: &[u8], declared: Option<u64>) -> Result<Scene, LoadError> {
+fn load_binary(
+    path: &Path,
+    bytes: &[u8],
+    declared: Option<u64>,
+    options: &LoadOptions,
+) -> Result<Scene, LoadError> {
     let Some(n) = declared else {
         return Err(LoadError::parse(
             path,
@@ -48,17 +79,30 @@ fn load_binary(path: &Path, bytes: &[u8], declared: Option<u64>) -> Result<Scene
             ),
         ));
     };
-    let needed = 84 + 50 * n;
-    if needed > bytes.len() as u64 {
+    let needed = 84 + RECORD * n;
+    let len = bytes.len() as u64;
+    if needed > len {
         return Err(LoadError::parse(
             path,
             Location::Byte(80),
             format!(
-                "binary STL declares {n} triangles ({needed} bytes) but the file has {} bytes",
-                bytes.len()
+                "binary STL declares {n} triangles ({needed} bytes) but the file has {len} bytes"
             ),
         ));
     }
+    let extra = len - needed;
+    if extra >= RECORD {
+        return Err(LoadError::parse(
+            path,
+            Location::Byte(80),
+            format!(
+                "binary STL declares {n} triangles ({needed} bytes) but the file has {len} \
+                 bytes, room for {} records: the triangle count and the data disagree",
+                n + extra / RECORD
+            ),
+        ));
+    }
+    check_geometry(path, Location::Byte(80), 3 * n, n, options)?;
     let stem = path
         .file_name()
         .map(|f| f.to_string_lossy().into_owned())
@@ -81,6 +125,14 @@ fn load_binary(path: &Path, bytes: &[u8], declared: Option<u64>) -> Result<Scene
         }
         builder.add_triangle([base, base + 1, base + 2]);
     }
+    if n == 0 {
+        builder.warn("the binary STL header declares 0 triangles");
+    }
+    if extra > 0 {
+        builder.warn(format!(
+            "{extra} bytes after the {n} triangle records (padding?) are ignored"
+        ));
+    }
     Ok(builder.finish())
 }
 
@@ -92,7 +144,8 @@ fn load_ascii(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
     // Corners of the current `outer loop`, or None outside a loop.
     let mut corners: Option<Vec<u32>> = None;
     let mut last_line = 0;
-    for (index, raw) in bytes.split(|&b| b == b'\n').enumerate() {
+    let mut facets = 0usize;
+    for (index, raw) in text::lines(bytes).enumerate() {
         let line_no = index + 1;
         last_line = line_no;
         let err = |message: String| LoadError::parse(path, Location::Line(line_no), message);
@@ -138,6 +191,11 @@ fn load_ascii(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
                         .parse()
                         .map_err(|_| err(format!("vertex coordinate '{word}' is not a number")))?;
                 }
+                if let Some(extra) = words.next() {
+                    return Err(err(format!(
+                        "vertex has more than 3 coordinates ('{extra}')"
+                    )));
+                }
                 list.push(builder.add_vertex(Vec3::from_array(xyz)));
             }
             "endloop" => {
@@ -151,6 +209,7 @@ fn load_ascii(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
                     )));
                 }
                 builder.add_triangle([list[0], list[1], list[2]]);
+                facets += 1;
             }
             other => {
                 return Err(err(format!(
@@ -165,6 +224,19 @@ fn load_ascii(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
             path,
             Location::Line(last_line),
             "file ends inside a facet",
+        ));
+    }
+    if facets == 0 {
+        return Err(LoadError::parse(
+            path,
+            Location::Line(last_line),
+            "ASCII STL without facets (no 'outer loop' ... 'endloop'): empty or not STL",
+        ));
+    }
+    if in_solid {
+        builder.warn(format!(
+            "the file ends inside a solid (no 'endsolid' after line {last_line}): it may be \
+             cut short"
         ));
     }
     Ok(builder.finish())
@@ -255,6 +327,67 @@ mod tests {
             ascii_two_solids().replace("   vertex 0 1 0\n", "   vertex 0 1 0\nvertex 1 1 0\n");
         let e = load_bytes(text.as_bytes()).unwrap_err();
         assert!(e.to_string().contains("line 8"), "{e}");
+    }
+
+    #[test]
+    fn binary_with_solid_header_and_padding_is_binary() {
+        let mut b = binary_with_solid_header(2);
+        b.extend_from_slice(&[0; 7]);
+        let s = load_bytes(&b).unwrap();
+        assert_eq!(s.triangle_count(), 2);
+        assert!(
+            s.load_warnings[0].contains("7 bytes"),
+            "{:?}",
+            s.load_warnings
+        );
+    }
+
+    #[test]
+    fn solid_alone_is_error() {
+        let e = load_bytes(b"solid").unwrap_err();
+        assert!(e.to_string().contains("without facets"), "{e}");
+        let e = load_bytes(b"solid x\nendsolid x\n").unwrap_err();
+        assert!(e.to_string().contains("without facets"), "{e}");
+    }
+
+    #[test]
+    fn count_below_the_records_is_error() {
+        let mut b = binary_with_solid_header(3);
+        b[80..84].copy_from_slice(&1u32.to_le_bytes());
+        let e = load_bytes(&b).unwrap_err();
+        assert!(e.to_string().contains("room for 3 records"), "{e}");
+        b[0] = b'x';
+        let e = load_bytes(&b).unwrap_err();
+        assert!(e.to_string().contains("room for 3 records"), "{e}");
+    }
+
+    #[test]
+    fn declared_count_above_the_limit_is_error() {
+        let b = binary_with_solid_header(100);
+        let options = LoadOptions {
+            max_scene_bytes: 1000,
+            ..LoadOptions::default()
+        };
+        let e = load_with(Path::new("part.stl"), &b, &options).unwrap_err();
+        assert!(matches!(e, LoadError::Limit { .. }), "{e}");
+    }
+
+    #[test]
+    fn missing_endsolid_is_a_warning() {
+        let text = ascii_two_solids().replace("endsolid\n", "");
+        let s = load_bytes(text.as_bytes()).unwrap();
+        assert_eq!(s.triangle_count(), 2);
+        assert!(
+            s.load_warnings[0].contains("endsolid"),
+            "{:?}",
+            s.load_warnings
+        );
+    }
+
+    #[test]
+    fn cr_only_ascii_loads() {
+        let text = ascii_two_solids().replace('\n', "\r");
+        assert_eq!(load_bytes(text.as_bytes()).unwrap().triangle_count(), 2);
     }
 
     #[test]
