@@ -137,6 +137,20 @@ impl CameraArgs {
     }
 }
 
+/// The worker count for a `--threads` option: `None` is all cores; a count above
+/// [`sightline_core::threads::OVERSUBSCRIPTION`] per core is capped with a warning on stderr
+/// ([`sightline_core::threads::capped_threads`]); 0 is refused, as a typo rather than "none".
+pub(crate) fn thread_count(requested: Option<usize>) -> Result<usize> {
+    if requested == Some(0) {
+        bail!("--threads must be at least 1 (leave it out to use all cores)");
+    }
+    let (threads, warning) = sightline_core::threads::capped_threads(requested.unwrap_or(0));
+    if let Some(w) = warning {
+        eprintln!("warning: --threads: {w}");
+    }
+    Ok(threads)
+}
+
 /// A three-quarter view from outside the bounds, above the scene on its up axis.
 pub(crate) fn default_eye(scene: &Scene, look: Vec3, diagonal: f32) -> Vec3 {
     let up = scene.up.vector();

@@ -2,11 +2,17 @@
 //! frame. This binary only parses arguments, shows progress and prints results; the algorithms
 //! live in the library crates.
 
+// First: its `outln!` macro is used by the modules after it.
+#[macro_use]
+mod stdout;
+
 mod args;
 mod commands;
+mod errors;
 mod output;
 mod report;
 
+use std::io::Write;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
@@ -57,7 +63,37 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result = match cli.command {
+    let result = match stdout::catch_print_panics(|| run(cli.command)) {
+        Ok(result) => result.and_then(|()| Ok(stdout::flush_stdout()?)),
+        Err(stdout::PrintFailure::Stdout(e)) => Err(e.into()),
+        Err(stdout::PrintFailure::Stderr(e)) => {
+            // Nothing can be reported where stderr is gone.
+            return if e.kind() == std::io::ErrorKind::BrokenPipe {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::FAILURE
+            };
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        // The reader of the pipe has gone (`| head`): a quiet, successful end (see `stdout`).
+        Err(e)
+            if e.downcast_ref::<stdout::StdoutError>()
+                .is_some_and(|s| s.is_broken_pipe()) =>
+        {
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            // `eprintln!` would panic when stderr is gone as well; then only the status is left.
+            let _ = writeln!(std::io::stderr(), "error: {}", errors::error_chain(&e));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(command: Command) -> anyhow::Result<()> {
+    match command {
         Command::Info(a) => commands::info::run(a),
         Command::Render(a) => commands::render::run(a),
         Command::Convert(a) => commands::convert::run(a),
@@ -69,12 +105,5 @@ fn main() -> ExitCode {
         Command::Report(a) => commands::report::run(a),
         Command::Demo(a) => commands::demo::run(a),
         Command::View(a) => commands::view::run(a),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
-        }
     }
 }

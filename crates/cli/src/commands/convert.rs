@@ -53,7 +53,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
             "geometry_hash": format!("{:016x}", scene.geometry_hash()),
         }));
     }
-    println!(
+    outln!(
         "wrote {} ({} triangles, {} objects)",
         args.output.display(),
         scene.triangle_count(),

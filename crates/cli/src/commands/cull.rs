@@ -150,21 +150,21 @@ pub(crate) fn run(args: Args) -> Result<()> {
             summaries,
         });
     }
-    println!(
+    outln!(
         "{}: {} objects, {} frames at {width}x{height}, backend {}",
         args.scene,
         reports.first().map_or(0, |r| r.objects),
         args.frames,
         args.backend
     );
-    println!(
+    outln!(
         "| method | drawn mean | drawn max | exact visible | drawn/visible | queries mean | \
          queries max | cells mean | cells max | cull ms mean | cull ms max | popping % mean | \
          popping % max | longest missing streak |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    outln!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for s in &summaries {
-        println!(
+        outln!(
             "| {} | {:.1} | {} | {:.1} | {:.2} | {:.1} | {} | {:.1} | {} | {:.3} | {:.3} | {:.4} | \
              {:.3} | {} |",
             s.method,
@@ -184,7 +184,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         );
     }
     if let Some(plot) = &args.plot {
-        println!("plot: {}", plot.display());
+        outln!("plot: {}", plot.display());
     }
     Ok(())
 }

@@ -400,11 +400,11 @@ pub(crate) fn run(args: Args) -> Result<()> {
             "steps": steps,
         }));
     }
-    println!("sightline demo on {}", scene.source);
+    outln!("sightline demo on {}", scene.source);
     for s in &steps {
-        println!("  {:<44} {:>8.3} s  {}", s.name, s.seconds, s.result);
+        outln!("  {:<44} {:>8.3} s  {}", s.name, s.seconds, s.result);
     }
-    println!("report: {}", index.display());
+    outln!("report: {}", index.display());
     Ok(())
 }
 

@@ -154,13 +154,13 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if args.json {
         return print_json(&rows);
     }
-    println!(
+    outln!(
         "| cell | avg err px | max err px | avg err regions | max region px | avg snapping px | PVS | PVS % | seen | false neg | images | s |"
     );
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    outln!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
         let e = &r.evaluation;
-        println!(
+        outln!(
             "| {} | {:.2} | {} | {:.2} | {} | {:.2} | {} | {:.2} | {} | {} | {} | {:.1} |",
             r.cell,
             e.avg_error_pixels,
@@ -177,7 +177,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         );
     }
     let k = rows.len().max(1) as f64;
-    println!(
+    outln!(
         "mean over {} cells: {:.2} erroneous pixels per {}² image, max {}, {:.2} error regions, PVS {:.2}%",
         rows.len(),
         rows.iter().map(|r| r.evaluation.avg_error_pixels).sum::<f64>() / k,

@@ -20,7 +20,7 @@ use sightline_region::pvs_file::EncodedPvsFile;
 use sightline_region::shards::{merge, Shard};
 use sightline_region::{Budget, PvsFile, ViewCell};
 
-use crate::args::SceneArgs;
+use crate::args::{thread_count, SceneArgs};
 use crate::output::print_json;
 
 /// Arguments of `sightline pvs`.
@@ -156,7 +156,8 @@ pub(crate) struct BakeArgs {
     /// the probe.
     #[arg(long, default_value_t = 16384, value_name = "N")]
     probe_rays: usize,
-    /// Worker threads (default: all cores). Results do not depend on it.
+    /// Worker threads (default: all cores; at most 4 per core, more are capped with a
+    /// warning). Results do not depend on it.
     #[arg(long)]
     threads: Option<usize>,
     /// Print a JSON summary.
@@ -356,15 +357,14 @@ fn method_params(args: &BakeArgs) -> MethodParams {
 }
 
 fn run_bake(args: BakeArgs) -> Result<()> {
-    match args.threads {
-        Some(0) => bail!("--threads must be at least 1"),
-        Some(t) => rayon::ThreadPoolBuilder::new()
-            .num_threads(t)
-            .build()
-            .context("starting the worker threads")?
-            .install(|| bake_command(&args)),
-        None => bake_command(&args),
+    if args.threads.is_none() {
+        return bake_command(&args);
     }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(thread_count(args.threads)?)
+        .build()
+        .context("starting the worker threads")?
+        .install(|| bake_command(&args))
 }
 
 fn bake_command(args: &BakeArgs) -> Result<()> {
@@ -539,7 +539,7 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
         return print_json(&summary);
     }
     if let Some(r) = &incremental {
-        println!(
+        outln!(
             "incremental: {} triangles removed, {} added in {} groups; rebaked {} of {} cells, kept {}",
             r.removed,
             r.added,
@@ -549,7 +549,7 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
             kept_count
         );
     }
-    println!(
+    outln!(
         "baked {} cells with {} in {:.2} s ({} resumed from the checkpoint, {} rays): mean PVS {:.0} \
          triangles ({:.2}% of {}), {:.0} bytes per cell in memory, wrote {}",
         summary.cells,
@@ -682,7 +682,7 @@ fn run_merge(args: MergeArgs) -> Result<()> {
     if args.json {
         return print_json(&summary);
     }
-    println!(
+    outln!(
         "merged {} files: {} of {} cells, wrote {}",
         summary.files,
         summary.cells,
@@ -776,7 +776,7 @@ fn bake_with_shared_rays(
     if args.json {
         return print_json(&summary);
     }
-    println!(
+    outln!(
         "baked {} cells with GVS++ and ray sharing in {:.2} s ({} rays, {} triangles handed from cell to cell): mean PVS {:.0} triangles ({:.2}% of {}), wrote {}",
         summary.cells,
         summary.seconds,
@@ -871,26 +871,26 @@ fn run_show(args: ShowArgs) -> Result<()> {
         });
     }
     let n = f64::from(file.triangle_count.max(1));
-    println!("file       {}", args.file.display());
-    println!(
+    outln!("file       {}", args.file.display());
+    outln!(
         "scene      {} ({} triangles, hash {:016x})",
         file.metadata["scene"].as_str().unwrap_or("?"),
         file.triangle_count,
         file.scene_hash
     );
-    println!(
+    outln!(
         "method     {}",
         file.metadata["method"].as_str().unwrap_or("?")
     );
-    println!("version    {version}");
+    outln!("version    {version}");
     match &file.objects {
-        Some(t) => println!("objects    {}", t.objects.len()),
-        None => println!("objects    none (version 1: triangle sets only; bake again for objects)"),
+        Some(t) => outln!("objects    {}", t.objects.len()),
+        None => outln!("objects    none (version 1: triangle sets only; bake again for objects)"),
     }
     if args.objects {
         for (i, o) in object_rows(&file).unwrap_or_default().iter().enumerate() {
             let number = |v: Option<u32>| v.map_or("-".to_string(), |v| v.to_string());
-            println!(
+            outln!(
                 "  object {i:>5}  {:<40}  index {:>5}  part {:>4}  {:>7} triangles  bounds {:.2?} .. {:.2?}",
                 o.name,
                 number(o.index),
@@ -901,7 +901,7 @@ fn run_show(args: ShowArgs) -> Result<()> {
             );
         }
     }
-    println!("cells      {}", file.cells.len());
+    outln!("cells      {}", file.cells.len());
     let objects_total = file.objects.as_ref().map_or(0, |t| t.objects.len().max(1)) as f64;
     for (i, c) in file.cells.iter().enumerate() {
         let size = c.visible.count_ones(..);
@@ -912,7 +912,7 @@ fn run_show(args: ShowArgs) -> Result<()> {
                 100.0 * k as f64 / objects_total
             )
         });
-        println!(
+        outln!(
             "  cell {i:>4}  centre {:>28}  half extents {:>24}  PVS {size:>8} ({:.2}%){objects}",
             format!("{:.2?}", c.cell.center.to_array()),
             format!("{:.2?}", c.cell.half_extents.to_array()),
@@ -992,7 +992,7 @@ fn run_diff(args: DiffArgs) -> Result<()> {
         return print_json(&rows);
     }
     if !same_objects {
-        println!(
+        outln!(
             "(objects not compared: {})",
             if a.objects.is_none() || b.objects.is_none() {
                 "a version-1 file has none"
@@ -1001,11 +1001,11 @@ fn run_diff(args: DiffArgs) -> Result<()> {
             }
         );
     }
-    println!("| cell | |A| | |B| | only in A | only in B | Jaccard | objects A | objects B | objects only in A | objects only in B |");
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    outln!("| cell | |A| | |B| | only in A | only in B | Jaccard | objects A | objects B | objects only in A | objects only in B |");
+    outln!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     let opt = |v: Option<usize>| v.map_or("-".to_string(), |v| v.to_string());
     for r in &rows {
-        println!(
+        outln!(
             "| {} | {} | {} | {} | {} | {:.4} | {} | {} | {} | {} |",
             r.cell,
             r.size_a,
@@ -1120,11 +1120,11 @@ fn run_compare_q3(args: CompareQ3Args) -> Result<()> {
     if args.json {
         return print_json(&rows);
     }
-    println!("| cluster | leaves | ours | q3map2 | ours, culled by q3map2 | q3map2, not ours | ours avg err px | q3map2 avg err px |");
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|");
+    outln!("| cluster | leaves | ours | q3map2 | ours, culled by q3map2 | q3map2, not ours | ours avg err px | q3map2 avg err px |");
+    outln!("|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
         let error = |e: Option<f64>| e.map_or("-".to_string(), |v| format!("{v:.3}"));
-        println!(
+        outln!(
             "| {} | {} | {} | {} | {} | {} | {} | {} |",
             r.cluster,
             r.leaves,
@@ -1137,7 +1137,7 @@ fn run_compare_q3(args: CompareQ3Args) -> Result<()> {
         );
     }
     let suspicious: usize = rows.iter().map(|r| r.ours_not_q3map2).sum();
-    println!(
+    outln!(
         "{} clusters; {suspicious} (cluster, triangle) pairs we see that q3map2's conservative PVS culls \
          (each is a bug in one of the two, or geometry q3map2 does not treat as occluding)",
         rows.len()

@@ -89,9 +89,9 @@ pub(crate) fn run(args: Args) -> Result<()> {
         return print_json(&summary);
     }
     for p in &summary.outputs {
-        println!("wrote {}", p.display());
+        outln!("wrote {}", p.display());
     }
-    println!(
+    outln!(
         "{} of {} triangles visible, {:.1} ms",
         summary.visible_triangles,
         scene.triangle_count(),

@@ -142,7 +142,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         });
     }
     let k = cells.len().max(1) as f64;
-    println!(
+    outln!(
         "{} cells: mean PVS {:.0} triangles, {:.3} erroneous pixels per {}² view (max {}); \
          report: {}",
         cells.len(),

@@ -161,7 +161,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         .map(|f| f.triangles_drawn as f64)
         .sum::<f64>()
         / report.frames.len().max(1) as f64;
-    println!(
+    outln!(
         "wrote {} frames ({}x{}, method {}) and frames.json to {} on {}: {:.0} of {} triangles \
          drawn on average, popping max {} px, mean {:.1} px per frame (GPU id-image compare)",
         report.frames.len(),
