@@ -1,5 +1,20 @@
 //! How an error is printed: its chain of causes once each, and no raw bytes.
 
+/// Ends a command with this exit status instead of 1. Its message is empty, so as the error
+/// itself it prints nothing (`pvs diff` found differences, exit 1, as `diff`); as the context
+/// of another error it sets that error's status (`pvs diff` failed, exit 2), and the error's
+/// own chain is printed.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct ExitStatus(pub u8);
+
+impl std::fmt::Display for ExitStatus {
+    fn fmt(&self, _: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        Ok(())
+    }
+}
+
+impl std::error::Error for ExitStatus {}
+
 /// Longest message printed; the rest is cut (a parser quoting a whole binary "line").
 const MAX_MESSAGE_CHARS: usize = 2000;
 

@@ -10,6 +10,7 @@ mod args;
 mod commands;
 mod errors;
 mod output;
+mod output_lock;
 mod report;
 
 use std::io::Write;
@@ -85,9 +86,15 @@ fn main() -> ExitCode {
             ExitCode::SUCCESS
         }
         Err(e) => {
-            // `eprintln!` would panic when stderr is gone as well; then only the status is left.
-            let _ = writeln!(std::io::stderr(), "error: {}", errors::error_chain(&e));
-            ExitCode::FAILURE
+            let message = errors::error_chain(&e);
+            if !message.is_empty() {
+                // `eprintln!` would panic when stderr is gone too; then only the status is left.
+                let _ = writeln!(std::io::stderr(), "error: {message}");
+            }
+            match e.downcast_ref::<errors::ExitStatus>() {
+                Some(status) => ExitCode::from(status.0),
+                None => ExitCode::FAILURE,
+            }
         }
     }
 }

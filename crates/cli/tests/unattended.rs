@@ -106,7 +106,10 @@ fn thread_counts_far_above_the_cores_are_capped_with_a_warning() {
         err.contains("warning: --threads: 100000 threads requested, using"),
         "{err}"
     );
-    assert_fails_with(&bake(dir.path(), "z.pvs", &["--threads", "0"]), "at least 1");
+    assert_fails_with(
+        &bake(dir.path(), "z.pvs", &["--threads", "0"]),
+        "at least 1",
+    );
 }
 
 #[test]
@@ -118,4 +121,146 @@ fn corrupt_checkpoint_is_named_with_the_restart_flag() {
     assert!(stderr(&o).contains("--restart"), "{}", stderr(&o));
     // The flag does what the message says.
     assert!(bake(dir.path(), "c.pvs", &["--restart"]).status.success());
+}
+
+#[test]
+fn an_output_that_is_an_input_is_refused_and_the_input_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = sightline(&["convert", "procedural:boxes?size=50", "-o", "t.obj"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let original = std::fs::read(d.join("t.obj")).unwrap();
+    std::fs::create_dir(d.join("sub")).unwrap();
+    let cases: [&[&str]; 6] = [
+        &["render", "t.obj", "-o", "t.obj"],
+        // Another spelling of the same file.
+        &["render", "t.obj", "-o", "sub/../t.obj"],
+        &["visible", "t.obj", "-o", "./t.obj"],
+        &["convert", "t.obj", "-o", "t.obj"],
+        &[
+            "pvs",
+            "bake",
+            "t.obj",
+            "--cell",
+            "point:0,0,0,1",
+            "-o",
+            "t.obj",
+        ],
+        &["render", "t.obj", "--cube", "-o", "t.png"],
+    ];
+    for args in &cases[..5] {
+        assert_fails_with(&sightline(args, d), "is the input");
+        assert_eq!(
+            std::fs::read(d.join("t.obj")).unwrap(),
+            original,
+            "{args:?}"
+        );
+    }
+    // A hard link is the same file under another name.
+    std::fs::hard_link(d.join("t.obj"), d.join("link.obj")).unwrap();
+    assert_fails_with(
+        &sightline(&["convert", "t.obj", "-o", "link.obj"], d),
+        "is the input",
+    );
+    // Writing elsewhere still works.
+    let o = sightline(cases[5], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+fn render_refuses_image_names_it_would_not_write() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(
+        &["render", "procedural:boxes?size=50", "-o", "x.jpg"],
+        dir.path(),
+    );
+    assert_fails_with(&o, "supported formats: png");
+    assert!(!dir.path().join("x.jpg").exists());
+}
+
+#[test]
+fn a_second_bake_of_the_same_output_is_refused_while_the_first_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    // A bake that takes seconds: many random rays per round in one cell.
+    let slow = Command::new(env!("CARGO_BIN_EXE_sightline"))
+        .args([
+            "pvs",
+            "bake",
+            SCENE,
+            "--cell",
+            "box:2,2,1,4,4,2",
+            "--method",
+            "rand",
+            "--rays",
+            "400000000",
+            "-o",
+            "same.pvs",
+        ])
+        .current_dir(dir.path())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut slow = scopeguard(slow);
+    let lock = dir.path().join("same.pvs.lock");
+    let start = std::time::Instant::now();
+    while !lock.exists() && start.elapsed().as_secs() < 30 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let o = bake(dir.path(), "same.pvs", &[]);
+    assert_fails_with(&o, "another bake");
+    assert!(stderr(&o).contains("same.pvs.lock"), "{}", stderr(&o));
+    slow.0.kill().unwrap();
+    slow.0.wait().unwrap();
+    // The lock died with its holder: the next bake runs.
+    let o = bake(dir.path(), "same.pvs", &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!lock.exists(), "the lock file is removed after a bake");
+}
+
+/// Kills the child when a test fails before it does.
+struct Guard(std::process::Child);
+fn scopeguard(c: std::process::Child) -> Guard {
+    Guard(c)
+}
+impl Drop for Guard {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[test]
+fn pvs_diff_exits_1_with_a_summary_when_sets_differ_and_2_on_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    baked(d, "a.pvs", &[]);
+    baked(d, "b.pvs", &["--seed", "7"]);
+    let o = sightline(&["pvs", "diff", "a.pvs", "a.pvs"], d);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("0 of 2 cells differ"));
+    let o = sightline(&["pvs", "diff", "a.pvs", "b.pvs"], d);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(stderr(&o), "");
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    let last = out.lines().last().unwrap();
+    assert!(
+        last.contains("cells differ") && last.contains("added") && last.contains("removed"),
+        "{out}"
+    );
+    let o = sightline(&["pvs", "diff", "a.pvs", "b.pvs", "--json"], d);
+    assert_eq!(o.status.code(), Some(1));
+    let _: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let o = sightline(&["pvs", "diff", "a.pvs", "missing.pvs"], d);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("missing.pvs"));
+}
+
+#[test]
+fn an_os_error_is_printed_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(&["pvs", "show", "missing.pvs"], dir.path());
+    assert_fails_with(&o, "missing.pvs");
+    let text = std::io::Error::from_raw_os_error(2).to_string();
+    assert_eq!(stderr(&o).matches(&text).count(), 1, "{}", stderr(&o));
 }

@@ -101,6 +101,11 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if args.frames == 0 {
         bail!("--frames must be at least 1");
     }
+    if let Some(plot) = &args.plot {
+        let mut inputs = vec![std::path::Path::new(&args.scene)];
+        inputs.extend(args.path.as_deref());
+        crate::output::refuse_overwriting_inputs(&[plot], &inputs)?;
+    }
     let (width, height) = args.size;
     let scene = load_scene(&args.scene)?;
     let config = SimConfig {

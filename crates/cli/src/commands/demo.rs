@@ -65,6 +65,10 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if args.size == 0 || args.size > 4096 || args.frames == 0 || args.views == 0 {
         anyhow::bail!("--size must be in 1..=4096, --frames and --views at least 1");
     }
+    crate::output::refuse_overwriting_inputs(
+        &[&args.output, &args.output.join("demo.pvs")],
+        &[std::path::Path::new(&args.scene.scene)],
+    )?;
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("creating {}", args.output.display()))?;
     let progress = ProgressBar::new(9).with_style(

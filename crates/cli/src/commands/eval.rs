@@ -78,6 +78,12 @@ pub(crate) fn view_mode(name: &str) -> ViewMode {
 }
 
 pub(crate) fn run(args: Args) -> Result<()> {
+    if let Some(dir) = &args.images {
+        crate::output::refuse_overwriting_inputs(
+            &[dir],
+            &[std::path::Path::new(&args.scene.scene), &args.pvs],
+        )?;
+    }
     let scene = args.scene.load()?;
     let file = load_pvs_of(&scene, &args.pvs)?;
     if args.viewpoints == 0 || args.resolution == 0 || args.resolution > 8192 {

@@ -21,7 +21,9 @@ use sightline_region::shards::{merge, Shard};
 use sightline_region::{Budget, PvsFile, ViewCell};
 
 use crate::args::{thread_count, SceneArgs};
-use crate::output::print_json;
+use crate::errors::ExitStatus;
+use crate::output::{print_json, refuse_overwriting_inputs};
+use crate::output_lock::OutputLock;
 
 /// Arguments of `sightline pvs`.
 #[derive(clap::Args, Debug)]
@@ -39,7 +41,9 @@ enum What {
     Show(ShowArgs),
     /// Join the shard files of a bake (`pvs bake --shard I/N`) into one .pvs, cells in order.
     Merge(MergeArgs),
-    /// Compare two .pvs files of the same scene cell by cell.
+    /// Compare two .pvs files of the same scene cell by cell. Exit status as `diff`: 0 when
+    /// every cell's set is equal, 1 when some differ (with a summary line: cells differing,
+    /// triangles only in the second file = added, only in the first = removed), 2 on errors.
     Diff(DiffArgs),
     /// Compare a PVS baked on a Quake 3 map's leaves (--q3-leaves) with the map's own compiled
     /// cluster PVS, cluster by cluster.
@@ -239,7 +243,11 @@ pub(crate) fn run(args: Args) -> Result<()> {
         What::Bake(a) => run_bake(*a),
         What::Show(a) => run_show(a),
         What::Merge(a) => run_merge(a),
-        What::Diff(a) => run_diff(a),
+        // As `diff`: 0 same sets, 1 different, 2 trouble (unreadable or unrelated files).
+        What::Diff(a) => run_diff(a).map_err(|e| match e.downcast_ref::<ExitStatus>() {
+            Some(_) => e,
+            None => e.context(ExitStatus(2)),
+        }),
         What::CompareQ3(a) => run_compare_q3(a),
     }
 }
@@ -368,6 +376,14 @@ fn run_bake(args: BakeArgs) -> Result<()> {
 }
 
 fn bake_command(args: &BakeArgs) -> Result<()> {
+    // The --since file may be the output: it is read whole before the output is replaced,
+    // so an in-place incremental rebake is safe.
+    let mut inputs = vec![Path::new(&args.scene.scene)];
+    inputs.extend(args.cells.cells.as_deref());
+    inputs.extend(args.old_scene.as_deref().map(Path::new));
+    let checkpoint = checkpoint_path(&args.output);
+    refuse_overwriting_inputs(&[&args.output, &checkpoint], &inputs)?;
+    let _lock = OutputLock::acquire(&args.output)?;
     let scene = args.scene.load()?;
     let bvh = Bvh::build(&scene);
     let (cells, clusters) = collect_cells(&args.cells, &scene, &bvh)?;
@@ -666,6 +682,8 @@ struct MergeSummary {
 }
 
 fn run_merge(args: MergeArgs) -> Result<()> {
+    let inputs: Vec<&Path> = args.files.iter().map(PathBuf::as_path).collect();
+    refuse_overwriting_inputs(&[&args.output], &inputs)?;
     let mut files = Vec::with_capacity(args.files.len());
     for p in &args.files {
         let f = EncodedPvsFile::load(p).with_context(|| format!("reading {}", p.display()))?;
@@ -988,8 +1006,28 @@ fn run_diff(args: DiffArgs) -> Result<()> {
             jaccard: ca.visible.intersection(&cb.visible).count() as f64 / union as f64,
         });
     }
+    let differing: Vec<&CellDiff> = rows
+        .iter()
+        .filter(|r| r.only_in_a + r.only_in_b > 0)
+        .collect();
+    let summary = format!(
+        "{} of {} cells differ: {} triangles added (only in {}), {} removed (only in {}), \
+         summed over cells",
+        differing.len(),
+        rows.len(),
+        differing.iter().map(|r| r.only_in_b).sum::<usize>(),
+        args.b.display(),
+        differing.iter().map(|r| r.only_in_a).sum::<usize>(),
+        args.a.display()
+    );
+    let status = if differing.is_empty() {
+        Ok(())
+    } else {
+        Err(ExitStatus(1).into())
+    };
     if args.json {
-        return print_json(&rows);
+        print_json(&rows)?;
+        return status;
     }
     if !same_objects {
         outln!(
@@ -1019,7 +1057,8 @@ fn run_diff(args: DiffArgs) -> Result<()> {
             opt(r.objects_only_in_b)
         );
     }
-    Ok(())
+    outln!("{summary}");
+    status
 }
 
 #[derive(Serialize)]

@@ -73,6 +73,10 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if args.views == 0 || args.size == 0 || args.size > 4096 {
         bail!("--views must be >= 1 and --size in 1..=4096");
     }
+    crate::output::refuse_overwriting_inputs(
+        &[&args.output, &args.output.join("index.html")],
+        &[std::path::Path::new(&args.scene), &args.pvs],
+    )?;
     let scene = SceneArgs {
         scene: args.scene.clone(),
         patch_subdivisions: args.patch_subdivisions,

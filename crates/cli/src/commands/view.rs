@@ -57,6 +57,12 @@ pub(crate) struct Args {
 }
 
 pub(crate) fn run(args: Args) -> Result<()> {
+    if let Some(out) = &args.out {
+        let mut inputs = vec![std::path::Path::new(&args.scene.scene)];
+        inputs.extend(args.pvs.as_deref());
+        inputs.extend(args.path.as_deref());
+        crate::output::refuse_overwriting_inputs(&[out, &out.join("frames.json")], &inputs)?;
+    }
     let scene = args.scene.load()?;
     // The near plane is checked on the cameras used: the start (window) or the path (headless).
     let camera = args.camera.camera_unchecked(&scene)?;
@@ -111,6 +117,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if frames == 0 {
         bail!("--frames must be at least 1");
     }
+
     let n = frames as usize;
     let poses = match &args.path {
         Some(path) => {

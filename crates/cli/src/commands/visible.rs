@@ -1,7 +1,7 @@
 //! `sightline visible`: which triangles are visible from a point — by the reference
 //! rasterizer (pixel-centre sampling), conservatively in bounded memory (RV), or exactly.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
@@ -286,6 +286,15 @@ fn reference_set(
 
 pub(crate) fn run(args: Args) -> Result<()> {
     let start = Instant::now();
+    let outputs: Vec<&Path> = [&args.svg, &args.png, &args.output]
+        .into_iter()
+        .flatten()
+        .map(PathBuf::as_path)
+        .collect();
+    crate::output::refuse_overwriting_inputs(&outputs, &[Path::new(&args.scene.scene)])?;
+    if let Some(png) = &args.png {
+        crate::output::require_png_extension(png, "--png")?;
+    }
     if args.exact {
         return run_exact(&args, start);
     }
