@@ -62,7 +62,7 @@ pub(crate) struct CameraArgs {
     /// Vertical field of view in degrees.
     #[arg(long, default_value_t = 60.0)]
     pub fov: f32,
-    /// Image size `WxH` in pixels.
+    /// Image size `WxH` in pixels (each side at most 16384, at most 8192x8192 pixels).
     #[arg(long, value_name = "WxH", default_value = "1024x768", value_parser = parse_size)]
     pub size: (u32, u32),
     /// Near-plane distance. Default: 1/100 of the distance from the eye to the nearest
@@ -183,7 +183,7 @@ pub(crate) fn parse_vec3(s: &str) -> Result<Vec3, String> {
     Ok(Vec3::from_array(v))
 }
 
-/// Parses `WxH` with both in 1..=16384.
+/// Parses `WxH` with both in 1..=16384 and at most [`crate::limits::MAX_PIXELS`] pixels.
 pub(crate) fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
@@ -198,7 +198,9 @@ pub(crate) fn parse_size(s: &str) -> Result<(u32, u32), String> {
         }
         Ok(n)
     };
-    Ok((parse(w)?, parse(h)?))
+    let (w, h) = (parse(w)?, parse(h)?);
+    crate::limits::check_pixels(w, h)?;
+    Ok((w, h))
 }
 
 #[cfg(test)]

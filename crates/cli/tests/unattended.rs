@@ -264,3 +264,56 @@ fn an_os_error_is_printed_once() {
     let text = std::io::Error::from_raw_os_error(2).to_string();
     assert_eq!(stderr(&o).matches(&text).count(), 1, "{}", stderr(&o));
 }
+
+#[test]
+fn oversized_counts_are_refused_up_front_naming_the_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cases: [(&[&str], &str); 6] = [
+        (
+            &[
+                "pvs",
+                "bake",
+                SCENE,
+                "--grid",
+                "1000,1000,1000",
+                "--rays",
+                "1000",
+                "-o",
+                "g.pvs",
+            ],
+            "limit of 1048576",
+        ),
+        (
+            &["view", SCENE, "--frames", "100000000", "--out", "v"],
+            "limit of 1000000 frames",
+        ),
+        (
+            &["cull", "--frames", "4294967295"],
+            "limit of 1000000 frames",
+        ),
+        (
+            &["demo", "--frames", "4294967295", "-o", "r"],
+            "limit of 1000000 frames",
+        ),
+        (
+            &["bench", "trace", "--rays", "100000000000"],
+            "limit of 33554432",
+        ),
+        (
+            &["bench", "raster", "--frames", "100000000000"],
+            "limit of 1000000 frames",
+        ),
+    ];
+    for (args, needle) in cases {
+        assert_fails_with(&sightline(args, d), needle);
+    }
+    // Each side within 1..=16384, but their product is the 3 GB image.
+    let o = sightline(&["render", SCENE, "--size", "16384x16384"], d);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("above the limit of 67108864"),
+        "{}",
+        stderr(&o)
+    );
+}

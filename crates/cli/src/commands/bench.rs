@@ -228,8 +228,11 @@ struct RvRow {
 fn rv(args: RvArgs) -> Result<()> {
     use sightline_point::rv::{conservative_visible, RvOptions, StreamingCity};
     anyhow::ensure!(args.rounds > 0, "--rounds must be at least 1");
+    crate::limits::check_count(args.rounds as u64, crate::limits::MAX_FRAMES, "--rounds")?;
     anyhow::ensure!(args.triangles > 0, "--triangles must be at least 1");
     let threads = crate::args::thread_count(args.threads)?;
+    crate::limits::check_pixels(args.size, args.size).map_err(anyhow::Error::msg)?;
+
     let views = [
         ("street", StreamingCity::street_camera(args.size)?),
         ("aerial", StreamingCity::aerial_camera(args.size)?),
@@ -323,6 +326,7 @@ fn load(spec: &str) -> Result<Scene> {
 }
 
 fn overview_camera(scene: &Scene, size: u32) -> Result<Camera> {
+    crate::limits::check_pixels(size, size).map_err(anyhow::Error::msg)?;
     let b = scene.bounds();
     let eye = default_eye(scene, b.center(), b.diagonal());
     Ok(Camera::look_at(
@@ -347,6 +351,8 @@ struct TraceRow {
 }
 
 fn trace(args: TraceArgs) -> Result<()> {
+    // The incoherent rays are generated up front, 32 bytes each.
+    crate::limits::check_count(args.rays as u64, crate::limits::MAX_BENCH_RAYS, "--rays")?;
     let specs = if args.scenes.is_empty() {
         vec!["procedural:city?size=1000000".to_string()]
     } else {
@@ -440,6 +446,7 @@ struct RasterRow {
 }
 
 fn raster(args: RasterArgs) -> Result<()> {
+    crate::limits::check_frames(args.frames as u64, "--frames")?;
     let specs = if args.scenes.is_empty() {
         vec![
             "procedural:city?size=100000".to_string(),

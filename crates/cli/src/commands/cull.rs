@@ -42,7 +42,7 @@ pub(crate) struct Args {
     /// occlusion queries; needs a Vulkan driver such as Mesa's lavapipe).
     #[arg(long, default_value = "sw")]
     backend: String,
-    /// Frames to simulate (30 per second of the scene's clock).
+    /// Frames to simulate (30 per second of the scene's clock; at most 1,000,000).
     #[arg(long, default_value_t = 300)]
     frames: u32,
     /// Image and occlusion buffer size `WxH`.
@@ -101,6 +101,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if args.frames == 0 {
         bail!("--frames must be at least 1");
     }
+    crate::limits::check_frames(u64::from(args.frames), "--frames")?;
     if let Some(plot) = &args.plot {
         let mut inputs = vec![std::path::Path::new(&args.scene)];
         inputs.extend(args.path.as_deref());

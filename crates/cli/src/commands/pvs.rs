@@ -61,7 +61,8 @@ pub(crate) struct CellArgs {
     /// (repeatable).
     #[arg(long, value_name = "SPEC", allow_hyphen_values = true)]
     cell: Vec<String>,
-    /// A regular grid of NX,NY,NZ cells over --bounds (default: the scene bounds).
+    /// A regular grid of NX,NY,NZ cells over --bounds (default: the scene bounds); at most
+    /// 2^20 cells in all (every cell's set stays in memory until the file is written).
     #[arg(long, value_name = "NX,NY,NZ")]
     grid: Option<String>,
     /// Region of --grid: MINX,MINY,MINZ,MAXX,MAXY,MAXZ.
@@ -304,6 +305,7 @@ fn collect_cells(
                 (b.min, b.max)
             }
         };
+        crate::limits::check_cells(&[n[0] as u64, n[1] as u64, n[2] as u64], "--grid")?;
         let mut cells = ViewCell::grid(min, max, [n[0] as u32, n[1] as u32, n[2] as u32])?;
         if args.skip_solid {
             cells.retain(|c| !inside_solid(scene, caster, c.center));

@@ -41,7 +41,8 @@ pub(crate) struct Args {
     /// Fly speed in scene units per second (default: 5% of the scene's diagonal).
     #[arg(long)]
     speed: Option<f32>,
-    /// Headless: render this many frames offscreen (no window) and write them to --out.
+    /// Headless: render this many frames offscreen (no window) and write them to --out (at
+    /// most 1,000,000).
     #[arg(long, value_name = "N", requires = "out")]
     frames: Option<u32>,
     /// Headless: the output folder for frame_0000.png... and frames.json.
@@ -57,6 +58,9 @@ pub(crate) struct Args {
 }
 
 pub(crate) fn run(args: Args) -> Result<()> {
+    if let Some(frames) = args.frames {
+        crate::limits::check_frames(u64::from(frames), "--frames")?;
+    }
     if let Some(out) = &args.out {
         let mut inputs = vec![std::path::Path::new(&args.scene.scene)];
         inputs.extend(args.pvs.as_deref());
