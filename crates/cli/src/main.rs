@@ -9,6 +9,7 @@ mod stdout;
 mod args;
 mod commands;
 mod errors;
+mod headless;
 mod limits;
 mod output;
 mod output_lock;

@@ -317,3 +317,22 @@ fn oversized_counts_are_refused_up_front_naming_the_limit() {
         stderr(&o)
     );
 }
+
+#[test]
+fn file_content_quoted_in_an_error_is_escaped() {
+    let dir = tempfile::tempdir().unwrap();
+    // A binary file named .obj: the loader quotes the bad coordinate, terminal escapes and all.
+    std::fs::write(
+        dir.path().join("bin.obj"),
+        b"v 1 2 \x1b[2J\x00\x07zz\nf 1 2 3\n",
+    )
+    .unwrap();
+    let o = sightline(&["render", "bin.obj", "-o", "x.png"], dir.path());
+    assert_fails_with(&o, "bin.obj");
+    let err = stderr(&o);
+    assert!(
+        !err.chars().any(|c| c.is_control() && c != '\n'),
+        "raw bytes in: {err:?}"
+    );
+    assert!(err.contains("\\u{1b}[2J"), "{err}");
+}

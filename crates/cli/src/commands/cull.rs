@@ -125,6 +125,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
     // a software Vulkan driver), so the GPU run has the grid method and frustum culling only.
     let (backend, methods): (&mut dyn sightline_cull::OcclusionBackend, &[Method]) =
         if args.backend == "gpu" {
+            crate::headless::quiet_vulkan_layers();
             gpu = sightline_gpu::GpuBackend::new().context("--backend gpu")?;
             (&mut gpu, &[Method::Grid, Method::Frustum])
         } else {

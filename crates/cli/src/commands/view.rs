@@ -161,6 +161,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         })
         .collect::<Result<Vec<_>>>()?;
     args.camera.warn_if_near_hides(viewer.scene(), &cameras);
+    crate::headless::quiet_vulkan_layers();
     let (device, queue, info) = sightline_gpu::vulkan_device()?;
     let report = run_headless(&device, &queue, &info.name, &mut viewer, &cameras, out)?;
     if args.json {
