@@ -27,6 +27,11 @@ use clap::{Parser, Subcommand};
 /// procedural spec `procedural:NAME[?seed=S&size=N]` with NAME one of city, rooms, canyon,
 /// boxes, spheres (size = approximate triangle count). Without SCENE, commands use the embedded
 /// default scene `procedural:city`.
+///
+/// Exit status: 0 on success, 1 on an error, 2 for invalid arguments (`pvs diff`: 1 when the
+/// sets differ, 2 on an error). A closed stdout pipe (`| head`) ends a command quietly with 0.
+/// Outputs that are inputs are refused; sizes (cells, frames, pixels) are checked against
+/// stated limits before anything is allocated.
 #[derive(Parser, Debug)]
 #[command(name = "sightline", version, about, long_about)]
 struct Cli {
