@@ -123,7 +123,7 @@ pub(crate) struct CameraArgs {
     /// Vertical field of view in degrees.
     #[arg(long, default_value_t = 60.0)]
     pub fov: f32,
-    /// Image size `WxH` in pixels.
+    /// Image size `WxH` in pixels (each side at most 16384, at most 8192x8192 pixels).
     #[arg(long, value_name = "WxH", default_value = "1024x768", value_parser = parse_size)]
     pub size: (u32, u32),
     /// Near-plane distance. Default: 1/100 of the distance from the eye to the nearest
@@ -198,6 +198,20 @@ impl CameraArgs {
     }
 }
 
+/// The worker count for a `--threads` option: `None` is all cores; a count above
+/// [`sightline_core::threads::OVERSUBSCRIPTION`] per core is capped with a warning on stderr
+/// ([`sightline_core::threads::capped_threads`]); 0 is refused, as a typo rather than "none".
+pub(crate) fn thread_count(requested: Option<usize>) -> Result<usize> {
+    if requested == Some(0) {
+        bail!("--threads must be at least 1 (leave it out to use all cores)");
+    }
+    let (threads, warning) = sightline_core::threads::capped_threads(requested.unwrap_or(0));
+    if let Some(w) = warning {
+        eprintln!("warning: --threads: {w}");
+    }
+    Ok(threads)
+}
+
 /// A three-quarter view from outside the bounds, above the scene on its up axis.
 pub(crate) fn default_eye(scene: &Scene, look: Vec3, diagonal: f32) -> Vec3 {
     let up = scene.up.vector();
@@ -259,7 +273,7 @@ pub(crate) fn parse_bytes(s: &str) -> Result<u64, String> {
         .ok_or_else(|| format!("'{s}' is more than 2^64 bytes"))
 }
 
-/// Parses `WxH` with both in 1..=16384.
+/// Parses `WxH` with both in 1..=16384 and at most [`crate::limits::MAX_PIXELS`] pixels.
 pub(crate) fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
@@ -274,7 +288,9 @@ pub(crate) fn parse_size(s: &str) -> Result<(u32, u32), String> {
         }
         Ok(n)
     };
-    Ok((parse(w)?, parse(h)?))
+    let (w, h) = (parse(w)?, parse(h)?);
+    crate::limits::check_pixels(w, h)?;
+    Ok((w, h))
 }
 
 #[cfg(test)]

@@ -2,11 +2,20 @@
 //! frame. This binary only parses arguments, shows progress and prints results; the algorithms
 //! live in the library crates.
 
+// First: its `outln!` macro is used by the modules after it.
+#[macro_use]
+mod stdout;
+
 mod args;
 mod commands;
+mod errors;
+mod headless;
+mod limits;
 mod output;
+mod output_lock;
 mod report;
 
+use std::io::Write;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
@@ -18,6 +27,11 @@ use clap::{Parser, Subcommand};
 /// procedural spec `procedural:NAME[?seed=S&size=N]` with NAME one of city, rooms, canyon,
 /// boxes, spheres (size = approximate triangle count). Without SCENE, commands use the embedded
 /// default scene `procedural:city`.
+///
+/// Exit status: 0 on success, 1 on an error, 2 for invalid arguments (`pvs diff`: 1 when the
+/// sets differ, 2 on an error). A closed stdout pipe (`| head`) ends a command quietly with 0.
+/// Outputs that are inputs are refused; sizes (cells, frames, pixels) are checked against
+/// stated limits before anything is allocated.
 #[derive(Parser, Debug)]
 #[command(name = "sightline", version, about, long_about)]
 struct Cli {
@@ -57,7 +71,43 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result = match cli.command {
+    let result = match stdout::catch_print_panics(|| run(cli.command)) {
+        Ok(result) => result.and_then(|()| Ok(stdout::flush_stdout()?)),
+        Err(stdout::PrintFailure::Stdout(e)) => Err(e.into()),
+        Err(stdout::PrintFailure::Stderr(e)) => {
+            // Nothing can be reported where stderr is gone.
+            return if e.kind() == std::io::ErrorKind::BrokenPipe {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::FAILURE
+            };
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        // The reader of the pipe has gone (`| head`): a quiet, successful end (see `stdout`).
+        Err(e)
+            if e.downcast_ref::<stdout::StdoutError>()
+                .is_some_and(|s| s.is_broken_pipe()) =>
+        {
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            let message = errors::error_chain(&e);
+            if !message.is_empty() {
+                // `eprintln!` would panic when stderr is gone too; then only the status is left.
+                let _ = writeln!(std::io::stderr(), "error: {message}");
+            }
+            match e.downcast_ref::<errors::ExitStatus>() {
+                Some(status) => ExitCode::from(status.0),
+                None => ExitCode::FAILURE,
+            }
+        }
+    }
+}
+
+fn run(command: Command) -> anyhow::Result<()> {
+    match command {
         Command::Info(a) => commands::info::run(a),
         Command::Render(a) => commands::render::run(a),
         Command::Convert(a) => commands::convert::run(a),
@@ -69,12 +119,5 @@ fn main() -> ExitCode {
         Command::Report(a) => commands::report::run(a),
         Command::Demo(a) => commands::demo::run(a),
         Command::View(a) => commands::view::run(a),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
-        }
     }
 }

@@ -1,18 +1,84 @@
-//! Writing results: PNG images (atomically), JSON to stdout, colours for ids.
+//! Writing results: PNG images (atomically), JSON to stdout, colours for ids, and the checks
+//! every command makes on its output paths before working (an output that is an input, an
+//! image extension that is not PNG).
 //!
 //! Colour conventions: the id and shaded images are 8-bit colours chosen as stored (sRGB codes,
 //! untagged); images of linear quantities averaged over pixel areas (the analytically
 //! anti-aliased grey image) are encoded with the sRGB transfer function and tagged sRGB, so an
 //! edge pixel half covered by white shows as half the light, not as code 128.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use image::RgbImage;
 use sightline_core::atomic_file::write_atomic;
 use sightline_core::raster::Frame;
 use sightline_core::{Camera, Hit, Scene};
+
+/// Where `path` is or would be: its canonical path, or for a file not yet there its
+/// canonical parent (`.` for a bare name) joined with its name. `None` when the parent does
+/// not exist either (the write will fail with its own error).
+fn resolved(path: &Path) -> Option<PathBuf> {
+    if let Ok(p) = path.canonicalize() {
+        return Some(p);
+    }
+    let name = path.file_name()?;
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    Some(parent.canonicalize().ok()?.join(name))
+}
+
+/// True when `a` and `b` are one file: the same canonical path (symbolic links, `..`), or on
+/// Unix the same device and inode (hard links).
+fn same_file(a: &Path, b: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let (Ok(ma), Ok(mb)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+            return ma.dev() == mb.dev() && ma.ino() == mb.ino();
+        }
+    }
+    matches!((resolved(a), resolved(b)), (Some(x), Some(y)) if x == y)
+}
+
+/// Refuses to start when one of `outputs` is one of `inputs`: a command writes its results
+/// atomically over the output, so `render t.glb -o t.glb` would replace the scene by an image.
+/// Inputs that are not files (procedural scene specs) never match. Commands call this before
+/// any work, so the refusal costs nothing.
+pub(crate) fn refuse_overwriting_inputs(outputs: &[&Path], inputs: &[&Path]) -> Result<()> {
+    for output in outputs {
+        if let Some(input) = inputs
+            .iter()
+            .find(|input| input.exists() && same_file(output, input))
+        {
+            bail!(
+                "the output {} is the input {}: refusing to overwrite an input; choose another \
+                 output path",
+                output.display(),
+                input.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Refuses an image output whose extension is not `.png`: the images are written as PNG only
+/// (their id colours must survive exactly, which a lossy format would not keep), and a file
+/// named `.jpg` holding PNG bytes misleads every tool that trusts the name.
+pub(crate) fn require_png_extension(path: &Path, option: &str) -> Result<()> {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if !ext.eq_ignore_ascii_case("png") {
+        bail!(
+            "{option} {}: images are written as PNG only; name the file .png (supported \
+             formats: png)",
+            path.display()
+        );
+    }
+    Ok(())
+}
 
 /// Writes `image` as PNG to `path` atomically.
 pub(crate) fn save_png(image: &RgbImage, path: &Path) -> Result<()> {
@@ -103,7 +169,8 @@ pub(crate) fn save_linear_grey_png(
 
 /// Prints `value` as pretty JSON on stdout.
 pub(crate) fn print_json<T: serde::Serialize>(value: &T) -> Result<()> {
-    println!("{}", serde_json::to_string_pretty(value)?);
+    let text = serde_json::to_string_pretty(value)?;
+    outln!("{text}");
     Ok(())
 }
 

@@ -148,3 +148,21 @@ fn window_without_a_display_is_a_clean_error_pointing_to_headless_mode() {
     assert_fails_with(&o, "--frames N --out DIR");
     assert!(stderr(&o).contains("DISPLAY"), "{}", stderr(&o));
 }
+
+#[test]
+fn headless_run_without_a_session_prints_no_display_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_sightline"))
+        .args([
+            "view", CITY, "--frames", "1", "--out", "out", "--size", "32x32",
+        ])
+        .current_dir(dir.path())
+        .env_remove("XDG_RUNTIME_DIR")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("DISPLAY")
+        .env_remove("NODEVICE_SELECT")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("XDG_RUNTIME_DIR"), "{}", stderr(&o));
+}

@@ -16,6 +16,7 @@ pub mod random;
 pub mod raster;
 pub mod sampling;
 pub mod scene;
+pub mod threads;
 pub mod trace;
 pub mod validate;
 

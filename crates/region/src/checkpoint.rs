@@ -38,8 +38,22 @@ pub enum BakeError {
         /// The differing fingerprint keys.
         differences: String,
     },
+    /// The checkpoint file exists but cannot be read (truncated, damaged, not a .pvs).
+    #[error(
+        "the checkpoint {path} cannot be read ({source}); rerun with --restart to discard it \
+         and bake from the start"
+    )]
+    CorruptCheckpoint {
+        /// The checkpoint file.
+        path: PathBuf,
+        /// What the reader found.
+        source: PvsError,
+    },
     /// The checkpoint is not one (e.g. a user's file at that path).
-    #[error("{path} is not a bake checkpoint: {what}")]
+    #[error(
+        "{path} is not a bake checkpoint: {what}; rerun with --restart to discard it, or \
+         choose another output"
+    )]
     NotACheckpoint {
         /// The file.
         path: PathBuf,
@@ -107,10 +121,11 @@ pub fn fingerprint_differences(a: &serde_json::Value, b: &serde_json::Value) -> 
             let show = |v: Option<&serde_json::Value>| {
                 v.map_or("(none)".to_string(), |v| {
                     let s = v.to_string();
-                    if s.len() > 40 {
-                        format!("{}..", &s[..40])
-                    } else {
-                        s
+                    // By characters: a byte index could fall inside a multi-byte one (a scene
+                    // name or parameter in any script) and panic.
+                    match s.char_indices().nth(40) {
+                        Some((end, _)) => format!("{}..", &s[..end]),
+                        None => s,
                     }
                 })
             };
@@ -220,7 +235,10 @@ impl ResumableBake<'_> {
             path: path.clone(),
             what: what.into(),
         };
-        let file = EncodedPvsFile::load(path)?;
+        let file = EncodedPvsFile::load(path).map_err(|source| BakeError::CorruptCheckpoint {
+            path: path.clone(),
+            source,
+        })?;
         if file.metadata["checkpoint"] != 1 {
             return Err(not("no checkpoint marker in its metadata"));
         }
@@ -415,6 +433,15 @@ mod tests {
         assert!(d.contains("seed 1 vs 2"), "{d}");
         assert!(d.contains("x 2 vs (none)"), "{d}");
         assert!(!d.contains("method"), "{d}");
+    }
+
+    #[test]
+    fn differences_cut_long_values_between_characters() {
+        // 39 ASCII bytes, then 'é' (2 bytes) across byte 40: a byte slice there panics.
+        let long = format!("{}é{}", "a".repeat(38), "ü".repeat(30));
+        let d = fingerprint_differences(&json!({ "scene": long }), &json!({ "scene": "b" }));
+        assert!(d.starts_with("scene \""), "{d}");
+        assert!(d.contains("..") && d.contains("vs \"b\""), "{d}");
     }
 
     #[test]

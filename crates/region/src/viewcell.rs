@@ -185,7 +185,18 @@ impl ViewCell {
             });
         }
         let step = (max - min) / Vec3::new(n[0] as f32, n[1] as f32, n[2] as f32);
-        let mut cells = Vec::with_capacity((n[0] * n[1] * n[2]) as usize);
+        // Checked and fallible: a u32 product wraps (4096³ does), and an impossible
+        // allocation must be an error, not an abort.
+        let too_many = || ViewCellError::Spec {
+            spec: format!("{n:?}"),
+            message: "too many grid cells to hold in memory".into(),
+        };
+        let total = n
+            .iter()
+            .try_fold(1usize, |acc, &k| acc.checked_mul(k as usize))
+            .ok_or_else(too_many)?;
+        let mut cells = Vec::new();
+        cells.try_reserve_exact(total).map_err(|_| too_many())?;
         for z in 0..n[2] {
             for y in 0..n[1] {
                 for x in 0..n[0] {
@@ -433,5 +444,7 @@ mod tests {
         assert_eq!(cells.len(), 8);
         assert_eq!(cells[5].center, Vec3::new(1.5, 1.5, 0.5));
         assert!(ViewCell::grid(Vec3::ZERO, Vec3::ONE, [0, 1, 1]).is_err());
+        // The u32 product of these wraps around; the allocation would be 2^64 cells.
+        assert!(ViewCell::grid(Vec3::ZERO, Vec3::ONE, [u32::MAX, u32::MAX, u32::MAX]).is_err());
     }
 }

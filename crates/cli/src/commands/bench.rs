@@ -49,7 +49,8 @@ struct RvArgs {
     /// Triangles of the streamed city (about; `procedural:city?size=N`).
     #[arg(long, default_value_t = 10_000_000)]
     triangles: usize,
-    /// Visibility workers, and as many geometry threads (default: all cores).
+    /// Visibility workers, and as many geometry threads (default: all cores; at most 4 per
+    /// core, more are capped with a warning).
     #[arg(long)]
     threads: Option<usize>,
     /// Image size (square).
@@ -227,11 +228,11 @@ struct RvRow {
 fn rv(args: RvArgs) -> Result<()> {
     use sightline_point::rv::{conservative_visible, RvOptions, StreamingCity};
     anyhow::ensure!(args.rounds > 0, "--rounds must be at least 1");
+    crate::limits::check_count(args.rounds as u64, crate::limits::MAX_FRAMES, "--rounds")?;
     anyhow::ensure!(args.triangles > 0, "--triangles must be at least 1");
-    let threads = args.threads.unwrap_or_else(|| {
-        std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
-    });
-    anyhow::ensure!(threads > 0, "--threads must be at least 1");
+    let threads = crate::args::thread_count(args.threads)?;
+    crate::limits::check_pixels(args.size, args.size).map_err(anyhow::Error::msg)?;
+
     let views = [
         ("street", StreamingCity::street_camera(args.size)?),
         ("aerial", StreamingCity::aerial_camera(args.size)?),
@@ -286,15 +287,17 @@ fn rv(args: RvArgs) -> Result<()> {
     if args.json {
         return print_json(&rows);
     }
-    println!(
+    outln!(
         "RV streaming a procedural city of {} triangles, {}² px, {threads} workers + {threads} \
          geometry threads, {} rounds (median; fastest-slowest)\n",
-        args.triangles, args.size, args.rounds
+        args.triangles,
+        args.size,
+        args.rounds
     );
-    println!("| view | passes | streamed | on screen | visible (first pass) | seconds (fastest-slowest) | M triangles/s | peak MiB |");
-    println!("|---|---|---:|---:|---:|---:|---:|---:|");
+    outln!("| view | passes | streamed | on screen | visible (first pass) | seconds (fastest-slowest) | M triangles/s | peak MiB |");
+    outln!("|---|---|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
-        println!(
+        outln!(
             "| {} | {} | {} | {} | {} ({}) | {:.3} ({:.3}-{:.3}) | {:.1} | {:.1} |",
             r.view,
             if r.retest_pass {
@@ -323,6 +326,7 @@ fn load(spec: &str) -> Result<Scene> {
 }
 
 fn overview_camera(scene: &Scene, size: u32) -> Result<Camera> {
+    crate::limits::check_pixels(size, size).map_err(anyhow::Error::msg)?;
     let b = scene.bounds();
     let eye = default_eye(scene, b.center(), b.diagonal());
     Ok(Camera::look_at(
@@ -347,6 +351,8 @@ struct TraceRow {
 }
 
 fn trace(args: TraceArgs) -> Result<()> {
+    // The incoherent rays are generated up front, 32 bytes each.
+    crate::limits::check_count(args.rays as u64, crate::limits::MAX_BENCH_RAYS, "--rays")?;
     let specs = if args.scenes.is_empty() {
         vec!["procedural:city?size=1000000".to_string()]
     } else {
@@ -404,17 +410,17 @@ fn trace(args: TraceArgs) -> Result<()> {
     if args.json {
         return print_json(&rows);
     }
-    println!(
+    outln!(
         "| scene | triangles | backend | build s | coherent Mrays/s | incoherent Mrays/s | speed relative to the first backend (coherent / incoherent) |"
     );
-    println!("|---|---:|---|---:|---:|---:|---:|");
+    outln!("|---|---:|---|---:|---:|---:|---:|");
     let mut first: Option<(String, f64, f64)> = None;
     for r in &rows {
         if first.as_ref().is_none_or(|f| f.0 != r.scene) {
             first = Some((r.scene.clone(), r.coherent_mrays, r.incoherent_mrays));
         }
         let (_, fc, fi) = first.clone().unwrap_or_default();
-        println!(
+        outln!(
             "| `{}` | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} / {:.2} |",
             r.scene,
             r.triangles,
@@ -440,6 +446,7 @@ struct RasterRow {
 }
 
 fn raster(args: RasterArgs) -> Result<()> {
+    crate::limits::check_frames(args.frames as u64, "--frames")?;
     let specs = if args.scenes.is_empty() {
         vec![
             "procedural:city?size=100000".to_string(),
@@ -478,12 +485,17 @@ fn raster(args: RasterArgs) -> Result<()> {
     if args.json {
         return print_json(&rows);
     }
-    println!("| scene | triangles | size | median ms/frame | Mtriangles/s | covered pixels |");
-    println!("|---|---:|---:|---:|---:|---:|");
+    outln!("| scene | triangles | size | median ms/frame | Mtriangles/s | covered pixels |");
+    outln!("|---|---:|---:|---:|---:|---:|");
     for r in &rows {
-        println!(
+        outln!(
             "| `{}` | {} | {}² | {:.1} | {:.1} | {} |",
-            r.scene, r.triangles, r.size, r.median_ms, r.mtriangles_per_second, r.visible_pixels
+            r.scene,
+            r.triangles,
+            r.size,
+            r.median_ms,
+            r.mtriangles_per_second,
+            r.visible_pixels
         );
     }
     Ok(())
@@ -645,12 +657,12 @@ fn pvs(args: PvsArgs) -> Result<()> {
     if args.json {
         return print_json(&all_rows);
     }
-    println!(
+    outln!(
         "| scene | method | budget | mean rays | mean s | avg err px | max err px | avg err regions | max region px | avg snapping px | PVS % | false neg (sum) |"
     );
-    println!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    outln!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &all_rows {
-        println!(
+        outln!(
             "| `{}` | {} | {} | {:.3e} | {:.2} | {:.2} | {} | {:.2} | {} | {:.2} | {:.2} | {} |",
             r.scene,
             r.method,
@@ -666,9 +678,11 @@ fn pvs(args: PvsArgs) -> Result<()> {
             r.false_negatives
         );
     }
-    println!(
+    outln!(
         "({} cells per scene, {} viewpoints x 6 cube faces at {}² each)",
-        args.cells, args.viewpoints, args.resolution
+        args.cells,
+        args.viewpoints,
+        args.resolution
     );
     Ok(())
 }
@@ -1005,7 +1019,7 @@ fn share(args: ShareArgs) -> Result<()> {
     if args.json {
         return print_json(&report);
     }
-    println!(
+    outln!(
         "`{}` ({} triangles), {} cells ({}x{} over the ground, layer {}), pixel error on {} cells x {} viewpoints x 6 faces at {}²",
         report.scene,
         report.triangles,
@@ -1017,11 +1031,11 @@ fn share(args: ShareArgs) -> Result<()> {
         args.viewpoints,
         args.resolution
     );
-    println!();
-    println!("| method | rays/cell budget | total rays | s | avg err px | max err px | false neg (sum) | PVS % | first found via another cell's ray % |");
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    outln!();
+    outln!("| method | rays/cell budget | total rays | s | avg err px | max err px | false neg (sum) | PVS % | first found via another cell's ray % |");
+    outln!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &report.rows {
-        println!(
+        outln!(
             "| {} | {} | {:.3e} | {:.1} | {:.3} | {} | {} | {:.2} | {:.1} |",
             r.method,
             r.budget_per_cell,
@@ -1034,14 +1048,14 @@ fn share(args: ShareArgs) -> Result<()> {
             r.shared_percent
         );
     }
-    println!();
-    println!("| independent rays/cell | its avg err px | shared rays for that error | speed-up (rays) | speed-up (time) |");
-    println!("|---:|---:|---:|---:|---:|");
+    outln!();
+    outln!("| independent rays/cell | its avg err px | shared rays for that error | speed-up (rays) | speed-up (time) |");
+    outln!("|---:|---:|---:|---:|---:|");
     for s in &report.speedups {
         let prefix = if s.bound == "at least" { ">= " } else { "" };
         let fmt =
             |v: Option<f64>| v.map_or_else(|| s.bound.to_string(), |v| format!("{prefix}{v:.1}x"));
-        println!(
+        outln!(
             "| {} | {:.3} | {} | {} | {} |",
             s.budget_per_cell,
             s.avg_error_pixels,

@@ -29,6 +29,10 @@ pub(crate) struct Args {
 }
 
 pub(crate) fn run(args: Args) -> Result<()> {
+    crate::output::refuse_overwriting_inputs(
+        &[&args.output],
+        &[std::path::Path::new(&args.scene.scene)],
+    )?;
     let scene = args.scene.load()?;
     let ext = args
         .output
@@ -53,7 +57,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
             "geometry_hash": format!("{:016x}", scene.geometry_hash()),
         }));
     }
-    println!(
+    outln!(
         "wrote {} ({} triangles, {} objects)",
         args.output.display(),
         scene.triangle_count(),

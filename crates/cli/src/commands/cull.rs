@@ -45,7 +45,7 @@ pub(crate) struct Args {
     /// occlusion queries; needs a Vulkan driver such as Mesa's lavapipe).
     #[arg(long, default_value = "sw")]
     backend: String,
-    /// Frames to simulate (30 per second of the scene's clock).
+    /// Frames to simulate (30 per second of the scene's clock; at most 1,000,000).
     #[arg(long, default_value_t = 300)]
     frames: u32,
     /// Image and occlusion buffer size `WxH`.
@@ -106,6 +106,12 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if args.frames == 0 {
         bail!("--frames must be at least 1");
     }
+    crate::limits::check_frames(u64::from(args.frames), "--frames")?;
+    if let Some(plot) = &args.plot {
+        let mut inputs = vec![std::path::Path::new(&args.scene)];
+        inputs.extend(args.path.as_deref());
+        crate::output::refuse_overwriting_inputs(&[plot], &inputs)?;
+    }
     let (width, height) = args.size;
     let scene = load_scene(
         &args.scene,
@@ -129,6 +135,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
     // a software Vulkan driver), so the GPU run has the grid method and frustum culling only.
     let (backend, methods): (&mut dyn sightline_cull::OcclusionBackend, &[Method]) =
         if args.backend == "gpu" {
+            crate::headless::quiet_vulkan_layers();
             gpu = sightline_gpu::GpuBackend::new().context("--backend gpu")?;
             (&mut gpu, &[Method::Grid, Method::Frustum])
         } else {
@@ -160,21 +167,21 @@ pub(crate) fn run(args: Args) -> Result<()> {
             summaries,
         });
     }
-    println!(
+    outln!(
         "{}: {} objects, {} frames at {width}x{height}, backend {}",
         args.scene,
         reports.first().map_or(0, |r| r.objects),
         args.frames,
         args.backend
     );
-    println!(
+    outln!(
         "| method | drawn mean | drawn max | exact visible | drawn/visible | queries mean | \
          queries max | cells mean | cells max | cull ms mean | cull ms max | popping % mean | \
          popping % max | longest missing streak |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    outln!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for s in &summaries {
-        println!(
+        outln!(
             "| {} | {:.1} | {} | {:.1} | {:.2} | {:.1} | {} | {:.1} | {} | {:.3} | {:.3} | {:.4} | \
              {:.3} | {} |",
             s.method,
@@ -194,7 +201,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         );
     }
     if let Some(plot) = &args.plot {
-        println!("plot: {}", plot.display());
+        outln!("plot: {}", plot.display());
     }
     Ok(())
 }

@@ -53,7 +53,7 @@ pub(crate) struct Args {
     /// Viewpoints per cell of the pixel-error evaluation (six cube faces each).
     #[arg(long, default_value_t = 8)]
     views: usize,
-    /// Frames of the culling camera path (30 per second).
+    /// Frames of the culling camera path (30 per second; at most 1,000,000).
     #[arg(long, default_value_t = 90)]
     frames: u32,
     /// Print the summary as JSON.
@@ -65,6 +65,11 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if args.size == 0 || args.size > 4096 || args.frames == 0 || args.views == 0 {
         anyhow::bail!("--size must be in 1..=4096, --frames and --views at least 1");
     }
+    crate::limits::check_frames(u64::from(args.frames), "--frames")?;
+    crate::output::refuse_overwriting_inputs(
+        &[&args.output, &args.output.join("demo.pvs")],
+        &[std::path::Path::new(&args.scene.scene)],
+    )?;
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("creating {}", args.output.display()))?;
     let progress = ProgressBar::new(9).with_style(
@@ -400,11 +405,11 @@ pub(crate) fn run(args: Args) -> Result<()> {
             "steps": steps,
         }));
     }
-    println!("sightline demo on {}", scene.source);
+    outln!("sightline demo on {}", scene.source);
     for s in &steps {
-        println!("  {:<44} {:>8.3} s  {}", s.name, s.seconds, s.result);
+        outln!("  {:<44} {:>8.3} s  {}", s.name, s.seconds, s.result);
     }
-    println!("report: {}", index.display());
+    outln!("report: {}", index.display());
     Ok(())
 }
 

@@ -78,6 +78,12 @@ pub(crate) fn view_mode(name: &str) -> ViewMode {
 }
 
 pub(crate) fn run(args: Args) -> Result<()> {
+    if let Some(dir) = &args.images {
+        crate::output::refuse_overwriting_inputs(
+            &[dir],
+            &[std::path::Path::new(&args.scene.scene), &args.pvs],
+        )?;
+    }
     let scene = args.scene.load()?;
     let file = load_pvs_of(&scene, &args.pvs)?;
     if args.viewpoints == 0 || args.resolution == 0 || args.resolution > 8192 {
@@ -154,13 +160,13 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if args.json {
         return print_json(&rows);
     }
-    println!(
+    outln!(
         "| cell | avg err px | max err px | avg err regions | max region px | avg snapping px | PVS | PVS % | seen | false neg | images | s |"
     );
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    outln!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
         let e = &r.evaluation;
-        println!(
+        outln!(
             "| {} | {:.2} | {} | {:.2} | {} | {:.2} | {} | {:.2} | {} | {} | {} | {:.1} |",
             r.cell,
             e.avg_error_pixels,
@@ -177,7 +183,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         );
     }
     let k = rows.len().max(1) as f64;
-    println!(
+    outln!(
         "mean over {} cells: {:.2} erroneous pixels per {}² image, max {}, {:.2} error regions, PVS {:.2}%",
         rows.len(),
         rows.iter().map(|r| r.evaluation.avg_error_pixels).sum::<f64>() / k,

@@ -20,8 +20,10 @@ use sightline_region::pvs_file::EncodedPvsFile;
 use sightline_region::shards::{merge, Shard};
 use sightline_region::{Budget, PvsFile, ViewCell};
 
-use crate::args::SceneArgs;
-use crate::output::print_json;
+use crate::args::{thread_count, SceneArgs};
+use crate::errors::ExitStatus;
+use crate::output::{print_json, refuse_overwriting_inputs};
+use crate::output_lock::OutputLock;
 
 /// Arguments of `sightline pvs`.
 #[derive(clap::Args, Debug)]
@@ -39,7 +41,9 @@ enum What {
     Show(ShowArgs),
     /// Join the shard files of a bake (`pvs bake --shard I/N`) into one .pvs, cells in order.
     Merge(MergeArgs),
-    /// Compare two .pvs files of the same scene cell by cell.
+    /// Compare two .pvs files of the same scene cell by cell. Exit status as `diff`: 0 when
+    /// every cell's set is equal, 1 when some differ (with a summary line: cells differing,
+    /// triangles only in the second file = added, only in the first = removed), 2 on errors.
     Diff(DiffArgs),
     /// Compare a PVS baked on a Quake 3 map's leaves (--q3-leaves) with the map's own compiled
     /// cluster PVS, cluster by cluster.
@@ -57,7 +61,8 @@ pub(crate) struct CellArgs {
     /// (repeatable).
     #[arg(long, value_name = "SPEC", allow_hyphen_values = true)]
     cell: Vec<String>,
-    /// A regular grid of NX,NY,NZ cells over --bounds (default: the scene bounds).
+    /// A regular grid of NX,NY,NZ cells over --bounds (default: the scene bounds); at most
+    /// 2^20 cells in all (every cell's set stays in memory until the file is written).
     #[arg(long, value_name = "NX,NY,NZ")]
     grid: Option<String>,
     /// Region of --grid: MINX,MINY,MINZ,MAXX,MAXY,MAXZ.
@@ -156,7 +161,8 @@ pub(crate) struct BakeArgs {
     /// the probe.
     #[arg(long, default_value_t = 16384, value_name = "N")]
     probe_rays: usize,
-    /// Worker threads (default: all cores). Results do not depend on it.
+    /// Worker threads (default: all cores; at most 4 per core, more are capped with a
+    /// warning). Results do not depend on it.
     #[arg(long)]
     threads: Option<usize>,
     /// Print a JSON summary.
@@ -238,7 +244,11 @@ pub(crate) fn run(args: Args) -> Result<()> {
         What::Bake(a) => run_bake(*a),
         What::Show(a) => run_show(a),
         What::Merge(a) => run_merge(a),
-        What::Diff(a) => run_diff(a),
+        // As `diff`: 0 same sets, 1 different, 2 trouble (unreadable or unrelated files).
+        What::Diff(a) => run_diff(a).map_err(|e| match e.downcast_ref::<ExitStatus>() {
+            Some(_) => e,
+            None => e.context(ExitStatus(2)),
+        }),
         What::CompareQ3(a) => run_compare_q3(a),
     }
 }
@@ -295,6 +305,7 @@ fn collect_cells(
                 (b.min, b.max)
             }
         };
+        crate::limits::check_cells(&[n[0] as u64, n[1] as u64, n[2] as u64], "--grid")?;
         let mut cells = ViewCell::grid(min, max, [n[0] as u32, n[1] as u32, n[2] as u32])?;
         if args.skip_solid {
             cells.retain(|c| !inside_solid(scene, caster, c.center));
@@ -356,18 +367,25 @@ fn method_params(args: &BakeArgs) -> MethodParams {
 }
 
 fn run_bake(args: BakeArgs) -> Result<()> {
-    match args.threads {
-        Some(0) => bail!("--threads must be at least 1"),
-        Some(t) => rayon::ThreadPoolBuilder::new()
-            .num_threads(t)
-            .build()
-            .context("starting the worker threads")?
-            .install(|| bake_command(&args)),
-        None => bake_command(&args),
+    if args.threads.is_none() {
+        return bake_command(&args);
     }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(thread_count(args.threads)?)
+        .build()
+        .context("starting the worker threads")?
+        .install(|| bake_command(&args))
 }
 
 fn bake_command(args: &BakeArgs) -> Result<()> {
+    // The --since file may be the output: it is read whole before the output is replaced,
+    // so an in-place incremental rebake is safe.
+    let mut inputs = vec![Path::new(&args.scene.scene)];
+    inputs.extend(args.cells.cells.as_deref());
+    inputs.extend(args.old_scene.as_deref().map(Path::new));
+    let checkpoint = checkpoint_path(&args.output);
+    refuse_overwriting_inputs(&[&args.output, &checkpoint], &inputs)?;
+    let _lock = OutputLock::acquire(&args.output)?;
     let scene = args.scene.load()?;
     let bvh = Bvh::build(&scene);
     let (cells, clusters) = collect_cells(&args.cells, &scene, &bvh)?;
@@ -539,7 +557,7 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
         return print_json(&summary);
     }
     if let Some(r) = &incremental {
-        println!(
+        outln!(
             "incremental: {} triangles removed, {} added in {} groups; rebaked {} of {} cells, kept {}",
             r.removed,
             r.added,
@@ -549,7 +567,7 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
             kept_count
         );
     }
-    println!(
+    outln!(
         "baked {} cells with {} in {:.2} s ({} resumed from the checkpoint, {} rays): mean PVS {:.0} \
          triangles ({:.2}% of {}), {:.0} bytes per cell in memory, wrote {}",
         summary.cells,
@@ -666,6 +684,8 @@ struct MergeSummary {
 }
 
 fn run_merge(args: MergeArgs) -> Result<()> {
+    let inputs: Vec<&Path> = args.files.iter().map(PathBuf::as_path).collect();
+    refuse_overwriting_inputs(&[&args.output], &inputs)?;
     let mut files = Vec::with_capacity(args.files.len());
     for p in &args.files {
         let f = EncodedPvsFile::load(p).with_context(|| format!("reading {}", p.display()))?;
@@ -682,7 +702,7 @@ fn run_merge(args: MergeArgs) -> Result<()> {
     if args.json {
         return print_json(&summary);
     }
-    println!(
+    outln!(
         "merged {} files: {} of {} cells, wrote {}",
         summary.files,
         summary.cells,
@@ -776,7 +796,7 @@ fn bake_with_shared_rays(
     if args.json {
         return print_json(&summary);
     }
-    println!(
+    outln!(
         "baked {} cells with GVS++ and ray sharing in {:.2} s ({} rays, {} triangles handed from cell to cell): mean PVS {:.0} triangles ({:.2}% of {}), wrote {}",
         summary.cells,
         summary.seconds,
@@ -871,26 +891,26 @@ fn run_show(args: ShowArgs) -> Result<()> {
         });
     }
     let n = f64::from(file.triangle_count.max(1));
-    println!("file       {}", args.file.display());
-    println!(
+    outln!("file       {}", args.file.display());
+    outln!(
         "scene      {} ({} triangles, hash {:016x})",
         file.metadata["scene"].as_str().unwrap_or("?"),
         file.triangle_count,
         file.scene_hash
     );
-    println!(
+    outln!(
         "method     {}",
         file.metadata["method"].as_str().unwrap_or("?")
     );
-    println!("version    {version}");
+    outln!("version    {version}");
     match &file.objects {
-        Some(t) => println!("objects    {}", t.objects.len()),
-        None => println!("objects    none (version 1: triangle sets only; bake again for objects)"),
+        Some(t) => outln!("objects    {}", t.objects.len()),
+        None => outln!("objects    none (version 1: triangle sets only; bake again for objects)"),
     }
     if args.objects {
         for (i, o) in object_rows(&file).unwrap_or_default().iter().enumerate() {
             let number = |v: Option<u32>| v.map_or("-".to_string(), |v| v.to_string());
-            println!(
+            outln!(
                 "  object {i:>5}  {:<40}  index {:>5}  part {:>4}  {:>7} triangles  bounds {:.2?} .. {:.2?}",
                 o.name,
                 number(o.index),
@@ -901,7 +921,7 @@ fn run_show(args: ShowArgs) -> Result<()> {
             );
         }
     }
-    println!("cells      {}", file.cells.len());
+    outln!("cells      {}", file.cells.len());
     let objects_total = file.objects.as_ref().map_or(0, |t| t.objects.len().max(1)) as f64;
     for (i, c) in file.cells.iter().enumerate() {
         let size = c.visible.count_ones(..);
@@ -912,7 +932,7 @@ fn run_show(args: ShowArgs) -> Result<()> {
                 100.0 * k as f64 / objects_total
             )
         });
-        println!(
+        outln!(
             "  cell {i:>4}  centre {:>28}  half extents {:>24}  PVS {size:>8} ({:.2}%){objects}",
             format!("{:.2?}", c.cell.center.to_array()),
             format!("{:.2?}", c.cell.half_extents.to_array()),
@@ -988,11 +1008,31 @@ fn run_diff(args: DiffArgs) -> Result<()> {
             jaccard: ca.visible.intersection(&cb.visible).count() as f64 / union as f64,
         });
     }
+    let differing: Vec<&CellDiff> = rows
+        .iter()
+        .filter(|r| r.only_in_a + r.only_in_b > 0)
+        .collect();
+    let summary = format!(
+        "{} of {} cells differ: {} triangles added (only in {}), {} removed (only in {}), \
+         summed over cells",
+        differing.len(),
+        rows.len(),
+        differing.iter().map(|r| r.only_in_b).sum::<usize>(),
+        args.b.display(),
+        differing.iter().map(|r| r.only_in_a).sum::<usize>(),
+        args.a.display()
+    );
+    let status = if differing.is_empty() {
+        Ok(())
+    } else {
+        Err(ExitStatus(1).into())
+    };
     if args.json {
-        return print_json(&rows);
+        print_json(&rows)?;
+        return status;
     }
     if !same_objects {
-        println!(
+        outln!(
             "(objects not compared: {})",
             if a.objects.is_none() || b.objects.is_none() {
                 "a version-1 file has none"
@@ -1001,11 +1041,11 @@ fn run_diff(args: DiffArgs) -> Result<()> {
             }
         );
     }
-    println!("| cell | |A| | |B| | only in A | only in B | Jaccard | objects A | objects B | objects only in A | objects only in B |");
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    outln!("| cell | |A| | |B| | only in A | only in B | Jaccard | objects A | objects B | objects only in A | objects only in B |");
+    outln!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     let opt = |v: Option<usize>| v.map_or("-".to_string(), |v| v.to_string());
     for r in &rows {
-        println!(
+        outln!(
             "| {} | {} | {} | {} | {} | {:.4} | {} | {} | {} | {} |",
             r.cell,
             r.size_a,
@@ -1019,7 +1059,8 @@ fn run_diff(args: DiffArgs) -> Result<()> {
             opt(r.objects_only_in_b)
         );
     }
-    Ok(())
+    outln!("{summary}");
+    status
 }
 
 #[derive(Serialize)]
@@ -1117,11 +1158,11 @@ fn run_compare_q3(args: CompareQ3Args) -> Result<()> {
     if args.json {
         return print_json(&rows);
     }
-    println!("| cluster | leaves | ours | q3map2 | ours, culled by q3map2 | q3map2, not ours | ours avg err px | q3map2 avg err px |");
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|");
+    outln!("| cluster | leaves | ours | q3map2 | ours, culled by q3map2 | q3map2, not ours | ours avg err px | q3map2 avg err px |");
+    outln!("|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
         let error = |e: Option<f64>| e.map_or("-".to_string(), |v| format!("{v:.3}"));
-        println!(
+        outln!(
             "| {} | {} | {} | {} | {} | {} | {} | {} |",
             r.cluster,
             r.leaves,
@@ -1134,7 +1175,7 @@ fn run_compare_q3(args: CompareQ3Args) -> Result<()> {
         );
     }
     let suspicious: usize = rows.iter().map(|r| r.ours_not_q3map2).sum();
-    println!(
+    outln!(
         "{} clusters; {suspicious} (cluster, triangle) pairs we see that q3map2's conservative PVS culls \
          (each is a bug in one of the two, or geometry q3map2 does not treat as occluding)",
         rows.len()

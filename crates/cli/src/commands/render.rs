@@ -1,6 +1,6 @@
 //! `sightline render`: an image of the scene from the reference rasterizer.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Result};
@@ -8,7 +8,9 @@ use sightline_core::raster;
 use sightline_core::Camera;
 
 use crate::args::{CameraArgs, SceneArgs};
-use crate::output::{id_image, print_json, save_png, shaded_image};
+use crate::output::{
+    id_image, print_json, refuse_overwriting_inputs, require_png_extension, save_png, shaded_image,
+};
 
 /// Arguments of `sightline render`.
 #[derive(clap::Args, Debug)]
@@ -17,7 +19,8 @@ pub(crate) struct Args {
     scene: SceneArgs,
     #[command(flatten)]
     camera: CameraArgs,
-    /// Output PNG. With --cube, six files NAME_px.png, NAME_nx.png, ... are written.
+    /// Output PNG (the name must end in .png; it may not be the scene file). With --cube, six
+    /// files NAME_px.png, NAME_nx.png, ... are written.
     #[arg(short, long, default_value = "render.png")]
     output: PathBuf,
     /// Colour each triangle by its id instead of shading.
@@ -39,6 +42,11 @@ struct Summary {
 }
 
 pub(crate) fn run(args: Args) -> Result<()> {
+    let scene_path = Path::new(&args.scene.scene);
+    // With --cube the files written are NAME_px.png...; the plain name is checked first so
+    // the refusal comes before the scene is loaded.
+    refuse_overwriting_inputs(&[&args.output], &[scene_path])?;
+    require_png_extension(&args.output, "--output")?;
     let scene = args.scene.load()?;
     // The near plane is checked on the cameras rendered: with --cube, the six faces.
     let main_camera = args.camera.camera_unchecked(&scene)?;
@@ -60,6 +68,8 @@ pub(crate) fn run(args: Args) -> Result<()> {
     } else {
         vec![(main_camera, args.output.clone())]
     };
+    let written: Vec<&Path> = cameras.iter().map(|(_, p)| p.as_path()).collect();
+    refuse_overwriting_inputs(&written, &[scene_path])?;
     let rendered: Vec<Camera> = cameras.iter().map(|(c, _)| *c).collect();
     args.camera.warn_if_near_hides(&scene, &rendered);
     let start = Instant::now();
@@ -89,9 +99,9 @@ pub(crate) fn run(args: Args) -> Result<()> {
         return print_json(&summary);
     }
     for p in &summary.outputs {
-        println!("wrote {}", p.display());
+        outln!("wrote {}", p.display());
     }
-    println!(
+    outln!(
         "{} of {} triangles visible, {:.1} ms",
         summary.visible_triangles,
         scene.triangle_count(),

@@ -73,6 +73,10 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if args.views == 0 || args.size == 0 || args.size > 4096 {
         bail!("--views must be >= 1 and --size in 1..=4096");
     }
+    crate::output::refuse_overwriting_inputs(
+        &[&args.output, &args.output.join("index.html")],
+        &[std::path::Path::new(&args.scene), &args.pvs],
+    )?;
     let scene = SceneArgs::new(args.scene.clone(), args.patch_subdivisions).load()?;
     let file = load_pvs_of(&scene, &args.pvs)?;
     let options = PvsReportOptions {
@@ -138,7 +142,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         });
     }
     let k = cells.len().max(1) as f64;
-    println!(
+    outln!(
         "{} cells: mean PVS {:.0} triangles, {:.3} erroneous pixels per {}² view (max {}); \
          report: {}",
         cells.len(),

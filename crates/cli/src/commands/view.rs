@@ -41,7 +41,8 @@ pub(crate) struct Args {
     /// Fly speed in scene units per second (default: 5% of the scene's diagonal).
     #[arg(long)]
     speed: Option<f32>,
-    /// Headless: render this many frames offscreen (no window) and write them to --out.
+    /// Headless: render this many frames offscreen (no window) and write them to --out (at
+    /// most 1,000,000).
     #[arg(long, value_name = "N", requires = "out")]
     frames: Option<u32>,
     /// Headless: the output folder for frame_0000.png... and frames.json.
@@ -57,6 +58,15 @@ pub(crate) struct Args {
 }
 
 pub(crate) fn run(args: Args) -> Result<()> {
+    if let Some(frames) = args.frames {
+        crate::limits::check_frames(u64::from(frames), "--frames")?;
+    }
+    if let Some(out) = &args.out {
+        let mut inputs = vec![std::path::Path::new(&args.scene.scene)];
+        inputs.extend(args.pvs.as_deref());
+        inputs.extend(args.path.as_deref());
+        crate::output::refuse_overwriting_inputs(&[out, &out.join("frames.json")], &inputs)?;
+    }
     let scene = args.scene.load()?;
     // The near plane is checked on the cameras used: the start (window) or the path (headless).
     let camera = args.camera.camera_unchecked(&scene)?;
@@ -111,6 +121,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if frames == 0 {
         bail!("--frames must be at least 1");
     }
+
     let n = frames as usize;
     let poses = match &args.path {
         Some(path) => {
@@ -150,6 +161,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         })
         .collect::<Result<Vec<_>>>()?;
     args.camera.warn_if_near_hides(viewer.scene(), &cameras);
+    crate::headless::quiet_vulkan_layers();
     let (device, queue, info) = sightline_gpu::vulkan_device()?;
     let report = run_headless(&device, &queue, &info.name, &mut viewer, &cameras, out)?;
     if args.json {
@@ -161,7 +173,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         .map(|f| f.triangles_drawn as f64)
         .sum::<f64>()
         / report.frames.len().max(1) as f64;
-    println!(
+    outln!(
         "wrote {} frames ({}x{}, method {}) and frames.json to {} on {}: {:.0} of {} triangles \
          drawn on average, popping max {} px, mean {:.1} px per frame (GPU id-image compare)",
         report.frames.len(),

@@ -1,7 +1,7 @@
 //! `sightline visible`: which triangles are visible from a point — by the reference
 //! rasterizer (pixel-centre sampling), conservatively in bounded memory (RV), or exactly.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
@@ -201,7 +201,7 @@ fn run_from_region(args: &Args, spec: &str, start: Instant) -> Result<()> {
     if args.json {
         return print_json(&summary);
     }
-    println!(
+    outln!(
         "{}: {} of {} triangles ({:.2}%) in {:.3} s, {} occluders",
         summary.method,
         n,
@@ -211,7 +211,7 @@ fn run_from_region(args: &Args, spec: &str, start: Instant) -> Result<()> {
         r.stats.occluders
     );
     if let Some((seen, missed, _)) = check {
-        println!(
+        outln!(
             "sampled check: 200000 rays from the cell hit {seen} triangles, {missed} of them missing from the set (must be 0)"
         );
     }
@@ -286,6 +286,15 @@ fn reference_set(
 
 pub(crate) fn run(args: Args) -> Result<()> {
     let start = Instant::now();
+    let outputs: Vec<&Path> = [&args.svg, &args.png, &args.output]
+        .into_iter()
+        .flatten()
+        .map(PathBuf::as_path)
+        .collect();
+    crate::output::refuse_overwriting_inputs(&outputs, &[Path::new(&args.scene.scene)])?;
+    if let Some(png) = &args.png {
+        crate::output::require_png_extension(png, "--png")?;
+    }
     if args.exact {
         return run_exact(&args, start);
     }
@@ -400,7 +409,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if args.json {
         return print_json(&summary);
     }
-    println!(
+    outln!(
         "{}: {} of {} triangles visible ({:.2}%) in {:.3} s",
         summary.method,
         summary.visible,
@@ -409,7 +418,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         summary.seconds
     );
     if let Some(peak) = summary.peak_memory_bytes {
-        println!(
+        outln!(
             "peak memory {:.1} MiB of a {:.1} MiB budget",
             peak as f64 / 1048576.0,
             args.memory as f64 / 1048576.0
@@ -421,13 +430,13 @@ pub(crate) fn run(args: Args) -> Result<()> {
         summary.overestimation,
         summary.missed,
     ) {
-        println!(
+        outln!(
             "reference ({name}): {n} triangles; overestimation {:.1}%; visible triangles missed: {m}",
             100.0 * o
         );
     }
     if let Some(p) = &args.output {
-        println!("wrote {}", p.display());
+        outln!("wrote {}", p.display());
     }
     Ok(())
 }
@@ -494,7 +503,7 @@ fn run_exact(args: &Args, start: Instant) -> Result<()> {
     if args.json {
         return print_json(&summary);
     }
-    println!(
+    outln!(
         "exact (analytic): {} of {} triangles visible as {} polygons; visibility {:.3} s, total {:.3} s; {} edge/triangle overlaps; {} intersecting pairs resolved; {} warnings",
         result.visible.count_ones(..),
         scene.triangle_count(),
@@ -506,7 +515,7 @@ fn run_exact(args: &Args, start: Instant) -> Result<()> {
         s.warnings.total()
     );
     for p in [&args.svg, &args.png, &args.output].into_iter().flatten() {
-        println!("wrote {}", p.display());
+        outln!("wrote {}", p.display());
     }
     Ok(())
 }
