@@ -711,3 +711,62 @@ fn roof_edge_on_a_wall_keeps_its_area() {
         check_against_brute_with(&scene, &cam, &options);
     }
 }
+
+#[test]
+fn walls_at_a_corner_one_ulp_apart_keep_their_areas() {
+    // Five walls of a city block (etoile.ply.gz). Three meet at one vertical corner, stored
+    // as x = 30.130741 in two triangles and x = 30.13074 (one ulp less) in the third, so
+    // their corner edges project parallel and 2 grid units apart. The parallel-edge test did
+    // not count such edges as collinear: the third wall covered both sides of the others'
+    // corner edge and hid it, and the wall seen only in a 2 px sliver by the corner lost all
+    // of its 0.77 px² at 16-px bins.
+    let mut b = SceneBuilder::new("corner");
+    for t in [
+        [
+            (17.163721, -100.7635, 0.0),
+            (22.757593, -88.27343, 0.0),
+            (22.757593, -88.27343, 18.0),
+        ],
+        [
+            (17.163721, -100.7635, 0.0),
+            (22.757593, -88.27343, 18.0),
+            (17.163721, -100.7635, 18.0),
+        ],
+        [
+            (22.757593, -88.27343, 0.0),
+            (30.130741, -91.93581, 0.0),
+            (30.130741, -91.93581, 18.0),
+        ],
+        [
+            (30.130741, -91.93581, 0.0),
+            (33.806274, -84.45512, 18.0),
+            (30.130741, -91.93581, 18.0),
+        ],
+        [
+            (30.13074, -91.93581, 0.0),
+            (46.26822, -99.694664, 18.0),
+            (30.13074, -91.93581, 18.0),
+        ],
+    ] {
+        let v = t.map(|(x, y, z)| b.add_vertex(Vec3::new(x, y, z)));
+        b.add_triangle(v);
+    }
+    let scene = b.finish();
+    let cam = Camera::look_at(
+        Vec3::new(-156.86536, -160.66983, 31.902119),
+        Vec3::new(0.0, 0.0, 25.0),
+        Vec3::Y,
+        60.0,
+        512,
+        512,
+        0.010901281,
+    )
+    .unwrap();
+    for bin_size in [1, 4, 16] {
+        let options = AnalyticOptions {
+            bin_size,
+            ..AnalyticOptions::default()
+        };
+        check_against_brute_with(&scene, &cam, &options);
+    }
+}

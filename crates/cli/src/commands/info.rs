@@ -91,36 +91,36 @@ pub(crate) fn run(args: Args) -> Result<()> {
         return exit_status(&info);
     }
     let v = &info.validation;
-    println!("scene      {}", info.source);
-    println!("triangles  {}", v.triangles);
-    println!("vertices   {}", v.vertices);
-    println!("objects    {}", v.objects);
+    outln!("scene      {}", info.source);
+    outln!("triangles  {}", v.triangles);
+    outln!("vertices   {}", v.vertices);
+    outln!("objects    {}", v.objects);
     match v.bounds {
-        Some([min, max]) => println!("bounds     {min:?} .. {max:?}"),
-        None => println!("bounds     (none)"),
+        Some([min, max]) => outln!("bounds     {min:?} .. {max:?}"),
+        None => outln!("bounds     (none)"),
     }
-    println!("up axis    {:?}", info.up);
-    println!(
+    outln!("up axis    {:?}", info.up);
+    outln!(
         "memory     {:.1} MiB geometry",
         info.geometry_bytes as f64 / (1 << 20) as f64
     );
-    println!("hash       {}", info.geometry_hash);
-    println!("loaded in  {:.3} s", info.load_seconds);
+    outln!("hash       {}", info.geometry_hash);
+    outln!("loaded in  {:.3} s", info.load_seconds);
     if info.errors.is_empty() && info.warnings.is_empty() {
-        println!("validation ok");
+        outln!("validation ok");
     }
     for e in &info.errors {
-        println!("error      {e}");
+        outln!("error      {e}");
     }
     for w in &info.warnings {
-        println!("warning    {w}");
+        outln!("warning    {w}");
     }
     let shown = if args.objects { info.objects.len() } else { 20 };
     for o in info.objects.iter().take(shown) {
-        println!("  object {:<40} {:>9} triangles", o.name, o.triangles);
+        outln!("  object {:<40} {:>9} triangles", o.name, o.triangles);
     }
     if info.objects.len() > shown {
-        println!(
+        outln!(
             "  ... {} more objects (--objects lists all)",
             info.objects.len() - shown
         );

@@ -35,6 +35,8 @@ pub(crate) struct BinPoly {
     pub(crate) inv_z_range: [f64; 2],
     /// Relative uncertainty of its `1/z` from the f32 input (see `project.rs`).
     pub(crate) noise: f64,
+    /// Collinearity tolerance of its edges, grid units (see `project.rs`).
+    pub(crate) collinear_grid: f64,
 }
 
 /// All projected polygons, in triangle id order.
@@ -65,6 +67,7 @@ impl Polys {
                 bbox: bbox(&p.verts),
                 inv_z_range: range,
                 noise: p.noise,
+                collinear_grid: p.collinear_grid,
             });
             out.verts.extend_from_slice(&p.verts);
         }
@@ -443,6 +446,7 @@ mod tests {
             verts: vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]],
             plane: [0.0, 0.0, 1.0],
             noise: 0.0,
+            collinear_grid: crate::analytic::intersect::NEAR_COLLINEAR_GRID,
         }
     }
 

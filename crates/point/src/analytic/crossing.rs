@@ -175,7 +175,12 @@ fn flip_points(polys: &Polys, t: u32, u: u32, counters: &mut Counters) -> Vec<DV
                 a: verts[j],
                 d,
             };
-            let Some((lo, hi, side)) = intersect(&e, polys.verts_of(other), counters) else {
+            let collinear_grid = polys.polys[owner as usize]
+                .collinear_grid
+                .max(polys.polys[other as usize].collinear_grid);
+            let Some((lo, hi, side)) =
+                intersect(&e, polys.verts_of(other), collinear_grid, counters)
+            else {
                 continue;
             };
             if side == Side::Right {

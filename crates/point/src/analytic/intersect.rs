@@ -15,7 +15,9 @@
 //! exact without special cases: an occluder only matters on the side where `T` is, and only
 //! polygons covering *both* sides can be completed across `e` (a polygon that ends on `e`'s line
 //! gets its boundary from its own edge). Edges within [`NEAR_COLLINEAR_GRID`] of collinear at
-//! both ends count as collinear: snapping breaks the collinearity of edges on one 3D line.
+//! both ends count as collinear, parallel ones included: snapping breaks the collinearity of
+//! edges on one 3D line. So do edges within one ulp of the input (`ScreenPoly::collinear_grid`):
+//! two f32 copies of one 3D corner, one ulp apart, are one line as far as the input can tell.
 //!
 //! # Depth order
 //! Along an overlap interval the difference `1/z_C - 1/z_T` is affine in the edge parameter
@@ -120,7 +122,14 @@ impl Edge {
 /// points on either side of `e`, or `None` (single-point contacts are discarded, as in the
 /// paper). Cyrus–Beck over the edges of the convex polygon, with exact parallelism and
 /// collinearity decisions.
-pub(crate) fn intersect(e: &Edge, c: &[Pt], counters: &mut Counters) -> Option<(f64, f64, Side)> {
+/// Edges of `c` within `collinear_grid` grid units of `e`'s line at both of `e`'s ends count as
+/// collinear with it.
+pub(crate) fn intersect(
+    e: &Edge,
+    c: &[Pt],
+    collinear_grid: f64,
+    counters: &mut Counters,
+) -> Option<(f64, f64, Side)> {
     let (mut lo, mut hi) = (0.0f64, 1.0f64);
     let mut side = Side::Both;
     let n = c.len();
@@ -134,8 +143,11 @@ pub(crate) fn intersect(e: &Edge, c: &[Pt], counters: &mut Counters) -> Option<(
         let beta = cross(edge, e.d);
         let alpha = cross(edge, sub(e.a, ci));
         counters.exact_fallbacks += u64::from(beta.exact) + u64::from(alpha.exact);
-        if beta.sign == 0 || near_collinear(alpha.value, beta.value, edge) {
-            let alpha_sign = if beta.sign == 0 { alpha.sign } else { 0 };
+        // Parallel edges a few grid units apart are collinear too (the parallel test alone
+        // would make `c` cover both sides of `e` over that sliver).
+        let near = near_collinear(alpha.value, beta.value, edge, collinear_grid);
+        if beta.sign == 0 || near {
+            let alpha_sign = if near { 0 } else { alpha.sign };
             match alpha_sign {
                 1 => continue,
                 -1 => return None,
@@ -179,15 +191,15 @@ pub(crate) fn narrow(lo: &mut f64, hi: &mut f64, t: f64, entering: bool) -> bool
 /// end up a grid unit or so apart at a tiny angle. Taken as crossing, such an edge would make
 /// the other polygon cover both sides over a sliver 1e-6 px wide, and the depth slopes at the
 /// two edges would each hide the other: both polygons' boundaries would vanish there.
-const NEAR_COLLINEAR_GRID: f64 = 2.0;
+pub(crate) const NEAR_COLLINEAR_GRID: f64 = 2.0;
 
-/// Whether the line of `edge` (grid units) passes within [`NEAR_COLLINEAR_GRID`] of both ends
+/// Whether the line of `edge` (grid units) passes within `tol_grid` grid units of both ends
 /// of the edge whose edge function is `alpha + beta t` (`t` in `[0, 1]`).
 #[inline]
-fn near_collinear(alpha: f64, beta: f64, edge: Pt) -> bool {
+fn near_collinear(alpha: f64, beta: f64, edge: Pt, tol_grid: f64) -> bool {
     // Squared, to keep a square root out of the innermost loop.
     let (ex, ey) = (edge[0] as f64, edge[1] as f64);
-    let tol2 = NEAR_COLLINEAR_GRID * NEAR_COLLINEAR_GRID * (ex * ex + ey * ey);
+    let tol2 = tol_grid * tol_grid * (ex * ex + ey * ey);
     let end = alpha + beta;
     alpha * alpha <= tol2 && end * end <= tol2
 }
@@ -263,6 +275,8 @@ pub(crate) struct Depth<'a> {
     pub(crate) noise: f64,
     /// Vertices on the grid (empty when unknown).
     pub(crate) verts: &'a [Pt],
+    /// Collinearity tolerance of its edges, grid units.
+    pub(crate) collinear_grid: f64,
 }
 
 /// The [`Depth`] of polygon `k`.
@@ -273,6 +287,7 @@ pub(crate) fn depth_of(polys: &Polys, k: u32) -> Depth<'_> {
         id: p.id,
         noise: p.noise,
         verts: polys.verts_of(k),
+        collinear_grid: p.collinear_grid,
     }
 }
 
@@ -370,7 +385,7 @@ fn tie_order<L: Line, D: Fn(DVec2) -> (f64, f64)>(
     } else {
         None
     };
-    let contact = NEAR_COLLINEAR_GRID / GRID * grad.length();
+    let contact = c.collinear_grid.max(t.collinear_grid) / GRID * grad.length();
     let on_l = d0.abs() <= contact && d1.abs() <= contact;
     let signed = if mid != 0.0 { mid } else { d0 + d1 };
     let here = if signed != 0.0 {
@@ -475,7 +490,9 @@ pub(crate) fn edge_intersections(
                 false
             }
         };
-        let Some((lo, hi, side)) = intersect(e, polys.verts_of(k), counters) else {
+        let collinear_grid =
+            owner.map_or(p.collinear_grid, |t| t.collinear_grid.max(p.collinear_grid));
+        let Some((lo, hi, side)) = intersect(e, polys.verts_of(k), collinear_grid, counters) else {
             continue;
         };
         counters.intersections += 1;
@@ -524,6 +541,7 @@ mod tests {
             id,
             noise: 0.0,
             verts: &[],
+            collinear_grid: NEAR_COLLINEAR_GRID,
         }
     }
 
@@ -532,7 +550,12 @@ mod tests {
     #[test]
     fn edge_through_square_overlaps_both_sides() {
         let mut c = Counters::default();
-        let r = intersect(&edge([-10, 5], [20, 5]), &SQUARE, &mut c);
+        let r = intersect(
+            &edge([-10, 5], [20, 5]),
+            &SQUARE,
+            NEAR_COLLINEAR_GRID,
+            &mut c,
+        );
         let (lo, hi, side) = r.expect("overlap");
         assert!((lo - 1.0 / 3.0).abs() < 1e-12 && (hi - 2.0 / 3.0).abs() < 1e-12);
         assert_eq!(side, Side::Both);
@@ -542,22 +565,34 @@ mod tests {
     fn collinear_edge_same_direction_covers_left() {
         // Square's bottom edge runs (0,0)->(10,0) with the interior at +y, the left side.
         let mut c = Counters::default();
-        let r = intersect(&edge([-5, 0], [5, 0]), &SQUARE, &mut c);
+        let r = intersect(&edge([-5, 0], [5, 0]), &SQUARE, NEAR_COLLINEAR_GRID, &mut c);
         assert_eq!(r.map(|r| r.2), Some(Side::Left));
-        let r = intersect(&edge([5, 0], [-5, 0]), &SQUARE, &mut c);
+        let r = intersect(&edge([5, 0], [-5, 0]), &SQUARE, NEAR_COLLINEAR_GRID, &mut c);
         assert_eq!(r.map(|r| r.2), Some(Side::Right));
     }
 
     #[test]
     fn vertex_contact_is_discarded() {
         let mut c = Counters::default();
-        assert!(intersect(&edge([-5, 5], [5, -5]), &SQUARE, &mut c).is_none());
+        assert!(intersect(
+            &edge([-5, 5], [5, -5]),
+            &SQUARE,
+            NEAR_COLLINEAR_GRID,
+            &mut c
+        )
+        .is_none());
     }
 
     #[test]
     fn separate_edge_misses() {
         let mut c = Counters::default();
-        assert!(intersect(&edge([20, 0], [20, 10]), &SQUARE, &mut c).is_none());
+        assert!(intersect(
+            &edge([20, 0], [20, 10]),
+            &SQUARE,
+            NEAR_COLLINEAR_GRID,
+            &mut c
+        )
+        .is_none());
     }
 
     #[test]

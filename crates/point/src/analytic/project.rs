@@ -41,6 +41,11 @@ pub(crate) struct ScreenPoly {
     /// largest world coordinate over its smallest view depth. Two polygons
     /// whose depths differ by less are coincident as far as the input can tell.
     pub(crate) noise: f64,
+    /// Grid units within which another polygon's edge counts as collinear with one of this
+    /// polygon's edges: the snapping (see `intersect::NEAR_COLLINEAR_GRID`), or one ulp of the
+    /// largest coordinate seen at the smallest depth when that is more. Two f32 copies of one
+    /// 3D corner (one ulp apart) are one line as far as the input can tell.
+    pub(crate) collinear_grid: f64,
 }
 
 /// Rounding of an f32 coordinate, relative to its magnitude (two ulps: the vertex was
@@ -165,6 +170,10 @@ pub(crate) fn project_triangle(scene: &Scene, proj: &Projection, id: u32) -> Pro
     }
     let nearest = clipped.iter().map(|v| v.z).fold(f64::INFINITY, f64::min);
     let noise = F32_NOISE * magnitude / nearest.max(proj.near);
+    // F32_NOISE is two ulps of the magnitude; the projection scales angles by the focal length.
+    let focal_px = proj.height / (2.0 * proj.tan_half_y);
+    let ulp_grid = 0.5 * noise * focal_px * GRID;
+    let collinear_grid = super::intersect::NEAR_COLLINEAR_GRID.max(ulp_grid);
     let mut verts: Vec<Pt> = Vec::with_capacity(clipped.len());
     for v in clipped {
         let s = proj.screen_of(v);
@@ -192,6 +201,7 @@ pub(crate) fn project_triangle(scene: &Scene, proj: &Projection, id: u32) -> Pro
         verts,
         plane,
         noise,
+        collinear_grid,
     })
 }
 
