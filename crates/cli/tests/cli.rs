@@ -390,3 +390,62 @@ fn bench_rv_rejects_zero_rounds() {
     let o = sightline(&["bench", "rv", "--rounds", "0"], dir.path());
     assert_fails_with(&o, "--rounds");
 }
+
+#[test]
+fn exact_listing_keeps_triangles_above_the_stated_area() {
+    // `visible --exact -o` lists the triangles with at least --min-area px² (1e-6 by default,
+    // the conservative check's threshold), and says how many positive-area slivers it left out;
+    // the listing is the library's set at that threshold.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "procedural:city?seed=3&size=400";
+    let run = |min_area: &str, file: &str| {
+        let o = sightline(
+            &[
+                "visible",
+                scene,
+                "--exact",
+                "--size",
+                "96x96",
+                "--json",
+                "--min-area",
+                min_area,
+                "-o",
+                file,
+            ],
+            dir.path(),
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let ids: Vec<u32> = std::fs::read_to_string(dir.path().join(file))
+            .unwrap()
+            .lines()
+            .map(|l| l.parse().unwrap())
+            .collect();
+        assert_eq!(v["visible"].as_u64().unwrap() as usize, ids.len());
+        (ids, v["below_min_area"].as_u64().unwrap() as usize)
+    };
+    let (all, none_below) = run("0", "all.txt");
+    assert_eq!(none_below, 0);
+    let (default, below) = run("1e-6", "default.txt");
+    assert_eq!(default.len() + below, all.len());
+    assert!(default.iter().all(|id| all.contains(id)));
+    // A threshold large enough to drop visible triangles drops them, and counts them.
+    let (coarse, dropped) = run("50", "coarse.txt");
+    assert!(
+        dropped > 0 && coarse.len() + dropped == all.len(),
+        "{dropped}"
+    );
+    let o = sightline(
+        &[
+            "visible",
+            scene,
+            "--exact",
+            "--size",
+            "32x32",
+            "--min-area=-1",
+        ],
+        dir.path(),
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("--min-area"), "{}", stderr(&o));
+}

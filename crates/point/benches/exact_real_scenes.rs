@@ -11,6 +11,10 @@
 //! Run: `cargo bench -p sightline-point --bench exact_real_scenes`. `EXACT_SIZE=PX` sets the
 //! image size (default 512), `EXACT_SCENES=munich,fzk` picks scenes by name, `EXACT_DIAG=1`
 //! prints each missed triangle, `EXACT_NO_PRECULL=1` turns depth pre-culling off.
+//!
+//! `EXACT_ANGLES=N` sweeps instead (as `rv_angles` does for RV): from the close view's eye the
+//! camera turns 360°/N per frame about the up axis, and the aerial camera orbits the scene
+//! centre in N steps; one row per scene and sweep with the sums over its N views.
 
 use std::path::Path;
 use std::time::Instant;
@@ -107,11 +111,84 @@ fn run(scene: &Scene, cam: &Camera, bin_size: u32) -> AnalyticResult {
     .expect("valid camera")
 }
 
+/// What one view gives.
+struct ViewCheck {
+    visible: usize,
+    crossing_pairs: u64,
+    missed: usize,
+    samples: usize,
+    /// Triangles (with at least MIN_VISIBLE_AREA_PX2) whose membership differs at bin 1 and 32.
+    differs: [usize; 2],
+    wall: f64,
+}
+
+fn check_view(scene: &Scene, bvh: &Bvh, cam: &Camera) -> ViewCheck {
+    let start = Instant::now();
+    let r = run(scene, cam, 16);
+    let wall = start.elapsed().as_secs_f64();
+    let (missed, samples) = real_misses(scene, bvh, cam, &r.visible);
+    // Sets of the triangles with at least MIN_VISIBLE_AREA_PX2 (smaller pieces are rounding
+    // along shared edges, and differ between bin sizes).
+    let clear =
+        |x: &AnalyticResult| x.visible_at_least(scene.triangle_count(), MIN_VISIBLE_AREA_PX2);
+    let differs = [1, 32].map(|bs| {
+        let o = run(scene, cam, bs);
+        if std::env::var_os("EXACT_DIAG").is_some() {
+            let (ao, ar) = (
+                o.visible_area(scene.triangle_count()),
+                r.visible_area(scene.triangle_count()),
+            );
+            for t in o.visible.symmetric_difference(&r.visible) {
+                println!(
+                    "<!-- bin {bs}: triangle {t} area {:.3e} px² (bin 16: {:.3e}) -->",
+                    ao[t], ar[t]
+                );
+            }
+        }
+        clear(&o).symmetric_difference(&clear(&r)).count()
+    });
+    ViewCheck {
+        visible: r.visible.count_ones(..),
+        crossing_pairs: r.stats.crossing_pairs,
+        missed,
+        samples,
+        differs,
+        wall,
+    }
+}
+
+fn same_or(d: usize) -> String {
+    if d == 0 {
+        "same".to_string()
+    } else {
+        format!("{d} differ")
+    }
+}
+
+/// The sweep's cameras: `angles` views turning about `up` from `eye` (looking at `look` first),
+/// or orbiting `look` at `eye`'s distance and height.
+fn sweep(eye: Vec3, look: Vec3, up: Vec3, orbit: bool, angles: usize) -> Vec<(Vec3, Vec3)> {
+    (0..angles)
+        .map(|k| {
+            let turn =
+                glam::Quat::from_axis_angle(up, k as f32 * std::f32::consts::TAU / angles as f32);
+            if orbit {
+                (look + turn * (eye - look), look)
+            } else {
+                (eye, eye + turn * (look - eye))
+            }
+        })
+        .collect()
+}
+
 fn main() {
     let size: u32 = std::env::var("EXACT_SIZE")
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(512);
+    let angles: Option<usize> = std::env::var("EXACT_ANGLES")
+        .ok()
+        .and_then(|s| s.parse().ok());
     let filter: Vec<String> = std::env::var("EXACT_SCENES")
         .map(|s| s.split(',').map(str::to_string).collect())
         .unwrap_or_default();
@@ -123,10 +200,17 @@ fn main() {
         "q3/q3dm6ish.bsp",
         "q3/czest3ctf.bsp",
     ];
-    println!(
-        "| scene | view | triangles | visible | intersecting pairs (per bin) | real misses (samples) | set differs at bin 1 / 32 | wall s |"
-    );
-    println!("|---|---|---:|---:|---:|---:|---|---:|");
+    if angles.is_some() {
+        println!(
+            "| scene | sweep | views | mean visible | real misses (samples) | views whose set differs at bin 1 / 32 | mean wall s |"
+        );
+        println!("|---|---|---:|---:|---:|---|---:|");
+    } else {
+        println!(
+            "| scene | view | triangles | visible | intersecting pairs (per bin) | real misses (samples) | set differs at bin 1 / 32 | wall s |"
+        );
+        println!("|---|---|---:|---:|---:|---:|---|---:|");
+    }
     for name in names {
         if !filter.is_empty() && !filter.iter().any(|f| name.contains(f.as_str())) {
             continue;
@@ -145,55 +229,46 @@ fn main() {
         if let Some(cell) = random_free_cells(&scene, &bvh, 1, 0.002 * b.diagonal(), 11).first() {
             views.push(("close", cell.center, b.center()));
         }
+        let camera = |eye: Vec3, look: Vec3| {
+            Camera::look_at(eye, look, up, 60.0, size, size, b.diagonal() * 1e-5).ok()
+        };
         for (view, eye, look) in views {
-            let Ok(cam) = Camera::look_at(eye, look, up, 60.0, size, size, b.diagonal() * 1e-5)
-            else {
+            let Some(n) = angles else {
+                let Some(cam) = camera(eye, look) else {
+                    continue;
+                };
+                let v = check_view(&scene, &bvh, &cam);
+                println!(
+                    "| {name} | {view} | {} | {} | {} | {} ({}) | {} / {} | {:.2} |",
+                    scene.triangle_count(),
+                    v.visible,
+                    v.crossing_pairs,
+                    v.missed,
+                    v.samples,
+                    same_or(v.differs[0]),
+                    same_or(v.differs[1]),
+                    v.wall,
+                );
                 continue;
             };
-            let start = Instant::now();
-            let r = run(&scene, &cam, 16);
-            let wall = start.elapsed().as_secs_f64();
-            let (missed, samples) = real_misses(&scene, &bvh, &cam, &r.visible);
-            let differs = [1, 32].map(|bs| {
-                let o = run(&scene, &cam, bs);
-                // Sets of the triangles with at least MIN_VISIBLE_AREA_PX2 (smaller pieces are
-                // rounding along shared edges, and differ between bin sizes).
-                let clear = |x: &AnalyticResult| {
-                    let area = x.visible_area(scene.triangle_count());
-                    let mut set = TriangleSet::with_capacity(scene.triangle_count());
-                    set.extend(
-                        x.visible
-                            .ones()
-                            .filter(|&t| area[t] >= MIN_VISIBLE_AREA_PX2),
-                    );
-                    set
-                };
-                let d = clear(&o).symmetric_difference(&clear(&r)).count();
-                if std::env::var_os("EXACT_DIAG").is_some() {
-                    let (ao, ar) = (
-                        o.visible_area(scene.triangle_count()),
-                        r.visible_area(scene.triangle_count()),
-                    );
-                    for t in o.visible.symmetric_difference(&r.visible) {
-                        println!(
-                            "<!-- bin {bs}: triangle {t} area {:.3e} px² (bin 16: {:.3e}) -->",
-                            ao[t], ar[t]
-                        );
-                    }
-                }
-                if d == 0 {
-                    "same".to_string()
-                } else {
-                    format!("{d} differ")
-                }
-            });
+            let orbit = view == "aerial";
+            let checks: Vec<ViewCheck> = sweep(eye, look, up, orbit, n)
+                .into_iter()
+                .filter_map(|(e, l)| camera(e, l))
+                .map(|cam| check_view(&scene, &bvh, &cam))
+                .collect();
+            let views = checks.len().max(1) as f64;
+            let sum = |f: &dyn Fn(&ViewCheck) -> usize| checks.iter().map(f).sum::<usize>();
             println!(
-                "| {name} | {view} | {} | {} | {} | {missed} ({samples}) | {} / {} | {wall:.2} |",
-                scene.triangle_count(),
-                r.visible.count_ones(..),
-                r.stats.crossing_pairs,
-                differs[0],
-                differs[1],
+                "| {name} | {} | {} | {:.0} | {} ({}) | {} / {} | {:.2} |",
+                if orbit { "aerial orbit" } else { "close turn" },
+                checks.len(),
+                sum(&|v| v.visible) as f64 / views,
+                sum(&|v| v.missed),
+                sum(&|v| v.samples),
+                sum(&|v| usize::from(v.differs[0] > 0)),
+                sum(&|v| usize::from(v.differs[1] > 0)),
+                checks.iter().map(|v| v.wall).sum::<f64>() / views,
             );
         }
     }

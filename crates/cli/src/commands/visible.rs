@@ -95,6 +95,13 @@ pub(crate) struct Args {
     /// result, slower; for cross-checks and measurements).
     #[arg(long)]
     no_preculling: bool,
+    /// With --exact: the set (`-o`, the counts) keeps the triangles whose visible area is at
+    /// least this many square pixels. The default, 1e-6, leaves out the slivers that the 2^-20 px
+    /// snapping and f64 rounding leave along shared edges (the same threshold the conservative
+    /// check uses); 0 keeps every positive area (needed at tiny image sizes, where whole
+    /// triangles are smaller).
+    #[arg(long, value_name = "PX2", default_value_t = sightline_point::analytic::MIN_VISIBLE_AREA_PX2)]
+    min_area: f64,
     /// Write the visible triangle ids, one per line, to this file.
     #[arg(short, long)]
     output: Option<PathBuf>,
@@ -265,15 +272,10 @@ fn reference_set(
             warn_unresolved_crossings(exact.stats.warnings.unresolved_crossings);
             // Pieces under MIN_VISIBLE_AREA_PX2 are the exact method's rounding on shared
             // edges: the positive-area guarantee means that threshold.
-            let area = exact.visible_area(scene.triangle_count());
-            let mut set = TriangleSet::with_capacity(scene.triangle_count());
-            set.extend(
-                exact
-                    .visible
-                    .ones()
-                    .filter(|&t| area[t] >= sightline_point::analytic::MIN_VISIBLE_AREA_PX2),
-            );
-            set
+            exact.visible_at_least(
+                scene.triangle_count(),
+                sightline_point::analytic::MIN_VISIBLE_AREA_PX2,
+            )
         }
         Guarantee::AnySample => {
             let mut fine = *camera;
@@ -472,8 +474,13 @@ fn run_exact(args: &Args, start: Instant) -> Result<()> {
         let values = antialiased_image(&result, &scene, &camera, filter);
         crate::output::save_linear_grey_png(&values, camera.width, camera.height, path)?;
     }
+    if !(args.min_area >= 0.0 && args.min_area.is_finite()) {
+        bail!("--min-area {} must be a finite number >= 0", args.min_area);
+    }
+    let set = result.visible_at_least(scene.triangle_count(), args.min_area);
+    let below = result.visible.count_ones(..) - set.count_ones(..);
     if let Some(path) = &args.output {
-        let text: String = result.visible.ones().map(|id| format!("{id}\n")).collect();
+        let text: String = set.ones().map(|id| format!("{id}\n")).collect();
         sightline_core::atomic_file::write_atomic(path, |w| {
             std::io::Write::write_all(w, text.as_bytes())
         })
@@ -483,7 +490,9 @@ fn run_exact(args: &Args, start: Instant) -> Result<()> {
     let summary = serde_json::json!({
         "method": "exact (analytic)",
         "triangles": scene.triangle_count(),
-        "visible": result.visible.count_ones(..),
+        "visible": set.count_ones(..),
+        "min_area_px2": args.min_area,
+        "below_min_area": below,
         "visible_polygons": result.polygons.len(),
         "visibility_seconds": visibility_seconds,
         "seconds": start.elapsed().as_secs_f64(),
@@ -504,9 +513,11 @@ fn run_exact(args: &Args, start: Instant) -> Result<()> {
         return print_json(&summary);
     }
     outln!(
-        "exact (analytic): {} of {} triangles visible as {} polygons; visibility {:.3} s, total {:.3} s; {} edge/triangle overlaps; {} intersecting pairs resolved; {} warnings",
-        result.visible.count_ones(..),
+        "exact (analytic): {} of {} triangles visible (at least {:e} px²; {} more below) as {} polygons; visibility {:.3} s, total {:.3} s; {} edge/triangle overlaps; {} intersecting pairs resolved; {} warnings",
+        set.count_ones(..),
         scene.triangle_count(),
+        args.min_area,
+        below,
         result.polygons.len(),
         visibility_seconds,
         start.elapsed().as_secs_f64(),

@@ -252,6 +252,19 @@ impl AnalyticResult {
         }
         out
     }
+
+    /// The triangles whose visible area is at least `min_area_px2` (over `n` ids); with
+    /// [`MIN_VISIBLE_AREA_PX2`], the set without the pieces that rounding leaves along shared
+    /// edges. A `min_area_px2` of 0 or less gives [`AnalyticResult::visible`].
+    pub fn visible_at_least(&self, n: usize, min_area_px2: f64) -> TriangleSet {
+        if min_area_px2 <= 0.0 {
+            return self.visible.clone();
+        }
+        let area = self.visible_area(n);
+        let mut set = TriangleSet::with_capacity(n);
+        set.extend(self.visible.ones().filter(|&t| area[t] >= min_area_px2));
+        set
+    }
 }
 
 /// The reconstruction filter of [`integrate`]. Both are weighted area integrals of the value, so
