@@ -254,8 +254,16 @@ fn main() {
             let orbit = view == "aerial";
             let checks: Vec<ViewCheck> = sweep(eye, look, up, orbit, n)
                 .into_iter()
-                .filter_map(|(e, l)| camera(e, l))
-                .map(|cam| check_view(&scene, &bvh, &cam))
+                .filter_map(|(e, l)| Some((e, l, camera(e, l)?)))
+                .map(|(e, l, cam)| {
+                    let v = check_view(&scene, &bvh, &cam);
+                    if std::env::var_os("EXACT_DIAG").is_some()
+                        && (v.missed > 0 || v.differs.iter().any(|&d| d > 0))
+                    {
+                        println!("<!-- view eye {e:?} look {l:?} -->");
+                    }
+                    v
+                })
                 .collect();
             let views = checks.len().max(1) as f64;
             let sum = |f: &dyn Fn(&ViewCheck) -> usize| checks.iter().map(f).sum::<usize>();

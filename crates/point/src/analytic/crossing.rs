@@ -144,6 +144,8 @@ pub(crate) fn segment(
     // may lie 1e-4 px away from them, which would open a crack.)
     let mut flips = flip_points(polys, t, u, counters);
     flips.sort_by(|p, q| p.dot(dir).total_cmp(&q.dot(dir)));
+    // Edges of both polygons on one line (both clipped at the image border) flip at one point.
+    flips.dedup();
     match flips[..] {
         [] => {}
         [f] => {
