@@ -12,11 +12,13 @@ use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use sightline_core::TriangleSet;
+use sightline_region::bake::cell_stats;
 use sightline_region::methods::{sampler, MethodOverrides, MethodParams};
-use sightline_region::{Budget, CellContext, PvsFile, Sampler, ViewCell};
+use sightline_region::{Budget, CellContext, Sampler, ViewCell};
 
 use crate::cells::PyViewCell;
 use crate::pvs::PyPvs;
+use crate::run::{progress_callback, run_interruptible, Control, Stopped};
 use crate::scene::{PyScene, SceneData};
 use crate::{ids_array, value_error};
 
@@ -198,14 +200,33 @@ fn budget(rays: Option<u64>, time_ms: Option<u64>) -> PyResult<Budget> {
     })
 }
 
-/// Runs `work` on a pool of `threads` threads (all cores when `None`).
+/// The thread count to bake with: `None` (all cores) stays `None`; a count far above the
+/// machine's cores is capped by the rule of the CLI's `--threads`
+/// (`sightline_core::threads::capped_threads`), with a `RuntimeWarning` saying so.
+pub(crate) fn thread_count(py: Python<'_>, threads: Option<usize>) -> PyResult<Option<usize>> {
+    let Some(requested) = threads else {
+        return Ok(None);
+    };
+    if requested == 0 {
+        return Err(value_error("threads must be >= 1 (or None for all cores)"));
+    }
+    let (n, warning) = sightline_core::threads::capped_threads(requested);
+    if let Some(w) = warning {
+        let category = py.get_type::<pyo3::exceptions::PyRuntimeWarning>();
+        py.import("warnings")?
+            .call_method1("warn", (format!("threads: {w}"), category, 2))?;
+    }
+    Ok(Some(n))
+}
+
+/// Runs `work` on a pool of `threads` threads (all cores when `None`; counts already checked
+/// by [`thread_count`]).
 fn with_threads<T: Send>(
     threads: Option<usize>,
     work: impl FnOnce() -> T + Send,
 ) -> Result<T, String> {
     match threads {
         None => Ok(work()),
-        Some(0) => Err("threads must be >= 1".to_string()),
         Some(n) => {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(n)
@@ -216,7 +237,9 @@ fn with_threads<T: Send>(
     }
 }
 
-/// Bakes `cells` (with global indices `indices`) one after the other, as the bake driver does.
+/// Bakes `cells` (with global indices `indices`) one after the other, as the bake driver does:
+/// each cell's set and its statistics (those of `metadata.cells` in a `.pvs`). Stops between
+/// cells when `control` asks.
 fn bake_batch(
     data: &SceneData,
     cells: &[ViewCell],
@@ -224,24 +247,35 @@ fn bake_batch(
     sampler: &dyn Sampler,
     budget: &Budget,
     seed: u64,
-) -> Vec<TriangleSet> {
+    control: &Control,
+) -> Result<Vec<(TriangleSet, serde_json::Value)>, Stopped> {
     let bvh = data.bvh();
     // The CLI's free-space test for plain (non-Quake-3-leaf) cells: the whole cell.
     let inside = |_: Vec3| true;
-    cells
-        .iter()
-        .zip(indices)
-        .map(|(cell, &index)| {
-            let ctx = CellContext {
-                scene: &data.scene,
-                caster: bvh,
-                cell,
-                seed: sightline_region::bake::cell_seed(seed, index),
-                free_space: Some(&inside),
-            };
-            sampler.sample(&ctx, budget, &|_| {}).visible
-        })
-        .collect()
+    let mut out = Vec::with_capacity(cells.len());
+    for (cell, &index) in cells.iter().zip(indices) {
+        if control.stopped() {
+            return Err(Stopped);
+        }
+        let ctx = CellContext {
+            scene: &data.scene,
+            caster: bvh,
+            cell,
+            seed: sightline_region::bake::cell_seed(seed, index),
+            free_space: Some(&inside),
+        };
+        let result = sampler.sample(&ctx, budget, &|p| control.batch(index, p.rays));
+        control.cell_done(index, result.rays);
+        let stats = cell_stats(&result);
+        out.push((result.visible, stats));
+    }
+    Ok(out)
+}
+
+/// A JSON value as Python objects (through `json.loads`, as `Pvs.metadata` does).
+fn to_python<'py>(py: Python<'py>, value: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
+    let text = serde_json::to_string(value).map_err(value_error)?;
+    py.import("json")?.call_method1("loads", (text,))
 }
 
 /// The seed `sightline pvs bake --seed SEED` gives the cell at `index`.
@@ -251,10 +285,11 @@ pub(crate) fn cell_seed(seed: u64, index: usize) -> u64 {
 }
 
 /// Bakes one cell: the ids of its potentially visible triangles (uint32, increasing).
-/// `index` is the cell's position in the whole bake (it picks the cell's seed).
+/// `index` is the cell's position in the whole bake (it picks the cell's seed). `threads` and
+/// `progress` as for `bake`.
 #[pyfunction]
 #[pyo3(signature = (scene, cell, method = MethodArg::Name("gvs++".into()), rays = None,
-    seed = 1, index = 0, time_ms = None, threads = None))]
+    seed = 1, index = 0, time_ms = None, threads = None, progress = None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn bake_cell<'py>(
     py: Python<'py>,
@@ -266,8 +301,10 @@ pub(crate) fn bake_cell<'py>(
     index: usize,
     time_ms: Option<u64>,
     threads: Option<usize>,
+    progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyArray1<u32>>> {
-    let sets = bake_cells(
+    let threads = thread_count(py, threads)?;
+    let mut sets = bake_batch_py(
         py,
         scene,
         vec![cell],
@@ -277,17 +314,22 @@ pub(crate) fn bake_cell<'py>(
         Some(vec![index]),
         time_ms,
         threads,
+        progress,
     )?;
-    sets.into_iter()
-        .next()
-        .ok_or_else(|| value_error("internal: no result for the cell"))
+    let (set, _) = sets
+        .pop()
+        .ok_or_else(|| value_error("internal: no result for the cell"))?;
+    Ok(ids_array(py, &set))
 }
 
 /// Bakes a batch of cells: one id array per cell. `indices` are the cells' global indices in
-/// the whole bake (default `0..len(cells)`); they pick each cell's seed.
+/// the whole bake (default `0..len(cells)`); they pick each cell's seed. With `stats=True`,
+/// returns `(sets, stats)`: `stats` holds one dict per cell (`rays`, `seconds`, `pvs_size`,
+/// `found_by`, `convergence`, as in a `.pvs` file's `metadata["cells"]`). `threads` and
+/// `progress` as for `bake`.
 #[pyfunction]
 #[pyo3(signature = (scene, cells, method = MethodArg::Name("gvs++".into()), rays = None,
-    seed = 1, indices = None, time_ms = None, threads = None))]
+    seed = 1, indices = None, time_ms = None, threads = None, progress = None, stats = false))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn bake_cells<'py>(
     py: Python<'py>,
@@ -299,7 +341,37 @@ pub(crate) fn bake_cells<'py>(
     indices: Option<Vec<usize>>,
     time_ms: Option<u64>,
     threads: Option<usize>,
-) -> PyResult<Vec<Bound<'py, PyArray1<u32>>>> {
+    progress: Option<&Bound<'py, PyAny>>,
+    stats: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    let threads = thread_count(py, threads)?;
+    let results = bake_batch_py(
+        py, scene, cells, method, rays, seed, indices, time_ms, threads, progress,
+    )?;
+    let sets: Vec<_> = results.iter().map(|(s, _)| ids_array(py, s)).collect();
+    if !stats {
+        return sets.into_pyobject(py).map(Bound::into_any);
+    }
+    let stats = serde_json::Value::Array(results.into_iter().map(|(_, s)| s).collect());
+    (sets, to_python(py, &stats)?)
+        .into_pyobject(py)
+        .map(Bound::into_any)
+}
+
+/// What `bake_cell` and `bake_cells` share: checks, then [`bake_batch`] off the GIL.
+#[allow(clippy::too_many_arguments)]
+fn bake_batch_py<'py>(
+    py: Python<'py>,
+    scene: &Bound<'py, PyScene>,
+    cells: Vec<PyViewCell>,
+    method: MethodArg<'py>,
+    rays: Option<u64>,
+    seed: u64,
+    indices: Option<Vec<usize>>,
+    time_ms: Option<u64>,
+    threads: Option<usize>,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Vec<(TriangleSet, serde_json::Value)>> {
     let method = method.resolve()?;
     let sampler = method.sampler()?;
     let budget = budget(rays, time_ms)?;
@@ -311,24 +383,29 @@ pub(crate) fn bake_cells<'py>(
             cells.len()
         )));
     }
+    let progress = progress_callback(py, progress)?;
     let cells: Vec<ViewCell> = cells.into_iter().map(|c| c.cell).collect();
     let data = scene.get().data.clone();
     let sampler = sampler.as_ref();
-    let sets = py
-        .detach(|| {
-            with_threads(threads, || {
-                bake_batch(&data, &cells, &indices, sampler, &budget, seed)
-            })
+    let done = run_interruptible(py, cells.len(), progress.as_ref(), |control| {
+        with_threads(threads, || {
+            bake_batch(&data, &cells, &indices, sampler, &budget, seed, control)
         })
-        .map_err(value_error)?;
-    Ok(sets.iter().map(|s| ids_array(py, s)).collect())
+    })?;
+    // `Stopped` only happens when run_interruptible raised already.
+    done.map_err(value_error)?
+        .map_err(|Stopped| value_error("internal: the bake stopped without a reason"))
 }
 
 /// Bakes `cells` on this machine with the bake driver of `sightline pvs bake`: a `Pvs` whose
-/// cells and sets equal the CLI's for the same scene, cells, method, budget and seed.
+/// cells and sets equal the CLI's for the same scene, cells, method, budget and seed, with the
+/// same per-cell statistics in its metadata. `threads`: bake threads (default all cores; far
+/// more than the cores are capped, with a warning). `progress`: see `sightline._progress`
+/// (default: a line on stderr when it is a terminal). Ctrl-C stops the bake (cells under way
+/// finish first) and raises `KeyboardInterrupt`.
 #[pyfunction]
 #[pyo3(signature = (scene, cells, method = MethodArg::Name("gvs++".into()), rays = None,
-    seed = 1, time_ms = None, threads = None))]
+    seed = 1, time_ms = None, threads = None, progress = None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn bake<'py>(
     py: Python<'py>,
@@ -339,10 +416,13 @@ pub(crate) fn bake<'py>(
     seed: u64,
     time_ms: Option<u64>,
     threads: Option<usize>,
+    progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<PyPvs> {
+    let threads = thread_count(py, threads)?;
     let method = method.resolve()?;
     let sampler = method.sampler()?;
     let budget = budget(rays, time_ms)?;
+    let progress = progress_callback(py, progress)?;
     let cells: Vec<ViewCell> = cells.into_iter().map(|c| c.cell).collect();
     let data = scene.get().data.clone();
     let sampler = sampler.as_ref();
@@ -350,23 +430,76 @@ pub(crate) fn bake<'py>(
         "parameters": format!("{:?}", method.params),
         "via": "python",
     });
-    let file: PvsFile = py
-        .detach(|| {
-            with_threads(threads, || {
-                sightline_region::bake::bake(
-                    &data.scene,
-                    data.bvh(),
-                    &cells,
-                    sampler,
-                    &|_, _| true,
-                    &budget,
-                    seed,
-                    extra,
-                    &|_, _| {},
-                    &mut |_, _| {},
-                )
-            })
+    let file = run_interruptible(py, cells.len(), progress.as_ref(), |control| {
+        with_threads(threads, || {
+            sightline_region::bake::try_bake(
+                &data.scene,
+                data.bvh(),
+                &cells,
+                sampler,
+                &|_, _| true,
+                &budget,
+                seed,
+                extra,
+                &|cell, p| control.batch(cell, p.rays),
+                &mut |cell, result| {
+                    control.cell_done(cell, result.rays);
+                    // Checked as cells finish: a stop request ends the bake there (the cells
+                    // under way on other threads finish and are dropped).
+                    if control.stopped() {
+                        Err(Stopped)
+                    } else {
+                        Ok(())
+                    }
+                },
+            )
         })
-        .map_err(value_error)?;
+    })?;
+    let file = file
+        .map_err(value_error)?
+        .map_err(|Stopped| value_error("internal: the bake stopped without a reason"))?;
     Ok(PyPvs { file })
+}
+
+/// The fingerprint of a bake and the key its checkpoint carries, as JSON text
+/// `{"fingerprint": .., "checkpoint_key": .., "parameters": ..}`: the values `sightline pvs
+/// bake` computes for the same scene, cells (a `--grid` or cell file, not Quake 3 leaves),
+/// method, ray budget and seed, so the Ray driver's checkpoints are the CLI's. For the Ray
+/// driver (`sightline.ray`); not part of the public API.
+#[pyfunction]
+#[pyo3(name = "_bake_fingerprint", signature = (scene, cells, method, rays, seed))]
+pub(crate) fn bake_fingerprint(
+    scene: &Bound<'_, PyScene>,
+    cells: Vec<PyViewCell>,
+    method: MethodArg<'_>,
+    rays: Option<u64>,
+    seed: u64,
+) -> PyResult<String> {
+    let method = method.resolve()?;
+    let budget = budget(rays, None)?;
+    let cells: Vec<ViewCell> = cells.into_iter().map(|c| c.cell).collect();
+    let parameters = format!("{:?}", method.params);
+    // The CLI's extra part for cells that are not Quake 3 leaves, and its run key for a bake
+    // of every cell (no shard, no incremental rebake).
+    let fingerprint = sightline_region::checkpoint::fingerprint_of(
+        &scene.get().data.scene,
+        &cells,
+        method.sampler()?.name(),
+        &parameters,
+        seed,
+        &budget,
+        serde_json::json!({ "clusters": null }),
+    );
+    let indices: Vec<usize> = (0..cells.len()).collect();
+    let key = sightline_region::checkpoint::checkpoint_key(
+        &fingerprint,
+        &indices,
+        &serde_json::Value::Null,
+    );
+    let out = serde_json::json!({
+        "fingerprint": fingerprint,
+        "checkpoint_key": key,
+        "parameters": parameters,
+    });
+    serde_json::to_string(&out).map_err(value_error)
 }

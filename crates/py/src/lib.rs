@@ -2,7 +2,10 @@
 //!
 //! Scenes, view cells, single-cell and batch PVS bakes, `.pvs` files, and exact / conservative
 //! from-point visibility, with numpy arrays in and out. Every long computation releases the
-//! GIL (`Python::detach`), so Python threads and Ray actors keep running beside it. Errors
+//! GIL (`Python::detach`), so Python threads and Ray actors keep running beside it; bakes run
+//! on a thread of their own while the caller's thread watches for Ctrl-C and reports progress
+//! (`run`). Paths are `str` or `os.PathLike`; thread counts are capped by the CLI's rule
+//! (`sightline_core::threads`), with a `RuntimeWarning`. Errors
 //! become `ValueError` (bad input: the Rust message, naming what and where) or `OSError`
 //! (files that cannot be read or written).
 //!
@@ -13,6 +16,7 @@ mod bake;
 mod cells;
 mod point;
 mod pvs;
+mod run;
 mod scene;
 
 use numpy::{PyArray1, PyArrayMethods, PyUntypedArrayMethods};
@@ -124,6 +128,7 @@ fn _sightline(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bake::bake_cells, m)?)?;
     m.add_function(wrap_pyfunction!(bake::bake, m)?)?;
     m.add_function(wrap_pyfunction!(bake::cell_seed, m)?)?;
+    m.add_function(wrap_pyfunction!(bake::bake_fingerprint, m)?)?;
     m.add_function(wrap_pyfunction!(point::visible_exact, m)?)?;
     m.add_function(wrap_pyfunction!(point::visible_conservative, m)?)?;
     m.add("METHODS", sightline_region::methods::METHODS.to_vec())?;

@@ -1,6 +1,7 @@
 //! `sightline.Scene`: a validated triangle scene, loaded from a file or procedural spec or built
 //! from numpy arrays, with its BVH built once on first use and shared by every later call.
 
+use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
 
 use glam::Vec3;
@@ -63,13 +64,24 @@ fn parse_up(up: &str) -> PyResult<UpAxis> {
     }
 }
 
+/// What `Scene.load` takes: a `str` is a spec (a path or `procedural:...`); any other
+/// `os.PathLike` (e.g. `pathlib.Path`) is a file, even one whose name starts `procedural:`.
+#[derive(FromPyObject)]
+pub(crate) enum SceneSpecArg {
+    /// A CLI-style spec.
+    Spec(String),
+    /// A file path.
+    Path(PathBuf),
+}
+
 #[pymethods]
 impl PyScene {
     /// Loads a scene file (.obj, .ply, .gltf, .glb, .stl, .bsp, optionally .gz) or generates
-    /// a procedural one (`procedural:city?seed=1&size=20000`).
+    /// a procedural one (`procedural:city?seed=1&size=20000`). `spec` is a `str` (a path or a
+    /// procedural spec, as the CLI's SCENE argument) or an `os.PathLike` (always a file).
     #[staticmethod]
     #[pyo3(signature = (spec, patch_subdivisions = 4))]
-    fn load(py: Python<'_>, spec: &str, patch_subdivisions: u32) -> PyResult<Self> {
+    fn load(py: Python<'_>, spec: SceneSpecArg, patch_subdivisions: u32) -> PyResult<Self> {
         if patch_subdivisions > 64 {
             return Err(value_error(format!(
                 "patch_subdivisions {patch_subdivisions} is above the maximum of 64"
@@ -79,12 +91,18 @@ impl PyScene {
             patch_subdivisions,
             ..LoadOptions::default()
         };
-        let loaded = py.detach(|| scene::open(spec, &options));
+        let (loaded, what) = match &spec {
+            SceneSpecArg::Spec(spec) => (py.detach(|| scene::open(spec, &options)), spec.clone()),
+            SceneSpecArg::Path(path) => (
+                py.detach(|| scene::load_file(path, &options)),
+                path.display().to_string(),
+            ),
+        };
         let scene = loaded.map_err(|e| match e {
             LoadError::Io { .. } => io_error(e),
             _ => value_error(e),
         })?;
-        checked(scene, spec)
+        checked(scene, &what)
     }
 
     /// A scene from vertices (float, shape (n, 3)) and triangles (integer, shape (m, 3),

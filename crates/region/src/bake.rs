@@ -253,6 +253,42 @@ pub fn bake(
     on_progress: &(dyn Fn(usize, &ConvergencePoint) + Sync),
     on_cell: &mut (dyn FnMut(usize, &CellResult) + Send),
 ) -> PvsFile {
+    let done = try_bake::<std::convert::Infallible>(
+        scene,
+        caster,
+        cells,
+        sampler,
+        free_space,
+        budget,
+        seed,
+        extra_metadata,
+        on_progress,
+        &mut |index, result| {
+            on_cell(index, result);
+            Ok(())
+        },
+    );
+    let Ok(file) = done;
+    file
+}
+
+/// [`bake`] that can be stopped: an error from `on_cell` stops starting new cells (those
+/// under way complete and are dropped) and is returned instead of the file. This is the
+/// cancellation hook of embedders (e.g. Ctrl-C in the Python bindings): `on_cell` returns an
+/// error once a stop was asked for.
+#[allow(clippy::too_many_arguments)]
+pub fn try_bake<E: Send>(
+    scene: &Scene,
+    caster: &dyn RayCaster,
+    cells: &[ViewCell],
+    sampler: &dyn Sampler,
+    free_space: &(dyn Fn(usize, Vec3) -> bool + Sync),
+    budget: &Budget,
+    seed: u64,
+    extra_metadata: serde_json::Value,
+    on_progress: &(dyn Fn(usize, &ConvergencePoint) + Sync),
+    on_cell: &mut (dyn FnMut(usize, &CellResult) -> Result<(), E> + Send),
+) -> Result<PvsFile, E> {
     let start = Instant::now();
     let setup = BakeSetup {
         scene,
@@ -265,25 +301,18 @@ pub fn bake(
     };
     let mut results: Vec<Option<(CellPvs, serde_json::Value, u64)>> = vec![None; cells.len()];
     let all: Vec<usize> = (0..cells.len()).collect();
-    let done = bake_cells::<std::convert::Infallible>(
-        &setup,
-        &all,
-        None,
-        on_progress,
-        &mut |baked, result| {
-            on_cell(baked.index, result);
-            results[baked.index] = Some((
-                CellPvs {
-                    cell: cells[baked.index],
-                    visible: result.visible.clone(),
-                },
-                baked.stats(),
-                result.rays,
-            ));
-            Ok(())
-        },
-    );
-    let Ok(()) = done;
+    bake_cells::<E>(&setup, &all, None, on_progress, &mut |baked, result| {
+        on_cell(baked.index, result)?;
+        results[baked.index] = Some((
+            CellPvs {
+                cell: cells[baked.index],
+                visible: result.visible.clone(),
+            },
+            baked.stats(),
+            result.rays,
+        ));
+        Ok(())
+    })?;
     let mut file = PvsFile::for_scene(scene, serde_json::Value::Null);
     let mut stats = Vec::with_capacity(cells.len());
     let mut total_rays = 0;
@@ -302,7 +331,7 @@ pub fn bake(
         stats,
         extra_metadata,
     );
-    file
+    Ok(file)
 }
 
 #[cfg(test)]
@@ -377,5 +406,34 @@ mod tests {
         let curve = f.metadata["cells"][0]["convergence"].as_array().unwrap();
         assert!(!curve.is_empty() && curve.len() <= MAX_CONVERGENCE_POINTS);
         assert_eq!(curve.last().unwrap()[1], 2);
+    }
+
+    #[test]
+    fn an_error_from_on_cell_stops_the_bake() {
+        let mut b = SceneBuilder::new("box");
+        b.add_box(Vec3::ZERO, Vec3::ONE);
+        let scene = b.finish();
+        let bvh = Bvh::build(&scene);
+        let cell = ViewCell::aabb(Vec3::new(3.0, 0.0, 0.0), Vec3::new(4.0, 1.0, 1.0)).unwrap();
+        let cells = vec![cell; 64];
+        let mut finished = 0;
+        let r = try_bake(
+            &scene,
+            &bvh,
+            &cells,
+            &RandomSampler,
+            &|_, _| true,
+            &Budget::rays(1_000),
+            9,
+            serde_json::Value::Null,
+            &|_, _| {},
+            &mut |_, _| {
+                finished += 1;
+                Err("stop")
+            },
+        );
+        assert_eq!(r.err(), Some("stop"));
+        // Cells already under way on other threads may finish, but no new ones start.
+        assert!(finished <= rayon::current_num_threads(), "{finished}");
     }
 }

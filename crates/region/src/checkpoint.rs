@@ -14,10 +14,11 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use serde_json::json;
+use sightline_core::Scene;
 
 use crate::bake::{bake_cells, bake_metadata, BakeSetup, BakedCell};
 use crate::pvs_file::{save_encoded, EncodedPvsFile, ObjectTable, PvsError};
-use crate::sampler::{CellResult, ConvergencePoint};
+use crate::sampler::{Budget, CellResult, ConvergencePoint};
 use crate::viewcell::ViewCell;
 
 /// Why a resumable bake failed.
@@ -91,16 +92,53 @@ pub fn fingerprint(
     parameters: &str,
     extra: serde_json::Value,
 ) -> serde_json::Value {
+    fingerprint_of(
+        setup.scene,
+        setup.cells,
+        setup.sampler.name(),
+        parameters,
+        setup.seed,
+        &setup.budget,
+        extra,
+    )
+}
+
+/// [`fingerprint`] from its parts, for drivers that bake elsewhere and have no ray caster
+/// (the Ray driver of the Python bindings): the same value for the same bake.
+pub fn fingerprint_of(
+    scene: &Scene,
+    cells: &[ViewCell],
+    method: &str,
+    parameters: &str,
+    seed: u64,
+    budget: &Budget,
+    extra: serde_json::Value,
+) -> serde_json::Value {
     json!({
-        "scene_hash": format!("{:016x}", setup.scene.geometry_hash()),
-        "triangles": setup.scene.triangle_count(),
-        "method": setup.sampler.name(),
+        "scene_hash": format!("{:016x}", scene.geometry_hash()),
+        "triangles": scene.triangle_count(),
+        "method": method,
         "parameters": parameters,
-        "seed": setup.seed,
-        "budget": setup.budget,
-        "cell_count": setup.cells.len(),
-        "cells_hash": format!("{:016x}", cells_hash(setup.cells)),
+        "seed": seed,
+        "budget": budget,
+        "cell_count": cells.len(),
+        "cells_hash": format!("{:016x}", cells_hash(cells)),
         "extra": extra,
+    })
+}
+
+/// The key a checkpoint must carry to be resumed (`metadata.key`): the bake's `fingerprint`,
+/// a hash of the global `indices` of the cells the run produces, and `run_key` (see
+/// [`ResumableBake::run_key`]).
+pub fn checkpoint_key(
+    fingerprint: &serde_json::Value,
+    indices: &[usize],
+    run_key: &serde_json::Value,
+) -> serde_json::Value {
+    json!({
+        "fingerprint": fingerprint,
+        "indices_hash": format!("{:016x}", fnv(indices.iter().flat_map(|i| (*i as u64).to_le_bytes()))),
+        "run": run_key,
     })
 }
 
@@ -215,11 +253,7 @@ impl<'a> ResumableBake<'a> {
 
 impl ResumableBake<'_> {
     fn key(&self) -> serde_json::Value {
-        json!({
-            "fingerprint": self.fingerprint,
-            "indices_hash": format!("{:016x}", fnv(self.indices.iter().flat_map(|i| (*i as u64).to_le_bytes()))),
-            "run": self.run_key,
-        })
+        checkpoint_key(&self.fingerprint, &self.indices, &self.run_key)
     }
 
     /// Loads the checkpoint's finished cells (none when there is no checkpoint).

@@ -32,7 +32,7 @@ use crate::geometry::Aabb;
 
 pub use builder::{CountingSink, SceneBuilder, TriangleSink};
 pub use error::{LoadError, Location};
-pub use spec::{open, LoadOptions, SceneSpec};
+pub use spec::{load_file, open, LoadOptions, SceneSpec};
 
 /// Which world axis points up (used for default camera `up` vectors and top-down views).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]

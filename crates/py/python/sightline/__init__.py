@@ -10,9 +10,18 @@ seed is ``cell_seed(S, index_of_the_cell)`` in both.
 
 ``sightline.ray.bake`` runs the same bake as Ray tasks (``pip install ray``).
 
+Long bakes (``bake``, ``bake_cells``, ``sightline.ray.bake``) show their progress on stderr
+when it is a terminal (``progress=False`` turns it off; a callable receives ``(cells_done,
+cells_total, rays)``, see ``sightline._progress``) and stop on Ctrl-C with
+``KeyboardInterrupt`` (cells under way finish first). Thread counts far above the machine's
+cores are capped with a ``RuntimeWarning``. Paths may be ``str`` or ``os.PathLike``.
+
 Errors: ``ValueError`` for bad input (the message names what and where), ``OSError`` for files
 that cannot be read or written.
 """
+
+import os
+from typing import Union
 
 from ._sightline import (
     METHODS,
@@ -48,6 +57,7 @@ __all__ = [
 ]
 
 
-def load(spec: str, patch_subdivisions: int = 4) -> Scene:
-    """Loads a scene file or procedural spec (``Scene.load``)."""
+def load(spec: Union[str, "os.PathLike[str]"], patch_subdivisions: int = 4) -> Scene:
+    """Loads a scene file or procedural spec (``Scene.load``): a ``str`` is a path or
+    ``procedural:...`` spec, an ``os.PathLike`` (e.g. ``pathlib.Path``) a file."""
     return Scene.load(spec, patch_subdivisions)

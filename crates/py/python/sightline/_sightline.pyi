@@ -1,7 +1,7 @@
 """Type stubs of the native module (see the Rust sources in crates/py/src for the docs)."""
 
 from os import PathLike
-from typing import Any, List, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Literal, Optional, Sequence, Tuple, Union, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -14,7 +14,7 @@ _Ids = npt.NDArray[np.uint32]
 
 class Scene:
     @staticmethod
-    def load(spec: str, patch_subdivisions: int = 4) -> Scene: ...
+    def load(spec: Union[str, PathLike], patch_subdivisions: int = 4) -> Scene: ...
     @staticmethod
     def from_arrays(
         vertices: npt.ArrayLike, triangles: npt.ArrayLike, source: str = "arrays", up: str = "z"
@@ -111,6 +111,9 @@ class Pvs:
     def __len__(self) -> int: ...
 
 _MethodArg = Union[str, Method]
+# None: a line on stderr when it is a terminal; False: none; True: always that line; a callable
+# is called as progress(cells_done, cells_total, rays) (see sightline._progress).
+_Progress = Union[None, bool, Callable[[int, int, int], object]]
 
 def grid(min: _Vec3, max: _Vec3, counts: Tuple[int, int, int]) -> List[ViewCell]: ...
 def cell_seed(seed: int, index: int) -> int: ...
@@ -123,7 +126,9 @@ def bake_cell(
     index: int = 0,
     time_ms: Optional[int] = None,
     threads: Optional[int] = None,
+    progress: _Progress = None,
 ) -> _Ids: ...
+@overload
 def bake_cells(
     scene: Scene,
     cells: Sequence[ViewCell],
@@ -133,7 +138,23 @@ def bake_cells(
     indices: Optional[Sequence[int]] = None,
     time_ms: Optional[int] = None,
     threads: Optional[int] = None,
+    progress: _Progress = None,
+    stats: Literal[False] = False,
 ) -> List[_Ids]: ...
+@overload
+def bake_cells(
+    scene: Scene,
+    cells: Sequence[ViewCell],
+    method: _MethodArg = "gvs++",
+    rays: Optional[int] = None,
+    seed: int = 1,
+    indices: Optional[Sequence[int]] = None,
+    time_ms: Optional[int] = None,
+    threads: Optional[int] = None,
+    progress: _Progress = None,
+    *,
+    stats: Literal[True],
+) -> Tuple[List[_Ids], List[Dict[str, Any]]]: ...
 def bake(
     scene: Scene,
     cells: Sequence[ViewCell],
@@ -142,7 +163,11 @@ def bake(
     seed: int = 1,
     time_ms: Optional[int] = None,
     threads: Optional[int] = None,
+    progress: _Progress = None,
 ) -> Pvs: ...
+def _bake_fingerprint(
+    scene: Scene, cells: Sequence[ViewCell], method: _MethodArg, rays: Optional[int], seed: int
+) -> str: ...
 def visible_exact(
     scene: Scene,
     eye: _Vec3,
