@@ -58,6 +58,8 @@ impl MethodOptions {
             delta: self.delta,
             termination: self.termination,
             raster_resolution: self.raster_resolution,
+            // The paper's fixed rounds are a CLI option (`--fixed-rounds`) only, for now.
+            fixed_rounds: false,
         }
         .params()
     }

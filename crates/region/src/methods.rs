@@ -40,6 +40,9 @@ pub struct MethodOverrides {
     pub termination: Option<usize>,
     /// RASTER cube-map resolution.
     pub raster_resolution: Option<u32>,
+    /// GVS++: every round casts `n_rand` random rays, as in the paper (default: adaptive under a
+    /// budget).
+    pub fixed_rounds: bool,
 }
 
 impl MethodOverrides {
@@ -70,6 +73,7 @@ impl MethodOverrides {
             p.gvspp.delta_discontinuity = v;
             p.gvs.delta_discontinuity = v;
         }
+        p.gvspp.fixed_rounds = self.fixed_rounds;
         if let Some(v) = self.termination {
             p.gvspp.termination_threshold = v;
             p.gvs.termination_threshold = v;

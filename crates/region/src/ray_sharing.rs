@@ -15,7 +15,9 @@
 //! construction*, never by proximity or guesswork. A hit-nothing end makes the segment unbounded
 //! on that side and contributes no triangle.
 //!
-//! Schedule, in rounds as GVS++: (1) random sampling, `n_rand` rays from each cell that has not
+//! Schedule, in the paper's rounds of GVS++ (`n_rand` random rays each, as GVS++ with
+//! `fixed_rounds`; the adaptive rounds of a budgeted single-cell bake are not shared yet):
+//! (1) random sampling, `n_rand` rays from each cell that has not
 //! converged, each also cast backward (a second random-like ray through the cell for one more
 //! cast); (2) exploration: every cell takes the next `ABS_CHUNK` triangles of its queue, casts
 //! their ABS rays from the discovery's origin (which lies in the cell), then RS rays from its
@@ -729,6 +731,8 @@ mod tests {
                 n_rand: 20_000,
                 n_rs_edge: 4,
                 n_rs_area: 8,
+                // The shared schedule runs the paper's rounds (see the module docs).
+                fixed_rounds: true,
                 ..GvsPlusPlusParams::default()
             },
             ..ShareParams::default()

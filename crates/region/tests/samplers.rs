@@ -209,3 +209,55 @@ fn cell_outside_everything_sees_only_outer_walls() {
     assert!(seen.difference(&r.visible).next().is_none());
     assert!(r.visible.count_ones(..) < scene.triangle_count() / 4);
 }
+
+/// Under a budget far below the paper's round of 10^7 random rays, GVS++ still explores: its
+/// adaptive rounds start at `FIRST_ROUND` rays, so border and reverse sampling find triangles,
+/// and it finds more than RAND at the same rays. (With the paper's fixed rounds, which
+/// `fixed_rounds` keeps, the budget goes to random rays alone and the result is RAND's.)
+#[test]
+fn gvspp_explores_under_a_budget_below_one_paper_round() {
+    let scene = rooms();
+    let cell = room_cell();
+    let budget = Budget::rays(400_000);
+    let adaptive = run(&GvsPlusPlus::default(), &scene, &cell, budget);
+    let found = |r: &CellResult, name: &str| {
+        r.found_by
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map_or(0, |(_, k)| *k)
+    };
+    assert!(
+        found(&adaptive, "abs") + found(&adaptive, "rs") > 0,
+        "{:?}",
+        adaptive.found_by
+    );
+    let paper = GvsPlusPlus {
+        params: GvsPlusPlusParams {
+            fixed_rounds: true,
+            ..GvsPlusPlusParams::default()
+        },
+    };
+    let fixed = run(&paper, &scene, &cell, budget);
+    assert_eq!(found(&fixed, "abs") + found(&fixed, "rs"), 0);
+    let rand = run(&RandomSampler, &scene, &cell, budget);
+    assert!(
+        adaptive.visible.count_ones(..) > rand.visible.count_ones(..),
+        "gvs++ {} rand {}",
+        adaptive.visible.count_ones(..),
+        rand.visible.count_ones(..)
+    );
+}
+
+/// Without a budget, a small `n_rand` no longer stops the bake after the first quiet round: the
+/// termination rule counts new triangles over the last `TERMINATION_WINDOW` rays.
+#[test]
+fn small_rounds_do_not_stop_an_unbounded_bake_early() {
+    let scene = rooms();
+    let cell = room_cell();
+    let r = run(&small_gvspp(), &scene, &cell, Budget::default());
+    assert!(
+        r.rays >= sightline_region::gvspp::TERMINATION_WINDOW,
+        "{} rays",
+        r.rays
+    );
+}

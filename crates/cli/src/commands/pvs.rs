@@ -108,9 +108,15 @@ pub(crate) struct BakeArgs {
     /// Seed of every random choice (same seed, same result).
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// GVS++/GVS: random rays per round (paper: 10,000,000).
+    /// GVS++/GVS: random rays per round (paper: 10,000,000). Under --rays or --time, GVS++
+    /// rounds are adaptive: the first has 16,384 random rays and each doubles the next while
+    /// random rays find triangles at least as fast as the exploration does, up to this size.
     #[arg(long)]
     n_rand: Option<u64>,
+    /// GVS++: every round casts --n-rand random rays, as in the paper (sized for a GPU: on a
+    /// CPU a budget below one round is then spent on random rays alone).
+    #[arg(long)]
+    fixed_rounds: bool,
     /// GVS++: samples per border-polygon edge (paper: 20).
     #[arg(long)]
     n_abs_edge: Option<u32>,
@@ -362,6 +368,7 @@ fn method_params(args: &BakeArgs) -> MethodParams {
         delta: args.delta,
         termination: args.termination,
         raster_resolution: args.raster_resolution,
+        fixed_rounds: args.fixed_rounds,
     }
     .params()
 }
