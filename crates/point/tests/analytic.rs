@@ -574,28 +574,47 @@ fn brute_force_box_grid_from_many_cameras() {
     eprintln!("box grid, 6 cameras: max area error {worst:.2e} px²");
 }
 
+/// A scene of the given triangles (ids in order).
+fn scene_of(name: &str, triangles: &[[Vec3; 3]]) -> Scene {
+    let mut b = SceneBuilder::new(name);
+    for t in triangles {
+        let v = t.map(|p| b.add_vertex(p));
+        b.add_triangle(v);
+    }
+    b.finish()
+}
+
+/// Per-triangle visible areas within the brute force's tolerance at each bin size.
+fn check_at_bin_sizes(scene: &Scene, cam: &Camera, bin_sizes: &[u32]) {
+    for &bin_size in bin_sizes {
+        let options = AnalyticOptions {
+            bin_size,
+            ..AnalyticOptions::default()
+        };
+        check_against_brute_with(scene, cam, &options);
+    }
+}
+
 #[test]
 fn walls_of_different_heights_at_a_corner_keep_their_areas() {
     // Two walls of a city block meeting at a corner, 12.6 and 16.2 high, seen from 1.3 km: their
     // vertical edges lie on one 3D line, snapped a grid unit apart. (Found on munich.ply.gz,
     // where both walls lost most of their area at every bin size.)
-    let mut b = SceneBuilder::new("corner");
-    for t in [
-        [
-            Vec3::new(532.9693, 32.38264, 0.0),
-            Vec3::new(532.1972, 27.41772, 0.0),
-            Vec3::new(532.1972, 27.41772, 12.568659),
+    let scene = scene_of(
+        "corner",
+        &[
+            [
+                Vec3::new(532.9693, 32.38264, 0.0),
+                Vec3::new(532.1972, 27.41772, 0.0),
+                Vec3::new(532.1972, 27.41772, 12.568659),
+            ],
+            [
+                Vec3::new(532.1972, 27.41772, 0.0),
+                Vec3::new(528.47797, -0.73532414, 16.168602),
+                Vec3::new(532.1972, 27.41772, 16.168602),
+            ],
         ],
-        [
-            Vec3::new(532.1972, 27.41772, 0.0),
-            Vec3::new(528.47797, -0.73532414, 16.168602),
-            Vec3::new(532.1972, 27.41772, 16.168602),
-        ],
-    ] {
-        let v = t.map(|p| b.add_vertex(p));
-        b.add_triangle(v);
-    }
-    let scene = b.finish();
+    );
     let cam = Camera::looking(
         Vec3::new(-67.850464, 748.53815, 1092.1863),
         Vec3::new(0.0, -0.624695, -0.7808688),
@@ -606,13 +625,7 @@ fn walls_of_different_heights_at_a_corner_keep_their_areas() {
         0.019,
     )
     .unwrap();
-    for bin_size in [1, 16] {
-        let options = AnalyticOptions {
-            bin_size,
-            ..AnalyticOptions::default()
-        };
-        check_against_brute_with(&scene, &cam, &options);
-    }
+    check_at_bin_sizes(&scene, &cam, &[1, 16]);
 }
 
 #[test]
@@ -623,33 +636,31 @@ fn coplanar_faces_on_a_ledge_keep_their_areas() {
     // edge, inside the ledge, with depths equal within the input's precision. The depth order
     // of the wall and the ledge there was decided differently from the two edges, each hiding
     // the other, and both wall faces lost their area over several bins. (Found on fzk_haus.)
-    let mut b = SceneBuilder::new("ledge");
-    for t in [
-        [
-            Vec3::new(7.41, 2.4999998, -4.01),
-            Vec3::new(7.41, 2.0099995, -9.7),
-            Vec3::new(7.41, 2.0099998, -4.01),
+    let scene = scene_of(
+        "ledge",
+        &[
+            [
+                Vec3::new(7.41, 2.4999998, -4.01),
+                Vec3::new(7.41, 2.0099995, -9.7),
+                Vec3::new(7.41, 2.0099998, -4.01),
+            ],
+            [
+                Vec3::new(7.41, 2.0099998, -4.5575),
+                Vec3::new(7.41, 2.0099998, -5.4425),
+                Vec3::new(7.41, 1.9599998, -4.6075),
+            ],
+            [
+                Vec3::new(7.41, 2.0099998, -5.4425),
+                Vec3::new(7.41, 2.0099998, -4.5575),
+                Vec3::new(7.5099998, 2.0099998, -4.5575),
+            ],
+            [
+                Vec3::new(7.41, 2.0099998, -5.4425),
+                Vec3::new(7.5099998, 2.0099998, -4.5575),
+                Vec3::new(7.5099998, 2.0099998, -5.4425),
+            ],
         ],
-        [
-            Vec3::new(7.41, 2.0099998, -4.5575),
-            Vec3::new(7.41, 2.0099998, -5.4425),
-            Vec3::new(7.41, 1.9599998, -4.6075),
-        ],
-        [
-            Vec3::new(7.41, 2.0099998, -5.4425),
-            Vec3::new(7.41, 2.0099998, -4.5575),
-            Vec3::new(7.5099998, 2.0099998, -4.5575),
-        ],
-        [
-            Vec3::new(7.41, 2.0099998, -5.4425),
-            Vec3::new(7.5099998, 2.0099998, -4.5575),
-            Vec3::new(7.5099998, 2.0099998, -5.4425),
-        ],
-    ] {
-        let v = t.map(|p| b.add_vertex(p));
-        b.add_triangle(v);
-    }
-    let scene = b.finish();
+    );
     let cam = Camera::looking(
         Vec3::new(2.6923985, 0.9199064, -2.7913227),
         Vec3::new(0.76198286, 0.40060502, -0.5088201),
@@ -660,13 +671,7 @@ fn coplanar_faces_on_a_ledge_keep_their_areas() {
         0.00025,
     )
     .unwrap();
-    for bin_size in [1, 4, 16, 32] {
-        let options = AnalyticOptions {
-            bin_size,
-            ..AnalyticOptions::default()
-        };
-        check_against_brute_with(&scene, &cam, &options);
-    }
+    check_at_bin_sizes(&scene, &cam, &[1, 4, 16, 32]);
 }
 
 #[test]
@@ -676,23 +681,21 @@ fn roof_edge_on_a_wall_keeps_its_area() {
     // tie, and beyond the meeting line the roof is in front. Taking the sign of the difference
     // at the edge (right for a ledge that ends at the line, as in the test above) hid the
     // roof's edge there and lost 40 % of its area. (Found on munich.ply.gz.)
-    let mut b = SceneBuilder::new("roof");
-    for t in [
-        [
-            Vec3::new(374.81802, -180.60637, 7.6795034),
-            Vec3::new(378.8081, -191.059, 4.828213),
-            Vec3::new(382.3897, -185.22849, 7.6795034),
+    let scene = scene_of(
+        "roof",
+        &[
+            [
+                Vec3::new(374.81802, -180.60637, 7.6795034),
+                Vec3::new(378.8081, -191.059, 4.828213),
+                Vec3::new(382.3897, -185.22849, 7.6795034),
+            ],
+            [
+                Vec3::new(386.04318, -179.28091, 0.0),
+                Vec3::new(378.8081, -191.059, 0.0),
+                Vec3::new(378.8081, -191.059, 13.44629),
+            ],
         ],
-        [
-            Vec3::new(386.04318, -179.28091, 0.0),
-            Vec3::new(378.8081, -191.059, 0.0),
-            Vec3::new(378.8081, -191.059, 13.44629),
-        ],
-    ] {
-        let v = t.map(|p| b.add_vertex(p));
-        b.add_triangle(v);
-    }
-    let scene = b.finish();
+    );
     let cam = Camera::looking(
         Vec3::new(-67.850464, 748.53815, 1092.1863),
         Vec3::new(0.0, -0.624695, -0.7808688),
@@ -703,13 +706,7 @@ fn roof_edge_on_a_wall_keeps_its_area() {
         0.019,
     )
     .unwrap();
-    for bin_size in [1, 4, 16] {
-        let options = AnalyticOptions {
-            bin_size,
-            ..AnalyticOptions::default()
-        };
-        check_against_brute_with(&scene, &cam, &options);
-    }
+    check_at_bin_sizes(&scene, &cam, &[1, 4, 16]);
 }
 
 #[test]
@@ -720,38 +717,36 @@ fn walls_at_a_corner_one_ulp_apart_keep_their_areas() {
     // not count such edges as collinear: the third wall covered both sides of the others'
     // corner edge and hid it, and the wall seen only in a 2 px sliver by the corner lost all
     // of its 0.77 px² at 16-px bins.
-    let mut b = SceneBuilder::new("corner");
-    for t in [
-        [
-            (17.163721, -100.7635, 0.0),
-            (22.757593, -88.27343, 0.0),
-            (22.757593, -88.27343, 18.0),
+    let scene = scene_of(
+        "corner",
+        &[
+            [
+                Vec3::new(17.163721, -100.7635, 0.0),
+                Vec3::new(22.757593, -88.27343, 0.0),
+                Vec3::new(22.757593, -88.27343, 18.0),
+            ],
+            [
+                Vec3::new(17.163721, -100.7635, 0.0),
+                Vec3::new(22.757593, -88.27343, 18.0),
+                Vec3::new(17.163721, -100.7635, 18.0),
+            ],
+            [
+                Vec3::new(22.757593, -88.27343, 0.0),
+                Vec3::new(30.130741, -91.93581, 0.0),
+                Vec3::new(30.130741, -91.93581, 18.0),
+            ],
+            [
+                Vec3::new(30.130741, -91.93581, 0.0),
+                Vec3::new(33.806274, -84.45512, 18.0),
+                Vec3::new(30.130741, -91.93581, 18.0),
+            ],
+            [
+                Vec3::new(30.13074, -91.93581, 0.0),
+                Vec3::new(46.26822, -99.694664, 18.0),
+                Vec3::new(30.13074, -91.93581, 18.0),
+            ],
         ],
-        [
-            (17.163721, -100.7635, 0.0),
-            (22.757593, -88.27343, 18.0),
-            (17.163721, -100.7635, 18.0),
-        ],
-        [
-            (22.757593, -88.27343, 0.0),
-            (30.130741, -91.93581, 0.0),
-            (30.130741, -91.93581, 18.0),
-        ],
-        [
-            (30.130741, -91.93581, 0.0),
-            (33.806274, -84.45512, 18.0),
-            (30.130741, -91.93581, 18.0),
-        ],
-        [
-            (30.13074, -91.93581, 0.0),
-            (46.26822, -99.694664, 18.0),
-            (30.13074, -91.93581, 18.0),
-        ],
-    ] {
-        let v = t.map(|(x, y, z)| b.add_vertex(Vec3::new(x, y, z)));
-        b.add_triangle(v);
-    }
-    let scene = b.finish();
+    );
     let cam = Camera::look_at(
         Vec3::new(-156.86536, -160.66983, 31.902119),
         Vec3::new(0.0, 0.0, 25.0),
@@ -762,13 +757,7 @@ fn walls_at_a_corner_one_ulp_apart_keep_their_areas() {
         0.010901281,
     )
     .unwrap();
-    for bin_size in [1, 4, 16] {
-        let options = AnalyticOptions {
-            bin_size,
-            ..AnalyticOptions::default()
-        };
-        check_against_brute_with(&scene, &cam, &options);
-    }
+    check_at_bin_sizes(&scene, &cam, &[1, 4, 16]);
 }
 
 #[test]
@@ -777,23 +766,21 @@ fn roof_piercing_a_wall_at_the_image_border_keeps_its_area() {
     // at the image's right border: the two clipped edges lie on one line, so the order flips
     // at one point on both, and the intersection segment was taken to end at that point at
     // both ends and dropped; the roof lost its whole 0.23 px² and the wall 40 % of its area.
-    let mut b = SceneBuilder::new("pierced");
-    for t in [
-        [
-            (629.39526, 91.03555, 0.0),
-            (613.33405, 95.60904, 0.0),
-            (613.33405, 95.60904, 13.652428),
+    let scene = scene_of(
+        "pierced",
+        &[
+            [
+                Vec3::new(629.39526, 91.03555, 0.0),
+                Vec3::new(613.33405, 95.60904, 0.0),
+                Vec3::new(613.33405, 95.60904, 13.652428),
+            ],
+            [
+                Vec3::new(613.33405, 95.60904, 7.7744007),
+                Vec3::new(619.12854, 93.93987, 7.7744007),
+                Vec3::new(620.5023, 98.92713, 7.7744007),
+            ],
         ],
-        [
-            (613.33405, 95.60904, 7.7744007),
-            (619.12854, 93.93987, 7.7744007),
-            (620.5023, 98.92713, 7.7744007),
-        ],
-    ] {
-        let v = t.map(|(x, y, z)| b.add_vertex(Vec3::new(x, y, z)));
-        b.add_triangle(v);
-    }
-    let scene = b.finish();
+    );
     let cam = Camera::look_at(
         Vec3::new(707.1762, 748.53815, 747.1221),
         Vec3::new(-67.850464, -85.782776, 49.285),
@@ -804,13 +791,7 @@ fn roof_piercing_a_wall_at_the_image_border_keeps_its_area() {
         0.019079505,
     )
     .unwrap();
-    for bin_size in [1, 16] {
-        let options = AnalyticOptions {
-            bin_size,
-            ..AnalyticOptions::default()
-        };
-        check_against_brute_with(&scene, &cam, &options);
-    }
+    check_at_bin_sizes(&scene, &cam, &[1, 16]);
 }
 
 #[test]
@@ -825,13 +806,8 @@ fn coincident_faces_show_the_lower_id_whole() {
     ];
     let cam = front_camera(64, 64);
     for shift in [0.0f32, 4e-4] {
-        let mut b = SceneBuilder::new("duplicates");
         let copy = quad.map(|p| p + Vec3::new(0.0, 0.0, shift));
-        for t in [quad, copy] {
-            let v = t.map(|p| b.add_vertex(p));
-            b.add_triangle(v);
-        }
-        let scene = b.finish();
+        let scene = scene_of("duplicates", &[quad, copy]);
         for bin_size in [1, 16] {
             let options = AnalyticOptions {
                 bin_size,
