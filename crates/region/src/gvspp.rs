@@ -25,8 +25,9 @@
 //! milliseconds. On a CPU (7 M rays/s on two cores) the first round alone spends any budget up to
 //! 1.5 s before border or reverse sampling run once, so a time- or ray-limited bake was RAND.
 //! Under a ray or time budget rounds are therefore adaptive: the first has [`FIRST_ROUND`] random
-//! rays, and a round doubles the next one while its random rays found new triangles at least at
-//! the rate (per ray) of its exploration rays, up to `n_rand`; otherwise the size stays.
+//! rays, each doubles the next (and makes it at least as large as its exploration) up to
+//! `n_rand`, and a round explores at most half as many rays as its random phase cast, the rest
+//! of the queue waiting for the next round.
 //! `fixed_rounds` restores the paper's rounds of `n_rand`. A bake without a budget (to
 //! convergence) keeps the paper's rounds: adaptive ones reached the same error with 1.5x the
 //! rays there. The termination rule is the paper's (T = 10 new triangles in a 10^7-ray round)
@@ -164,21 +165,32 @@ impl Sampler for GvsPlusPlus {
         };
         // (rays, new triangles) of the recent rounds, newest last, for the termination rule.
         let mut recent: std::collections::VecDeque<(u64, usize)> = Default::default();
+        // The exploration queue. Without a budget each round drains it (the paper); under a
+        // budget a round explores at most half the rays its random phase cast and the rest
+        // waits for the next round, so that random rays keep two thirds of the budget: in a
+        // city the queue of the first 16k random rays would otherwise take any budget,
+        // exploring small neighbours while whole streets stay unfound (3.3x RAND's error on
+        // etoile at 1M rays; 1.5x with this cap, docs/BENCHMARKS.md).
+        let mut queue: Vec<Discovery> = Vec::new();
+        let mut head = 0;
         loop {
             let mut round_new = 0usize;
-            let mut queue: Vec<Discovery> = Vec::new();
             let round_start = tally.rays;
             // Random sampling (4.1).
             let Some(new) = random.sample_round(ctx, &mut tally, round_size, progress) else {
                 break;
             };
-            let (random_rays, random_new) = (tally.rays - round_start, new.len());
+            let random_rays = tally.rays - round_start;
             found[0] += new.len();
             round_new += new.len();
             queue.extend(new);
-            // Exploration (4.2, 4.3): drain the queue, FIFO.
-            let mut head = 0;
-            while head < queue.len() && !tally.exhausted() {
+            // Exploration (4.2, 4.3): drain the queue, FIFO (under a budget: up to the random
+            // phase's rays).
+            let explore_start = tally.rays;
+            while head < queue.len()
+                && !tally.exhausted()
+                && !(adaptive && 2 * (tally.rays - explore_start) >= random_rays)
+            {
                 let chunk: Vec<Discovery> =
                     queue[head..(head + ABS_CHUNK).min(queue.len())].to_vec();
                 head += chunk.len();
@@ -204,13 +216,14 @@ impl Sampler for GvsPlusPlus {
                 }
             }
             let round_rays = tally.rays - round_start;
-            // The next round's size: grow while random rays find triangles at least as fast as
-            // the exploration does (per ray).
+            if head == queue.len() {
+                queue.clear();
+                head = 0;
+            }
+            // The next round's size: double, and at least the exploration this round cast.
             let explore_rays = round_rays - random_rays;
-            let random_rate = random_new as f64 / random_rays.max(1) as f64;
-            let explore_rate = (round_new - random_new) as f64 / explore_rays.max(1) as f64;
-            if adaptive && random_rate >= explore_rate {
-                round_size = (round_size * 2).min(p.n_rand);
+            if adaptive {
+                round_size = (round_size * 2).max(explore_rays).min(p.n_rand);
             }
             // Termination (4.4), over the last TERMINATION_WINDOW rays.
             recent.push_back((round_rays, round_new));
