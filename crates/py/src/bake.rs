@@ -44,6 +44,7 @@ struct MethodOptions {
     delta: Option<f32>,
     termination: Option<usize>,
     raster_resolution: Option<u32>,
+    fixed_rounds: bool,
 }
 
 impl MethodOptions {
@@ -58,8 +59,7 @@ impl MethodOptions {
             delta: self.delta,
             termination: self.termination,
             raster_resolution: self.raster_resolution,
-            // The paper's fixed rounds are a CLI option (`--fixed-rounds`) only, for now.
-            fixed_rounds: false,
+            fixed_rounds: self.fixed_rounds,
         }
         .params()
     }
@@ -85,11 +85,11 @@ impl PyMethod {
 #[pymethods]
 impl PyMethod {
     /// A method by name (`gvs++`, `gvs`, `rand`, `raster`) with optional parameters; see
-    /// `sightline pvs bake --help` for their meaning.
+    /// `sightline pvs bake --help` for their meaning (`fixed_rounds` is `--fixed-rounds`).
     #[new]
     #[pyo3(signature = (name = "gvs++", *, n_rand = None, n_abs_edge = None, delta_abs = None,
         n_rs_edge = None, n_rs_area = None, delta = None, termination = None,
-        raster_resolution = None))]
+        raster_resolution = None, fixed_rounds = false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         name: &str,
@@ -101,6 +101,7 @@ impl PyMethod {
         delta: Option<f32>,
         termination: Option<usize>,
         raster_resolution: Option<u32>,
+        fixed_rounds: bool,
     ) -> PyResult<Self> {
         let options = MethodOptions {
             n_rand,
@@ -111,6 +112,7 @@ impl PyMethod {
             delta,
             termination,
             raster_resolution,
+            fixed_rounds,
         };
         Self::from_options(name, options)
     }
@@ -138,6 +140,7 @@ impl PyMethod {
             o.delta,
             o.termination,
             o.raster_resolution,
+            o.fixed_rounds,
         );
         let ctor = py.get_type::<PyMethod>().getattr("_from_positional")?;
         PyTuple::new(py, [ctor, args.into_pyobject(py)?.into_any()])
@@ -147,7 +150,7 @@ impl PyMethod {
     #[staticmethod]
     #[allow(clippy::too_many_arguments)]
     #[pyo3(signature = (name, n_rand, n_abs_edge, delta_abs, n_rs_edge, n_rs_area, delta,
-        termination, raster_resolution))]
+        termination, raster_resolution, fixed_rounds = false))]
     fn _from_positional(
         name: &str,
         n_rand: Option<u64>,
@@ -158,6 +161,7 @@ impl PyMethod {
         delta: Option<f32>,
         termination: Option<usize>,
         raster_resolution: Option<u32>,
+        fixed_rounds: bool,
     ) -> PyResult<Self> {
         Self::new(
             name,
@@ -169,6 +173,7 @@ impl PyMethod {
             delta,
             termination,
             raster_resolution,
+            fixed_rounds,
         )
     }
 }

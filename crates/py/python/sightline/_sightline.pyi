@@ -68,6 +68,7 @@ class Method:
         delta: Optional[float] = None,
         termination: Optional[int] = None,
         raster_resolution: Optional[int] = None,
+        fixed_rounds: bool = False,
     ) -> None: ...
     @property
     def name(self) -> str: ...
