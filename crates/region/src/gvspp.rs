@@ -125,6 +125,14 @@ pub struct GvsPlusPlus {
     pub params: GvsPlusPlusParams,
 }
 
+/// Under a budget, the exploration rays of a round as a share of its random rays: random rays
+/// keep two thirds of the budget.
+const EXPLORE_SHARE: f64 = 0.5;
+
+/// Rays the exploration of one triangle costs on average (69 ABS rays at the defaults, plus
+/// reverse sampling where its border rays find a discontinuity), for sizing chunks to a share.
+const EXPLORE_RAYS_PER_TRIANGLE: f64 = 300.0;
+
 /// Triangles processed per ABS batch (each gives 9 + 3 n_ABSEdge rays).
 pub(crate) const ABS_CHUNK: usize = 1024;
 
@@ -189,10 +197,20 @@ impl Sampler for GvsPlusPlus {
             let explore_start = tally.rays;
             while head < queue.len()
                 && !tally.exhausted()
-                && !(adaptive && 2 * (tally.rays - explore_start) >= random_rays)
+                && !(adaptive
+                    && (tally.rays - explore_start) as f64 >= EXPLORE_SHARE * random_rays as f64)
             {
-                let chunk: Vec<Discovery> =
-                    queue[head..(head + ABS_CHUNK).min(queue.len())].to_vec();
+                // Under a budget, no more triangles than the rest of the round's share can
+                // explore (about 69 ABS rays each, plus reverse sampling of its discontinuities):
+                // one full chunk could cost 300k rays in a city and take the whole share.
+                let take = if adaptive {
+                    let left =
+                        EXPLORE_SHARE * random_rays as f64 - (tally.rays - explore_start) as f64;
+                    ((left / EXPLORE_RAYS_PER_TRIANGLE) as usize).clamp(1, ABS_CHUNK)
+                } else {
+                    ABS_CHUNK
+                };
+                let chunk: Vec<Discovery> = queue[head..(head + take).min(queue.len())].to_vec();
                 head += chunk.len();
                 let (rays, vertex_targets) = abs_rays(ctx, &chunk, delta_abs, p.n_abs_edge);
                 let hits = cast(ctx.caster, &rays);
