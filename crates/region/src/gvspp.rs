@@ -178,7 +178,7 @@ impl Sampler for GvsPlusPlus {
         // waits for the next round, so that random rays keep two thirds of the budget: in a
         // city the queue of the first 16k random rays would otherwise take any budget,
         // exploring small neighbours while whole streets stay unfound (3.3x RAND's error on
-        // etoile at 1M rays; 1.5x with this cap, docs/BENCHMARKS.md).
+        // etoile at 1M rays; equal to RAND with this cap, docs/BENCHMARKS.md).
         let mut queue: Vec<Discovery> = Vec::new();
         let mut head = 0;
         loop {
