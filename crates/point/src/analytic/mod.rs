@@ -225,6 +225,9 @@ pub struct AnalyticResult {
     pub polygons: Vec<VisiblePolygon>,
     /// Statistics.
     pub stats: AnalyticStats,
+    /// Visible area per triangle id (square pixels), summed once while `visible` is built (like
+    /// `visible`, it describes `polygons` as `visible_fragments` made them).
+    area: Vec<f64>,
     width: u32,
     height: u32,
     bin_size: u32,
@@ -242,14 +245,10 @@ impl AnalyticResult {
         self.height
     }
 
-    /// Visible area (square pixels) per triangle id, over `n` ids.
+    /// Visible area (square pixels) per triangle id, over `n` ids (zero past the scene's).
     pub fn visible_area(&self, n: usize) -> Vec<f64> {
-        let mut out = vec![0.0; n];
-        for p in &self.polygons {
-            if let Some(a) = out.get_mut(p.triangle as usize) {
-                *a += polygon::area(&p.points);
-            }
-        }
+        let mut out = self.area.clone();
+        out.resize(n, 0.0);
         out
     }
 
@@ -260,9 +259,12 @@ impl AnalyticResult {
         if min_area_px2 <= 0.0 {
             return self.visible.clone();
         }
-        let area = self.visible_area(n);
         let mut set = TriangleSet::with_capacity(n);
-        set.extend(self.visible.ones().filter(|&t| area[t] >= min_area_px2));
+        set.extend(
+            self.visible
+                .ones()
+                .filter(|&t| self.area.get(t).is_some_and(|&a| a >= min_area_px2)),
+        );
         set
     }
 }
@@ -383,6 +385,7 @@ pub fn visible_fragments(
         visible,
         polygons,
         stats,
+        area,
         width: camera.width,
         height: camera.height,
         bin_size: options.bin_size,
