@@ -710,6 +710,78 @@ fn roof_edge_on_a_wall_keeps_its_area() {
 }
 
 #[test]
+fn roof_corner_on_a_wall_whose_edge_leaves_it_keeps_its_area_in_one_pixel_bins() {
+    // A roof corner lies on a wall (the two share it bit for bit) and the roof's edge from it
+    // runs along the wall, 0.5 mm behind its plane at the far end: the roof crosses the wall
+    // along a line from the corner. Near the corner the depth order is a tie on every edge,
+    // so a 1-px bin there saw no flip, did not build the intersection segment and lost
+    // 0.06 px² of the roof, which 16-px bins kept. (Found on munich.ply.gz by the sweeps.)
+    let scene = scene_of(
+        "roof corner on a wall",
+        &[
+            [
+                Vec3::new(-176.00044, 249.04388, 0.0),
+                Vec3::new(-166.03836, 267.133, 19.176273),
+                Vec3::new(-176.00044, 249.04388, 19.176273),
+            ],
+            [
+                Vec3::new(-160.4226, 262.17914, 16.039583),
+                Vec3::new(-164.39659, 270.11633, 16.039583),
+                Vec3::new(-176.00044, 249.04388, 16.039583),
+            ],
+        ],
+    );
+    let cam = Camera::look_at(
+        Vec3::new(-338.97574, -372.2839, 62.89183),
+        Vec3::new(-76.60422, -85.782776, -6.787773),
+        // munich.ply.gz loads Y-up.
+        Vec3::Y,
+        60.0,
+        256,
+        256,
+        0.02,
+    )
+    .unwrap();
+    check_at_bin_sizes(&scene, &cam, &[1, 2, 16, 32]);
+}
+
+#[test]
+fn thin_face_piercing_a_wall_at_the_image_border_keeps_both_areas() {
+    // A 2.5 cm strip (a window frame of fzk_haus.obj.gz) pierces a wall, and both are clipped
+    // at the image's left border, where the order of the two flips on their border edges. Both
+    // border edges find that flip, each from its own ends, so the two points differ by 2e-14
+    // px: taken as the two ends of the intersection segment, they gave a segment of no
+    // length, and the wall lost a third of its area and the strip all of it (at 32-px bins
+    // and above; a third of it at 1-px bins).
+    let scene = scene_of(
+        "strip through a wall",
+        &[
+            [
+                Vec3::new(6.285, 0.24999999, -0.25500003),
+                Vec3::new(5.715, 2.275, -0.2550001),
+                Vec3::new(6.285, 2.275, -0.2550001),
+            ],
+            [
+                Vec3::new(5.9874997, 0.24999999, -0.26250002),
+                Vec3::new(5.9874997, 2.275, -0.23750012),
+                Vec3::new(5.9874997, 2.275, -0.2625001),
+            ],
+        ],
+    );
+    let cam = Camera::look_at(
+        Vec3::new(2.6923985, 0.9199064, -2.7913227),
+        Vec3::new(4.165123, 2.6588454, 0.903209),
+        Vec3::Y,
+        60.0,
+        256,
+        256,
+        1e-4,
+    )
+    .unwrap();
+    check_at_bin_sizes(&scene, &cam, &[1, 4, 32, 256]);
+}
+
+#[test]
 fn walls_at_a_corner_one_ulp_apart_keep_their_areas() {
     // Five walls of a city block (etoile.ply.gz). Three meet at one vertical corner, stored
     // as x = 30.130741 in two triangles and x = 30.13074 (one ulp less) in the third, so

@@ -15,7 +15,7 @@
 
 use super::bin::Polys;
 use super::hidden_line::{scan_report, Event};
-use super::intersect::{depth_of, depth_order, Counters, Edge, Order, Overlap, Side};
+use super::intersect::{depth_of, depth_order, Counters, Edge, Overlap, Side};
 
 /// A boundary segment of a visible region: polygon index in [`Polys`] and its end points
 /// (pixels), oriented with the region on the left.
@@ -47,7 +47,7 @@ fn occlude_where_in_front(
     scratch: &mut Scratch<'_>,
 ) {
     let order = depth_order(e, lo, hi, normal, depth_of(polys, x), depth_of(polys, o));
-    if matches!(order, Order::Flips { .. }) {
+    if order.crosses() {
         scratch.counters.intersecting += 1;
         scratch.crossings.push((x, o));
     }

@@ -38,6 +38,10 @@ use super::intersect::{
 };
 use super::project::GRID;
 
+/// Flip points closer than this (pixels, a thousandth of a grid unit) are one flip computed
+/// twice: the winding-number pieces of `polygon.rs` are blind to a gap this small.
+const SAME_FLIP_PX: f64 = 1e-3 / GRID;
+
 /// The segment `a → b` in pixels.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct CrossingLine {
@@ -144,8 +148,10 @@ pub(crate) fn segment(
     // may lie 1e-4 px away from them, which would open a crack.)
     let mut flips = flip_points(polys, t, u, counters);
     flips.sort_by(|p, q| p.dot(dir).total_cmp(&q.dot(dir)));
-    // Edges of both polygons on one line (both clipped at the image border) flip at one point.
-    flips.dedup();
+    // Edges of both polygons on one line (both clipped at the image border) flip at one point,
+    // computed from different ends, so equal only up to rounding (2e-14 px seen): one flip.
+    // Taking the two as the segment's ends would leave a segment of no length.
+    flips.dedup_by(|q, p| q.distance(*p) <= SAME_FLIP_PX);
     match flips[..] {
         [] => {}
         [f] => {

@@ -247,13 +247,24 @@ pub(crate) enum Order {
         /// Whether `c` is in front on `[lo, at]`.
         front_before: bool,
     },
+    /// The planes cross inside the part, but so close to one end that the order there is a
+    /// tie: one order over the part, as [`Order::Same`], and yet the pair intersects (a corner
+    /// of one polygon on the other's plane, an edge leaving it). Recorded as a crossing pair,
+    /// so that the bin builds the intersection segment even where no edge of it sees a flip
+    /// beyond the tolerance.
+    Crosses(bool),
 }
 
 impl Order {
+    /// Whether the pair intersects along the part ([`Order::Flips`] or [`Order::Crosses`]).
+    pub(crate) fn crosses(self) -> bool {
+        matches!(self, Order::Flips { .. } | Order::Crosses(_))
+    }
+
     /// The parts of `[lo, hi]` with one order each: `(lo, hi, c in front)`.
     pub(crate) fn parts(self, lo: f64, hi: f64) -> impl Iterator<Item = (f64, f64, bool)> {
         let parts = match self {
-            Order::Same(front) => [Some((lo, hi, front)), None],
+            Order::Same(front) | Order::Crosses(front) => [Some((lo, hi, front)), None],
             Order::Flips { at, front_before } => {
                 [Some((lo, at, front_before)), Some((at, hi, !front_before))]
             }
@@ -327,9 +338,21 @@ pub(crate) fn depth_order(
             };
         }
     }
+    // The difference changes sign, beyond the tolerance at one end only: the planes cross
+    // near the other end. The polygons intersect there when each has corners on both sides
+    // of the other's plane beyond the tolerance; when they only touch (a shared edge or
+    // corner, a ledge ending on a wall) one has all its corners on one side.
+    let near_flip = d0 * d1 < 0.0 && ((d0.abs() > t0) != (d1.abs() > t1));
+    let crosses = |front: bool| {
+        if near_flip && straddles(c.verts, &diff) && straddles(t.verts, &diff) {
+            Order::Crosses(front)
+        } else {
+            Order::Same(front)
+        }
+    };
     let (mid, tol) = diff(line.at_px(0.5 * (lo + hi)));
     if mid.abs() > tol {
-        return Order::Same(mid > 0.0);
+        return crosses(mid > 0.0);
     }
     let g_tol = rel_c.max(rel_t) * slope;
     let tie = Tie {
@@ -339,7 +362,7 @@ pub(crate) fn depth_order(
         g_tol,
         diff: &diff,
     };
-    Order::Same(tie_order(&tie, c, t))
+    crosses(tie_order(&tie, c, t))
 }
 
 /// A depth difference within the tolerance along a part of a line.
@@ -408,6 +431,19 @@ fn tie_order<L: Line, D: Fn(DVec2) -> (f64, f64)>(
         (Some(b), None) => b,
         (None, None) => c.id < t.id,
     }
+}
+
+/// Whether the polygon `verts` has corners on both sides of the line where the depth
+/// difference `diff` vanishes, beyond its tolerance.
+fn straddles(verts: &[Pt], diff: &impl Fn(DVec2) -> (f64, f64)) -> bool {
+    let px = |v: Pt| DVec2::new(v[0] as f64, v[1] as f64) / GRID;
+    let (mut above, mut below) = (false, false);
+    for &v in verts {
+        let (d, tol) = diff(px(v));
+        above |= d > tol;
+        below |= d < -tol;
+    }
+    above && below
 }
 
 /// Whether one of the edges of the polygon `verts` (other than `skip`, either direction) lies
@@ -507,7 +543,7 @@ pub(crate) fn edge_intersections(
             ),
             _ => Order::Same(false),
         };
-        if matches!(order, Order::Flips { .. }) {
+        if order.crosses() {
             counters.intersecting += 1;
             crossings.push((e.owner, k));
         }
