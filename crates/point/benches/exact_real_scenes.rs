@@ -138,9 +138,9 @@ fn check_view(scene: &Scene, bvh: &Bvh, cam: &Camera) -> ViewCheck {
                 o.visible_area(scene.triangle_count()),
                 r.visible_area(scene.triangle_count()),
             );
-            for t in o.visible.symmetric_difference(&r.visible) {
+            for t in clear(&o).symmetric_difference(&clear(&r)) {
                 println!(
-                    "<!-- bin {bs}: triangle {t} area {:.3e} px² (bin 16: {:.3e}) -->",
+                    "<!-- bin {bs}: triangle {t} area {:.6e} px² (bin 16: {:.6e}) -->",
                     ao[t], ar[t]
                 );
             }

@@ -26,6 +26,27 @@ pub(crate) fn border_polygon(p: [Vec3; 3], delta: f32) -> [Vec3; 9] {
     })
 }
 
+/// The targets of the border *vertex* rays: the [`border_polygon`] with each offset-edge end
+/// pushed a further `δ/4` along its corner's outward bisector.
+///
+/// Why: at a right-angled corner (grids, brushes, buildings: most corners) `p_i + δ m_(i-1)`
+/// lies exactly on the extension of edge `i`, which is where the seam to the neighbouring
+/// triangles runs. When that seam is a T-junction, the f32 rounding leaves a crack along it,
+/// and a ray aimed at a point on the seam passes through and finds what lies behind the wall
+/// (`exploration_rays_do_not_leak_through_cracks_between_triangles`). The push moves every
+/// target off the lines of the triangle's edges by at least `δ/6`, far wider than such
+/// cracks, and keeps it outside the triangle.
+pub(crate) fn vertex_targets(p: [Vec3; 3], delta: f32) -> [Vec3; 9] {
+    let mut targets = border_polygon(p, delta);
+    for corner in 0..3 {
+        let bisector = (targets[3 * corner + 1] - p[corner]).normalize_or_zero();
+        for k in [3 * corner, 3 * corner + 2] {
+            targets[k] += bisector * (0.25 * delta);
+        }
+    }
+    targets
+}
+
 /// The long edges of the border polygon as (start, end) vertex indices.
 pub(crate) const LONG_EDGES: [(usize, usize); 3] = [(2, 3), (5, 6), (8, 0)];
 
@@ -48,6 +69,26 @@ mod tests {
                 assert!(v.z.abs() < 1e-7, "vertex {k} left the plane");
                 let nearest = winding[k / 3];
                 assert!((v.distance(nearest) - 0.01).abs() < 1e-6);
+            }
+        }
+    }
+
+    #[test]
+    fn vertex_targets_stay_off_the_lines_of_the_edges() {
+        // A right angle at corner 0: the plain border vertices lie on the edges' extensions.
+        let poly = border_polygon(TRI, 0.01);
+        assert!(poly[0].y.abs() < 1e-9 || poly[0].x.abs() < 1e-9);
+        for winding in [TRI, [TRI[0], TRI[2], TRI[1]]] {
+            for (k, v) in vertex_targets(winding, 0.01).iter().enumerate() {
+                assert!(!inside(*v), "target {k} {v} is inside the triangle");
+                assert!(v.z.abs() < 1e-7, "target {k} left the plane");
+                // Distance to each edge's line (the lines x = 0, y = 0, x + y = 1).
+                let lines = [v.x.abs(), v.y.abs(), (v.x + v.y - 1.0).abs() / 2f32.sqrt()];
+                let nearest = lines.into_iter().fold(f32::INFINITY, f32::min);
+                assert!(
+                    nearest >= 0.01 / 6.0,
+                    "target {k} {v} is {nearest} off an edge line"
+                );
             }
         }
     }

@@ -22,7 +22,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use sightline_core::{Hit, Ray, Scene};
 
-use crate::border::border_polygon;
+use crate::border::vertex_targets;
 use crate::rays::{cast, discover, Discovery, RandomRays};
 use crate::sampler::{Budget, CellContext, CellResult, ConvergencePoint, Sampler, Tally};
 use crate::viewcell::{Rect, ViewCell};
@@ -105,7 +105,7 @@ impl Sampler for Gvs {
                 let mut samples: Vec<BorderSample> = chunk
                     .iter()
                     .flat_map(|d| {
-                        border_polygon(ctx.scene.triangle(d.triangle), delta_abs).map(|target| {
+                        vertex_targets(ctx.scene.triangle(d.triangle), delta_abs).map(|target| {
                             BorderSample {
                                 origin: d.origin,
                                 target,

@@ -45,7 +45,7 @@ use sightline_core::sampling::ShiftedHalton;
 use sightline_core::trace::triangle::{intersect, ShearedRay};
 use sightline_core::{Hit, Ray};
 
-use crate::border::{border_polygon, LONG_EDGES};
+use crate::border::{border_polygon, vertex_targets, LONG_EDGES};
 use crate::rays::{cast, discover, Discovery, RandomRays, BATCH};
 use crate::sampler::{Budget, CellContext, CellResult, ConvergencePoint, Sampler, Tally};
 use crate::viewcell::CellSurface;
@@ -279,9 +279,10 @@ pub(crate) fn abs_rays(
     let pairs: Vec<(Ray, Option<Vec3>)> = chunk
         .par_iter()
         .flat_map_iter(|d| {
-            let polygon = border_polygon(ctx.scene.triangle(d.triangle), delta_abs);
+            let triangle = ctx.scene.triangle(d.triangle);
+            let polygon = border_polygon(triangle, delta_abs);
             let mut out = Vec::with_capacity(per_triangle);
-            for v in polygon {
+            for v in vertex_targets(triangle, delta_abs) {
                 out.push((Ray::new(d.origin, v - d.origin), Some(v)));
             }
             for (a, b) in LONG_EDGES {
