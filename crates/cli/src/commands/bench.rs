@@ -154,6 +154,16 @@ struct PvsArgs {
     /// Print JSON instead of Markdown.
     #[arg(long)]
     json: bool,
+    /// Small time budgets (milliseconds, comma-separated) at which GVS++ and RAND are also
+    /// compared at equal time, the paper's equal-time comparison (issue 24: GVS++ must start
+    /// exploring before such a budget is spent). Empty: none.
+    #[arg(
+        long,
+        value_name = "MS,..",
+        value_delimiter = ',',
+        default_value = "250,1000"
+    )]
+    time_budgets: Vec<u64>,
     /// Write a convergence plot per scene (average error against rays for every method, on
     /// the scene's first cell) as SVG files into DIR.
     #[arg(long, value_name = "DIR")]
@@ -524,6 +534,13 @@ fn pvs(args: PvsArgs) -> Result<()> {
         Budget, CellContext, Gvs, GvsParams, GvsPlusPlus, GvsPlusPlusParams, RandomSampler,
         RasterSampler, Sampler,
     };
+    if let Some(ms) = args
+        .time_budgets
+        .iter()
+        .find(|&&ms| ms == 0 || ms > 3_600_000)
+    {
+        anyhow::bail!("--time-budgets: {ms} ms is not a budget between 1 ms and one hour");
+    }
     let specs = if args.scenes.is_empty() {
         vec![
             "procedural:city".to_string(),
@@ -567,12 +584,21 @@ fn pvs(args: PvsArgs) -> Result<()> {
             ("GVS", "equal rays"),
             ("RASTER", "equal rays"),
         ];
-        let mut rows: Vec<PvsRow> = LABELS
+        let mut labels: Vec<(String, String)> = LABELS
             .iter()
-            .map(|(m, b)| PvsRow {
+            .map(|(m, b)| (m.to_string(), b.to_string()))
+            .collect();
+        for ms in &args.time_budgets {
+            for m in ["GVS++", "RAND"] {
+                labels.push((m.to_string(), format!("{ms} ms")));
+            }
+        }
+        let mut rows: Vec<PvsRow> = labels
+            .into_iter()
+            .map(|(method, budget)| PvsRow {
                 scene: spec.clone(),
-                method: m.to_string(),
-                budget: b.to_string(),
+                method,
+                budget,
                 cells: cells.len(),
                 ..PvsRow::default()
             })
@@ -593,13 +619,21 @@ fn pvs(args: PvsArgs) -> Result<()> {
                 max_rays: None,
                 max_time: Some(std::time::Duration::from_secs_f64(a.seconds)),
             };
-            let results = [
+            let mut results = vec![
                 a.clone(),
                 RandomSampler.sample(&ctx, &equal_rays, none),
                 RandomSampler.sample(&ctx, &equal_time, none),
                 gvs.sample(&ctx, &equal_rays, none),
                 raster.sample(&ctx, &equal_rays, none),
             ];
+            for &ms in &args.time_budgets {
+                let budget = Budget {
+                    max_rays: None,
+                    max_time: Some(std::time::Duration::from_millis(ms)),
+                };
+                results.push(gvspp.sample(&ctx, &budget, none));
+                results.push(RandomSampler.sample(&ctx, &budget, none));
+            }
             let sets: Vec<&sightline_core::TriangleSet> =
                 results.iter().map(|r| &r.visible).collect();
             let evaluations = sightline_eval::evaluate_cell(&scene, cell, &sets, &eval, &|_, _| {});
@@ -676,6 +710,33 @@ fn pvs(args: PvsArgs) -> Result<()> {
             r.avg_unconfirmed_pixels,
             r.pvs_percent,
             r.false_negatives
+        );
+    }
+    // The equal-time comparison in one line per scene and budget: how many times fewer
+    // erroneous pixels GVS++ leaves than RAND.
+    for r in all_rows
+        .iter()
+        .filter(|r| r.method == "GVS++" && r.budget.ends_with(" ms"))
+    {
+        let Some(rand) = all_rows
+            .iter()
+            .find(|x| x.scene == r.scene && x.method == "RAND" && x.budget == r.budget)
+        else {
+            continue;
+        };
+        let ratio = if r.avg_error_pixels > 0.0 {
+            format!("{:.1}x", rand.avg_error_pixels / r.avg_error_pixels)
+        } else if rand.avg_error_pixels > 0.0 {
+            "GVS++ has no error".to_string()
+        } else {
+            "both have no error".to_string()
+        };
+        outln!(
+            "`{}` at {}: RAND {:.2} avg err px, GVS++ {:.2}: {ratio}",
+            r.scene,
+            r.budget,
+            rand.avg_error_pixels,
+            r.avg_error_pixels
         );
     }
     outln!(
