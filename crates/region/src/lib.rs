@@ -17,6 +17,7 @@ pub mod rand;
 pub mod raster_sampler;
 pub mod ray_sharing;
 mod rays;
+pub mod reachable;
 pub mod sampler;
 pub mod segment_cells;
 pub mod shards;
