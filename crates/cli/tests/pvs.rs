@@ -350,3 +350,131 @@ fn gltf_level_bake_has_objects_and_object_sets() {
         .iter()
         .all(|r| r["objects_only_in_a"] == 0 && r["objects_a"] == r["objects_b"]));
 }
+
+#[test]
+fn q3_leaf_bake_leaves_out_unreachable_leaves_and_records_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/q3dm6ish.bsp");
+    let bake = |extra: &[&str], out: &str| {
+        let mut args = vec![
+            "pvs",
+            "bake",
+            map,
+            "--q3-leaves",
+            "--method",
+            "rand",
+            "--rays",
+            "500",
+            "-o",
+            out,
+            "--json",
+        ];
+        args.extend(extra);
+        let o = sightline(&args, dir.path());
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        (v, stderr(&o))
+    };
+    let (v, err) = bake(&[], "r.pvs");
+    let r = &v["reachable"];
+    let (leaves, unreachable) = (
+        r["leaves"].as_u64().unwrap(),
+        r["unreachable_leaves"].as_u64().unwrap(),
+    );
+    // q3dm6ish has 247 leaves with a cluster, a few of them sealed off from its 11 spawns.
+    assert_eq!(leaves, 247, "{r}");
+    assert!((1..20).contains(&unreachable), "{r}");
+    assert_eq!(v["cells"].as_u64().unwrap(), leaves - unreachable);
+    assert_eq!(r["dropped_cells"].as_u64().unwrap(), unreachable);
+    assert!(
+        err.contains(&format!(
+            "q3dm6ish: {unreachable} of 247 leaves ({} clusters) are unreachable from 11 spawn points",
+            r["unreachable_clusters"]
+        )) && err.contains("--include-unreachable"),
+        "{err}"
+    );
+    // The file records the counts and the rule, and the rule is part of the fingerprint.
+    let o = sightline(&["pvs", "show", "r.pvs", "--json"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let shown: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let m = &shown["metadata"];
+    assert_eq!(
+        m["reachable"]["unreachable_leaves"],
+        r["unreachable_leaves"]
+    );
+    assert_eq!(m["reachable"]["step"], 16.0);
+    assert_eq!(m["fingerprint"]["extra"]["origins"]["origins"], "reachable");
+    assert_eq!(m["fingerprint"]["extra"]["origins"]["step"], 16.0);
+    assert_eq!(
+        m["clusters"].as_array().unwrap().len() as u64,
+        leaves - unreachable
+    );
+
+    // The old rule keeps every leaf.
+    let (all, _) = bake(&["--include-unreachable"], "a.pvs");
+    assert_eq!(all["cells"].as_u64().unwrap(), leaves);
+    assert_eq!(all["reachable"]["origins"], "cluster");
+    assert!(all["reachable"]["unreachable_leaves"].is_null());
+
+    // Another step is another bake: its checkpoint fingerprint differs.
+    let (coarse, _) = bake(&["--reach-step", "32"], "c.pvs");
+    assert_eq!(coarse["reachable"]["step"], 32.0);
+
+    // Viewpoints of a reachable bake are where its origins were: evaluating a cell counts the
+    // viewpoints it rejected.
+    let o = sightline(
+        &[
+            "eval",
+            map,
+            "--pvs",
+            "r.pvs",
+            "--cells",
+            "0",
+            "--viewpoints",
+            "8",
+            "--resolution",
+            "16",
+            "--json",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let rejected = &rows[0]["rejected_viewpoints"];
+    let judged = rows[0]["images"].as_u64().unwrap() / 6;
+    let skipped =
+        rejected["outside_cluster"].as_u64().unwrap() + rejected["unreachable"].as_u64().unwrap();
+    assert_eq!(judged + skipped, 8, "{}", rows[0]);
+
+    // Bad steps are clean errors naming the option.
+    for bad in ["0", "-4", "NaN", "0.01"] {
+        let o = sightline(
+            &[
+                "pvs",
+                "bake",
+                map,
+                "--q3-leaves",
+                "--reach-step",
+                bad,
+                "-o",
+                "x.pvs",
+            ],
+            dir.path(),
+        );
+        assert_fails_with(&o, "--reach-step");
+    }
+    let o = sightline(
+        &[
+            "pvs",
+            "bake",
+            SCENE,
+            "--cell",
+            "box:2,2,1,4,4,2",
+            "--include-unreachable",
+            "-o",
+            "x.pvs",
+        ],
+        dir.path(),
+    );
+    assert_fails_with(&o, "--q3-leaves and --q3-clusters only");
+}

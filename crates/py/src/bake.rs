@@ -468,6 +468,122 @@ pub(crate) fn bake<'py>(
     Ok(PyPvs { file })
 }
 
+/// Bakes a Quake 3 map's leaf (`cells="leaves"`, the CLI's `--q3-leaves`) or cluster cells
+/// (`cells="clusters"`, `--q3-clusters`) on this machine: the `Pvs` of `sightline pvs bake`
+/// with the same options (`clusters`: `--clusters`; `include_unreachable`:
+/// `--include-unreachable`; `reach_step`: `--reach-step`). Ray origins are in the cell's
+/// cluster and, unless `include_unreachable`, in the space reachable from the map's spawn
+/// points; cells without reachable space are left out. `metadata["clusters"]` holds each
+/// cell's cluster and `metadata["reachable"]` the rule and the unreachable counts. A map
+/// without spawn points falls back to the cluster rule with a `RuntimeWarning`.
+#[pyfunction]
+#[pyo3(signature = (scene, cells = "leaves", method = MethodArg::Name("gvs++".into()),
+    rays = None, seed = 1, time_ms = None, threads = None, progress = None, *, clusters = None,
+    include_unreachable = false, reach_step = sightline_region::reachable::DEFAULT_STEP))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn bake_q3<'py>(
+    py: Python<'py>,
+    scene: &Bound<'py, PyScene>,
+    cells: &str,
+    method: MethodArg<'py>,
+    rays: Option<u64>,
+    seed: u64,
+    time_ms: Option<u64>,
+    threads: Option<usize>,
+    progress: Option<&Bound<'py, PyAny>>,
+    clusters: Option<Vec<u32>>,
+    include_unreachable: bool,
+    reach_step: f32,
+) -> PyResult<PyPvs> {
+    use sightline_region::cell_sources::{q3_cells, Q3CellKind, Q3Origins, Q3_ORIGINS_KEY};
+    let threads = thread_count(py, threads)?;
+    let method = method.resolve()?;
+    let sampler = method.sampler()?;
+    let budget = budget(rays, time_ms)?;
+    let kind = match cells {
+        "leaves" => Q3CellKind::Leaves,
+        "clusters" => Q3CellKind::Clusters,
+        other => {
+            return Err(value_error(format!(
+                "cells must be 'leaves' or 'clusters', not '{other}'"
+            )))
+        }
+    };
+    let data = scene.get().data.clone();
+    if data.scene.bsp.is_none() {
+        return Err(value_error(
+            "bake_q3 needs a Quake 3 map (.bsp) as the scene",
+        ));
+    }
+    let origins = if include_unreachable {
+        Q3Origins::Cluster
+    } else {
+        Q3Origins::Reachable(sightline_region::reachable::ReachParams { step: reach_step })
+    };
+    // The reachable space (about a second on a large map) is built off the GIL, on the bake's
+    // threads.
+    let q3 = py
+        .detach(|| {
+            with_threads(threads, || {
+                q3_cells(&data.scene, data.bvh(), kind, clusters.as_deref(), origins)
+            })
+        })
+        .map_err(value_error)?
+        .map_err(|e| value_error(format!("reach_step: {e}")))?;
+    if let Some(why) = &q3.summary.fallback {
+        let category = py.get_type::<pyo3::exceptions::PyRuntimeWarning>();
+        py.import("warnings")?.call_method1(
+            "warn",
+            (
+                format!("bake_q3: {why}: ray origins are not restricted to reachable space"),
+                category,
+                2,
+            ),
+        )?;
+    }
+    if q3.cells.is_empty() {
+        return Err(value_error(
+            "no cells to bake (every selected cell is unreachable?)",
+        ));
+    }
+    let mut extra = serde_json::json!({
+        "parameters": format!("{:?}", method.params),
+        "clusters": q3.rule.clusters,
+        "via": "python",
+    });
+    extra[Q3_ORIGINS_KEY] = serde_json::json!(q3.summary);
+    let progress = progress_callback(py, progress)?;
+    let sampler = sampler.as_ref();
+    let (cells, rule) = (&q3.cells, &q3.rule);
+    let file = run_interruptible(py, cells.len(), progress.as_ref(), |control| {
+        with_threads(threads, || {
+            sightline_region::bake::try_bake(
+                &data.scene,
+                data.bvh(),
+                cells,
+                sampler,
+                &|cell, p| rule.allows(cell, p),
+                &budget,
+                seed,
+                extra,
+                &|cell, p| control.batch(cell, p.rays),
+                &mut |cell, result| {
+                    control.cell_done(cell, result.rays);
+                    if control.stopped() {
+                        Err(Stopped)
+                    } else {
+                        Ok(())
+                    }
+                },
+            )
+        })
+    })?;
+    let file = file.map_err(value_error)?;
+    let file =
+        file.map_err(|Stopped| value_error("internal: the bake stopped without a reason"))?;
+    Ok(PyPvs { file })
+}
+
 /// The fingerprint of a bake and the key its checkpoint carries, as JSON text
 /// `{"fingerprint": .., "checkpoint_key": .., "parameters": ..}`: the values `sightline pvs
 /// bake` computes for the same scene, cells (a `--grid` or cell file, not Quake 3 leaves),

@@ -127,6 +127,7 @@ fn _sightline(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bake::bake_cell, m)?)?;
     m.add_function(wrap_pyfunction!(bake::bake_cells, m)?)?;
     m.add_function(wrap_pyfunction!(bake::bake, m)?)?;
+    m.add_function(wrap_pyfunction!(bake::bake_q3, m)?)?;
     m.add_function(wrap_pyfunction!(bake::cell_seed, m)?)?;
     m.add_function(wrap_pyfunction!(bake::bake_fingerprint, m)?)?;
     m.add_function(wrap_pyfunction!(point::visible_exact, m)?)?;

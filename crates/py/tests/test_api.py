@@ -2,11 +2,14 @@
 the errors bad input raises."""
 
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import sightline as sl
+
+REPO = Path(__file__).resolve().parents[3]
 
 
 # --- scenes -------------------------------------------------------------------------------
@@ -295,3 +298,27 @@ def test_fixed_rounds_survive_pickling_and_change_a_budgeted_bake(city, city_cel
     r = sl.bake_cell(city, city_cells[0], "rand", rays=50_000, seed=3)
     assert not np.array_equal(a, b)
     np.testing.assert_array_equal(a, r)
+
+
+# --- Quake 3 cells ------------------------------------------------------------------------
+
+
+def test_q3_bake_equals_cli_bake_and_leaves_out_unreachable_leaves(tmp_path, cli):
+    bsp = str(REPO / "scenes" / "q3dm6ish.bsp")
+    scene = sl.load(bsp)
+    out = tmp_path / "cli.pvs"
+    cmd = [cli, "pvs", "bake", bsp, "--q3-leaves", "--method", "rand", "--rays", "500"]
+    subprocess.run(cmd + ["-o", str(out)], check=True, capture_output=True)
+    from_cli = sl.Pvs.load(str(out))
+    local = sl.bake_q3(scene, "leaves", "rand", rays=500)
+    assert local == from_cli
+    reach = local.metadata["reachable"]
+    assert reach["origins"] == "reachable" and reach["unreachable_leaves"] > 0
+    assert len(local) == reach["leaves"] - reach["unreachable_leaves"]
+    assert local.metadata["clusters"] == from_cli.metadata["clusters"]
+    everything = sl.bake_q3(scene, "leaves", "rand", rays=500, include_unreachable=True)
+    assert len(everything) == reach["leaves"]
+    with pytest.raises(ValueError, match="reach_step"):
+        sl.bake_q3(scene, reach_step=0.0)
+    with pytest.raises(ValueError, match="leaves"):
+        sl.bake_q3(scene, "points")

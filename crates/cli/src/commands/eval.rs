@@ -8,12 +8,16 @@ use image::RgbImage;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use sightline_core::raster::render;
+use sightline_core::trace::Bvh;
 use sightline_core::Hit;
-use sightline_eval::{evaluate_cell, CellEvaluation, EvalParams, ViewMode};
+use sightline_eval::{evaluate_cell_in, CellEvaluation, EvalParams, ViewMode};
 use sightline_region::PvsFile;
 
 use crate::args::SceneArgs;
 use crate::output::{id_colour, print_json, save_png};
+use crate::report::evaluate::{Rejected, Viewpoints};
+use sightline_region::cell_sources::Q3Origins;
+use sightline_region::reachable::ReachParams;
 
 /// Arguments of `sightline eval`.
 #[derive(clap::Args, Debug)]
@@ -42,6 +46,12 @@ pub(crate) struct Args {
     /// Seed of the viewpoint sequence.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Quake 3 cells: take viewpoints only in the space reachable from the spawn points
+    /// (lattice step UNITS, default 16), whatever rule the bake used. Viewpoints of a bake of
+    /// --q3-leaves or --q3-clusters are where it took its ray origins by default; this judges
+    /// an --include-unreachable bake from the viewpoints of a default one.
+    #[arg(long, value_name = "UNITS", num_args = 0..=1, default_missing_value = "16")]
+    reachable_viewpoints: Option<f32>,
     /// Print JSON.
     #[arg(long)]
     json: bool,
@@ -54,6 +64,9 @@ struct Row {
     evaluation: CellEvaluation,
     pvs_percent: f64,
     seconds: f64,
+    /// Viewpoints not evaluated (Quake 3 cells: outside the cell's cluster, or unreachable in
+    /// a bake with reachable origins).
+    rejected_viewpoints: Rejected,
 }
 
 /// Reads the `.pvs` file at `path` and checks that it was baked for `scene`.
@@ -115,13 +128,22 @@ pub(crate) fn run(args: Args) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let n = scene.triangle_count().max(1) as f64;
+    // Quake 3 cells are judged from where the bake took its ray origins.
+    let bvh = Bvh::build(&scene);
+    let origins = args
+        .reachable_viewpoints
+        .map(|step| Q3Origins::Reachable(ReachParams { step }));
+    let viewpoints =
+        Viewpoints::of(&scene, &bvh, &file, origins).context("--reachable-viewpoints")?;
     let mut rows = Vec::new();
     for &i in &indices {
         let start = Instant::now();
         let cell = &file.cells[i];
-        let e = evaluate_cell(
+        let filter = viewpoints.cell(i);
+        let e = evaluate_cell_in(
             &scene,
             &cell.cell,
+            &|p| filter.allows(p),
             &[&cell.visible],
             &params,
             &|done, total| {
@@ -153,6 +175,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
             pvs_percent: 100.0 * e.pvs_size as f64 / n,
             evaluation: e,
             seconds: start.elapsed().as_secs_f64(),
+            rejected_viewpoints: filter.rejected(),
         });
         bar.inc(1);
     }
@@ -182,6 +205,21 @@ pub(crate) fn run(args: Args) -> Result<()> {
             r.seconds
         );
     }
+    // Cells without a viewpoint (a Quake 3 cell judged from reachable viewpoints only) have
+    // no error to average.
+    let outside: usize = rows
+        .iter()
+        .map(|r| r.rejected_viewpoints.outside_cluster)
+        .sum();
+    let unreachable: usize = rows.iter().map(|r| r.rejected_viewpoints.unreachable).sum();
+    let judged: Vec<&Row> = rows.iter().filter(|r| r.evaluation.images > 0).collect();
+    if judged.len() < rows.len() {
+        outln!(
+            "{} cells had no viewpoint and are left out of the mean",
+            rows.len() - judged.len()
+        );
+    }
+    let rows = judged;
     let k = rows.len().max(1) as f64;
     outln!(
         "mean over {} cells: {:.2} erroneous pixels per {}² image, max {}, {:.2} error regions, PVS {:.2}%",
@@ -192,5 +230,11 @@ pub(crate) fn run(args: Args) -> Result<()> {
         rows.iter().map(|r| r.evaluation.avg_error_regions).sum::<f64>() / k,
         rows.iter().map(|r| r.pvs_percent).sum::<f64>() / k,
     );
+    if outside + unreachable > 0 {
+        outln!(
+            "viewpoints not evaluated: {outside} outside their cell's cluster, {unreachable} \
+             unreachable from the map's spawn points"
+        );
+    }
     Ok(())
 }

@@ -11,12 +11,13 @@ use serde::Serialize;
 use sightline_core::trace::Bvh;
 use sightline_region::bake::{BakeSetup, BakedCell};
 use sightline_region::cell_sources::{
-    inside_solid, q3_cluster_cells, q3_leaf_cells, read_cells_file,
+    inside_solid, q3_cells, read_cells_file, Q3CellKind, Q3Cells, Q3Origins, Q3_ORIGINS_KEY,
 };
 use sightline_region::checkpoint::{checkpoint_path, fingerprint, ResumableBake};
 use sightline_region::incremental;
 use sightline_region::methods::{sampler, MethodOverrides, MethodParams, METHODS};
 use sightline_region::pvs_file::EncodedPvsFile;
+use sightline_region::reachable::{ReachParams, DEFAULT_STEP};
 use sightline_region::shards::{merge, Shard};
 use sightline_region::{Budget, PvsFile, ViewCell};
 
@@ -75,16 +76,29 @@ pub(crate) struct CellArgs {
     /// With --grid: drop cells whose centre is inside solid geometry.
     #[arg(long)]
     skip_solid: bool,
-    /// Quake 3 maps: one cell per BSP leaf box (cells of a cluster together form it).
+    /// Quake 3 maps: one cell per BSP leaf box (cells of a cluster together form it). Ray
+    /// origins stay inside the leaf's cluster and in the space reachable from the map's spawn
+    /// points; leaves without reachable space are not baked (see --include-unreachable).
     #[arg(long)]
     q3_leaves: bool,
     /// Quake 3 maps: one cell per cluster (the bounding box of its leaves; ray origins stay
-    /// inside the cluster).
+    /// inside the cluster and in reachable space, as for --q3-leaves).
     #[arg(long)]
     q3_clusters: bool,
     /// With --q3-leaves or --q3-clusters: only these clusters (comma-separated).
     #[arg(long, value_name = "C1,C2,..", value_delimiter = ',')]
     clusters: Vec<u32>,
+    /// With --q3-leaves or --q3-clusters: bake every cell, with origins anywhere in the cell's
+    /// cluster (the rule before reachable space: also inside detail brushes, behind patches and
+    /// in sealed voids, where no player can be).
+    #[arg(long)]
+    include_unreachable: bool,
+    /// With --q3-leaves or --q3-clusters: lattice step, in map units, of the reachable space
+    /// (the free space flood-filled from the spawn points; a player box is 32 x 32 x 56).
+    /// Smaller finds narrower passages and costs 8x the memory and time per halving; the
+    /// lattice is capped at 2^28 points.
+    #[arg(long, value_name = "UNITS", default_value_t = DEFAULT_STEP, allow_hyphen_values = true)]
+    reach_step: f32,
 }
 
 #[derive(clap::Args, Debug)]
@@ -271,12 +285,12 @@ fn parse_numbers(s: &str, n: usize, what: &str) -> Result<Vec<f32>> {
     Ok(v)
 }
 
-/// The cells and, for Q3 leaves, the cluster of each.
-fn collect_cells(
+/// The cells and, for Quake 3 leaves and clusters, their clusters and origin rule.
+fn collect_cells<'a>(
     args: &CellArgs,
-    scene: &sightline_core::Scene,
-    caster: &Bvh,
-) -> Result<(Vec<ViewCell>, Option<Vec<u32>>)> {
+    scene: &'a sightline_core::Scene,
+    caster: &'a Bvh,
+) -> Result<(Vec<ViewCell>, Option<Q3Cells<'a>>)> {
     let sources = usize::from(args.cells.is_some())
         + usize::from(!args.cell.is_empty())
         + usize::from(args.grid.is_some())
@@ -284,6 +298,10 @@ fn collect_cells(
         + usize::from(args.q3_clusters);
     if sources != 1 {
         bail!("give exactly one cell source: --cells FILE, --cell SPEC, --grid NX,NY,NZ, --q3-leaves or --q3-clusters");
+    }
+    let q3 = args.q3_leaves || args.q3_clusters;
+    if !q3 && (args.include_unreachable || args.reach_step != DEFAULT_STEP) {
+        bail!("--include-unreachable and --reach-step apply to --q3-leaves and --q3-clusters only");
     }
     if let Some(path) = &args.cells {
         return Ok((read_cells_file(path)?, None));
@@ -318,20 +336,36 @@ fn collect_cells(
         }
         return Ok((cells, None));
     }
-    let Some(bsp) = scene.bsp.as_deref() else {
+    if scene.bsp.is_none() {
         bail!("--q3-leaves and --q3-clusters need a Quake 3 map (.bsp) as the scene");
-    };
+    }
     let filter = (!args.clusters.is_empty()).then_some(args.clusters.as_slice());
-    let leaves = if args.q3_clusters {
-        q3_cluster_cells(bsp, filter)
+    let kind = if args.q3_clusters {
+        Q3CellKind::Clusters
     } else {
-        q3_leaf_cells(bsp, filter)
+        Q3CellKind::Leaves
     };
-    let clusters = leaves.iter().map(|(c, _)| *c).collect();
-    Ok((
-        leaves.into_iter().map(|(_, cell)| cell).collect(),
-        Some(clusters),
-    ))
+    let origins = if args.include_unreachable {
+        Q3Origins::Cluster
+    } else {
+        Q3Origins::Reachable(ReachParams {
+            step: args.reach_step,
+        })
+    };
+    let mut q3 = q3_cells(scene, caster, kind, filter, origins).context("--reach-step")?;
+    let map = Path::new(&scene.source).file_stem().map_or_else(
+        || scene.source.clone(),
+        |s| s.to_string_lossy().into_owned(),
+    );
+    let line = q3.summary.describe(&map);
+    match (&q3.summary.fallback, q3.summary.dropped_cells) {
+        (Some(_), _) => eprintln!("warning: {line}"),
+        (None, 0) if q3.rule.reach.is_none() => {}
+        (None, 0) => eprintln!("{line}"),
+        (None, _) => eprintln!("{line} (--include-unreachable bakes them with the old rule)"),
+    }
+    let cells = std::mem::take(&mut q3.cells);
+    Ok((cells, Some(q3)))
 }
 
 #[derive(Serialize)]
@@ -356,6 +390,9 @@ struct BakeSummary {
     set_bytes_per_cell: f64,
     /// Bytes per cell of the written file (including its metadata).
     file_bytes_per_cell: f64,
+    /// Quake 3 cells: the origin rule and what it found (unreachable leaves and clusters,
+    /// dropped cells, the reachable space's parameters and cost), as in the file's metadata.
+    reachable: Option<serde_json::Value>,
 }
 
 fn method_params(args: &BakeArgs) -> MethodParams {
@@ -395,10 +432,22 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
     let _lock = OutputLock::acquire(&args.output)?;
     let scene = args.scene.load()?;
     let bvh = Bvh::build(&scene);
-    let (cells, clusters) = collect_cells(&args.cells, &scene, &bvh)?;
+    let (cells, q3) = collect_cells(&args.cells, &scene, &bvh)?;
     if cells.is_empty() {
         bail!("no view cells to bake (all filtered out?)");
     }
+    let clusters = q3.as_ref().map(|q| q.rule.clusters.clone());
+    // What the bake's cells depend on beyond their boxes: the cluster of each Quake 3 cell and
+    // the origin rule (the reachable space's parameters). Plain cells keep `{"clusters": null}`,
+    // the value the Python bindings' fingerprint uses for them.
+    let cells_key = match &q3 {
+        None => serde_json::json!({ "clusters": null }),
+        Some(q) => serde_json::json!({
+            "clusters": clusters,
+            "origins": q.origins().fingerprint(),
+        }),
+    };
+    let origins_record = q3.as_ref().map(|q| q.summary.clone());
     let params = method_params(args);
     let sampler = sampler(&args.method, &params).map_err(anyhow::Error::msg)?;
     if args.rays == Some(0) || args.time == Some(0) {
@@ -418,21 +467,22 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
         max_time: args.time.map(Duration::from_millis),
     };
     // Quake 3 leaf boxes are bounding boxes of convex leaves and reach into solid space: only
-    // points whose BSP cluster is the leaf's own serve as origins.
-    let free_space = |cell: usize, p: Vec3| match (&clusters, scene.bsp.as_deref()) {
-        (Some(c), Some(bsp)) => bsp.cluster_at(p) == Some(c[cell]),
-        _ => true,
-    };
+    // points whose BSP cluster is the leaf's own serve as origins, and by default only those a
+    // player can reach.
+    let free_space = |cell: usize, p: Vec3| q3.as_ref().is_none_or(|q| q.rule.allows(cell, p));
     if args.share_rays {
         // All cells are baked together, so the per-cell machinery (shards, checkpoints,
         // incremental rebakes) does not apply.
         if args.shard.is_some() || args.since.is_some() || args.restart {
             bail!("--share-rays bakes all cells at once: it cannot be combined with --shard, --since or --restart");
         }
-        let extra = serde_json::json!({
+        let mut extra = serde_json::json!({
             "parameters": format!("{params:?}"),
             "clusters": clusters,
         });
+        if let Some(r) = &origins_record {
+            extra[Q3_ORIGINS_KEY] = serde_json::json!(r);
+        }
         return bake_with_shared_rays(
             args,
             &scene,
@@ -454,11 +504,7 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
         seed: args.seed,
     };
     let parameters = format!("{params:?}");
-    let fp = fingerprint(
-        &setup,
-        &parameters,
-        serde_json::json!({ "clusters": clusters }),
-    );
+    let fp = fingerprint(&setup, &parameters, cells_key);
     let indices = match shard {
         Some(s) => s.indices(cells.len()),
         None => (0..cells.len()).collect(),
@@ -522,6 +568,9 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
         "parameters": parameters,
         "clusters": clusters,
     });
+    if let Some(r) = &origins_record {
+        extra[Q3_ORIGINS_KEY] = serde_json::json!(r);
+    }
     if let Some(s) = shard {
         extra["shard"] = serde_json::json!({"index": s.index, "count": s.count});
         // Each shard file carries only its cells' clusters.
@@ -559,6 +608,7 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
         set_bytes_per_cell: progress.set_bytes() as f64 / sizes.len().max(1) as f64,
         file_bytes_per_cell: std::fs::metadata(&args.output).map_or(0.0, |m| m.len() as f64)
             / sizes.len().max(1) as f64,
+        reachable: origins_record.as_ref().map(|r| serde_json::json!(r)),
     };
     if args.json {
         return print_json(&summary);
@@ -733,6 +783,7 @@ fn bake_with_shared_rays(
     extra: serde_json::Value,
 ) -> Result<()> {
     use sightline_region::ray_sharing::{bake_shared, ShareParams};
+    let reachable = extra.get(Q3_ORIGINS_KEY).cloned();
     if !matches!(args.method.as_str(), "gvs++" | "gvspp") {
         bail!(
             "--share-rays works with --method gvs++ only (got '{}')",
@@ -799,6 +850,7 @@ fn bake_with_shared_rays(
         memory_bytes_per_cell: scene.triangle_count().div_ceil(8) as f64,
         set_bytes_per_cell: per_cell(set_bytes as f64),
         file_bytes_per_cell: per_cell(file_bytes as f64),
+        reachable,
     };
     if args.json {
         return print_json(&summary);
@@ -1081,6 +1133,9 @@ struct ClusterComparison {
     /// Average erroneous pixels per view of our PVS and of q3map2's (with --viewpoints).
     ours_avg_error_pixels: Option<f64>,
     q3map2_avg_error_pixels: Option<f64>,
+    /// Viewpoints not evaluated (outside the cluster, or unreachable in a bake with reachable
+    /// origins), with --viewpoints.
+    rejected_viewpoints: crate::report::evaluate::Rejected,
 }
 
 fn run_compare_q3(args: CompareQ3Args) -> Result<()> {
@@ -1122,6 +1177,10 @@ fn run_compare_q3(args: CompareQ3Args) -> Result<()> {
         resolution: args.resolution.clamp(1, 8192),
         ..sightline_eval::EvalParams::default()
     };
+    // Viewpoints where the bake took its origins: the cluster, and reachable space when the
+    // bake recorded one.
+    let bvh = Bvh::build(&scene);
+    let viewpoints = crate::report::evaluate::Viewpoints::of(&scene, &bvh, &file, None)?;
     let mut rows = Vec::new();
     for (cluster, (leaves, ours)) in by_cluster {
         let mut q3 = fixedbitset::FixedBitSet::with_capacity(scene.triangle_count());
@@ -1129,14 +1188,14 @@ fn run_compare_q3(args: CompareQ3Args) -> Result<()> {
             q3.insert(t as usize);
         }
         let (mut ours_error, mut q3_error) = (None, None);
+        let filter = viewpoints.cluster(cluster);
         if args.viewpoints > 0 {
             let (mut sum, mut images) = ([0.0f64; 2], 0usize);
             for leaf in &leaves {
-                let inside = |p: Vec3| bsp.cluster_at(p) == Some(cluster);
                 let e = sightline_eval::evaluate_cell_in(
                     &scene,
                     leaf,
-                    &inside,
+                    &|p| filter.allows(p),
                     &[&ours, &q3],
                     &eval,
                     &|_, _| {},
@@ -1152,6 +1211,7 @@ fn run_compare_q3(args: CompareQ3Args) -> Result<()> {
             }
         }
         rows.push(ClusterComparison {
+            rejected_viewpoints: filter.rejected(),
             cluster,
             ours_avg_error_pixels: ours_error,
             q3map2_avg_error_pixels: q3_error,

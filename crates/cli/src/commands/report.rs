@@ -60,6 +60,8 @@ struct CellSummary {
     max_error_pixels: usize,
     avg_unconfirmed_pixels: f64,
     false_negatives: usize,
+    /// Viewpoints not evaluated (Quake 3 cells: outside the cluster, or unreachable).
+    rejected_viewpoints: crate::report::evaluate::Rejected,
 }
 
 #[derive(Serialize)]
@@ -132,6 +134,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
             max_error_pixels: o.eval.max_error_pixels,
             avg_unconfirmed_pixels: o.eval.avg_unconfirmed_pixels,
             false_negatives: o.eval.false_negatives,
+            rejected_viewpoints: o.rejected,
         })
         .collect();
     if args.json {
@@ -152,5 +155,12 @@ pub(crate) fn run(args: Args) -> Result<()> {
         cells.iter().map(|c| c.max_error_pixels).max().unwrap_or(0),
         index.display()
     );
+    let unreachable: usize = cells
+        .iter()
+        .map(|c| c.rejected_viewpoints.unreachable)
+        .sum();
+    if unreachable > 0 {
+        outln!("{unreachable} viewpoints were unreachable from the map's spawn points and not evaluated");
+    }
     Ok(())
 }

@@ -5,6 +5,7 @@
 //! Based on: Koch, Wimmer. Guided Visibility Sampling++. 2021, section 6 (the error measures),
 //! as implemented in `sightline_eval::pixel_error`.
 
+use std::cell::Cell;
 use std::time::Instant;
 
 use glam::Vec3;
@@ -12,6 +13,7 @@ use image::RgbImage;
 use sightline_core::trace::Bvh;
 use sightline_core::{Scene, TriangleSet};
 use sightline_eval::{evaluate_cell_in, view_errors, CellEvaluation, EvalParams, ViewErrors};
+use sightline_region::cell_sources::{Q3OriginRule, Q3Origins};
 use sightline_region::PvsFile;
 
 use crate::output::shaded_image;
@@ -24,44 +26,144 @@ pub(crate) struct CellOutcome {
     pub extra: Vec<CellEvaluation>,
     /// Seconds the evaluation took.
     pub seconds: f64,
+    /// Viewpoints skipped for lying outside the cell's cluster, and for being unreachable
+    /// (Quake 3 cells only).
+    pub rejected: Rejected,
+}
+
+/// Viewpoints of a cell that were not evaluated, by reason.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub(crate) struct Rejected {
+    /// Outside the cell's cluster (solid space, or another cluster in the cell's box).
+    pub outside_cluster: usize,
+    /// In the cluster, but not in the space reachable from the map's spawn points.
+    pub unreachable: usize,
+}
+
+/// Where the viewpoints of a file's cells may be: Quake 3 cells (`metadata["clusters"]`) take
+/// them where the bake took its ray origins (the cell's cluster, and reachable space when the
+/// bake recorded one); other cells anywhere in the cell.
+pub(crate) struct Viewpoints<'a> {
+    rule: Option<Q3OriginRule<'a>>,
+}
+
+impl<'a> Viewpoints<'a> {
+    /// The rule of `file` (its reachable space is rebuilt from the recorded parameters), or
+    /// the rule `origins` for its Quake 3 cells when given.
+    pub(crate) fn of(
+        scene: &'a Scene,
+        caster: &'a Bvh,
+        file: &PvsFile,
+        origins: Option<Q3Origins>,
+    ) -> anyhow::Result<Self> {
+        let rule = Q3OriginRule::from_metadata(scene, caster, &file.metadata, origins)?;
+        Ok(Self { rule })
+    }
+
+    /// The filter of cell `cell`.
+    pub(crate) fn cell(&self, cell: usize) -> CellViewpoints<'_> {
+        CellViewpoints {
+            rule: self.rule.as_ref(),
+            cluster: self
+                .rule
+                .as_ref()
+                .and_then(|r| r.clusters.get(cell).copied()),
+            last: Cell::new(None),
+            rejected: Cell::new(Rejected::default()),
+        }
+    }
+
+    /// The same filter for every cell of cluster `cluster` (`pvs compare-q3`).
+    pub(crate) fn cluster(&self, cluster: u32) -> CellViewpoints<'_> {
+        CellViewpoints {
+            rule: self.rule.as_ref(),
+            cluster: Some(cluster),
+            last: Cell::new(None),
+            rejected: Cell::new(Rejected::default()),
+        }
+    }
+}
+
+/// The viewpoint filter of one cell, counting what it rejects. The evaluation asks once per
+/// view (six times per viewpoint for cube faces), so the last answer is kept: each viewpoint
+/// is judged and counted once.
+pub(crate) struct CellViewpoints<'r> {
+    rule: Option<&'r Q3OriginRule<'r>>,
+    cluster: Option<u32>,
+    last: Cell<Option<(Vec3, bool)>>,
+    rejected: Cell<Rejected>,
+}
+
+impl CellViewpoints<'_> {
+    /// True when `eye` may be a viewpoint.
+    pub(crate) fn allows(&self, eye: Vec3) -> bool {
+        if let Some((p, ok)) = self.last.get() {
+            if p == eye {
+                return ok;
+            }
+        }
+        let (Some(rule), Some(cluster)) = (self.rule, self.cluster) else {
+            return true;
+        };
+        let mut r = self.rejected.get();
+        let ok = if !rule.in_cluster(cluster, eye) {
+            r.outside_cluster += 1;
+            false
+        } else if !rule.reachable(eye) {
+            r.unreachable += 1;
+            false
+        } else {
+            true
+        };
+        self.rejected.set(r);
+        self.last.set(Some((eye, ok)));
+        ok
+    }
+
+    /// What was rejected so far.
+    pub(crate) fn rejected(&self) -> Rejected {
+        self.rejected.get()
+    }
 }
 
 /// Evaluates every cell of `file`; `extra[i]` (when present) are more sets for cell `i`.
-/// Cells of a Quake 3 leaf bake (`metadata["clusters"]`) take viewpoints only in their own
-/// cluster, as the bake took its ray origins. `progress(cell, view, views)` reports progress.
+/// Cells of a Quake 3 bake take viewpoints only where the bake took its ray origins
+/// ([`Viewpoints`]). `progress(cell, view, views)` reports progress.
 pub(crate) fn evaluate_cells(
     scene: &Scene,
     file: &PvsFile,
     params: &EvalParams,
     extra: &[Vec<TriangleSet>],
     progress: &dyn Fn(usize, usize, usize),
-) -> Vec<CellOutcome> {
-    let clusters: Option<Vec<u64>> = file.metadata["clusters"]
-        .as_array()
-        .and_then(|a| a.iter().map(|c| c.as_u64()).collect());
-    file.cells
+) -> anyhow::Result<Vec<CellOutcome>> {
+    let bvh = Bvh::build(scene);
+    let viewpoints = Viewpoints::of(scene, &bvh, file, None)?;
+    Ok(file
+        .cells
         .iter()
         .enumerate()
         .map(|(i, cell)| {
             let start = Instant::now();
-            let cluster = clusters.as_ref().and_then(|c| c.get(i).copied());
-            let free = |p: Vec3| match (cluster, scene.bsp.as_deref()) {
-                (Some(c), Some(bsp)) => bsp.cluster_at(p).map(u64::from) == Some(c),
-                _ => true,
-            };
+            let filter = viewpoints.cell(i);
             let mut sets: Vec<&TriangleSet> = vec![&cell.visible];
             sets.extend(extra.get(i).into_iter().flatten());
-            let mut evals = evaluate_cell_in(scene, &cell.cell, &free, &sets, params, &|d, n| {
-                progress(i, d, n)
-            });
+            let mut evals = evaluate_cell_in(
+                scene,
+                &cell.cell,
+                &|p| filter.allows(p),
+                &sets,
+                params,
+                &|d, n| progress(i, d, n),
+            );
             let eval = evals.remove(0);
             CellOutcome {
                 eval,
                 extra: evals,
                 seconds: start.elapsed().as_secs_f64(),
+                rejected: filter.rejected(),
             }
         })
-        .collect()
+        .collect())
 }
 
 /// A worst view, rendered.

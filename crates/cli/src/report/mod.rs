@@ -53,7 +53,7 @@ pub(crate) fn pvs_report(
     extra: &[Vec<TriangleSet>],
     progress: &dyn Fn(usize, usize, usize),
 ) -> Result<PvsReport> {
-    let outcomes = evaluate::evaluate_cells(scene, file, &options.params, extra, progress);
+    let outcomes = evaluate::evaluate_cells(scene, file, &options.params, extra, progress)?;
     let worst = evaluate::worst_views(
         scene,
         file,

@@ -166,6 +166,20 @@ def bake(
     threads: Optional[int] = None,
     progress: _Progress = None,
 ) -> Pvs: ...
+def bake_q3(
+    scene: Scene,
+    cells: Literal["leaves", "clusters"] = "leaves",
+    method: _MethodArg = "gvs++",
+    rays: Optional[int] = None,
+    seed: int = 1,
+    time_ms: Optional[int] = None,
+    threads: Optional[int] = None,
+    progress: _Progress = None,
+    *,
+    clusters: Optional[Sequence[int]] = None,
+    include_unreachable: bool = False,
+    reach_step: float = 16.0,
+) -> Pvs: ...
 def _bake_fingerprint(
     scene: Scene, cells: Sequence[ViewCell], method: _MethodArg, rays: Optional[int], seed: int
 ) -> str: ...
