@@ -525,7 +525,7 @@ pub(crate) fn bake_q3<'py>(
     let q3 = py
         .detach(|| {
             with_threads(threads, || {
-                q3_cells(&data.scene, data.bvh(), kind, clusters.as_deref(), origins)
+                q3_cells(&data.scene, kind, clusters.as_deref(), origins)
             })
         })
         .map_err(value_error)?

@@ -345,9 +345,12 @@ impl<'a> Q3OriginRule<'a> {
         self.bsp.cluster_at(p) == Some(cluster)
     }
 
-    /// True when `p` is reachable (always, without a reachable space).
+    /// True when `p`, a point of some cluster ([`Q3OriginRule::in_cluster`] held), is
+    /// reachable (always, without a reachable space).
     pub fn reachable(&self, p: Vec3) -> bool {
-        self.reach.as_ref().is_none_or(|r| r.is_reachable(p))
+        self.reach
+            .as_ref()
+            .is_none_or(|r| r.is_reachable_in_cluster(p))
     }
 
     /// The rule a `.pvs` file of a Quake 3 bake was baked with, from its metadata
@@ -358,7 +361,6 @@ impl<'a> Q3OriginRule<'a> {
     /// points gets the cluster rule, as its bake did.
     pub fn from_metadata(
         scene: &'a Scene,
-        caster: &'a dyn RayCaster,
         metadata: &serde_json::Value,
         origins: Option<Q3Origins>,
     ) -> Result<Option<Self>, ReachError> {
@@ -374,7 +376,7 @@ impl<'a> Q3OriginRule<'a> {
             return Ok(None);
         };
         let reach = match origins.unwrap_or_else(|| Q3Origins::from_metadata(metadata)) {
-            Q3Origins::Reachable(p) => match ReachableSpace::build(scene, caster, &p) {
+            Q3Origins::Reachable(p) => match ReachableSpace::build(scene, &p) {
                 Ok(r) => Some(r),
                 Err(ReachError::NoSpawnPoints) => None,
                 Err(e) => return Err(e),
@@ -510,7 +512,6 @@ impl Q3Cells<'_> {
 /// reachable space's parameters are bad ([`ReachError`]).
 pub fn q3_cells<'a>(
     scene: &'a Scene,
-    caster: &'a dyn RayCaster,
     kind: Q3CellKind,
     clusters: Option<&[u32]>,
     origins: Q3Origins,
@@ -538,7 +539,7 @@ pub fn q3_cells<'a>(
     };
     let reach = match origins {
         Q3Origins::Cluster => None,
-        Q3Origins::Reachable(params) => match ReachableSpace::build(scene, caster, &params) {
+        Q3Origins::Reachable(params) => match ReachableSpace::build(scene, &params) {
             Ok(r) => Some(r),
             Err(ReachError::NoSpawnPoints) => {
                 summary.fallback = Some("the map has no spawn points".into());
@@ -671,10 +672,9 @@ mod tests {
             &sightline_core::scene::LoadOptions::default(),
         )
         .unwrap();
-        let bvh = Bvh::build(&scene);
         let coarse = Q3Origins::Reachable(ReachParams { step: 32.0 });
-        let q = q3_cells(&scene, &bvh, Q3CellKind::Leaves, None, coarse).unwrap();
-        let all = q3_cells(&scene, &bvh, Q3CellKind::Leaves, None, Q3Origins::Cluster).unwrap();
+        let q = q3_cells(&scene, Q3CellKind::Leaves, None, coarse).unwrap();
+        let all = q3_cells(&scene, Q3CellKind::Leaves, None, Q3Origins::Cluster).unwrap();
         let s = &q.summary;
         let unreachable = s.unreachable_leaves.unwrap();
         assert_eq!(all.cells.len(), s.leaves);
@@ -710,7 +710,7 @@ mod tests {
             Q3Origins::from_metadata(&serde_json::Value::Null),
             Q3Origins::Cluster
         );
-        let rule = Q3OriginRule::from_metadata(&scene, &bvh, &m, None)
+        let rule = Q3OriginRule::from_metadata(&scene, &m, None)
             .unwrap()
             .unwrap();
         assert!(rule.reach.is_some() && rule.clusters == q.rule.clusters);

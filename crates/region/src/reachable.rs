@@ -22,12 +22,12 @@
 //! * **Fill.** A breadth-first fill from the spawn points (`BspData::spawn_points`; a spawn in
 //!   solid is lifted by 9 units first, as the game does) through the 6 neighbours of each
 //!   reached point, when the neighbour is free and the segment between the two hits no
-//!   blocking triangle (`sightline_core::trace`'s ray caster, the scene's own geometry: detail
-//!   brushes and patches block, although they are not in the BSP's solid leaves). A spawn seeds
-//!   the free corners of its lattice cell that it sees by a clear segment. The fill is
-//!   level-synchronous: each level's edges are tested in parallel (rayon) against the reached
-//!   set as it was when the level began, and each edge is always cast from its lower lattice
-//!   point, so the result (and the number of rays cast) does not depend on the thread count.
+//!   blocking triangle (the scene's own geometry: detail brushes and patches block, although
+//!   they are not in the BSP's solid leaves). A spawn seeds the free corners of its lattice
+//!   cell that it sees by a clear segment. The fill is level-synchronous: each level's edges
+//!   are tested in parallel (rayon) against the reached set as it was when the level began,
+//!   and each edge always from its lower lattice point, so the result (and the number of tests)
+//!   does not depend on the thread count.
 //! * **Point query** ([`ReachableSpace::is_reachable`]): `p` is reachable when it is in a
 //!   cluster and some reached corner of its lattice cell has a clear segment to `p`.
 //! * **Leaves** ([`ReachableSpace::leaf_reachable`]): a leaf is reachable when a reachable
@@ -35,10 +35,15 @@
 //!   (small leaves hold no lattice point), the centre and 64 Halton points of the leaf's box
 //!   that lie in the leaf, asked with the point query.
 //!
-//! Two shortcuts keep the ray count down without changing any answer: a lattice cell that no
-//! blocking triangle touches (a triangle-box overlap test, with a small margin, when the space
-//! is built) is convex and empty, so segments inside it are clear without a ray — most edges
-//! of the fill and most point queries in open rooms cost no ray at all.
+//! **Segment tests without ray casts.** Every segment the algorithm tests lies in one closed
+//! lattice cell (a fill edge, a spawn or query point and a corner of its cell), and only the
+//! triangles touching that cell can meet it. So the blocking triangles of each cell are listed
+//! once (a separating-axis triangle-box test, with a margin of a thousandth of a step), and a
+//! segment is tested against its cell's few triangles (Möller-Trumbore). A cell with no
+//! triangle is convex and empty: its segments are clear without a test, and that holds for
+//! most fill edges and queries in open rooms. A first version cast each segment through the
+//! scene's BVH. The origin rule runs for every candidate ray origin of a bake, and there one
+//! BVH cast costs far more than the handful of triangle tests (measured in docs/BENCHMARKS.md).
 //!
 //! **Blocking triangles** are all triangles except those of brush models 1.. (doors, lifts,
 //! platforms: the map holds them at one position, but they move) and liquid or fog surfaces
@@ -51,10 +56,12 @@
 //!
 //! # Memory and time
 //!
-//! Two bits per lattice point are kept (reached; cell touched by a blocking triangle), one bit
-//! per triangle (blocking) and per leaf; while filling, the current and next level as lists of
-//! 4-byte indices (a shell of the fill, far smaller than the lattice). The lattice is capped at
-//! [`MAX_VOXELS`] = 2^28 points (64 MiB of bits). Measured on the shared maps (2 cores, release
+//! Kept for queries: two bits per lattice point (reached; cell touched by a triangle), half a
+//! bit more for the touched cells' running count, 4 bytes per touched cell (its row) and per
+//! (cell, triangle) pair, and a bit per leaf. While building, the (cell, triangle) pairs are
+//! sorted at 8 bytes each, and the fill holds the current and next level as lists of 4-byte
+//! indices (a shell of the fill, far smaller than the lattice). The lattice is capped at
+//! [`MAX_VOXELS`] = 2^28 points. Measured on the shared maps (2 cores, release
 //! build) in docs/BENCHMARKS.md, "Quake 3 cells: origins in reachable space": 0.3-2.6 s per map
 //! at the default step, 0.6-10 MiB.
 
@@ -64,11 +71,9 @@ use fixedbitset::FixedBitSet;
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
-use sightline_core::atomic_set::AtomicTriangleSet;
 use sightline_core::sampling::ShiftedHalton;
 use sightline_core::scene::q3::{BspData, SurfaceFlags};
-use sightline_core::trace::RayCaster;
-use sightline_core::{Ray, Scene};
+use sightline_core::Scene;
 
 /// Default lattice step in map units: half a player's width (a player box is 32 x 32 x 56).
 pub const DEFAULT_STEP: f32 = 16.0;
@@ -90,10 +95,6 @@ const SPAWN_LIFT: f32 = 9.0;
 
 /// Points of a leaf's box tried when no reached lattice point lies in the leaf.
 const LEAF_SAMPLES: u64 = 64;
-
-/// Non-blocking triangles one segment may pass through before it counts as blocked (a guard
-/// against pathological stacks of water surfaces).
-const MAX_PASSES: usize = 32;
 
 /// Parameters of a reachable space.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -158,8 +159,9 @@ pub struct ReachStats {
     pub leaves: usize,
     /// Of those, the reachable ones.
     pub reachable_leaves: usize,
-    /// Rays cast to build it (fill edges, spawn seeds, leaf samples).
-    pub rays: u64,
+    /// Segments tested against the triangles of their lattice cell to build it (fill edges
+    /// in touched cells, spawn seeds, leaf samples); edges in untouched cells need no test.
+    pub segment_tests: u64,
     /// Bytes of the bit planes kept for queries.
     pub memory_bytes: u64,
     /// Wall-clock seconds to build it.
@@ -227,18 +229,47 @@ impl Lattice {
     }
 }
 
+/// The blocking triangles touching each lattice cell, in compressed rows: a bit per cell, a
+/// running count per 64 cells to find a touched cell's row in O(1), and the rows' triangle ids.
+struct CellTriangles {
+    /// Bit `i` of word `i / 64`: a blocking triangle touches cell `i` (by its lower corner).
+    words: Vec<u64>,
+    /// Touched cells before word `w`.
+    rank: Vec<u32>,
+    /// Row starts into `triangles`, one per touched cell and one past the end.
+    starts: Vec<u32>,
+    /// Triangle ids, row by row.
+    triangles: Vec<u32>,
+}
+
+impl CellTriangles {
+    /// The triangles touching `cell`, or `None` when none does.
+    fn of(&self, cell: u32) -> Option<&[u32]> {
+        let (w, b) = (cell as usize / 64, cell % 64);
+        let word = *self.words.get(w)?;
+        if word & (1 << b) == 0 {
+            return None;
+        }
+        let row = self.rank[w] as usize + (word & ((1u64 << b) - 1)).count_ones() as usize;
+        let (from, to) = (self.starts[row] as usize, self.starts[row + 1] as usize);
+        Some(&self.triangles[from..to])
+    }
+
+    fn memory_bytes(&self) -> usize {
+        8 * self.words.len() + 4 * (self.rank.len() + self.starts.len() + self.triangles.len())
+    }
+}
+
 /// The space reachable from a Quake 3 map's spawn points (see the module docs). Borrows the
-/// map and its ray caster for the point queries.
+/// map for the point queries.
 pub struct ReachableSpace<'a> {
+    scene: &'a Scene,
     bsp: &'a BspData,
-    caster: &'a dyn RayCaster,
-    /// Per triangle: blocks movement.
-    blocking: FixedBitSet,
     lattice: Lattice,
     /// Per lattice point: reached from a spawn.
     reached: FixedBitSet,
-    /// Per lattice cell (by its lower corner): a blocking triangle may touch it.
-    touched: AtomicTriangleSet,
+    /// Per lattice cell: the blocking triangles that touch it.
+    cells: CellTriangles,
     /// Per BSP leaf: reachable.
     leaves: FixedBitSet,
     stats: ReachStats,
@@ -255,11 +286,7 @@ impl std::fmt::Debug for ReachableSpace<'_> {
 impl<'a> ReachableSpace<'a> {
     /// Floods the free space of `scene`'s map from its spawn points. Errors: no BSP data, no
     /// spawn points, a bad step or a lattice over [`MAX_VOXELS`] points.
-    pub fn build(
-        scene: &'a Scene,
-        caster: &'a dyn RayCaster,
-        params: &ReachParams,
-    ) -> Result<Self, ReachError> {
+    pub fn build(scene: &'a Scene, params: &ReachParams) -> Result<Self, ReachError> {
         let start = Instant::now();
         let step = params.step;
         if !(step.is_finite() && step > 0.0) {
@@ -291,13 +318,13 @@ impl<'a> ReachableSpace<'a> {
             step,
             n: counts.map(|c| c.max(2.0) as u32),
         };
+        let cells = cell_triangles(scene, &lattice, &blocking_triangles(scene, bsp));
         let mut space = Self {
+            scene,
             bsp,
-            caster,
-            blocking: blocking_triangles(scene, bsp),
             lattice,
             reached: FixedBitSet::with_capacity(lattice.len()),
-            touched: AtomicTriangleSet::new(lattice.len()),
+            cells,
             leaves: FixedBitSet::with_capacity(bsp.leaves.len()),
             stats: ReachStats {
                 step,
@@ -308,21 +335,21 @@ impl<'a> ReachableSpace<'a> {
                 seeded_spawn_points: 0,
                 leaves: bsp.leaves.iter().filter(|l| l.cluster >= 0).count(),
                 reachable_leaves: 0,
-                rays: 0,
+                segment_tests: 0,
                 memory_bytes: 0,
                 seconds: 0.0,
             },
         };
-        space.mark_touched_cells(scene);
-        let seed_rays = space.seed();
-        let fill_rays = space.fill();
-        let leaf_rays = space.find_leaves();
+        let seed_tests = space.seed();
+        let fill_tests = space.fill();
+        let leaf_tests = space.find_leaves();
         let s = &mut space.stats;
-        s.rays = seed_rays + fill_rays + leaf_rays;
+        s.segment_tests = seed_tests + fill_tests + leaf_tests;
         s.reached_voxels = space.reached.count_ones(..) as u64;
         s.reachable_leaves = space.leaves.count_ones(..);
-        s.memory_bytes = (2 * space.lattice.len() + space.blocking.len() + space.leaves.len())
-            .div_ceil(8) as u64;
+        s.memory_bytes = (space.lattice.len().div_ceil(8)
+            + space.cells.memory_bytes()
+            + space.leaves.len() / 8) as u64;
         s.seconds = start.elapsed().as_secs_f64();
         Ok(space)
     }
@@ -335,7 +362,13 @@ impl<'a> ReachableSpace<'a> {
     /// True when a player can be at `p`: it is in a cluster and some reached corner of its
     /// lattice cell sees it by a clear segment.
     pub fn is_reachable(&self, p: Vec3) -> bool {
-        self.reachable_point(p, &mut 0)
+        p.is_finite() && self.bsp.cluster_at(p).is_some() && self.reachable_free_point(p, &mut 0)
+    }
+
+    /// [`ReachableSpace::is_reachable`] for a point already known to be in a cluster (the
+    /// origin rule of Quake 3 cells tests the cluster first): saves the second BSP descent.
+    pub fn is_reachable_in_cluster(&self, p: Vec3) -> bool {
+        p.is_finite() && self.reachable_free_point(p, &mut 0)
     }
 
     /// True when leaf `leaf` (an index of `BspData::leaves`) holds a reachable point.
@@ -353,11 +386,8 @@ impl<'a> ReachableSpace<'a> {
         })
     }
 
-    /// [`ReachableSpace::is_reachable`], counting the rays it casts into `rays`.
-    fn reachable_point(&self, p: Vec3, rays: &mut u64) -> bool {
-        if !p.is_finite() || self.bsp.cluster_at(p).is_none() {
-            return false;
-        }
+    /// The point query for a point in a cluster, counting its segment tests into `tests`.
+    fn reachable_free_point(&self, p: Vec3, tests: &mut u64) -> bool {
         let Some(c) = self.lattice.cell_of(p) else {
             return false;
         };
@@ -380,82 +410,36 @@ impl<'a> ReachableSpace<'a> {
         }
         // An untouched cell is convex and holds no blocking triangle: every segment in it is
         // clear.
-        if !self.touched.contains(self.lattice.index(c)) {
+        let Some(triangles) = self.cells.of(self.lattice.index(c)) else {
             return true;
-        }
+        };
         // Nearest first: the most likely to see p.
         let corners = &mut corners[..k];
         corners.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-        corners
-            .iter()
-            .any(|&(_, q)| self.segment_clear(self.lattice.point(q), p, rays))
+        corners.iter().any(|&(_, q)| {
+            *tests += 1;
+            self.segment_clear(triangles, self.lattice.point(q), p)
+        })
     }
 
-    /// True when the segment `a`-`b` hits no blocking triangle.
-    fn segment_clear(&self, a: Vec3, b: Vec3, rays: &mut u64) -> bool {
-        let dir = b - a;
-        if dir == Vec3::ZERO {
-            return true;
-        }
-        let mut t_min = 0.0;
-        for _ in 0..MAX_PASSES {
-            *rays += 1;
-            let hit = self
-                .caster
-                .cast_one(&Ray::new(a, dir).with_range(t_min, 1.0));
-            match hit.triangle() {
-                None => return true,
-                Some(t) if !self.blocking.contains(t as usize) => {
-                    // Past the water surface or door; 1e-4 of a segment (a sixtieth of a unit
-                    // at the default step) is far below any gap between two surfaces.
-                    t_min = hit.t + 1e-4;
-                }
-                Some(_) => return false,
-            }
-        }
-        false
+    /// True when the segment `a`-`b`, which lies in a lattice cell whose blocking triangles
+    /// are `triangles`, hits none of them. A segment inside a closed cell can only meet the
+    /// triangles that touch the cell, so this is exact without a ray cast through the scene.
+    fn segment_clear(&self, triangles: &[u32], a: Vec3, b: Vec3) -> bool {
+        triangles
+            .iter()
+            .all(|&t| !segment_hits_triangle(a, b, self.scene.triangle(t)))
     }
 
     fn free(&self, c: [u32; 3]) -> bool {
         self.bsp.cluster_at(self.lattice.point(c)).is_some()
     }
 
-    /// Marks the lattice cells that a blocking triangle touches (closed cell boxes grown by a
-    /// thousandth of a step, so that a triangle on a cell face counts for both cells).
-    fn mark_touched_cells(&self, scene: &Scene) {
-        let l = &self.lattice;
-        let margin = l.step * 1e-3;
-        let half = Vec3::splat(0.5 * l.step + margin);
-        let blocking: Vec<u32> = self.blocking.ones().map(|t| t as u32).collect();
-        blocking.par_iter().for_each(|&t| {
-            let tri = scene.triangle(t);
-            if (tri[1] - tri[0]).cross(tri[2] - tri[0]) == Vec3::ZERO {
-                return; // never hit by the caster
-            }
-            let lo = tri[0].min(tri[1]).min(tri[2]) - Vec3::splat(margin);
-            let hi = tri[0].max(tri[1]).max(tri[2]) + Vec3::splat(margin);
-            let Some([(x0, x1), (y0, y1), (z0, z1)]) = l.cells_in(lo, hi) else {
-                return;
-            };
-            for z in z0..=z1 {
-                for y in y0..=y1 {
-                    for x in x0..=x1 {
-                        let c = [x, y, z];
-                        let centre = l.point(c) + Vec3::splat(0.5 * l.step);
-                        if triangle_overlaps_box(tri, centre, half) {
-                            self.touched.insert(l.index(c));
-                        }
-                    }
-                }
-            }
-        });
-    }
-
     /// Seeds the fill: for each spawn point (lifted out of solid if need be), the free corners
-    /// of its lattice cell that it sees. Returns the rays cast.
+    /// of its lattice cell that it sees. Returns the segment tests made.
     fn seed(&mut self) -> u64 {
         let up = Vec3::Z;
-        let mut rays = 0;
+        let mut tests = 0;
         let mut seeded = 0;
         let bsp = self.bsp;
         for &spawn in &bsp.spawn_points {
@@ -468,10 +452,12 @@ impl<'a> ReachableSpace<'a> {
             let Some(c) = self.lattice.cell_of(p) else {
                 continue;
             };
+            let triangles = self.cells.of(self.lattice.index(c)).unwrap_or(&[]);
             let mut any = false;
             for k in 0..8u32 {
                 let q = [c[0] + (k & 1), c[1] + ((k >> 1) & 1), c[2] + (k >> 2)];
-                if self.free(q) && self.segment_clear(p, self.lattice.point(q), &mut rays) {
+                tests += 1;
+                if self.free(q) && self.segment_clear(triangles, p, self.lattice.point(q)) {
                     self.reached.insert(self.lattice.index(q) as usize);
                     any = true;
                 }
@@ -479,14 +465,16 @@ impl<'a> ReachableSpace<'a> {
             seeded += usize::from(any);
         }
         self.stats.seeded_spawn_points = seeded;
-        rays
+        tests
     }
 
     /// True when the lattice edge from `u` to `u + e_axis` is clear: some cell around it is
-    /// untouched, or the segment hits no blocking triangle.
-    fn edge_clear(&self, u: [u32; 3], axis: usize, rays: &mut u64) -> bool {
+    /// untouched, or it hits none of the triangles of one of them (every triangle meeting the
+    /// edge touches all the cells around it).
+    fn edge_clear(&self, u: [u32; 3], axis: usize, tests: &mut u64) -> bool {
         let (j, k) = ((axis + 1) % 3, (axis + 2) % 3);
         let n = self.lattice.n;
+        let mut fewest: Option<&[u32]> = None;
         for (dj, dk) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
             if u[j] < dj || u[k] < dk {
                 continue;
@@ -494,26 +482,36 @@ impl<'a> ReachableSpace<'a> {
             let mut c = u;
             c[j] -= dj;
             c[k] -= dk;
-            if c[j] + 1 < n[j] && c[k] + 1 < n[k] && !self.touched.contains(self.lattice.index(c)) {
-                return true;
+            if c[j] + 1 >= n[j] || c[k] + 1 >= n[k] {
+                continue;
+            }
+            match self.cells.of(self.lattice.index(c)) {
+                None => return true,
+                Some(t) if fewest.is_none_or(|f| t.len() < f.len()) => fewest = Some(t),
+                Some(_) => {}
             }
         }
         let mut v = u;
         v[axis] += 1;
-        self.segment_clear(self.lattice.point(u), self.lattice.point(v), rays)
+        *tests += 1;
+        self.segment_clear(
+            fewest.unwrap_or(&[]),
+            self.lattice.point(u),
+            self.lattice.point(v),
+        )
     }
 
-    /// The breadth-first fill from the seeds. Returns the rays cast.
+    /// The breadth-first fill from the seeds. Returns the segment tests made.
     fn fill(&mut self) -> u64 {
         let mut frontier: Vec<u32> = self.reached.ones().map(|i| i as u32).collect();
-        let mut rays = 0;
+        let mut tests = 0;
         while !frontier.is_empty() {
             let this = &*self;
-            let (mut next, level_rays) = frontier
+            let (mut next, level_tests) = frontier
                 .par_iter()
                 .fold(
                     || (Vec::new(), 0u64),
-                    |(mut found, mut rays), &i| {
+                    |(mut found, mut tests), &i| {
                         let u = this.lattice.coords(i);
                         for axis in 0..3 {
                             for down in [false, true] {
@@ -535,22 +533,22 @@ impl<'a> ReachableSpace<'a> {
                                 }
                                 // Always from the lower end: one answer per edge.
                                 let lower = if down { v } else { u };
-                                if this.edge_clear(lower, axis, &mut rays) {
+                                if this.edge_clear(lower, axis, &mut tests) {
                                     found.push(vi);
                                 }
                             }
                         }
-                        (found, rays)
+                        (found, tests)
                     },
                 )
                 .reduce(
                     || (Vec::new(), 0),
-                    |(mut a, ra), (b, rb)| {
+                    |(mut a, ta), (b, tb)| {
                         a.extend(b);
-                        (a, ra + rb)
+                        (a, ta + tb)
                     },
                 );
-            rays += level_rays;
+            tests += level_tests;
             next.sort_unstable();
             next.dedup();
             for &v in &next {
@@ -558,10 +556,10 @@ impl<'a> ReachableSpace<'a> {
             }
             frontier = next;
         }
-        rays
+        tests
     }
 
-    /// Marks the reachable leaves (see the module docs). Returns the rays cast.
+    /// Marks the reachable leaves (see the module docs). Returns the segment tests made.
     fn find_leaves(&mut self) -> u64 {
         let bsp = self.bsp;
         let mut leaves = FixedBitSet::with_capacity(bsp.leaves.len());
@@ -589,7 +587,7 @@ impl<'a> ReachableSpace<'a> {
             .par_iter()
             .map(|&l| {
                 let b = bsp.leaves[l].bounds();
-                let mut rays = 0;
+                let mut tests = 0;
                 let reachable = (0..=LEAF_SAMPLES)
                     .map(|i| {
                         if i == 0 {
@@ -598,20 +596,112 @@ impl<'a> ReachableSpace<'a> {
                             b.min + b.extent() * Vec3::from(halton.point(i - 1))
                         }
                     })
-                    .any(|p| bsp.leaf_at(p) == l && this.reachable_point(p, &mut rays));
-                (if reachable { l } else { usize::MAX }, rays)
+                    // A point of the leaf is in its cluster (leaves of `rest` have one).
+                    .any(|p| bsp.leaf_at(p) == l && this.reachable_free_point(p, &mut tests));
+                (if reachable { l } else { usize::MAX }, tests)
             })
             .collect();
-        let mut rays = 0;
-        for (l, r) in found {
-            rays += r;
+        let mut tests = 0;
+        for (l, t) in found {
+            tests += t;
             if l != usize::MAX {
                 leaves.insert(l);
             }
         }
         self.leaves = leaves;
-        rays
+        tests
     }
+}
+
+/// For each lattice cell, the blocking triangles that touch it (closed cell boxes grown by a
+/// thousandth of a step, so that a triangle on a cell face counts for both cells; a
+/// separating-axis test per cell of the triangle's box).
+fn cell_triangles(scene: &Scene, l: &Lattice, blocking: &FixedBitSet) -> CellTriangles {
+    let margin = l.step * 1e-3;
+    let half = Vec3::splat(0.5 * l.step + margin);
+    let ids: Vec<u32> = blocking.ones().map(|t| t as u32).collect();
+    // (cell, triangle) pairs, chunk by chunk in parallel; sorted, they are the rows.
+    let mut pairs: Vec<(u32, u32)> = ids
+        .par_chunks(1024)
+        .flat_map_iter(|chunk| {
+            let mut out = Vec::new();
+            for &t in chunk {
+                let tri = scene.triangle(t);
+                if (tri[1] - tri[0]).cross(tri[2] - tri[0]) == Vec3::ZERO {
+                    continue; // zero area: blocks nothing
+                }
+                let lo = tri[0].min(tri[1]).min(tri[2]) - Vec3::splat(margin);
+                let hi = tri[0].max(tri[1]).max(tri[2]) + Vec3::splat(margin);
+                let Some([(x0, x1), (y0, y1), (z0, z1)]) = l.cells_in(lo, hi) else {
+                    continue;
+                };
+                for z in z0..=z1 {
+                    for y in y0..=y1 {
+                        for x in x0..=x1 {
+                            let c = [x, y, z];
+                            let centre = l.point(c) + Vec3::splat(0.5 * l.step);
+                            if triangle_overlaps_box(tri, centre, half) {
+                                out.push((l.index(c), t));
+                            }
+                        }
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    pairs.par_sort_unstable();
+    let mut words = vec![0u64; l.len().div_ceil(64)];
+    let mut starts = Vec::new();
+    let mut triangles = Vec::with_capacity(pairs.len());
+    let mut last = u32::MAX;
+    for &(cell, t) in &pairs {
+        if cell != last {
+            words[cell as usize / 64] |= 1 << (cell % 64);
+            starts.push(triangles.len() as u32);
+            last = cell;
+        }
+        triangles.push(t);
+    }
+    starts.push(triangles.len() as u32);
+    let mut rank = Vec::with_capacity(words.len());
+    let mut count = 0u32;
+    for w in &words {
+        rank.push(count);
+        count += w.count_ones();
+    }
+    CellTriangles {
+        words,
+        rank,
+        starts,
+        triangles,
+    }
+}
+
+/// True when the closed segment `a`-`b` meets the triangle (Möller-Trumbore, edges and ends
+/// included; a segment in the triangle's plane does not meet it, as a ray along a surface
+/// does not hit it).
+fn segment_hits_triangle(a: Vec3, b: Vec3, [p0, p1, p2]: [Vec3; 3]) -> bool {
+    let d = b - a;
+    let (e1, e2) = (p1 - p0, p2 - p0);
+    let h = d.cross(e2);
+    let det = e1.dot(h);
+    if det.abs() <= f32::EPSILON * e1.length() * e2.length() * d.length() {
+        return false;
+    }
+    let inv = 1.0 / det;
+    let s = a - p0;
+    let u = inv * s.dot(h);
+    if !(0.0..=1.0).contains(&u) {
+        return false;
+    }
+    let q = s.cross(e1);
+    let v = inv * d.dot(q);
+    if v < 0.0 || u + v > 1.0 {
+        return false;
+    }
+    let t = inv * e2.dot(q);
+    (0.0..=1.0).contains(&t)
 }
 
 /// Per triangle: true unless it belongs to a brush model 1.. (movers) or a liquid or fog
@@ -666,7 +756,6 @@ mod tests {
     use super::*;
     use sightline_core::scene::q3::{Leaf, Node, Plane};
     use sightline_core::scene::SceneBuilder;
-    use sightline_core::trace::Bvh;
 
     /// A closed room [0, 512]^3 with a closed crate [200, 264]^3 in it and a spawn point in
     /// a corner; the BSP has one leaf of cluster 0 everywhere except a 0.5-unit slab
@@ -725,8 +814,7 @@ mod tests {
     #[test]
     fn spawn_and_room_are_reachable_crate_and_outside_are_not() {
         let scene = room();
-        let bvh = Bvh::build(&scene);
-        let r = ReachableSpace::build(&scene, &bvh, &ReachParams::default()).unwrap();
+        let r = ReachableSpace::build(&scene, &ReachParams::default()).unwrap();
         let s = r.stats();
         assert_eq!(s.seeded_spawn_points, 1);
         assert!(r.is_reachable(Vec3::new(40.0, 40.0, 30.0)));
@@ -746,10 +834,11 @@ mod tests {
         assert!(r.leaf_reachable(0) && r.leaf_reachable(1) && r.leaf_reachable(2));
         assert_eq!(s.reachable_leaves, 3);
         assert!(r.cluster_reachable(1));
-        assert_eq!(
-            s.memory_bytes,
-            (2 * s.voxels as usize + 24 + 3).div_ceil(8) as u64
-        );
+        // One bit per lattice point (reached), the touched cells' bits and rows (the walls
+        // touch one layer of cells each, the crate a few), a bit per leaf.
+        let touched = r.cells.starts.len() - 1;
+        assert!(touched > 6 * 32 * 32 && touched < 7 * 35 * 35, "{touched}");
+        assert!(s.memory_bytes < s.voxels / 4 + 64 * touched as u64, "{s:?}");
     }
 
     #[test]
@@ -757,8 +846,7 @@ mod tests {
         // The same room with the spawn inside the crate: only the crate's inside is reached.
         let mut scene = room();
         scene.bsp.as_mut().unwrap().spawn_points = vec![Vec3::splat(232.0)];
-        let bvh = Bvh::build(&scene);
-        let r = ReachableSpace::build(&scene, &bvh, &ReachParams::default()).unwrap();
+        let r = ReachableSpace::build(&scene, &ReachParams::default()).unwrap();
         assert!(r.is_reachable(Vec3::splat(232.0)));
         assert!(!r.is_reachable(Vec3::new(40.0, 40.0, 30.0)));
         assert!(!r.leaf_reachable(0) && !r.leaf_reachable(1) && r.leaf_reachable(2));
@@ -774,15 +862,13 @@ mod tests {
             &sightline_core::scene::LoadOptions::default(),
         )
         .unwrap();
-        let bvh = Bvh::build(&scene);
         let build = |threads: usize| {
             rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()
                 .unwrap()
                 .install(|| {
-                    let r =
-                        ReachableSpace::build(&scene, &bvh, &ReachParams { step: 32.0 }).unwrap();
+                    let r = ReachableSpace::build(&scene, &ReachParams { step: 32.0 }).unwrap();
                     (r.reached.clone(), r.leaves.clone(), r.stats().clone())
                 })
         };
@@ -790,10 +876,10 @@ mod tests {
         let (reached3, leaves3, stats3) = build(3);
         assert_eq!(reached, reached3);
         assert_eq!(leaves, leaves3);
-        assert_eq!(stats.rays, stats3.rays);
+        assert_eq!(stats.segment_tests, stats3.segment_tests);
         // Every spawn point of the map is reachable, and so is its leaf.
         let bsp = scene.bsp.as_deref().unwrap();
-        let r = ReachableSpace::build(&scene, &bvh, &ReachParams { step: 32.0 }).unwrap();
+        let r = ReachableSpace::build(&scene, &ReachParams { step: 32.0 }).unwrap();
         assert_eq!(stats.seeded_spawn_points, bsp.spawn_points.len());
         for &s in &bsp.spawn_points {
             assert!(r.is_reachable(s), "spawn {s}");
@@ -809,22 +895,38 @@ mod tests {
     #[test]
     fn bad_parameters_are_errors() {
         let scene = room();
-        let bvh = Bvh::build(&scene);
         for step in [0.0, -1.0, f32::NAN, f32::INFINITY] {
-            let e = ReachableSpace::build(&scene, &bvh, &ReachParams { step }).unwrap_err();
+            let e = ReachableSpace::build(&scene, &ReachParams { step }).unwrap_err();
             assert!(matches!(e, ReachError::BadStep { .. }), "{e}");
         }
-        let e = ReachableSpace::build(&scene, &bvh, &ReachParams { step: 0.05 }).unwrap_err();
+        let e = ReachableSpace::build(&scene, &ReachParams { step: 0.05 }).unwrap_err();
         assert!(e.to_string().contains("2^28"), "{e}");
         let mut none = room();
         none.bsp.as_mut().unwrap().spawn_points.clear();
-        let bvh = Bvh::build(&none);
-        let e = ReachableSpace::build(&none, &bvh, &ReachParams::default()).unwrap_err();
+        let e = ReachableSpace::build(&none, &ReachParams::default()).unwrap_err();
         assert!(matches!(e, ReachError::NoSpawnPoints), "{e}");
         let plain = SceneBuilder::new("x").finish();
-        let bvh = Bvh::build(&plain);
-        let e = ReachableSpace::build(&plain, &bvh, &ReachParams::default()).unwrap_err();
+        let e = ReachableSpace::build(&plain, &ReachParams::default()).unwrap_err();
         assert!(matches!(e, ReachError::NoBsp), "{e}");
+    }
+
+    #[test]
+    fn segments_meet_triangles_on_edges_not_in_their_plane() {
+        let tri = [
+            Vec3::ZERO,
+            Vec3::new(4.0, 0.0, 0.0),
+            Vec3::new(0.0, 4.0, 0.0),
+        ];
+        let through = |x: f32, y: f32| {
+            segment_hits_triangle(Vec3::new(x, y, -1.0), Vec3::new(x, y, 1.0), tri)
+        };
+        assert!(through(1.0, 1.0) && through(2.0, 2.0) && through(0.0, 0.0));
+        assert!(!through(2.1, 2.1) && !through(-0.1, 1.0));
+        // Ending short of the triangle, starting on it, and lying in its plane.
+        let short = segment_hits_triangle(Vec3::new(1.0, 1.0, 2.0), Vec3::new(1.0, 1.0, 0.5), tri);
+        let on = segment_hits_triangle(Vec3::new(1.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 3.0), tri);
+        let along = segment_hits_triangle(Vec3::new(-1.0, 1.0, 0.0), Vec3::new(5.0, 1.0, 0.0), tri);
+        assert!(!short && on && !along);
     }
 
     #[test]

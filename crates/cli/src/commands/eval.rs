@@ -8,7 +8,6 @@ use image::RgbImage;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use sightline_core::raster::render;
-use sightline_core::trace::Bvh;
 use sightline_core::Hit;
 use sightline_eval::{evaluate_cell_in, CellEvaluation, EvalParams, ViewMode};
 use sightline_region::PvsFile;
@@ -129,12 +128,10 @@ pub(crate) fn run(args: Args) -> Result<()> {
     );
     let n = scene.triangle_count().max(1) as f64;
     // Quake 3 cells are judged from where the bake took its ray origins.
-    let bvh = Bvh::build(&scene);
     let origins = args
         .reachable_viewpoints
         .map(|step| Q3Origins::Reachable(ReachParams { step }));
-    let viewpoints =
-        Viewpoints::of(&scene, &bvh, &file, origins).context("--reachable-viewpoints")?;
+    let viewpoints = Viewpoints::of(&scene, &file, origins).context("--reachable-viewpoints")?;
     let mut rows = Vec::new();
     for &i in &indices {
         let start = Instant::now();

@@ -289,7 +289,7 @@ fn parse_numbers(s: &str, n: usize, what: &str) -> Result<Vec<f32>> {
 fn collect_cells<'a>(
     args: &CellArgs,
     scene: &'a sightline_core::Scene,
-    caster: &'a Bvh,
+    caster: &Bvh,
 ) -> Result<(Vec<ViewCell>, Option<Q3Cells<'a>>)> {
     let sources = usize::from(args.cells.is_some())
         + usize::from(!args.cell.is_empty())
@@ -352,7 +352,7 @@ fn collect_cells<'a>(
             step: args.reach_step,
         })
     };
-    let mut q3 = q3_cells(scene, caster, kind, filter, origins).context("--reach-step")?;
+    let mut q3 = q3_cells(scene, kind, filter, origins).context("--reach-step")?;
     let map = Path::new(&scene.source).file_stem().map_or_else(
         || scene.source.clone(),
         |s| s.to_string_lossy().into_owned(),
@@ -1179,8 +1179,7 @@ fn run_compare_q3(args: CompareQ3Args) -> Result<()> {
     };
     // Viewpoints where the bake took its origins: the cluster, and reachable space when the
     // bake recorded one.
-    let bvh = Bvh::build(&scene);
-    let viewpoints = crate::report::evaluate::Viewpoints::of(&scene, &bvh, &file, None)?;
+    let viewpoints = crate::report::evaluate::Viewpoints::of(&scene, &file, None)?;
     let mut rows = Vec::new();
     for (cluster, (leaves, ours)) in by_cluster {
         let mut q3 = fixedbitset::FixedBitSet::with_capacity(scene.triangle_count());

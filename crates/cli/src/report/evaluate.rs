@@ -52,11 +52,10 @@ impl<'a> Viewpoints<'a> {
     /// the rule `origins` for its Quake 3 cells when given.
     pub(crate) fn of(
         scene: &'a Scene,
-        caster: &'a Bvh,
         file: &PvsFile,
         origins: Option<Q3Origins>,
     ) -> anyhow::Result<Self> {
-        let rule = Q3OriginRule::from_metadata(scene, caster, &file.metadata, origins)?;
+        let rule = Q3OriginRule::from_metadata(scene, &file.metadata, origins)?;
         Ok(Self { rule })
     }
 
@@ -136,8 +135,7 @@ pub(crate) fn evaluate_cells(
     extra: &[Vec<TriangleSet>],
     progress: &dyn Fn(usize, usize, usize),
 ) -> anyhow::Result<Vec<CellOutcome>> {
-    let bvh = Bvh::build(scene);
-    let viewpoints = Viewpoints::of(scene, &bvh, file, None)?;
+    let viewpoints = Viewpoints::of(scene, file, None)?;
     Ok(file
         .cells
         .iter()
