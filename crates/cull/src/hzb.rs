@@ -12,7 +12,7 @@
 
 use sightline_core::{Aabb, Camera};
 
-use crate::occlusion_buffer::{OcclusionBuffer, DEPTH_SLACK};
+use crate::masked_occlusion::{OcclusionBuffer, DEPTH_SLACK};
 
 /// The depth pyramid. Depths are view depths (larger is farther); infinity is "nothing".
 #[derive(Clone, Debug, Default)]
