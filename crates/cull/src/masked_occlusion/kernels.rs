@@ -17,6 +17,7 @@
 //! does not contract `a * b + c` into an FMA) and rounds them with the same integer rules, so
 //! the buffers they produce are identical (checked by the tests).
 
+use super::project::{ceil_i, floor_i};
 use super::TILE_H;
 
 /// Kernel selector as a const generic parameter (one monomorphized rasterizer per kernel).
@@ -218,20 +219,6 @@ const EMPTY_HI: i32 = -(1 << 28);
 pub(super) struct TileRowSpans {
     a: [i32; 4],
     b: [i32; 4],
-}
-
-/// `floor` as an integer without a libm call (`f32::floor` needs SSE4.1 to inline).
-#[inline(always)]
-fn floor_i(x: f32) -> i32 {
-    let i = x as i32;
-    i - i32::from(x < i as f32)
-}
-
-/// `ceil` as an integer, see [`floor_i`].
-#[inline(always)]
-fn ceil_i(x: f32) -> i32 {
-    let i = x as i32;
-    i + i32::from(x > i as f32)
 }
 
 impl TileRowSpans {

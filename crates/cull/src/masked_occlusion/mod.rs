@@ -41,10 +41,14 @@ use glam::Vec3;
 use sightline_core::{Aabb, Camera};
 
 mod kernels;
+pub(crate) mod project;
 pub use kernels::Kernel;
 use kernels::{BlockGrid, ColClamp, Edges, Screen8, Setup8, TileRowSpans, SCALAR};
 #[cfg(target_arch = "x86_64")]
 use kernels::{AVX2, AVX2_PER_TILE, SSE2, SSE2_PER_TILE};
+#[cfg(target_arch = "x86_64")]
+use project::GUARD;
+use project::{ceil_i, floor_i, screen_bounds, BoxView, Projector, ViewTriangle};
 
 /// Tile width in pixels (a row of a tile is one byte of the mask).
 pub const TILE_W: u32 = 8;
@@ -58,9 +62,6 @@ pub const DEPTH_SLACK: f32 = 2e-5;
 /// screen positions inside the guard band (about 1/100 px) and the reference rasterizer's
 /// snapping of vertices to 1/256 px.
 pub const COVER_MARGIN: f32 = 1.0 / 16.0;
-/// Triangles are clipped to a guard band of this many half-screens around the centre, which
-/// keeps screen coordinates small enough for `f32` spans to be accurate to 1/100 px.
-const GUARD: f32 = 4.0;
 const FULL: u32 = u32::MAX;
 
 /// Pixel centres under a widened screen triangle's bounding box.
@@ -147,109 +148,6 @@ pub struct OcclusionBuffer {
     outside_y: u32,
     blocks: Vec<Block>,
     kernel: Kernel,
-}
-
-/// World to screen mapping of a camera onto the buffer's pixel grid.
-#[derive(Clone, Copy, Debug)]
-struct Projector {
-    eye: Vec3,
-    right: Vec3,
-    up: Vec3,
-    forward: Vec3,
-    near: f32,
-    /// `sx = kx * vx / vz + cx`, `sy = -ky * vy / vz + cy`.
-    kx: f32,
-    ky: f32,
-    cx: f32,
-    cy: f32,
-    tan_x: f32,
-    tan_y: f32,
-}
-
-impl Projector {
-    fn new(camera: &Camera, width: u32, height: u32) -> Self {
-        let (tan_x, tan_y) = (camera.tan_half_x(), camera.tan_half_y());
-        let (cx, cy) = (width as f32 * 0.5, height as f32 * 0.5);
-        Self {
-            eye: camera.eye,
-            right: camera.right,
-            up: camera.up,
-            forward: camera.forward,
-            near: camera.near,
-            kx: cx / tan_x,
-            ky: cy / tan_y,
-            cx,
-            cy,
-            tan_x,
-            tan_y,
-        }
-    }
-
-    #[inline(always)]
-    fn view(&self, p: Vec3) -> Vec3 {
-        let d = p - self.eye;
-        Vec3::new(d.dot(self.right), d.dot(self.up), d.dot(self.forward))
-    }
-
-    /// Screen position and `1/z` of a view point with `z > 0`.
-    #[inline(always)]
-    fn screen(&self, v: Vec3) -> [f32; 3] {
-        let r = 1.0 / v.z;
-        [self.kx * v.x * r + self.cx, -self.ky * v.y * r + self.cy, r]
-    }
-
-    /// True when a view point needs no clipping: in front of the near plane, inside the guard band.
-    #[inline(always)]
-    fn inside_guard(&self, v: Vec3) -> bool {
-        v.z >= self.near
-            && v.x.abs() <= GUARD * self.tan_x * v.z
-            && v.y.abs() <= GUARD * self.tan_y * v.z
-    }
-
-    /// Clips a view-space triangle to the near plane and the guard band (Sutherland-Hodgman:
-    /// each plane adds at most one vertex, 3 + 5 = 8); the polygon and its vertex count, which
-    /// is below 3 when nothing is left.
-    fn clip(&self, v: [Vec3; 3]) -> ([Vec3; 9], usize) {
-        let mut poly = [Vec3::ZERO; 9];
-        let mut next = [Vec3::ZERO; 9];
-        poly[..3].copy_from_slice(&v);
-        let mut n = 3;
-        for plane in self.planes() {
-            let dist = |p: Vec3| plane[0] * p.x + plane[1] * p.y + plane[2] * p.z + plane[3];
-            let mut m = 0;
-            for i in 0..n {
-                let (a, b) = (poly[i], poly[(i + 1) % n]);
-                let (da, db) = (dist(a), dist(b));
-                if da >= 0.0 {
-                    next[m] = a;
-                    m += 1;
-                }
-                if (da >= 0.0) != (db >= 0.0) {
-                    next[m] = a + (b - a) * (da / (da - db));
-                    m += 1;
-                }
-            }
-            std::mem::swap(&mut poly, &mut next);
-            n = m;
-            if n < 3 {
-                return (poly, n);
-            }
-        }
-        (poly, n)
-    }
-
-    /// The clipping planes in view space (`inside` when `dot >= 0` on `(x, y, z, 1)`).
-    fn planes(&self) -> [[f32; 4]; 5] {
-        let gx = GUARD * self.tan_x;
-        let gy = GUARD * self.tan_y;
-        [
-            [0.0, 0.0, 1.0, -self.near],
-            [-1.0, 0.0, gx, 0.0],
-            [1.0, 0.0, gx, 0.0],
-            [0.0, -1.0, gy, 0.0],
-            [0.0, 1.0, gy, 0.0],
-        ]
-    }
 }
 
 impl OcclusionBuffer {
@@ -409,25 +307,24 @@ impl OcclusionBuffer {
         // the tile merge depends on) is unchanged.
         let mut queued: Option<[[f32; 3]; 3]> = None;
         for t in triangles.chunks_exact(3) {
-            let v = [proj.view(t[0]), proj.view(t[1]), proj.view(t[2])];
-            if v.iter().all(|p| p.z < proj.near) || !v.iter().all(|p| p.is_finite()) {
-                continue;
-            }
-            if v.iter().all(|&p| proj.inside_guard(p)) {
-                let s = [proj.screen(v[0]), proj.screen(v[1]), proj.screen(v[2])];
-                if K == SCALAR {
-                    self.raster_triangle::<K>(s);
-                    continue;
+            match proj.triangle(t) {
+                ViewTriangle::NotFinite | ViewTriangle::Behind => {}
+                ViewTriangle::Inside(s) => {
+                    if K == SCALAR {
+                        self.raster_triangle::<K>(s);
+                        continue;
+                    }
+                    self.prefetch(&s);
+                    if let Some(q) = queued.replace(s) {
+                        self.raster_triangle::<K>(q);
+                    }
                 }
-                self.prefetch(&s);
-                if let Some(q) = queued.replace(s) {
-                    self.raster_triangle::<K>(q);
+                ViewTriangle::Clip(v) => {
+                    if let Some(q) = queued.take() {
+                        self.raster_triangle::<K>(q);
+                    }
+                    self.raster_clipped::<K>(v, &proj);
                 }
-            } else {
-                if let Some(q) = queued.take() {
-                    self.raster_triangle::<K>(q);
-                }
-                self.raster_clipped::<K>(v, &proj);
             }
         }
         if let Some(q) = queued {
@@ -607,15 +504,10 @@ impl OcclusionBuffer {
 
     /// Clips a view-space triangle to the near plane and the guard band, then fans it out.
     fn raster_clipped<const K: u8>(&mut self, v: [Vec3; 3], proj: &Projector) {
-        let (poly, n) = proj.clip(v);
-        if n < 3 {
-            return;
-        }
-        for i in 1..n - 1 {
-            // Clipped points lie on z = near at the least; clamp the rounding of the lerp.
-            let s = |p: Vec3| proj.screen(Vec3::new(p.x, p.y, p.z.max(proj.near)));
-            self.raster_triangle::<K>([s(poly[0]), s(poly[i]), s(poly[i + 1])]);
-        }
+        proj.clipped_fan(v, |s| {
+            self.raster_triangle::<K>(s);
+            false
+        });
     }
 
     /// Rasterizes one triangle given as `[sx, sy, 1/z]` per corner, all inside the guard band.
@@ -779,41 +671,15 @@ impl OcclusionBuffer {
     /// behind the near plane or outside the image is not visible.
     pub fn test_box(&self, aabb: &Aabb, camera: &Camera) -> bool {
         let proj = Projector::new(camera, self.width, self.height);
-        let mut zmin = f32::INFINITY;
-        let mut zmax = f32::NEG_INFINITY;
-        let mut views = [Vec3::ZERO; 8];
-        for (i, v) in views.iter_mut().enumerate() {
-            let c = Vec3::new(
-                if i & 1 != 0 { aabb.max.x } else { aabb.min.x },
-                if i & 2 != 0 { aabb.max.y } else { aabb.min.y },
-                if i & 4 != 0 { aabb.max.z } else { aabb.min.z },
-            );
-            *v = proj.view(c);
-            zmin = zmin.min(v.z);
-            zmax = zmax.max(v.z);
-        }
-        if !(zmin.is_finite() && zmax.is_finite()) {
-            return true;
-        }
-        if zmax < proj.near {
-            return false;
-        }
-        if zmin < proj.near {
-            return true;
-        }
-        let (mut x0, mut y0, mut x1, mut y1) = (
-            f32::INFINITY,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::NEG_INFINITY,
-        );
-        for v in views {
+        let (corners, zmin) = match BoxView::new(aabb, proj.near, |c| proj.view(c)) {
+            BoxView::NotFinite | BoxView::CrossesNear => return true,
+            BoxView::Behind => return false,
+            BoxView::InFront { corners, zmin } => (corners, zmin),
+        };
+        let (x0, y0, x1, y1) = screen_bounds(&corners, |v| {
             let [sx, sy, _] = proj.screen(v);
-            x0 = x0.min(sx);
-            x1 = x1.max(sx);
-            y0 = y0.min(sy);
-            y1 = y1.max(sy);
-        }
+            (sx, sy)
+        });
         // Pixel centres in [x0, x1] widened by one pixel on each side (see module docs).
         let px0 = (x0 - 0.5).ceil() - 1.0;
         let px1 = (x1 - 0.5).floor() + 2.0;
@@ -918,26 +784,20 @@ impl OcclusionBuffer {
         mut f: impl FnMut([[f32; 3]; 3]) -> bool,
     ) -> bool {
         for t in triangles.chunks_exact(3) {
-            let v = [proj.view(t[0]), proj.view(t[1]), proj.view(t[2])];
-            if !v.iter().all(|p| p.is_finite()) {
-                return true;
-            }
-            if v.iter().all(|p| p.z < proj.near) {
-                continue;
-            }
-            if v.iter().all(|&p| proj.inside_guard(p)) {
-                if f([proj.screen(v[0]), proj.screen(v[1]), proj.screen(v[2])]) {
-                    return true;
+            match proj.triangle(t) {
+                ViewTriangle::NotFinite => return true,
+                ViewTriangle::Behind => {}
+                ViewTriangle::Inside(s) => {
+                    if f(s) {
+                        return true;
+                    }
                 }
-                continue;
-            }
-            // Clipped to the near plane and the guard band, then fanned out (as the occluder
-            // rasterizer does).
-            let (poly, n) = proj.clip(v);
-            let s = |p: Vec3| proj.screen(Vec3::new(p.x, p.y, p.z.max(proj.near)));
-            for i in 1..n.saturating_sub(1) {
-                if f([s(poly[0]), s(poly[i]), s(poly[i + 1])]) {
-                    return true;
+                // Clipped to the near plane and the guard band, then fanned out (as the
+                // occluder rasterizer does).
+                ViewTriangle::Clip(v) => {
+                    if proj.clipped_fan(v, &mut f) {
+                        return true;
+                    }
                 }
             }
         }
@@ -1087,21 +947,6 @@ impl OcclusionBuffer {
         }
         false
     }
-}
-
-/// `floor` as an integer without a libm call (`f32::floor` needs SSE4.1 to inline); values
-/// beyond `i32` saturate, which the callers clamp anyway.
-#[inline(always)]
-fn floor_i(x: f32) -> i32 {
-    let i = x as i32;
-    i - i32::from(x < i as f32)
-}
-
-/// `ceil` as an integer, see [`floor_i`].
-#[inline(always)]
-fn ceil_i(x: f32) -> i32 {
-    let i = x as i32;
-    i + i32::from(x > i as f32)
 }
 
 /// Merges an occluder's coverage `cov` at conservative `1/z` value `r` into a tile.
