@@ -30,6 +30,9 @@ pub use backend::{OcclusionBackend, SoftwareBackend};
 pub use diagnose::ExtraCauses;
 pub use grid::{Grid, GridError, GridShape};
 pub use hzb::Hzb;
+/// The bench's and the kernel tests' baseline kernels, not part of the supported API.
+#[doc(hidden)]
+pub use masked_occlusion::BaselineKernel;
 pub use masked_occlusion::{Kernel, OcclusionBuffer, COVER_MARGIN, DEPTH_SLACK, TILE_H, TILE_W};
 pub use scheduler::{DepthClass, Scheduler, SchedulerConfig};
 pub use simulate::{
