@@ -82,101 +82,21 @@ pub(super) trait TileSteps {
     unsafe fn mask(s: &TileRowSpans, base: i32) -> u32;
 }
 
-/// One triangle set up for the tile loop: what [`raster_triangle`] computes once.
-struct TriangleSetup {
-    /// The corners `[sx, sy, 1/z]`, counter-clockwise in y-down screen space.
-    p: [[f32; 3]; 3],
-    /// `1/z = p[0].r + ra (x - p[0].x) + rb (y - p[0].y)`, zero for slivers.
+/// The `1/z` plane of a triangle over the screen, as the tile loop reads it:
+/// `1/z = r0 + ra (x - x0) + rb (y - y0)`.
+#[derive(Clone, Copy)]
+struct DepthPlane {
+    x0: f32,
+    y0: f32,
+    r0: f32,
+    /// Zero for slivers.
     ra: f32,
     rb: f32,
     /// The farthest corner's `1/z`, a lower bound in every case.
     r_far: f32,
-    /// True when the plane is well conditioned (area of a pixel at least).
-    plane_ok: bool,
-    edges: Edges,
-    clamp: ColClamp,
-}
-
-impl TriangleSetup {
-    /// Area and orientation (clockwise triangles get corners 1 and 2 swapped), bounding box in
-    /// pixel centres clamped to the `width x height` buffer, the `1/z` plane and the edges;
-    /// `None` when there is nothing to draw (zero or NaN area, bounding box off the buffer).
-    #[inline(always)]
-    fn new(mut p: [[f32; 3]; 3], width: u32, height: u32) -> Option<Self> {
-        let area =
-            (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
-        if area == 0.0 || area.is_nan() {
-            return None;
-        }
-        if area < 0.0 {
-            p.swap(1, 2);
-        }
-        let area = area.abs();
-        let ymin = p[0][1].min(p[1][1]).min(p[2][1]);
-        let ymax = p[0][1].max(p[1][1]).max(p[2][1]);
-        let xmin = p[0][0].min(p[1][0]).min(p[2][0]);
-        let xmax = p[0][0].max(p[1][0]).max(p[2][0]);
-        // Pixel centres inside [min, max]: first = ceil(min - 0.5), last = floor(max - 0.5).
-        let row0 = ceil_i(ymin - 0.5).max(0);
-        let row1 = floor_i(ymax - 0.5).min(height as i32 - 1);
-        let col0 = ceil_i(xmin - 0.5).max(0);
-        let col1 = floor_i(xmax - 0.5).min(width as i32 - 1);
-        if row0 > row1 || col0 > col1 {
-            return None;
-        }
-
-        // 1/z over the screen: r = r0 + ra (x - x0) + rb (y - y0). For slivers (less than a
-        // pixel of area) the gradient is ill-conditioned: use the farthest corner only.
-        let r_far = p[0][2].min(p[1][2]).min(p[2][2]);
-        let (ra, rb) = if area >= 1.0 {
-            let (d1x, d1y, d1r) = (p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]);
-            let (d2x, d2y, d2r) = (p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]);
-            (
-                (d1r * d2y - d2r * d1y) / area,
-                (d2r * d1x - d1r * d2x) / area,
-            )
-        } else {
-            (0.0, 0.0)
-        };
-
-        // Edges a -> b with the interior on the left of (b - a) in y-down screen space: an edge
-        // going up (dy < 0) bounds the span from the left, one going down from the right.
-        let mut edges = Edges {
-            x0: [0.0; 3],
-            y0: [0.0; 3],
-            slope: [0.0; 3],
-            left: [false; 3],
-            used: [false; 3],
-        };
-        for i in 0..3 {
-            let (a, b) = (p[i], p[(i + 1) % 3]);
-            let dy = b[1] - a[1];
-            if dy != 0.0 {
-                edges.used[i] = true;
-                edges.x0[i] = a[0];
-                edges.y0[i] = a[1];
-                edges.slope[i] = (b[0] - a[0]) / dy;
-                edges.left[i] = dy < 0.0;
-            }
-        }
-        let clamp = ColClamp {
-            a_lo: col0 as f32,
-            a_hi: (col1 + 1) as f32,
-            b_lo: (col0 - 1) as f32,
-            b_hi: col1 as f32,
-            row0,
-            row1,
-        };
-        Some(Self {
-            p,
-            ra,
-            rb,
-            r_far,
-            plane_ok: area >= 1.0,
-            edges,
-            clamp,
-        })
-    }
+    /// True when the plane is well conditioned (area of a pixel at least); otherwise only
+    /// `r_far` is used.
+    ok: bool,
 }
 
 /// The occluder loop of the tile-at-a-time kernels (see [`RasterKernel::render`]): view
@@ -232,20 +152,97 @@ unsafe fn raster_clipped<T: TileSteps>(tiles: &mut Tiles, v: [Vec3; 3], proj: &P
     });
 }
 
-/// Rasterizes one triangle given as `[sx, sy, 1/z]` per corner, all inside the guard band.
+/// Rasterizes one triangle given as `[sx, sy, 1/z]` per corner, all inside the guard band:
+/// area and orientation (clockwise triangles get corners 1 and 2 swapped), bounding box in
+/// pixel centres clamped to the buffer, the `1/z` plane and the edges, then the tile rows.
 ///
 /// # Safety
 /// The CPU must support `T`'s instructions.
 #[inline(always)]
-pub(super) unsafe fn raster_triangle<T: TileSteps>(tiles: &mut Tiles, p: [[f32; 3]; 3]) {
-    let Some(setup) = TriangleSetup::new(p, tiles.width, tiles.height) else {
+pub(super) unsafe fn raster_triangle<T: TileSteps>(tiles: &mut Tiles, mut p: [[f32; 3]; 3]) {
+    let area =
+        (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
+    if area == 0.0 || area.is_nan() {
         return;
+    }
+    if area < 0.0 {
+        p.swap(1, 2);
+    }
+    let area = area.abs();
+    let ymin = p[0][1].min(p[1][1]).min(p[2][1]);
+    let ymax = p[0][1].max(p[1][1]).max(p[2][1]);
+    let xmin = p[0][0].min(p[1][0]).min(p[2][0]);
+    let xmax = p[0][0].max(p[1][0]).max(p[2][0]);
+    // Pixel centres inside [min, max]: first = ceil(min - 0.5), last = floor(max - 0.5).
+    let row0 = ceil_i(ymin - 0.5).max(0);
+    let row1 = floor_i(ymax - 0.5).min(tiles.height as i32 - 1);
+    let col0 = ceil_i(xmin - 0.5).max(0);
+    let col1 = floor_i(xmax - 0.5).min(tiles.width as i32 - 1);
+    if row0 > row1 || col0 > col1 {
+        return;
+    }
+
+    // 1/z over the screen: r = r0 + ra (x - x0) + rb (y - y0). For slivers (less than a
+    // pixel of area) the gradient is ill-conditioned: use the farthest corner only.
+    let r_far = p[0][2].min(p[1][2]).min(p[2][2]);
+    let (ra, rb) = if area >= 1.0 {
+        let (d1x, d1y, d1r) = (p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]);
+        let (d2x, d2y, d2r) = (p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]);
+        (
+            (d1r * d2y - d2r * d1y) / area,
+            (d2r * d1x - d1r * d2x) / area,
+        )
+    } else {
+        (0.0, 0.0)
     };
-    let ty0 = setup.clamp.row0 as u32 / TILE_H;
-    let ty1 = setup.clamp.row1 as u32 / TILE_H;
-    for ty in ty0..=ty1 {
+    let plane = DepthPlane {
+        x0: p[0][0],
+        y0: p[0][1],
+        r0: p[0][2],
+        ra,
+        rb,
+        r_far,
+        ok: area >= 1.0,
+    };
+
+    // Edges a -> b with the interior on the left of (b - a) in y-down screen space: an edge
+    // going up (dy < 0) bounds the span from the left, one going down from the right.
+    let mut x0 = [0.0f32; 3];
+    let mut y0 = [0.0f32; 3];
+    let mut slope = [0.0f32; 3];
+    let mut left = [false; 3];
+    let mut used = [false; 3];
+    for i in 0..3 {
+        let (a, b) = (p[i], p[(i + 1) % 3]);
+        let dy = b[1] - a[1];
+        if dy != 0.0 {
+            used[i] = true;
+            x0[i] = a[0];
+            y0[i] = a[1];
+            slope[i] = (b[0] - a[0]) / dy;
+            left[i] = dy < 0.0;
+        }
+    }
+    // Built in arrays of their own, then moved: written field by field into `Edges` they cost
+    // 2 % more instructions in the SSE2 kernel.
+    let edges = Edges {
+        x0,
+        y0,
+        slope,
+        left,
+        used,
+    };
+    let clamp = ColClamp {
+        a_lo: col0 as f32,
+        a_hi: (col1 + 1) as f32,
+        b_lo: (col0 - 1) as f32,
+        b_hi: col1 as f32,
+        row0,
+        row1,
+    };
+    for ty in row0 as u32 / TILE_H..=row1 as u32 / TILE_H {
         // SAFETY: the CPU supports `T` (this function's contract).
-        unsafe { raster_tile_row::<T>(tiles, &setup, ty) };
+        unsafe { raster_tile_row::<T>(tiles, plane, &edges, &clamp, ty) };
     }
 }
 
@@ -254,18 +251,23 @@ pub(super) unsafe fn raster_triangle<T: TileSteps>(tiles: &mut Tiles, p: [[f32; 
 /// # Safety
 /// The CPU must support `T`'s instructions.
 #[inline(always)]
-unsafe fn raster_tile_row<T: TileSteps>(tiles: &mut Tiles, t: &TriangleSetup, ty: u32) {
-    let p = &t.p;
+unsafe fn raster_tile_row<T: TileSteps>(
+    tiles: &mut Tiles,
+    plane: DepthPlane,
+    edges: &Edges,
+    clamp: &ColClamp,
+    ty: u32,
+) {
     // Spans of the up to four rows of this tile row, in pixels, inclusive; rows outside the
     // triangle hold an empty span.
-    let spans = T::spans(&t.edges, &t.clamp, ty);
+    let spans = T::spans(edges, clamp, ty);
     let (lo_all, hi_all) = spans.extent();
     if lo_all > hi_all {
         return;
     }
     let ya = (ty * TILE_H) as f32 + 0.5;
     let yb = ya + (TILE_H - 1) as f32;
-    let r_rows = p[0][2] + (t.rb * (ya - p[0][1])).min(t.rb * (yb - p[0][1]));
+    let r_rows = plane.r0 + (plane.rb * (ya - plane.y0)).min(plane.rb * (yb - plane.y0));
     let tx_first = lo_all as u32 / TILE_W;
     let tx_last = hi_all as u32 / TILE_W;
     for tx in tx_first..=tx_last {
@@ -286,12 +288,12 @@ unsafe fn raster_tile_row<T: TileSteps>(tiles: &mut Tiles, t: &TriangleSetup, ty
         if ty == tiles.tiles_y - 1 {
             mask |= tiles.outside_y;
         }
-        let r = if t.plane_ok {
-            let xa = (base + cmin) as f32 + 0.5 - p[0][0];
-            let xb = (base + cmax) as f32 + 0.5 - p[0][0];
-            (r_rows + (t.ra * xa).min(t.ra * xb)).max(t.r_far)
+        let r = if plane.ok {
+            let xa = (base + cmin) as f32 + 0.5 - plane.x0;
+            let xb = (base + cmax) as f32 + 0.5 - plane.x0;
+            (r_rows + (plane.ra * xa).min(plane.ra * xb)).max(plane.r_far)
         } else {
-            t.r_far
+            plane.r_far
         };
         tiles.update(tx, ty, mask, r);
     }
