@@ -4,8 +4,9 @@
 //! against the buffer those triangles leave plus a full-screen wall at depth 70 (boxes of about 20x20 pixels at depths 40..100).
 //!
 //! Run: `cargo bench -p sightline-cull --bench occlusion`. One thread. The occluder benchmark
-//! runs once per rasterizer kernel the CPU supports (scalar, sse2, avx2, and the previous
-//! per-tile kernels sse2_per_tile, avx2_per_tile), side by side in one run.
+//! runs once per rasterizer kernel the CPU supports (scalar, sse2, avx2, and the baseline
+//! kernels sse2_per_tile, avx2_per_tile: the previous per-tile AVX2 kernel, and the SSE2
+//! kernel again under its old name), side by side in one run.
 //!
 //! Times are the benchmark thread's CPU time (`CLOCK_THREAD_CPUTIME_ID`), not wall time: the
 //! machines this runs on are shared, and time spent waiting for a core is not the kernel's.
@@ -16,7 +17,7 @@ use glam::Vec3;
 use sightline_core::cpu_time::thread_cpu_ns;
 use sightline_core::random::SplitMix64;
 use sightline_core::{Aabb, Camera};
-use sightline_cull::{Kernel, OcclusionBuffer};
+use sightline_cull::{BaselineKernel, Kernel, OcclusionBuffer};
 
 const W: u32 = 1920;
 const H: u32 = 1080;
@@ -102,6 +103,14 @@ fn bench_occlusion(c: &mut Criterion<ThreadCpuTime>) {
             b.iter(|| {
                 buffer.clear();
                 buffer.render_occluders(&tris, &cam);
+            });
+        });
+    }
+    for kernel in BaselineKernel::ALL.into_iter().filter(|k| k.available()) {
+        group.bench_function(format!("occluder_tris_10px/{}", kernel.name()), |b| {
+            b.iter(|| {
+                buffer.clear();
+                buffer.render_occluders_baseline(kernel, &tris, &cam);
             });
         });
     }

@@ -9,7 +9,7 @@
 use glam::Vec3;
 use sightline_core::{Aabb, Camera};
 
-use crate::occlusion_buffer::OcclusionBuffer;
+use crate::masked_occlusion::OcclusionBuffer;
 
 /// A depth buffer that takes occluders and answers box queries, in traversal order.
 pub trait OcclusionBackend {

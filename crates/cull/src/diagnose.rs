@@ -31,7 +31,7 @@ use glam::Vec3;
 use serde::Serialize;
 use sightline_core::{Aabb, Camera};
 
-use crate::occlusion_buffer::OcclusionBuffer;
+use crate::masked_occlusion::OcclusionBuffer;
 
 /// Drawn objects without a pixel in the ground truth, by the first cause that explains them
 /// (see the module documentation of `diagnose.rs`; zero unless the simulation diagnoses).

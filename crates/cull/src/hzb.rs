@@ -8,11 +8,15 @@
 //!
 //! Level 0 is built from the conservative per-pixel depth of an [`OcclusionBuffer`] (the
 //! farthest depth an occluder guarantees at each pixel, infinity where none), so the test
-//! inherits its conservativeness: the farthest of conservative depths is conservative.
+//! inherits its conservativeness: the farthest of conservative depths is conservative. A box
+//! is classified against the near plane as the buffer's box test does
+//! (`masked_occlusion/project.rs`), but projected with the camera's own `view_to_screen`,
+//! which rounds differently from the buffer's projector: the two tests keep their numbers.
 
 use sightline_core::{Aabb, Camera};
 
-use crate::occlusion_buffer::{OcclusionBuffer, DEPTH_SLACK};
+use crate::masked_occlusion::project::{screen_bounds, BoxView};
+use crate::masked_occlusion::{OcclusionBuffer, DEPTH_SLACK};
 
 /// The depth pyramid. Depths are view depths (larger is farther); infinity is "nothing".
 #[derive(Clone, Debug, Default)]
@@ -73,35 +77,12 @@ impl Hzb {
     /// the farthest depth over its (one-pixel widened) screen rectangle. Boxes behind the
     /// camera or off screen are not visible; an unbuilt pyramid sees every box in view.
     pub fn test_box(&self, aabb: &Aabb, camera: &Camera) -> bool {
-        let (mut zmin, mut zmax) = (f32::INFINITY, f32::NEG_INFINITY);
-        let mut views = [glam::Vec3::ZERO; 8];
-        for (i, v) in views.iter_mut().enumerate() {
-            let c = glam::Vec3::new(
-                if i & 1 != 0 { aabb.max.x } else { aabb.min.x },
-                if i & 2 != 0 { aabb.max.y } else { aabb.min.y },
-                if i & 4 != 0 { aabb.max.z } else { aabb.min.z },
-            );
-            *v = camera.to_view(c);
-            zmin = zmin.min(v.z);
-            zmax = zmax.max(v.z);
-        }
-        if !(zmin.is_finite() && zmax.is_finite()) {
-            return true;
-        }
-        if zmax < camera.near {
-            return false;
-        }
-        if zmin < camera.near {
-            return true;
-        }
-        let (mut x0, mut y0, mut x1, mut y1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
-        for v in views {
-            let (sx, sy) = camera.view_to_screen(v);
-            x0 = x0.min(sx);
-            x1 = x1.max(sx);
-            y0 = y0.min(sy);
-            y1 = y1.max(sy);
-        }
+        let (corners, zmin) = match BoxView::new(aabb, camera.near, |c| camera.to_view(c)) {
+            BoxView::NotFinite | BoxView::CrossesNear => return true,
+            BoxView::Behind => return false,
+            BoxView::InFront { corners, zmin } => (corners, zmin),
+        };
+        let (x0, y0, x1, y1) = screen_bounds(&corners, |v| camera.view_to_screen(v));
         let Some(&(w, h)) = self.sizes.first() else {
             return true;
         };

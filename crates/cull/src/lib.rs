@@ -3,7 +3,7 @@
 //! style of Masked Occlusion Culling (Andersson, Hasselgren, Akenine-Möller 2015/2016).
 //!
 //! Modules, one algorithm each:
-//! - [`OcclusionBuffer`] (`occlusion_buffer.rs`): the software masked depth buffer, usable alone.
+//! - [`OcclusionBuffer`] (`masked_occlusion/`): the software masked depth buffer, usable alone.
 //! - [`Grid`] (`grid.rs`): the uniform grid of dynamic objects.
 //! - [`Traversal`] (`traversal.rs`): occlusion-order traversal of the frustum over the grid.
 //! - [`Scheduler`] (`scheduler.rs`): which cells are queried, drawn and depth-pre-passed.
@@ -20,7 +20,7 @@ mod backend;
 mod diagnose;
 mod grid;
 mod hzb;
-mod occlusion_buffer;
+mod masked_occlusion;
 pub mod scenes;
 mod scheduler;
 mod simulate;
@@ -30,7 +30,10 @@ pub use backend::{OcclusionBackend, SoftwareBackend};
 pub use diagnose::ExtraCauses;
 pub use grid::{Grid, GridError, GridShape};
 pub use hzb::Hzb;
-pub use occlusion_buffer::{Kernel, OcclusionBuffer, COVER_MARGIN, DEPTH_SLACK, TILE_H, TILE_W};
+/// The bench's and the kernel tests' baseline kernels, not part of the supported API.
+#[doc(hidden)]
+pub use masked_occlusion::BaselineKernel;
+pub use masked_occlusion::{Kernel, OcclusionBuffer, COVER_MARGIN, DEPTH_SLACK, TILE_H, TILE_W};
 pub use scheduler::{DepthClass, Scheduler, SchedulerConfig};
 pub use simulate::{
     simulate, simulate_methods, simulate_methods_with_cameras, simulate_viewports, FrameStats,

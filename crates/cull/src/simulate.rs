@@ -30,7 +30,7 @@ use crate::backend::OcclusionBackend;
 use crate::diagnose::{Diagnosis, ExtraCauses, Objects};
 use crate::grid::{Grid, GridError, GridShape};
 use crate::hzb::Hzb;
-use crate::occlusion_buffer::OcclusionBuffer;
+use crate::masked_occlusion::OcclusionBuffer;
 use crate::scenes::CullScene;
 use crate::scheduler::{Scheduler, SchedulerConfig};
 use crate::traversal::Traversal;

@@ -1,12 +1,49 @@
 //! The SIMD kernels (SSE2, AVX2) and the scalar kernel of the occlusion buffer produce the same
 //! buffer bit for bit, and so the same box test answers, on random occluder scenes seen from
 //! random cameras (including triangles clipped at the near plane and the guard band, slivers,
-//! and sizes that are not multiples of the tile).
+//! and sizes that are not multiples of the tile). The baseline kernels the bench measures
+//! against are compared too.
 
 use glam::Vec3;
 use sightline_core::random::SplitMix64;
 use sightline_core::{Aabb, Camera};
-use sightline_cull::{Kernel, OcclusionBuffer};
+use sightline_cull::{BaselineKernel, Kernel, OcclusionBuffer};
+
+/// A public or a baseline kernel.
+#[derive(Clone, Copy, Debug)]
+enum AnyKernel {
+    Public(Kernel),
+    Baseline(BaselineKernel),
+}
+
+impl AnyKernel {
+    /// Every kernel this CPU runs, the public ones first (scalar first of all).
+    fn available() -> Vec<AnyKernel> {
+        let public = Kernel::ALL.into_iter().filter(|k| k.available());
+        let baseline = BaselineKernel::ALL.into_iter().filter(|k| k.available());
+        public
+            .map(AnyKernel::Public)
+            .chain(baseline.map(AnyKernel::Baseline))
+            .collect()
+    }
+
+    /// Draws the occluders into `b` with this kernel.
+    fn render(self, b: &mut OcclusionBuffer, tris: &[Vec3], cam: &Camera) {
+        match self {
+            AnyKernel::Public(k) => {
+                assert!(b.set_kernel(k), "{k:?} reported available");
+                assert_eq!(b.kernel(), k);
+                b.render_occluders(tris, cam);
+            }
+            AnyKernel::Baseline(k) => {
+                assert!(
+                    b.render_occluders_baseline(k, tris, cam),
+                    "{k:?} reported available"
+                );
+            }
+        }
+    }
+}
 
 fn random_triangles(rng: &mut SplitMix64, n: usize) -> Vec<Vec3> {
     let mut out = Vec::with_capacity(3 * n);
@@ -38,7 +75,7 @@ fn random_triangles(rng: &mut SplitMix64, n: usize) -> Vec<Vec3> {
 #[test]
 fn simd_and_scalar_kernels_give_identical_buffers_and_answers() {
     let mut rng = SplitMix64::new(17);
-    let kernels: Vec<Kernel> = Kernel::ALL.into_iter().filter(|k| k.available()).collect();
+    let kernels = AnyKernel::available();
     eprintln!("kernels compared: {kernels:?}");
     let mut tested = 0;
     let mut differing_from_empty = 0;
@@ -57,9 +94,7 @@ fn simd_and_scalar_kernels_give_identical_buffers_and_answers() {
             .iter()
             .map(|&k| {
                 let mut b = OcclusionBuffer::new(w, h);
-                assert!(b.set_kernel(k), "{k:?} reported available");
-                assert_eq!(b.kernel(), k);
-                b.render_occluders(&tris, &cam);
+                k.render(&mut b, &tris, &cam);
                 b
             })
             .collect();
@@ -99,6 +134,10 @@ fn unavailable_kernel_is_refused_and_scalar_always_works() {
         assert_eq!(b.set_kernel(k), k.available());
     }
     assert!(Kernel::detect().available());
+    let cam = Camera::look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 60.0, 16, 16, 0.1).expect("camera");
+    for k in BaselineKernel::ALL {
+        assert_eq!(b.render_occluders_baseline(k, &[], &cam), k.available());
+    }
 }
 
 /// The point seen at screen `(sx, sy)` at view depth `z` by a camera at the origin looking
@@ -162,18 +201,23 @@ fn batched_avx2_path_equals_previous_kernels_on_small_edge_and_near_triangles() 
         tris.extend_from_slice(&t);
     }
     assert!(crossing_near > 250 && beyond_guard > 250 && crossing_edge > 300);
-    let render = |k: Kernel, tris: &[Vec3]| {
+    let render = |k: AnyKernel, tris: &[Vec3]| {
         let mut b = OcclusionBuffer::new(w, h);
-        assert!(b.set_kernel(k));
         // Uneven slices: batches of 8 with partial ones at every end.
         for part in tris.chunks(3 * 13) {
-            b.render_occluders(part, &cam);
+            k.render(&mut b, part, &cam);
         }
         b
     };
-    let new = render(Kernel::Avx2, &tris);
+    let avx2 = AnyKernel::Public(Kernel::Avx2);
+    let avx2_per_tile = AnyKernel::Baseline(BaselineKernel::Avx2PerTile);
+    let new = render(avx2, &tris);
     assert!(!new.same_contents(&OcclusionBuffer::new(w, h)));
-    for old in [Kernel::Avx2PerTile, Kernel::Sse2PerTile, Kernel::Scalar] {
+    for old in [
+        avx2_per_tile,
+        AnyKernel::Baseline(BaselineKernel::Sse2PerTile),
+        AnyKernel::Public(Kernel::Scalar),
+    ] {
         assert!(
             new.same_contents(&render(old, &tris)),
             "avx2 differs from {old:?}"
@@ -182,6 +226,6 @@ fn batched_avx2_path_equals_previous_kernels_on_small_edge_and_near_triangles() 
     // Fewer triangles than a batch, alone.
     for n in 1..8 {
         let part = &tris[..3 * n];
-        assert!(render(Kernel::Avx2, part).same_contents(&render(Kernel::Avx2PerTile, part)));
+        assert!(render(avx2, part).same_contents(&render(avx2_per_tile, part)));
     }
 }

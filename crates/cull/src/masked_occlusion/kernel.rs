@@ -1,0 +1,181 @@
+//! The rasterizer kernels of the masked occlusion buffer: the trait each implements, the public
+//! choice among them ([`Kernel`]), the ones kept only as measuring sticks ([`BaselineKernel`]),
+//! and the one place where the CPU's features are detected and a kernel is dispatched to.
+//!
+//! A new kernel (an AVX-512 one, say) is one new file with a unit struct implementing
+//! [`RasterKernel`], built from the shared pieces ([`Projector`] for the view transform and
+//! clipping, [`Tiles`] for the storage and the tile merge, `per_tile.rs` for a kernel that
+//! only changes the span and mask steps), plus a variant of [`Kernel`] and its arms in
+//! [`Kernel::available`], [`Kernel::detect`] and [`render`] below. Every kernel must give the
+//! buffer the others give, bit for bit (`tests/kernels.rs` compares them all).
+
+use glam::Vec3;
+
+use super::project::Projector;
+use super::scalar::Scalar;
+use super::tiles::Tiles;
+#[cfg(target_arch = "x86_64")]
+use super::{avx2::Avx2, baseline::Avx2PerTile, sse2::Sse2};
+
+/// A rasterizer kernel: draws occluder triangles into the tiles.
+pub(super) trait RasterKernel {
+    /// Rasterizes occluder triangles, given as a flat list of world-space corners (three per
+    /// triangle; a trailing incomplete triangle is ignored) seen through `proj`, in their
+    /// order (the tile merge depends on it). Triangles are double-sided; non-finite and
+    /// degenerate ones and those behind the near plane are skipped, those crossing the near
+    /// plane or the guard band are clipped.
+    ///
+    /// # Safety
+    /// The CPU must support the instructions the kernel is compiled for: [`render`] calls a
+    /// kernel only after [`Kernel::available`] (or [`BaselineKernel::available`]) said so.
+    unsafe fn render(tiles: &mut Tiles, triangles: &[Vec3], proj: &Projector);
+}
+
+/// Which implementation of the rasterizer's inner loops an
+/// [`OcclusionBuffer`](super::OcclusionBuffer) uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Kernel {
+    /// Portable Rust, one scanline and one pixel row at a time.
+    Scalar,
+    /// SSE2 (every x86_64 CPU): 4 scanlines per instruction, masks by byte comparisons.
+    Sse2,
+    /// AVX2: triangle setup for 8 triangles at once (one per lane), then per triangle the
+    /// masks, depths and merges of a block of 4x2 tiles at once (one tile per lane), without
+    /// branches per tile.
+    Avx2,
+}
+
+impl Kernel {
+    /// Every kernel, scalar first.
+    pub const ALL: [Kernel; 3] = [Kernel::Scalar, Kernel::Sse2, Kernel::Avx2];
+
+    /// The fastest kernel this CPU supports.
+    pub fn detect() -> Self {
+        if Kernel::Avx2.available() {
+            Kernel::Avx2
+        } else if Kernel::Sse2.available() {
+            Kernel::Sse2
+        } else {
+            Kernel::Scalar
+        }
+    }
+
+    /// True when this CPU can run the kernel.
+    pub fn available(self) -> bool {
+        match self {
+            Kernel::Scalar => true,
+            Kernel::Sse2 => cpu_has_sse2(),
+            Kernel::Avx2 => cpu_has_avx2(),
+        }
+    }
+
+    /// A short name for reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::Scalar => "scalar",
+            Kernel::Sse2 => "sse2",
+            Kernel::Avx2 => "avx2",
+        }
+    }
+}
+
+/// Kernels kept only to measure the public ones against (`benches/occlusion.rs`) and to
+/// check them (`tests/kernels.rs`); not part of the supported API. They give the same buffers
+/// as the public kernels, bit for bit.
+#[doc(hidden)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BaselineKernel {
+    /// The SSE2 kernel under its bench name from before the block kernel: since that commit
+    /// (d99926b) it has run the code of [`Kernel::Sse2`], so its row measures the noise.
+    Sse2PerTile,
+    /// The AVX2 kernel before the block kernel: one triangle set up and one tile drawn at a
+    /// time, a whole 32-pixel tile mask in one 256-bit comparison (`baseline.rs`).
+    Avx2PerTile,
+}
+
+impl BaselineKernel {
+    /// Every baseline kernel.
+    pub const ALL: [BaselineKernel; 2] = [BaselineKernel::Sse2PerTile, BaselineKernel::Avx2PerTile];
+
+    /// True when this CPU can run the kernel.
+    pub fn available(self) -> bool {
+        match self {
+            BaselineKernel::Sse2PerTile => cpu_has_sse2(),
+            BaselineKernel::Avx2PerTile => cpu_has_avx2(),
+        }
+    }
+
+    /// A short name for reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            BaselineKernel::Sse2PerTile => "sse2_per_tile",
+            BaselineKernel::Avx2PerTile => "avx2_per_tile",
+        }
+    }
+}
+
+/// SSE2 is part of the x86_64 baseline: there is nothing to detect.
+fn cpu_has_sse2() -> bool {
+    cfg!(target_arch = "x86_64")
+}
+
+fn cpu_has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// Draws the triangles with `kernel`.
+///
+/// # Safety
+/// `kernel` must be available on this CPU ([`Kernel::available`]).
+pub(super) unsafe fn render(
+    kernel: Kernel,
+    tiles: &mut Tiles,
+    triangles: &[Vec3],
+    proj: &Projector,
+) {
+    match kernel {
+        // SAFETY: the kernel is available (this function's contract), i.e. the CPU has AVX2.
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx2 => unsafe { Avx2::render(tiles, triangles, proj) },
+        // SAFETY: SSE2 is part of the x86_64 baseline, enabled on this target.
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Sse2 => unsafe { Sse2::render(tiles, triangles, proj) },
+        // SAFETY: the scalar kernel is portable Rust. (Elsewhere than x86_64 the SIMD kernels
+        // are never available, so they never reach this arm.)
+        _ => unsafe { Scalar::render(tiles, triangles, proj) },
+    }
+}
+
+/// Draws the triangles with a baseline kernel; false (and nothing drawn) when this CPU cannot
+/// run it.
+pub(super) fn render_baseline(
+    kernel: BaselineKernel,
+    tiles: &mut Tiles,
+    triangles: &[Vec3],
+    proj: &Projector,
+) -> bool {
+    if !kernel.available() {
+        return false;
+    }
+    match kernel {
+        // SAFETY: SSE2 is part of the x86_64 baseline, enabled on this target.
+        #[cfg(target_arch = "x86_64")]
+        BaselineKernel::Sse2PerTile => unsafe { Sse2::render(tiles, triangles, proj) },
+        // SAFETY: `available` just saw `is_x86_feature_detected!("avx2")`.
+        #[cfg(target_arch = "x86_64")]
+        BaselineKernel::Avx2PerTile => unsafe { Avx2PerTile::render(tiles, triangles, proj) },
+        // Elsewhere no baseline is available (returned above).
+        #[cfg(not(target_arch = "x86_64"))]
+        _ => {
+            let _ = (tiles, triangles, proj);
+        }
+    }
+    true
+}

@@ -1,0 +1,250 @@
+//! World to screen for the masked occlusion buffer and its neighbours: the view transform,
+//! projection onto a pixel grid as `[sx, sy, 1/z]`, the clipping of triangles to the near plane
+//! and a guard band, and the near-plane classification of boxes that the buffer's box test and
+//! the HZB's ([`crate::Hzb`]) share.
+//!
+//! Based on: Hasselgren, Andersson, Akenine-Möller. Masked Software Occlusion Culling. 2016,
+//! section 3 (triangles are clipped to a guard band around the screen, not to its edges, so
+//! that only triangles crossing the near plane or reaching far outside the view are clipped;
+//! the rasterizer's bounding box does the rest) and depth as `1/z`, affine in screen space.
+//! Clipping itself is Sutherland-Hodgman polygon clipping against one plane at a time.
+
+use glam::Vec3;
+use sightline_core::{Aabb, Camera};
+
+/// Triangles are clipped to a guard band of this many half-screens around the centre, which
+/// keeps screen coordinates small enough for `f32` spans to be accurate to 1/100 px.
+pub(super) const GUARD: f32 = 4.0;
+
+/// World to screen mapping of a camera onto the buffer's pixel grid.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Projector {
+    pub eye: Vec3,
+    pub right: Vec3,
+    pub up: Vec3,
+    pub forward: Vec3,
+    pub near: f32,
+    /// `sx = kx * vx / vz + cx`, `sy = -ky * vy / vz + cy`.
+    pub kx: f32,
+    pub ky: f32,
+    pub cx: f32,
+    pub cy: f32,
+    pub tan_x: f32,
+    pub tan_y: f32,
+}
+
+/// One occluder or query triangle after the view transform, sorted by what drawing it needs.
+pub(super) enum ViewTriangle {
+    /// A corner is not finite.
+    NotFinite,
+    /// Every corner is behind the near plane.
+    Behind,
+    /// Every corner is in front of the near plane and inside the guard band: the screen
+    /// triangle, `[sx, sy, 1/z]` per corner.
+    Inside([[f32; 3]; 3]),
+    /// It crosses the near plane or the guard band: the view-space corners, to be clipped.
+    Clip([Vec3; 3]),
+}
+
+impl Projector {
+    pub fn new(camera: &Camera, width: u32, height: u32) -> Self {
+        let (tan_x, tan_y) = (camera.tan_half_x(), camera.tan_half_y());
+        let (cx, cy) = (width as f32 * 0.5, height as f32 * 0.5);
+        Self {
+            eye: camera.eye,
+            right: camera.right,
+            up: camera.up,
+            forward: camera.forward,
+            near: camera.near,
+            kx: cx / tan_x,
+            ky: cy / tan_y,
+            cx,
+            cy,
+            tan_x,
+            tan_y,
+        }
+    }
+
+    /// View coordinates `(right, up, forward)` of a world point (`Camera::to_view`'s
+    /// arithmetic, inlined).
+    #[inline(always)]
+    pub fn view(&self, p: Vec3) -> Vec3 {
+        let d = p - self.eye;
+        Vec3::new(d.dot(self.right), d.dot(self.up), d.dot(self.forward))
+    }
+
+    /// Screen position and `1/z` of a view point with `z > 0`.
+    #[inline(always)]
+    pub fn screen(&self, v: Vec3) -> [f32; 3] {
+        let r = 1.0 / v.z;
+        [self.kx * v.x * r + self.cx, -self.ky * v.y * r + self.cy, r]
+    }
+
+    /// True when a view point needs no clipping: in front of the near plane, inside the guard band.
+    #[inline(always)]
+    pub fn inside_guard(&self, v: Vec3) -> bool {
+        v.z >= self.near
+            && v.x.abs() <= GUARD * self.tan_x * v.z
+            && v.y.abs() <= GUARD * self.tan_y * v.z
+    }
+
+    /// The triangle with world corners `t[0..3]` in view space, sorted by what drawing it
+    /// needs (the occluder rasterizers skip the first two kinds, the triangle test calls a
+    /// non-finite one visible).
+    #[inline(always)]
+    pub fn triangle(&self, t: &[Vec3]) -> ViewTriangle {
+        let v = [self.view(t[0]), self.view(t[1]), self.view(t[2])];
+        if !v.iter().all(|p| p.is_finite()) {
+            ViewTriangle::NotFinite
+        } else if v.iter().all(|p| p.z < self.near) {
+            ViewTriangle::Behind
+        } else if v.iter().all(|&p| self.inside_guard(p)) {
+            ViewTriangle::Inside([self.screen(v[0]), self.screen(v[1]), self.screen(v[2])])
+        } else {
+            ViewTriangle::Clip(v)
+        }
+    }
+
+    /// Clips a view-space triangle to the near plane and the guard band and calls `f` with the
+    /// screen triangles of the fan of what is left, in order, until `f` returns true; true when
+    /// it did. The occluder rasterizers and the triangle test share it, so that both see the
+    /// same pieces.
+    pub fn clipped_fan(&self, v: [Vec3; 3], mut f: impl FnMut([[f32; 3]; 3]) -> bool) -> bool {
+        let (poly, n) = self.clip(v);
+        // Clipped points lie on z = near at the least; clamp the rounding of the lerp.
+        let s = |p: Vec3| self.screen(Vec3::new(p.x, p.y, p.z.max(self.near)));
+        for i in 1..n.saturating_sub(1) {
+            if f([s(poly[0]), s(poly[i]), s(poly[i + 1])]) {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// Clips a view-space triangle to the near plane and the guard band (Sutherland-Hodgman:
+    /// each plane adds at most one vertex, 3 + 5 = 8); the polygon and its vertex count, which
+    /// is below 3 when nothing is left.
+    fn clip(&self, v: [Vec3; 3]) -> ([Vec3; 9], usize) {
+        let mut poly = [Vec3::ZERO; 9];
+        let mut next = [Vec3::ZERO; 9];
+        poly[..3].copy_from_slice(&v);
+        let mut n = 3;
+        for plane in self.planes() {
+            let dist = |p: Vec3| plane[0] * p.x + plane[1] * p.y + plane[2] * p.z + plane[3];
+            let mut m = 0;
+            for i in 0..n {
+                let (a, b) = (poly[i], poly[(i + 1) % n]);
+                let (da, db) = (dist(a), dist(b));
+                if da >= 0.0 {
+                    next[m] = a;
+                    m += 1;
+                }
+                if (da >= 0.0) != (db >= 0.0) {
+                    next[m] = a + (b - a) * (da / (da - db));
+                    m += 1;
+                }
+            }
+            std::mem::swap(&mut poly, &mut next);
+            n = m;
+            if n < 3 {
+                return (poly, n);
+            }
+        }
+        (poly, n)
+    }
+
+    /// The clipping planes in view space (`inside` when `dot >= 0` on `(x, y, z, 1)`).
+    fn planes(&self) -> [[f32; 4]; 5] {
+        let gx = GUARD * self.tan_x;
+        let gy = GUARD * self.tan_y;
+        [
+            [0.0, 0.0, 1.0, -self.near],
+            [-1.0, 0.0, gx, 0.0],
+            [1.0, 0.0, gx, 0.0],
+            [0.0, -1.0, gy, 0.0],
+            [0.0, 1.0, gy, 0.0],
+        ]
+    }
+}
+
+/// A box against the near plane, from the view depths of its 8 corners.
+pub(crate) enum BoxView {
+    /// A corner's depth is not finite: the box test must call it visible.
+    NotFinite,
+    /// Entirely behind the near plane.
+    Behind,
+    /// Crossing the near plane: the box test calls it visible.
+    CrossesNear,
+    /// Entirely in front: the corners in view space and the nearest depth (the minimum view
+    /// depth over a box is at a corner).
+    InFront { corners: [Vec3; 8], zmin: f32 },
+}
+
+impl BoxView {
+    /// The box's corners through `to_view` (the buffer's projector or the camera's own view
+    /// transform, which compute the same) against the near plane at depth `near`.
+    #[inline(always)]
+    pub(crate) fn new(aabb: &Aabb, near: f32, to_view: impl Fn(Vec3) -> Vec3) -> Self {
+        let mut zmin = f32::INFINITY;
+        let mut zmax = f32::NEG_INFINITY;
+        let mut corners = [Vec3::ZERO; 8];
+        for (i, v) in corners.iter_mut().enumerate() {
+            let c = Vec3::new(
+                if i & 1 != 0 { aabb.max.x } else { aabb.min.x },
+                if i & 2 != 0 { aabb.max.y } else { aabb.min.y },
+                if i & 4 != 0 { aabb.max.z } else { aabb.min.z },
+            );
+            *v = to_view(c);
+            zmin = zmin.min(v.z);
+            zmax = zmax.max(v.z);
+        }
+        if !(zmin.is_finite() && zmax.is_finite()) {
+            BoxView::NotFinite
+        } else if zmax < near {
+            BoxView::Behind
+        } else if zmin < near {
+            BoxView::CrossesNear
+        } else {
+            BoxView::InFront { corners, zmin }
+        }
+    }
+}
+
+/// The screen rectangle `(x0, y0, x1, y1)` of view points through `to_screen` (their bounds;
+/// `f32::min` / `max` pass over NaN, and with no number at all the rectangle is empty,
+/// `x0 = +inf > x1 = -inf`).
+#[inline(always)]
+pub(crate) fn screen_bounds(
+    corners: &[Vec3; 8],
+    to_screen: impl Fn(Vec3) -> (f32, f32),
+) -> (f32, f32, f32, f32) {
+    let (mut x0, mut y0, mut x1, mut y1) = (
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NEG_INFINITY,
+    );
+    for &v in corners {
+        let (sx, sy) = to_screen(v);
+        x0 = x0.min(sx);
+        x1 = x1.max(sx);
+        y0 = y0.min(sy);
+        y1 = y1.max(sy);
+    }
+    (x0, y0, x1, y1)
+}
+
+/// `floor` as an integer without a libm call (`f32::floor` needs SSE4.1 to inline); values
+/// beyond `i32` saturate, which the callers clamp anyway.
+#[inline(always)]
+pub(super) fn floor_i(x: f32) -> i32 {
+    let i = x as i32;
+    i - i32::from(x < i as f32)
+}
+
+/// `ceil` as an integer, see [`floor_i`].
+#[inline(always)]
+pub(super) fn ceil_i(x: f32) -> i32 {
+    let i = x as i32;
+    i + i32::from(x > i as f32)
+}
