@@ -294,10 +294,10 @@ fn avx2_cpu_builds_eight_wide_nodes() {
     let bvh = Bvh::build(&box_scene(1));
     #[cfg(target_arch = "x86_64")]
     if is_x86_feature_detected!("avx2") {
-        assert!(bvh.nodes.is_empty() && !bvh.nodes8.is_empty());
+        assert!(matches!(&bvh.nodes, Nodes::Eight(n) if !n.is_empty()));
         return;
     }
-    assert!(!bvh.nodes.is_empty() && bvh.nodes8.is_empty());
+    assert!(matches!(&bvh.nodes, Nodes::Four(n) if !n.is_empty()));
 }
 
 #[test]
