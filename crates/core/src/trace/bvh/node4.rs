@@ -20,7 +20,7 @@ use crate::geometry::{Hit, Ray};
 
 use super::build::Node;
 use super::node::WideNode;
-use super::slab::{empty_boxes, BoxRay, Boxes};
+use super::slab::{empty_boxes, set_lane, BoxRay, Boxes};
 use super::traverse::{self, stack_size, Entry, Tree};
 
 /// A 4-wide node (see the module documentation). Unused slots have [`empty_boxes`]'
@@ -61,10 +61,7 @@ impl WideNode for Node4 {
     }
 
     fn set_box(&mut self, lane: usize, n: &Node) {
-        for a in 0..3 {
-            self.bounds[a][lane] = n.min[a];
-            self.bounds[a + 3][lane] = n.max[a];
-        }
+        set_lane(&mut self.bounds, lane, n.min, n.max);
     }
 
     fn set_leaf(&mut self, lane: usize, first: u32, packets: u32) {

@@ -22,7 +22,7 @@ use crate::geometry::{Hit, Ray};
 
 use super::build::{Node, MAX_LEAF};
 use super::node::WideNode;
-use super::slab::{empty_boxes, BoxRay, Boxes};
+use super::slab::{empty_boxes, set_lane, BoxRay, Boxes};
 use super::traverse::{self, stack_size, Entry, Tree};
 
 /// Bits of a slot that hold a leaf's packet count.
@@ -66,10 +66,7 @@ impl WideNode for Node8 {
     }
 
     fn set_box(&mut self, lane: usize, n: &Node) {
-        for a in 0..3 {
-            self.bounds[a][lane] = n.min[a];
-            self.bounds[a + 3][lane] = n.max[a];
-        }
+        set_lane(&mut self.bounds, lane, n.min, n.max);
     }
 
     fn set_leaf(&mut self, lane: usize, first: u32, packets: u32) {

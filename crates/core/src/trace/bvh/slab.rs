@@ -35,6 +35,19 @@ pub(super) const fn empty_boxes<const N: usize>() -> Boxes<N> {
     ]
 }
 
+/// Sets lane `lane` of `boxes` to the box `[min, max]`.
+pub(super) fn set_lane<const N: usize>(
+    boxes: &mut Boxes<N>,
+    lane: usize,
+    min: [f32; 3],
+    max: [f32; 3],
+) {
+    for a in 0..3 {
+        boxes[a][lane] = min[a];
+        boxes[a + 3][lane] = max[a];
+    }
+}
+
 /// A ray prepared for slab tests against [`Boxes`] of any width.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct BoxRay {
@@ -123,15 +136,9 @@ pub(super) mod kernel_tests {
     /// (lane 1), touching and degenerate (flat, lane 2), and empty slots.
     fn mixed_boxes<const N: usize>() -> Boxes<N> {
         let mut b = empty_boxes::<N>();
-        let mut set = |lane: usize, min: [f32; 3], max: [f32; 3]| {
-            for a in 0..3 {
-                b[a][lane] = min[a];
-                b[a + 3][lane] = max[a];
-            }
-        };
-        set(0, [1.0, -1.0, -1.0], [2.0, 1.0, 1.0]);
-        set(1, [-3.0, -1.0, -1.0], [-2.0, 1.0, 1.0]);
-        set(2, [1.0, 0.0, 0.0], [1.0, 0.0, 0.0]);
+        set_lane(&mut b, 0, [1.0, -1.0, -1.0], [2.0, 1.0, 1.0]);
+        set_lane(&mut b, 1, [-3.0, -1.0, -1.0], [-2.0, 1.0, 1.0]);
+        set_lane(&mut b, 2, [1.0, 0.0, 0.0], [1.0, 0.0, 0.0]);
         b
     }
 
