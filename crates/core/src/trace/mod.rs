@@ -3,8 +3,6 @@
 //! Hits are closest hits over `[ray.t_min, ray.t_max]`. Degenerate (zero-area) triangles are
 //! never hit. Triangles are double-sided.
 
-mod box4;
-mod box8;
 pub mod brute;
 pub mod bvh;
 #[cfg(feature = "embree")]

@@ -1,5 +1,7 @@
-//! Four ray/box slab tests at once, for the 4-wide nodes of [`super::Bvh`]: SSE on x86_64
-//! (part of its baseline, so no runtime detection), the same arithmetic lane by lane elsewhere.
+//! The ray/box slab test of the wide nodes, any width: the ray prepared once ([`BoxRay`]), the
+//! boxes of a node as rows of lanes ([`Boxes`]), and the reference test lane by lane
+//! (`BoxRay::enter_scalar`). Each node layout's SIMD kernel (SSE in `node4.rs`, AVX2 in
+//! `node8.rs`) computes exactly what the reference does, and is tested against it here.
 //!
 //! Based on: Williams, Barrus, Morley, Shirley. An efficient and robust ray-box intersection
 //! algorithm. JGT 10(1), 2005 (near/far planes picked by the sign of the direction).
@@ -8,41 +10,50 @@
 //! against the SIMD-wide boxes of a multi-branching BVH).
 //!
 //! # Exactness
-//! Both paths compute, per lane, exactly the same IEEE operations in the same order (no fused
+//! Every kernel computes, per lane, exactly the same IEEE operations in the same order (no fused
 //! multiply-add), and `max`/`min` keep the running bound when the new distance is NaN
-//! (`_mm_max_ps(a, b)` returns `b` when unordered, like `if a > b { a } else { b }`), so the SSE
-//! and scalar paths give the same bits; a test checks it.
-
-#[cfg(target_arch = "x86_64")]
-use std::arch::x86_64::{
-    __m128, _mm_cmple_ps, _mm_max_ps, _mm_min_ps, _mm_movemask_ps, _mm_mul_ps, _mm_set1_ps,
-    _mm_sub_ps,
-};
+//! (`_mm_max_ps(a, b)` returns `b` when unordered, like `if a > b { a } else { b }`), so the
+//! SIMD and scalar paths give the same bits; `kernel_tests` checks it for each kernel.
 
 use glam::Vec3;
 
 use crate::geometry::Ray;
 
-/// Four boxes, lane `i` for child `i`: `[min x, min y, min z, max x, max y, max z]`.
-pub(super) type Boxes4 = [[f32; 4]; 6];
+/// `N` boxes, lane `i` for child `i`: `[min x, min y, min z, max x, max y, max z]`.
+pub(super) type Boxes<const N: usize> = [[f32; N]; 6];
 
-/// Four boxes that no ray ever enters: every near plane is `+inf` away along the ray and every
+/// `N` boxes that no ray ever enters: every near plane is `+inf` away along the ray and every
 /// far plane `-inf`, so the entry distance is `+inf` and the exit `-inf` on every axis.
-pub(super) const EMPTY_BOXES: Boxes4 = [
-    [f32::INFINITY; 4],
-    [f32::INFINITY; 4],
-    [f32::INFINITY; 4],
-    [f32::NEG_INFINITY; 4],
-    [f32::NEG_INFINITY; 4],
-    [f32::NEG_INFINITY; 4],
-];
+pub(super) const fn empty_boxes<const N: usize>() -> Boxes<N> {
+    [
+        [f32::INFINITY; N],
+        [f32::INFINITY; N],
+        [f32::INFINITY; N],
+        [f32::NEG_INFINITY; N],
+        [f32::NEG_INFINITY; N],
+        [f32::NEG_INFINITY; N],
+    ]
+}
 
-/// A ray prepared for slab tests against [`Boxes4`] (and `Boxes8` in `box8.rs`).
+/// Sets lane `lane` of `boxes` to the box `[min, max]`.
+pub(super) fn set_lane<const N: usize>(
+    boxes: &mut Boxes<N>,
+    lane: usize,
+    min: [f32; 3],
+    max: [f32; 3],
+) {
+    for a in 0..3 {
+        boxes[a][lane] = min[a];
+        boxes[a + 3][lane] = max[a];
+    }
+}
+
+/// A ray prepared for slab tests against [`Boxes`] of any width.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct BoxRay {
     pub(super) origin: [f32; 3],
     pub(super) inv: [f32; 3],
-    /// Per axis, the row of [`Boxes4`] holding the near plane (the max when the direction is
+    /// Per axis, the row of [`Boxes`] holding the near plane (the max when the direction is
     /// negative) and the one holding the far plane.
     pub(super) near: [usize; 3],
     pub(super) far: [usize; 3],
@@ -75,39 +86,27 @@ impl BoxRay {
     }
 
     /// Per lane, the entry distance into the box clipped to `[t_min, t_far]`, and a bit mask
-    /// of the lanes whose box the ray enters in that range (bit `i` for lane `i`).
+    /// of the lanes whose box the ray enters in that range (bit `i` for lane `i`), one lane at
+    /// a time: the reference every SIMD kernel equals, and the kernel where there is none.
     ///
     /// `(plane - origin) * inv` is NaN when the origin lies on a plane the ray is parallel
     /// to: such a slab does not constrain the interval (the box is closed). The entry of an
     /// entered box is always finite.
-    #[inline(always)]
-    pub(super) fn enter(&self, boxes: &Boxes4, t_far: f32, far_slack: f32) -> ([f32; 4], u32) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            self.enter_sse(boxes, t_far, far_slack)
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            self.enter_scalar(boxes, t_far, far_slack)
-        }
-    }
-
-    /// [`BoxRay::enter`] one lane at a time.
     #[cfg(any(test, not(target_arch = "x86_64")))]
     #[inline(always)]
-    pub(super) fn enter_scalar(
+    pub(super) fn enter_scalar<const N: usize>(
         &self,
-        boxes: &Boxes4,
+        boxes: &Boxes<N>,
         t_far: f32,
         far_slack: f32,
-    ) -> ([f32; 4], u32) {
-        let mut t0 = [self.t_min; 4];
-        let mut t1 = [t_far; 4];
+    ) -> ([f32; N], u32) {
+        let mut t0 = [self.t_min; N];
+        let mut t1 = [t_far; N];
         for a in 0..3 {
             // `% 6` lets the compiler drop the bounds checks.
             let near = &boxes[self.near[a] % 6];
             let far = &boxes[self.far[a] % 6];
-            for lane in 0..4 {
+            for lane in 0..N {
                 let tn = (near[lane] - self.origin[a]) * self.inv[a];
                 let tf = (far[lane] - self.origin[a]) * self.inv[a] * far_slack;
                 if tn > t0[lane] {
@@ -119,87 +118,59 @@ impl BoxRay {
             }
         }
         let mut mask = 0;
-        for lane in 0..4 {
+        for lane in 0..N {
             if t0[lane] <= t1[lane] {
                 mask |= 1 << lane;
             }
         }
         (t0, mask)
     }
-
-    /// [`BoxRay::enter`] with SSE.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    fn enter_sse(&self, boxes: &Boxes4, t_far: f32, far_slack: f32) -> ([f32; 4], u32) {
-        let lanes = |v: [f32; 4]| -> __m128 { bytemuck::cast(v) };
-        // SAFETY: SSE is part of the x86_64 baseline, so these intrinsics are available on
-        // every x86_64 CPU; they only operate on values (no memory access).
-        unsafe {
-            let mut t0 = _mm_set1_ps(self.t_min);
-            let mut t1 = _mm_set1_ps(t_far);
-            let slack = _mm_set1_ps(far_slack);
-            for a in 0..3 {
-                let origin = _mm_set1_ps(self.origin[a]);
-                let inv = _mm_set1_ps(self.inv[a]);
-                let near = lanes(boxes[self.near[a] % 6]);
-                let far = lanes(boxes[self.far[a] % 6]);
-                let tn = _mm_mul_ps(_mm_sub_ps(near, origin), inv);
-                let tf = _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(far, origin), inv), slack);
-                // Operand order matters: the second operand is kept when the first is NaN.
-                t0 = _mm_max_ps(tn, t0);
-                t1 = _mm_min_ps(tf, t1);
-            }
-            let mask = _mm_movemask_ps(_mm_cmple_ps(t0, t1)) as u32;
-            (bytemuck::cast(t0), mask)
-        }
-    }
 }
 
+/// The checks every slab kernel passes: the node layouts' tests call them with their kernel.
 #[cfg(test)]
-mod tests {
+pub(super) mod kernel_tests {
     use super::*;
 
-    /// Boxes with every relation to a ray along +x from the origin: hit, behind, beside,
-    /// touching, degenerate (flat), and the empty slot.
-    fn mixed_boxes() -> Boxes4 {
-        let mut b = EMPTY_BOXES;
-        let set = |b: &mut Boxes4, lane: usize, min: [f32; 3], max: [f32; 3]| {
-            for a in 0..3 {
-                b[a][lane] = min[a];
-                b[a + 3][lane] = max[a];
-            }
-        };
-        set(&mut b, 0, [1.0, -1.0, -1.0], [2.0, 1.0, 1.0]);
-        set(&mut b, 1, [-3.0, -1.0, -1.0], [-2.0, 1.0, 1.0]);
-        set(&mut b, 2, [1.0, 0.0, 0.0], [1.0, 0.0, 0.0]);
+    /// Boxes with every relation to a ray along +x from the origin: hit (lane 0), behind
+    /// (lane 1), touching and degenerate (flat, lane 2), and empty slots.
+    fn mixed_boxes<const N: usize>() -> Boxes<N> {
+        let mut b = empty_boxes::<N>();
+        set_lane(&mut b, 0, [1.0, -1.0, -1.0], [2.0, 1.0, 1.0]);
+        set_lane(&mut b, 1, [-3.0, -1.0, -1.0], [-2.0, 1.0, 1.0]);
+        set_lane(&mut b, 2, [1.0, 0.0, 0.0], [1.0, 0.0, 0.0]);
         b
     }
 
-    #[test]
-    fn hits_box_ahead_only() {
+    /// The box ahead and the flat box touching the ray are entered at 1, nothing else.
+    pub(in super::super) fn hits_box_ahead_only<const N: usize>(
+        enter: impl Fn(&BoxRay, &Boxes<N>, f32, f32) -> ([f32; N], u32),
+    ) {
         let r = BoxRay::new(&Ray::new(Vec3::ZERO, Vec3::X), 0.0).expect("usable ray");
-        let (t, mask) = r.enter(&mixed_boxes(), f32::INFINITY, 1.0);
+        let (t, mask) = enter(&r, &mixed_boxes(), f32::INFINITY, 1.0);
         assert_eq!(mask, 0b101);
         assert_eq!(t[0], 1.0);
         assert_eq!(t[2], 1.0);
     }
 
-    #[test]
-    fn empty_boxes_are_never_entered() {
+    /// [`empty_boxes`] are never entered, whatever the signs of the direction.
+    pub(in super::super) fn empty_boxes_are_never_entered<const N: usize>(
+        enter: impl Fn(&BoxRay, &Boxes<N>, f32, f32) -> ([f32; N], u32),
+    ) {
         for dir in [Vec3::X, Vec3::NEG_Y, Vec3::new(0.0, -0.0, 1.0), Vec3::ONE] {
             let r = BoxRay::new(&Ray::new(Vec3::splat(0.5), dir), 0.0).expect("usable ray");
-            assert_eq!(r.enter(&EMPTY_BOXES, f32::INFINITY, 1.0).1, 0, "{dir:?}");
-            assert_eq!(r.enter_scalar(&EMPTY_BOXES, f32::INFINITY, 1.0).1, 0);
+            let empty = empty_boxes::<N>();
+            assert_eq!(enter(&r, &empty, f32::INFINITY, 1.0).1, 0, "{dir:?}");
+            assert_eq!(r.enter_scalar(&empty, f32::INFINITY, 1.0).1, 0);
         }
     }
 
-    #[test]
-    fn zero_direction_is_unusable() {
-        assert!(BoxRay::new(&Ray::new(Vec3::ZERO, Vec3::ZERO), 0.0).is_none());
-    }
-
-    #[test]
-    fn simd_equals_scalar_on_random_boxes() {
+    /// `enter` gives the reference's mask and, for entered lanes, its bits, on random boxes;
+    /// node `i` uses the first `used(i)` lanes and leaves the rest empty slots.
+    pub(in super::super) fn equals_scalar_on_random_boxes<const N: usize>(
+        enter: impl Fn(&BoxRay, &Boxes<N>, f32, f32) -> ([f32; N], u32),
+        used: impl Fn(usize) -> usize,
+    ) {
         // xorshift64*, fixed seed; coordinates on a coarse lattice so that origins often lie on
         // planes (NaN distances) and directions often have (signed) zero components.
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
@@ -211,12 +182,10 @@ mod tests {
         };
         let mut coord = || (next() % 9) as f32 - 4.0;
         for i in 0..20_000 {
-            let mut boxes = EMPTY_BOXES;
-            // Every fifth node leaves lane 3 an empty slot.
-            let used = if i % 5 == 0 { 3 } else { 4 };
+            let mut boxes = empty_boxes::<N>();
             for a in 0..3 {
                 let (mins, maxs) = boxes.split_at_mut(3);
-                for (min, max) in mins[a].iter_mut().zip(&mut maxs[a]).take(used) {
+                for (min, max) in mins[a].iter_mut().zip(&mut maxs[a]).take(used(i)) {
                     let (p, q) = (coord(), coord());
                     *min = p.min(q);
                     *max = p.max(q);
@@ -233,9 +202,9 @@ mod tests {
                 continue;
             };
             let (ts, ms) = r.enter_scalar(&boxes, t_far, 1.0 + 1e-6);
-            let (tv, mv) = r.enter(&boxes, t_far, 1.0 + 1e-6);
+            let (tv, mv) = enter(&r, &boxes, t_far, 1.0 + 1e-6);
             assert_eq!(ms, mv, "ray {i}");
-            for lane in 0..4 {
+            for lane in 0..N {
                 if ms & (1 << lane) != 0 {
                     assert_eq!(
                         ts[lane].to_bits(),
@@ -245,5 +214,16 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn zero_direction_is_unusable() {
+        assert!(BoxRay::new(&Ray::new(Vec3::ZERO, Vec3::ZERO), 0.0).is_none());
+    }
+
+    #[test]
+    fn scalar_hits_box_ahead_only() {
+        hits_box_ahead_only::<4>(|r, b, t, s| r.enter_scalar(b, t, s));
+        hits_box_ahead_only::<8>(|r, b, t, s| r.enter_scalar(b, t, s));
     }
 }

@@ -1,0 +1,73 @@
+//! What a wide node layout of [`super::Bvh`] provides, so that one collapse (`collapse.rs`) and
+//! one traversal (`traverse.rs`) serve every width. A new layout (another width, compressed
+//! boxes, another SIMD kernel) is one new file implementing [`WideNode`], plus its variant in
+//! `Nodes` and its pick in `Width` (`mod.rs`).
+//!
+//! Based on: Embree's `kernels/bvh` (one BVH-N traverser templated on the node width N).
+
+use crate::geometry::{Hit, Ray};
+
+use super::build::Node;
+use super::slab::BoxRay;
+use super::traverse::{Entry, Tree};
+
+/// A node of up to [`WideNode::WIDTH`] children: their boxes side by side (one SIMD lane per
+/// child) and, per child, either an inner node's index or a leaf's run of packets.
+pub(super) trait WideNode: Copy + Sized {
+    /// Children per node: a power of two (lane indices are masked with `WIDTH - 1`), at most
+    /// [`super::collapse::MAX_WIDTH`].
+    const WIDTH: usize;
+    /// A node without children: every box is never entered, so unused slots need no count.
+    const EMPTY: Self;
+    /// What the traversal stack keeps of a child (the default is the root, node 0).
+    type Child: Copy + Default;
+    /// The entry distances of the `WIDTH` children, as [`WideNode::enter`] returns them.
+    type Dists: Copy + std::ops::Index<usize, Output = f32>;
+    /// The traversal stack: [`super::traverse::stack_size`]`(WIDTH)` entries.
+    type Stack: AsMut<[Entry<Self::Child>]>;
+
+    /// True when this CPU can run [`WideNode::enter`] (and so [`WideNode::cast`] and
+    /// [`WideNode::occluded`]).
+    fn supported() -> bool;
+
+    /// A fresh traversal stack.
+    fn new_stack() -> Self::Stack;
+
+    /// Sets the box of child `lane` to binary node `n`'s box.
+    fn set_box(&mut self, lane: usize, n: &Node);
+
+    /// Makes child `lane` a leaf of `packets` packets from `first` on (`packets` > 0).
+    fn set_leaf(&mut self, lane: usize, first: u32, packets: u32);
+
+    /// Makes child `lane` the inner node at `index`.
+    fn set_inner(&mut self, lane: usize, index: usize);
+
+    /// Child `lane` (`lane < WIDTH`) as the stack keeps it.
+    fn child(&self, lane: usize) -> Self::Child;
+
+    /// `(index, packets)` of a child: an inner node's index and 0, or a leaf's first packet and
+    /// its packet count.
+    fn decode(child: Self::Child) -> (usize, usize);
+
+    /// Per lane, the entry distance into the child's box clipped to `[ray.t_min, t_far]`
+    /// (far distances scaled by `far_slack`), and a bit mask of the lanes whose box the ray
+    /// enters (bit `i` for lane `i`): exactly `BoxRay::enter_scalar`'s bits.
+    ///
+    /// # Safety
+    /// The CPU must have what [`WideNode::supported`] checks.
+    unsafe fn enter(&self, ray: &BoxRay, t_far: f32, far_slack: f32) -> (Self::Dists, u32);
+
+    /// Closest hits of `rays` by [`super::traverse::cast`], compiled with the CPU features
+    /// [`WideNode::enter`] needs.
+    ///
+    /// # Safety
+    /// As [`WideNode::enter`].
+    unsafe fn cast(tree: Tree<'_, Self>, rays: &[Ray], hits: &mut [Hit]);
+
+    /// Any-hit tests of `rays` by [`super::traverse::occluded`], compiled as
+    /// [`WideNode::cast`].
+    ///
+    /// # Safety
+    /// As [`WideNode::enter`].
+    unsafe fn occluded(tree: Tree<'_, Self>, rays: &[Ray], out: &mut [bool]);
+}

@@ -1,0 +1,229 @@
+//! The 8-wide layout of [`super::Bvh`]: eight child boxes tested at once with AVX2, used
+//! instead of the 4-wide layout (`node4.rs`) when the CPU has AVX2 (checked at run time with
+//! `is_x86_feature_detected!`); the reference slab test lane by lane off x86_64. Leaves are the
+//! same four-triangle packets.
+//!
+//! Based on: Fuetterling, Lojewski, Pfreundt, Ebert. Efficient Ray Tracing Kernels for Modern
+//! CPU Architectures. JCGT 4(5), 2015 (BVH8 single-ray traversal with 8-wide box tests).
+//!
+//! # Layout
+//! A node is 224 bytes: the eight child boxes as six rows of eight lanes (min x, y, z,
+//! max x, y, z), then per child one `u32` slot, `index << 3 | packets`: an inner child
+//! (`packets == 0`) by its node index, a leaf by its first packet and packet count (1 to 7;
+//! leaves hold at most `MAX_LEAF` triangles, so at most 2 packets).
+
+#[cfg(target_arch = "x86_64")]
+use std::arch::x86_64::{
+    _mm256_cmp_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps,
+    _mm256_mul_ps, _mm256_set1_ps, _mm256_storeu_ps, _mm256_sub_ps, _CMP_LE_OQ,
+};
+
+use crate::geometry::{Hit, Ray};
+
+use super::build::{Node, MAX_LEAF};
+use super::node::WideNode;
+use super::slab::{empty_boxes, set_lane, BoxRay, Boxes};
+use super::traverse::{self, stack_size, Entry, Tree};
+
+/// Bits of a slot that hold a leaf's packet count.
+const PACKET_BITS: u32 = 3;
+
+const _: () = assert!(MAX_LEAF.div_ceil(4) < 1 << PACKET_BITS);
+
+/// An 8-wide node (see the module documentation). Unused slots have [`empty_boxes`]'
+/// never-entered boxes.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub(super) struct Node8 {
+    bounds: Boxes<8>,
+    slot: [u32; 8],
+}
+
+impl WideNode for Node8 {
+    const WIDTH: usize = 8;
+    const EMPTY: Node8 = Node8 {
+        bounds: empty_boxes(),
+        slot: [0; 8],
+    };
+    /// The child's slot.
+    type Child = u32;
+    type Dists = [f32; 8];
+    type Stack = [Entry<u32>; stack_size(8)];
+
+    fn supported() -> bool {
+        #[cfg(target_arch = "x86_64")]
+        {
+            is_x86_feature_detected!("avx2")
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            true
+        }
+    }
+
+    fn new_stack() -> Self::Stack {
+        [Entry::default(); stack_size(8)]
+    }
+
+    fn set_box(&mut self, lane: usize, n: &Node) {
+        set_lane(&mut self.bounds, lane, n.min, n.max);
+    }
+
+    fn set_leaf(&mut self, lane: usize, first: u32, packets: u32) {
+        assert!(
+            first < 1 << (32 - PACKET_BITS),
+            "at most 2^29 packets (about 1.8 billion triangles)"
+        );
+        debug_assert!(packets > 0 && packets < 1 << PACKET_BITS);
+        self.slot[lane] = first << PACKET_BITS | packets;
+    }
+
+    fn set_inner(&mut self, lane: usize, index: usize) {
+        assert!(index < 1 << (32 - PACKET_BITS), "at most 2^29 nodes");
+        self.slot[lane] = (index as u32) << PACKET_BITS;
+    }
+
+    #[inline(always)]
+    fn child(&self, lane: usize) -> u32 {
+        self.slot[lane]
+    }
+
+    #[inline(always)]
+    fn decode(slot: u32) -> (usize, usize) {
+        let low = (1 << PACKET_BITS) - 1;
+        ((slot >> PACKET_BITS) as usize, (slot & low) as usize)
+    }
+
+    #[inline(always)]
+    unsafe fn enter(&self, ray: &BoxRay, t_far: f32, far_slack: f32) -> ([f32; 8], u32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: the caller guarantees AVX2 (`supported`).
+            unsafe { enter_avx2(ray, &self.bounds, t_far, far_slack) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            ray.enter_scalar(&self.bounds, t_far, far_slack)
+        }
+    }
+
+    unsafe fn cast(tree: Tree<'_, Self>, rays: &[Ray], hits: &mut [Hit]) {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the caller guarantees AVX2.
+        unsafe {
+            cast_avx2(tree, rays, hits)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        // SAFETY: off x86_64 `enter` is the scalar test, which needs nothing.
+        unsafe {
+            traverse::cast(tree, rays, hits)
+        }
+    }
+
+    unsafe fn occluded(tree: Tree<'_, Self>, rays: &[Ray], out: &mut [bool]) {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the caller guarantees AVX2.
+        unsafe {
+            occluded_avx2(tree, rays, out)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        // SAFETY: as in `cast`.
+        unsafe {
+            traverse::occluded(tree, rays, out)
+        }
+    }
+}
+
+/// [`traverse::cast`] compiled with AVX2, so that [`enter_avx2`] is inlined into the loop.
+///
+/// # Safety
+/// The CPU must support AVX2 (`is_x86_feature_detected!("avx2")`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn cast_avx2(tree: Tree<'_, Node8>, rays: &[Ray], hits: &mut [Hit]) {
+    // SAFETY: the caller guarantees AVX2, all that `Node8::enter` needs.
+    unsafe { traverse::cast(tree, rays, hits) }
+}
+
+/// [`traverse::occluded`] compiled with AVX2.
+///
+/// # Safety
+/// The CPU must support AVX2 (`is_x86_feature_detected!("avx2")`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn occluded_avx2(tree: Tree<'_, Node8>, rays: &[Ray], out: &mut [bool]) {
+    // SAFETY: the caller guarantees AVX2, all that `Node8::enter` needs.
+    unsafe { traverse::occluded(tree, rays, out) }
+}
+
+/// `BoxRay::enter_scalar` on eight boxes with AVX2.
+///
+/// # Safety
+/// The CPU must support AVX2 (`is_x86_feature_detected!("avx2")`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn enter_avx2(r: &BoxRay, boxes: &Boxes<8>, t_far: f32, far_slack: f32) -> ([f32; 8], u32) {
+    let mut out = [0.0f32; 8];
+    // SAFETY: the caller guarantees AVX2 (which implies AVX); the loads read the eight floats
+    // of one row of `boxes` and the store writes the eight of `out`, all in bounds.
+    let mask = unsafe {
+        let mut t0 = _mm256_set1_ps(r.t_min);
+        let mut t1 = _mm256_set1_ps(t_far);
+        let slack = _mm256_set1_ps(far_slack);
+        for a in 0..3 {
+            let origin = _mm256_set1_ps(r.origin[a]);
+            let inv = _mm256_set1_ps(r.inv[a]);
+            let near = _mm256_loadu_ps(boxes[r.near[a] % 6].as_ptr());
+            let far = _mm256_loadu_ps(boxes[r.far[a] % 6].as_ptr());
+            let tn = _mm256_mul_ps(_mm256_sub_ps(near, origin), inv);
+            let tf = _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(far, origin), inv), slack);
+            // Operand order matters: the second operand is kept when the first is NaN.
+            t0 = _mm256_max_ps(tn, t0);
+            t1 = _mm256_min_ps(tf, t1);
+        }
+        _mm256_storeu_ps(out.as_mut_ptr(), t0);
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32
+    };
+    (out, mask)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::slab::kernel_tests;
+    use super::*;
+
+    /// The layout's box test, as the traversal calls it. Only called where
+    /// [`Node8::supported`].
+    fn enter(r: &BoxRay, boxes: &Boxes<8>, t_far: f32, far_slack: f32) -> ([f32; 8], u32) {
+        let node = Node8 {
+            bounds: *boxes,
+            ..Node8::EMPTY
+        };
+        assert!(Node8::supported());
+        // SAFETY: `Node8::supported` was checked just above.
+        unsafe { node.enter(r, t_far, far_slack) }
+    }
+
+    #[test]
+    fn hits_box_ahead_only() {
+        if Node8::supported() {
+            kernel_tests::hits_box_ahead_only(enter);
+        }
+    }
+
+    #[test]
+    fn empty_boxes_are_never_entered() {
+        if Node8::supported() {
+            kernel_tests::empty_boxes_are_never_entered(enter);
+        }
+    }
+
+    #[test]
+    fn simd_equals_scalar_on_random_boxes() {
+        if Node8::supported() {
+            // Some nodes leave empty slots at the end.
+            kernel_tests::equals_scalar_on_random_boxes(enter, |i| 8 - i % 7);
+        }
+    }
+}

@@ -1,0 +1,287 @@
+//! The one traversal of [`super::Bvh`], for every node layout ([`WideNode`]): one ray at a
+//! time with a stack, nearer children first, closest-hit and any-hit. Each layout compiles it
+//! with the CPU features its box test needs (`node8.rs` wraps it in AVX2 functions), so the
+//! loop is monomorphised per layout and the box test is inlined into it.
+//!
+//! Based on: Wald, Benthin, Boulos. Getting rid of packets: efficient SIMD single-ray traversal
+//! using multi-branching BVHs. IRT 2008 (one ray, all children's boxes at once, near to far).
+//! Based on: Fuetterling, Lojewski, Pfreundt, Ebert. Efficient Ray Tracing Kernels for Modern
+//! CPU Architectures. JCGT 4(5), 2015 (the same loop over 8-wide nodes; insertion-sorting the
+//! entered children on the stack).
+//! Based on: Ize. Robust BVH ray traversal. JCGT 2(2), 2013 (the `1 + 2 gamma(3)` slab slack).
+//!
+//! # Exactness
+//! Box tests are only ever made more conservative (Ize's slack on the far distance, a relative
+//! slack on the culling distance) so that a box whose triangle the leaf test would accept is
+//! never culled by rounding; leaves use the watertight test four triangles at a time
+//! (`tri4.rs`) and ties in `t` go to the lower triangle id, as in brute force.
+
+use crate::geometry::{Hit, Ray};
+use crate::trace::tri4::{intersect4, Tri4};
+use crate::trace::triangle::ShearedRay;
+
+use super::build::MAX_SAH_DEPTH;
+use super::node::WideNode;
+use super::slab::BoxRay;
+
+/// `gamma(n) = n eps / (1 - n eps)` of Pharr et al. with `eps = 2^-24`.
+const fn gamma(n: f32) -> f32 {
+    let eps = f32::EPSILON * 0.5;
+    n * eps / (1.0 - n * eps)
+}
+/// Ize 2013: scaling far slab distances by this makes the box test conservative.
+const ROBUST_FAR: f32 = 1.0 + 2.0 * gamma(3.0);
+/// Relative slack on the distances a box is culled against. The leaf test's `t` is a convex
+/// combination of the corners' distances along the ray and carries a few ulps of rounding, so
+/// it may sit a few ulps outside the box's slab interval; a tie at equal `t` with a lower id
+/// must still be found. Larger than strictly needed, at no measurable cost.
+const CULL_SLACK: f32 = 16.0 * gamma(3.0);
+
+/// Traversal stack size for nodes of `width` children: the binary tree has at most
+/// `MAX_SAH_DEPTH` levels plus a median-split tail over at most 2^32 triangles; each wide level
+/// spans at least one of them and pushes at most `width - 1` nodes (`width`, briefly, while
+/// sorting).
+pub(super) const fn stack_size(width: usize) -> usize {
+    (width - 1) * (MAX_SAH_DEPTH as usize + 32) + 1
+}
+
+/// A node on the traversal stack: what the parent node says of the child, and its entry
+/// distance.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Entry<C> {
+    child: C,
+    t: f32,
+}
+
+/// The arrays one traversal reads: the nodes (the root first) and the triangle packets in leaf
+/// order.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Tree<'a, N> {
+    pub(super) nodes: &'a [N],
+    pub(super) packets: &'a [Tri4],
+}
+
+/// `t` moved up by the culling slack (infinity stays infinity).
+fn slack_up(t: f32) -> f32 {
+    t + t.abs() * CULL_SLACK
+}
+
+/// Closest hits of `rays`, with one stack for them all (clearing a stack per ray costs about a
+/// tenth of a coherent ray's time).
+///
+/// # Safety
+/// The CPU must have what [`WideNode::supported`] checks for `N`.
+#[inline(always)]
+pub(super) unsafe fn cast<N: WideNode>(tree: Tree<'_, N>, rays: &[Ray], hits: &mut [Hit]) {
+    let mut stack = N::new_stack();
+    for (r, h) in rays.iter().zip(hits) {
+        // SAFETY: the caller guarantees the CPU features.
+        *h = unsafe { closest(tree, r, stack.as_mut()) };
+    }
+}
+
+/// Any-hit tests of `rays`, with one stack for them all.
+///
+/// # Safety
+/// The CPU must have what [`WideNode::supported`] checks for `N`.
+#[inline(always)]
+pub(super) unsafe fn occluded<N: WideNode>(tree: Tree<'_, N>, rays: &[Ray], out: &mut [bool]) {
+    let mut stack = N::new_stack();
+    for (r, o) in rays.iter().zip(out) {
+        // SAFETY: the caller guarantees the CPU features.
+        *o = unsafe { any_hit(tree, r, stack.as_mut()) };
+    }
+}
+
+/// What [`traverse`] does at a leaf: a trait with `#[inline(always)]` methods rather than a
+/// closure, so that the leaf test is inlined into the loop in every layout's build (a closure
+/// does not take on the AVX2 features of `node8.rs`'s wrappers, and was left out of line).
+trait Leaf {
+    /// Tests the leaf's packets; returns the new culling distance, or `None` to stop at once.
+    fn test(&mut self, packets: &[Tri4]) -> Option<f32>;
+}
+
+/// The closest-hit leaf test: keeps the best hit so far.
+struct Closest {
+    sheared: ShearedRay,
+    best: Hit,
+    /// The culling distance while nothing is hit: `t_max` moved up by the slack.
+    t_max: f32,
+}
+
+impl Leaf for Closest {
+    #[inline(always)]
+    fn test(&mut self, packets: &[Tri4]) -> Option<f32> {
+        for packet in packets {
+            let (ts, mut mask) = intersect4(&self.sheared, packet);
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize & 3;
+                mask &= mask - 1;
+                let (t, id) = (ts[lane], packet.ids[lane]);
+                // Ties go to the lower id, as in brute force.
+                if t < self.best.t || (t == self.best.t && id < self.best.triangle) {
+                    self.best = Hit { triangle: id, t };
+                }
+            }
+        }
+        Some(if self.best.is_hit() {
+            slack_up(self.best.t)
+        } else {
+            self.t_max
+        })
+    }
+}
+
+/// The any-hit leaf test: stops at the first hit.
+struct AnyHit {
+    sheared: ShearedRay,
+    /// As [`Closest::t_max`].
+    t_max: f32,
+}
+
+impl Leaf for AnyHit {
+    #[inline(always)]
+    fn test(&mut self, packets: &[Tri4]) -> Option<f32> {
+        let hit = packets.iter().any(|p| intersect4(&self.sheared, p).1 != 0);
+        (!hit).then_some(self.t_max)
+    }
+}
+
+/// The closest hit of `ray`.
+///
+/// # Safety
+/// As [`cast`].
+#[inline(always)]
+unsafe fn closest<N: WideNode>(tree: Tree<'_, N>, ray: &Ray, stack: &mut [Entry<N::Child>]) -> Hit {
+    if tree.nodes.is_empty() {
+        return Hit::MISS;
+    }
+    let mut leaf = Closest {
+        sheared: ShearedRay::new(ray),
+        best: Hit::MISS,
+        t_max: slack_up(ray.t_max),
+    };
+    // SAFETY: the caller guarantees the CPU features.
+    unsafe { traverse(tree, ray, stack, &mut leaf) };
+    leaf.best
+}
+
+/// Whether `ray` hits anything.
+///
+/// # Safety
+/// As [`cast`].
+#[inline(always)]
+unsafe fn any_hit<N: WideNode>(
+    tree: Tree<'_, N>,
+    ray: &Ray,
+    stack: &mut [Entry<N::Child>],
+) -> bool {
+    if tree.nodes.is_empty() {
+        return false;
+    }
+    let mut leaf = AnyHit {
+        sheared: ShearedRay::new(ray),
+        t_max: slack_up(ray.t_max),
+    };
+    // SAFETY: the caller guarantees the CPU features.
+    !unsafe { traverse(tree, ray, stack, &mut leaf) }
+}
+
+/// Walks the tree, children near to far, with `stack` (at least `N::new_stack`'s length) as the
+/// traversal stack. `leaf` tests each leaf reached. Returns false when `leaf` stopped it.
+///
+/// # Safety
+/// As [`cast`]; `tree.nodes` is not empty.
+#[inline(always)]
+unsafe fn traverse<N: WideNode>(
+    tree: Tree<'_, N>,
+    ray: &Ray,
+    stack: &mut [Entry<N::Child>],
+    leaf: &mut impl Leaf,
+) -> bool {
+    let t_min = ray.t_min - ray.t_min.abs() * CULL_SLACK;
+    let Some(r) = BoxRay::new(ray, t_min) else {
+        return true;
+    };
+    let mut t_far = slack_up(ray.t_max);
+    let mut top = 0usize;
+    // The root, an inner node.
+    let mut current = Entry::<N::Child>::default();
+    loop {
+        let (index, packets) = N::decode(current.child);
+        if packets > 0 {
+            match leaf.test(&tree.packets[index..index + packets]) {
+                Some(t) => t_far = t,
+                None => return false,
+            }
+        } else {
+            let node = &tree.nodes[index];
+            // SAFETY: the caller guarantees the CPU features.
+            let (t, mut mask) = unsafe { node.enter(&r, t_far, ROBUST_FAR) };
+            if mask != 0 {
+                let entry = |lane: u32| {
+                    // The mask keeps the index in range without a bounds check.
+                    let lane = lane as usize & (N::WIDTH - 1);
+                    Entry {
+                        child: node.child(lane),
+                        t: t[lane],
+                    }
+                };
+                let first = entry(mask.trailing_zeros());
+                mask &= mask - 1;
+                if mask == 0 {
+                    current = first;
+                    continue;
+                }
+                let second = entry(mask.trailing_zeros());
+                mask &= mask - 1;
+                if mask == 0 {
+                    let (near, far) = if second.t < first.t {
+                        (second, first)
+                    } else {
+                        (first, second)
+                    };
+                    debug_assert!(top < stack.len());
+                    stack[top] = far;
+                    top += 1;
+                    current = near;
+                    continue;
+                }
+                // Three or more children: push them all, sort the pushed ones far to near
+                // (insertion sort), and take the nearest back off.
+                let pushed = top;
+                stack[top] = first;
+                stack[top + 1] = second;
+                top += 2;
+                while mask != 0 {
+                    stack[top] = entry(mask.trailing_zeros());
+                    top += 1;
+                    mask &= mask - 1;
+                }
+                for i in pushed + 1..top {
+                    let e = stack[i];
+                    let mut j = i;
+                    while j > pushed && stack[j - 1].t < e.t {
+                        stack[j] = stack[j - 1];
+                        j -= 1;
+                    }
+                    stack[j] = e;
+                }
+                top -= 1;
+                current = stack[top];
+                continue;
+            }
+        }
+        // Pop the next node that is not farther than the closest hit so far.
+        loop {
+            if top == 0 {
+                return true;
+            }
+            top -= 1;
+            if stack[top].t <= t_far {
+                current = stack[top];
+                break;
+            }
+        }
+    }
+}
