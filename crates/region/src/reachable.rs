@@ -62,8 +62,8 @@
 //! sorted at 8 bytes each, and the fill holds the current and next level as lists of 4-byte
 //! indices (a shell of the fill, far smaller than the lattice). The lattice is capped at
 //! [`MAX_VOXELS`] = 2^28 points. Measured on the shared maps (2 cores, release
-//! build) in docs/BENCHMARKS.md, "Quake 3 cells: origins in reachable space": 0.3-2.6 s per map
-//! at the default step, 0.6-10 MiB.
+//! build) in docs/BENCHMARKS.md, "Quake 3 cells: origins in reachable space": 0.08-0.82 s per map
+//! at the default step, 0.6-5.1 MiB.
 
 use std::time::Instant;
 
