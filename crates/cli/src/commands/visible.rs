@@ -96,10 +96,11 @@ pub(crate) struct Args {
     #[arg(long)]
     no_preculling: bool,
     /// With --exact: the set (`-o`, the counts) keeps the triangles whose visible area is at
-    /// least this many square pixels. The default, 1e-6, leaves out the slivers that the 2^-20 px
-    /// snapping and f64 rounding leave along shared edges (the same threshold the conservative
-    /// check uses); 0 keeps every positive area (needed at tiny image sizes, where whole
-    /// triangles are smaller).
+    /// least this many square pixels and whose visible region is somewhere at least 2^-19 px
+    /// (two units of the snapping grid) thick. The default, 1e-6, leaves out the slivers that
+    /// the 2^-20 px snapping and f64 rounding leave along shared edges and between nearly
+    /// collinear edges (the same rule the conservative check uses); 0 keeps every positive area,
+    /// however thin (needed at tiny image sizes, where whole triangles are smaller).
     #[arg(long, value_name = "PX2", default_value_t = sightline_point::analytic::MIN_VISIBLE_AREA_PX2)]
     min_area: f64,
     /// Write the visible triangle ids, one per line, to this file.
@@ -492,6 +493,11 @@ fn run_exact(args: &Args, start: Instant) -> Result<()> {
         "triangles": scene.triangle_count(),
         "visible": set.count_ones(..),
         "min_area_px2": args.min_area,
+        "min_thickness_px": if args.min_area > 0.0 {
+            sightline_point::analytic::MIN_VISIBLE_THICKNESS_PX
+        } else {
+            0.0
+        },
         "below_min_area": below,
         "visible_polygons": result.polygons.len(),
         "visibility_seconds": visibility_seconds,
@@ -513,7 +519,7 @@ fn run_exact(args: &Args, start: Instant) -> Result<()> {
         return print_json(&summary);
     }
     outln!(
-        "exact (analytic): {} of {} triangles visible (at least {:e} px²; {} more below) as {} polygons; visibility {:.3} s, total {:.3} s; {} edge/triangle overlaps; {} intersecting pairs resolved; {} warnings",
+        "exact (analytic): {} of {} triangles visible (at least {:e} px² and 2^-19 px thick; {} more below) as {} polygons; visibility {:.3} s, total {:.3} s; {} edge/triangle overlaps; {} intersecting pairs resolved; {} warnings",
         set.count_ones(..),
         scene.triangle_count(),
         args.min_area,
