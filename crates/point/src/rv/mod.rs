@@ -67,6 +67,7 @@ mod frustum_cull;
 mod fusion;
 mod geometry_stage;
 mod memory;
+mod occluder;
 mod occluder_index;
 mod occluders;
 mod occlusion_test;

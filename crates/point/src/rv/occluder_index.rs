@@ -31,7 +31,7 @@ use glam::DVec2;
 
 use super::edge_map::EdgeMap;
 use super::memory::{release_to, reserve_from, Pool};
-use super::occluders::Edge;
+use super::occluder::Edge;
 use super::overlap::Rect;
 
 /// Cells per side of a bin's grid (4 px cells on the default 32 px bins).
