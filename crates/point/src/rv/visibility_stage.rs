@@ -15,7 +15,7 @@ use super::occluders::{AddOutcome, BinState, Limits};
 use super::occlusion_test::{is_occluded, Occludee, TestCounters};
 use super::overlap::Rect;
 use super::projection::{clip_into, Poly, Projection, MAX_POLY};
-use super::HiddenOccluders;
+use super::types::HiddenOccluders;
 
 /// Per-worker statistics of the visibility stage.
 #[derive(Clone, Copy, Debug, Default)]
@@ -33,6 +33,24 @@ pub(crate) struct StageStats {
     /// Accepted untested by the initialization phase.
     pub(crate) init_accepted: u64,
     pub(crate) counters: TestCounters,
+}
+
+impl StageStats {
+    /// Adds another worker's counts.
+    pub(crate) fn add(&mut self, b: &StageStats) {
+        self.tested += b.tested;
+        self.occluded += b.occluded;
+        self.visible += b.visible;
+        self.clipped_away += b.clipped_away;
+        self.occluders_created += b.occluders_created;
+        self.occluders_grown += b.occluders_grown;
+        self.occluder_merges += b.occluder_merges;
+        self.pool_full += b.pool_full;
+        self.fused_occluded += b.fused_occluded;
+        self.init_accepted += b.init_accepted;
+        self.counters.silhouette_tests += b.counters.silhouette_tests;
+        self.counters.triangle_tests += b.counters.triangle_tests;
+    }
 }
 
 /// What one bin's processing needs that does not change during a run.
