@@ -15,7 +15,7 @@ use sightline_core::scene::{CountingSink, TriangleSink};
 use sightline_core::{Camera, TriangleSet};
 
 use super::source::{SourceTriangle, TriangleSource};
-use super::RvError;
+use super::types::RvError;
 
 /// Collects one block: its vertices (indices restart at every block) and its triangles, ready
 /// to hand out (ids are given when they are handed out).

@@ -18,7 +18,7 @@ use glam::DVec2;
 use sightline_core::random::mix64;
 
 use super::memory::{release_to, reserve_from, Pool};
-use super::occluders::Edge;
+use super::occluder::Edge;
 
 /// Slot value of an empty table entry.
 const EMPTY: u32 = u32::MAX;

@@ -42,7 +42,7 @@ use rayon::prelude::*;
 use sightline_core::TriangleSet;
 
 use super::source::{SourceTriangle, TriangleSource};
-use super::RvError;
+use super::types::RvError;
 
 /// Options of [`conservative_from_region`].
 #[derive(Clone, Debug, PartialEq)]
@@ -325,7 +325,7 @@ pub fn conservative_from_region(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rv::SceneSource;
+    use crate::rv::source::SceneSource;
     use glam::Vec3;
     use sightline_core::scene::SceneBuilder;
 

@@ -33,7 +33,7 @@ use glam::DVec2;
 
 use super::depth::DEPTH_EPS;
 use super::memory::{release_to, reserve_from, Pool};
-use super::occluders::Occluder;
+use super::occluder::Occluder;
 use super::overlap::{convex_overlap, ray_winding, segment_overlaps, Rect};
 
 /// Target cell edge in pixels (the bins' cells are as close to this as the grid allows).
@@ -224,160 +224,21 @@ fn occluder_far_over(o: &Occluder, cell: &Rect, margin: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rv::geometry_stage::ProjTri;
-    use crate::rv::occluders::{BinState, Limits};
-    use glam::DVec3;
 
-    const MARGIN: f64 = 4e-3;
-
-    fn bin() -> Rect {
-        Rect {
-            min: DVec2::new(0.0, 0.0),
-            max: DVec2::new(16.0, 16.0),
-        }
-    }
-
-    /// A screen-space triangle at view depth `z` (screen and view coordinates equal: enough
-    /// for the grid, which only reads screen corners and depths).
-    fn tri(s: [[f64; 2]; 3], z: f64) -> ProjTri {
-        ProjTri {
-            id: 0,
-            corners: s.map(|p| DVec3::new(p[0], p[1], z)),
-            screen: s.map(|p| DVec2::new(p[0], p[1])),
-            whole_front: true,
-            front: true,
-        }
-    }
-
-    /// Adds a triangle to the bin's occluders and updates the grid as the visibility stage does.
-    fn add(state: &mut BinState, t: &ProjTri, pool: &Pool) {
-        let limits = Limits {
-            max_occluders: 16,
-            max_edges: 256,
-            min_evicting_area: 0.0,
-        };
-        state.add(t, &limits, pool, true);
-        let BinState {
-            occluders, fused, ..
-        } = state;
-        fused.update(
-            occluders.last().expect("an occluder"),
-            &Rect::of(&t.screen),
-            &bin(),
-            MARGIN,
-            pool,
-        );
-    }
-
-    /// A rectangle `x0..x1` by `-h..16+h` (reaching past the bin, as real occluders do).
-    fn rect(x0: f64, x1: f64, h: f64, z: f64) -> [ProjTri; 2] {
-        let (y0, y1) = (-h, 16.0 + h);
-        [
-            tri([[x0, y0], [x1, y0], [x1, y1]], z),
-            tri([[x0, y0], [x1, y1], [x0, y1]], z),
-        ]
-    }
-
+    /// Fusion with occluders the bin state builds is tested beside the visibility stage,
+    /// which feeds the grid (`visibility_stage.rs`).
     #[test]
     fn empty_grid_hides_nothing() {
         let g = FusedDepth::default();
+        let bin = Rect {
+            min: DVec2::ZERO,
+            max: DVec2::splat(16.0),
+        };
         let p = [
             DVec2::new(1.0, 1.0),
             DVec2::new(2.0, 1.0),
             DVec2::new(1.0, 2.0),
         ];
-        assert!(!g.hides(&p, &Rect::of(&p), 100.0, &bin(), MARGIN));
-    }
-
-    #[test]
-    fn two_separate_occluders_together_hide_what_neither_hides_alone() {
-        let pool = Pool::new(1 << 20);
-        let mut state = BinState::default();
-        // Left part at depth 5 and right part at depth 6, overlapping on x = 7.5..8.5 (so each
-        // cell is inside one of them, margin included): two occluders.
-        for t in rect(-1.0, 8.5, 1.0, 5.0)
-            .iter()
-            .chain(&rect(7.5, 17.0, 2.0, 6.0))
-        {
-            add(&mut state, t, &pool);
-        }
-        assert_eq!(state.occluders.len(), 2);
-        // A triangle across the seam, behind both.
-        let p = [
-            DVec2::new(6.0, 6.0),
-            DVec2::new(10.0, 6.0),
-            DVec2::new(8.0, 9.0),
-        ];
-        assert!(state.fused.hides(&p, &Rect::of(&p), 7.0, &bin(), MARGIN));
-        // Between the two depths: in front of the right half, so not hidden.
-        assert!(!state.fused.hides(&p, &Rect::of(&p), 5.5, &bin(), MARGIN));
-    }
-
-    #[test]
-    fn a_gap_between_occluders_hides_nothing_behind_it() {
-        let pool = Pool::new(1 << 20);
-        let mut state = BinState::default();
-        // A gap of 0.01 px at x = 8.
-        for t in rect(-1.0, 8.0, 1.0, 5.0)
-            .iter()
-            .chain(&rect(8.01, 17.0, 1.0, 5.0))
-        {
-            add(&mut state, t, &pool);
-        }
-        let p = [
-            DVec2::new(6.0, 6.0),
-            DVec2::new(10.0, 6.0),
-            DVec2::new(8.0, 9.0),
-        ];
-        assert!(!state.fused.hides(&p, &Rect::of(&p), 9.0, &bin(), MARGIN));
-        // Away from the gap, inside the left occluder's cells, it is hidden.
-        let q = [
-            DVec2::new(1.0, 1.0),
-            DVec2::new(3.0, 1.0),
-            DVec2::new(1.0, 3.0),
-        ];
-        assert!(state.fused.hides(&q, &Rect::of(&q), 9.0, &bin(), MARGIN));
-    }
-
-    #[test]
-    fn empty_pool_disables_fusion() {
-        let pool = Pool::new(0);
-        let mut g = FusedDepth::default();
-        let mut state = BinState::default();
-        let ok_pool = Pool::new(1 << 20);
-        let [a, b] = rect(-1.0, 17.0, 1.0, 5.0);
-        state.add(
-            &a,
-            &Limits {
-                max_occluders: 4,
-                max_edges: 64,
-                min_evicting_area: 0.0,
-            },
-            &ok_pool,
-            true,
-        );
-        state.add(
-            &b,
-            &Limits {
-                max_occluders: 4,
-                max_edges: 64,
-                min_evicting_area: 0.0,
-            },
-            &ok_pool,
-            true,
-        );
-        g.update(
-            &state.occluders[0],
-            &Rect::of(&a.screen),
-            &bin(),
-            MARGIN,
-            &pool,
-        );
-        let p = [
-            DVec2::new(6.0, 6.0),
-            DVec2::new(10.0, 6.0),
-            DVec2::new(8.0, 9.0),
-        ];
-        assert!(!g.hides(&p, &Rect::of(&p), 9.0, &bin(), MARGIN));
+        assert!(!g.hides(&p, &Rect::of(&p), 100.0, &bin, 4e-3));
     }
 }

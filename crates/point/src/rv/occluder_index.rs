@@ -31,8 +31,12 @@ use glam::DVec2;
 
 use super::edge_map::EdgeMap;
 use super::memory::{release_to, reserve_from, Pool};
-use super::occluders::Edge;
+use super::occluder::Edge;
 use super::overlap::Rect;
+
+/// Occluders a bin must have before it indexes them: fewer are scanned as fast without the
+/// index's upkeep.
+pub(crate) const INDEX_FROM: usize = 32;
 
 /// Cells per side of a bin's grid (4 px cells on the default 32 px bins).
 pub(crate) const CELLS: usize = 8;

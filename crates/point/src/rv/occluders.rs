@@ -27,57 +27,14 @@
 //!   visible triangle is simply not added: it stays marked visible, the result stays
 //!   conservative.
 
-use glam::{DVec2, DVec3};
+use glam::DVec2;
 
 use super::fusion::FusedDepth;
 use super::geometry_stage::ProjTri;
 use super::memory::{release_to, reserve_from, Pool};
+use super::occluder::{Edge, OccTri, Occluder};
 use super::occluder_index::OccluderIndex;
 use super::overlap::Rect;
-
-/// An occluder's triangle, as the triangle test needs it.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct OccTri {
-    pub(crate) corners: [DVec3; 3],
-    pub(crate) screen: [DVec2; 3],
-    pub(crate) plane: [f64; 4],
-    pub(crate) rect: Rect,
-}
-
-/// A silhouette edge (undirected) in screen coordinates.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct Edge {
-    pub(crate) a: DVec2,
-    pub(crate) b: DVec2,
-}
-
-impl Edge {
-    #[inline]
-    fn same(&self, o: &Edge) -> bool {
-        (self.a == o.a && self.b == o.b) || self.inverse(o)
-    }
-
-    /// The same segment walked the other way (a manifold neighbour's shared edge).
-    #[inline]
-    fn inverse(&self, o: &Edge) -> bool {
-        self.a == o.b && self.b == o.a
-    }
-}
-
-/// One occluder: an edge-connected patch of same-facing visible triangles.
-#[derive(Debug)]
-pub(crate) struct Occluder {
-    pub(crate) tris: Vec<OccTri>,
-    pub(crate) edges: Vec<Edge>,
-    /// Bounds of the triangles' projections (a superset of the silhouette's).
-    pub(crate) rect: Rect,
-    /// View depth bounds of the triangles (thesis 7.1.4).
-    pub(crate) zmin: f64,
-    pub(crate) zmax: f64,
-    pub(crate) front: bool,
-    /// Its slot in the bin's [`OccluderIndex`] (meaningless while the index is off).
-    pub(crate) slot: u32,
-}
 
 /// Limits of one bin's state (thesis: occluders per bin, silhouette edge buffer size).
 #[derive(Clone, Copy, Debug)]
@@ -131,6 +88,18 @@ pub(crate) struct BinState {
     /// occluder's near point then skips the scan. Occluders only ever get nearer `zmin`s by
     /// growing, so the bound stays valid.
     zmin_bound: f64,
+}
+
+/// A triangle offered to the occluders, as an occluder stores it.
+struct Offered {
+    tri: OccTri,
+    /// Its directed edges, in corner order.
+    edges: [Edge; 3],
+    /// Its view depth bounds.
+    zmin: f64,
+    zmax: f64,
+    /// Its screen orientation (see `geometry_stage.rs`).
+    front: bool,
 }
 
 /// Most occluders one triangle may join at once (3 edges, a few non-manifold duplicates).
@@ -253,82 +222,100 @@ impl BinState {
         };
         self.start_index(pool);
         let s = t.screen;
-        let edges = [
-            Edge { a: s[0], b: s[1] },
-            Edge { a: s[1], b: s[2] },
-            Edge { a: s[2], b: s[0] },
-        ];
-        let occ_tri = OccTri {
-            corners: t.corners,
-            screen: s,
-            plane,
-            rect: Rect::of(&s),
-        };
         let z = |f: fn(f64, f64) -> f64| f(f(t.corners[0].z, t.corners[1].z), t.corners[2].z);
-        let (zmin, zmax) = (z(f64::min), z(f64::max));
+        let offered = Offered {
+            edges: [
+                Edge { a: s[0], b: s[1] },
+                Edge { a: s[1], b: s[2] },
+                Edge { a: s[2], b: s[0] },
+            ],
+            tri: OccTri {
+                corners: t.corners,
+                screen: s,
+                plane,
+                rect: Rect::of(&s),
+            },
+            zmin: z(f64::min),
+            zmax: z(f64::max),
+            front: t.front,
+        };
         // A full edge buffer makes room by dropping occluders farther than this triangle.
         while self.edge_count + 3 > limits.max_edges {
-            if !self.evict_farther_than(zmax, pool) {
+            if !self.evict_farther_than(offered.zmax, pool) {
                 return AddOutcome::Full;
             }
         }
         // Occluders sharing an edge with t: same facing, an identical edge.
         let mut matches = [0usize; MAX_MATCHES];
-        let Some(n_matches) =
-            self.sharing_an_edge(&edges, &s, &occ_tri.rect, t.front, &mut matches)
-        else {
+        let Some(n_matches) = self.sharing_an_edge(
+            &offered.edges,
+            &s,
+            &offered.tri.rect,
+            offered.front,
+            &mut matches,
+        ) else {
             return AddOutcome::Full;
         };
-        if n_matches == 0 {
-            if !may_start {
-                return AddOutcome::NotEligible;
-            }
-            // A full bin makes room by dropping its farthest occluder when this triangle lies
-            // entirely in front of it (see `evict_farther_than`), and covers at least the
-            // bin's share per occluder: near a street's vanishing point, full bins otherwise
-            // trade occluders for sub-pixel ones that hide next to nothing, one eviction per
-            // visible speck (measured in `docs/BENCHMARKS.md`).
-            if self.occluders.len() >= limits.max_occluders {
-                let area = 0.5 * (s[1] - s[0]).perp_dot(s[2] - s[0]).abs();
-                if area < limits.min_evicting_area || !self.evict_farther_than(zmax, pool) {
-                    return AddOutcome::Full;
-                }
-            }
-            if !reserve_from(&mut self.occluders, 1, pool) {
-                return AddOutcome::Full;
-            }
-            let mut o = Occluder {
-                tris: std::mem::take(&mut self.spare_tris),
-                edges: std::mem::take(&mut self.spare_edges),
-                rect: occ_tri.rect,
-                zmin,
-                zmax,
-                front: t.front,
-                slot: 0,
-            };
-            if !reserve_from(&mut o.tris, 1, pool) || !reserve_from(&mut o.edges, 3, pool) {
-                release_to(&mut o.tris, pool);
-                release_to(&mut o.edges, pool);
-                return AddOutcome::Full;
-            }
-            o.tris.push(occ_tri);
-            o.edges.extend_from_slice(&edges);
-            self.edge_count += 3;
-            if self.index.active() {
-                // Without index memory the bin scans linearly (`insert` turned the index off).
-                o.slot = self
-                    .index
-                    .insert(self.occluders.len(), &o.rect, o.front, pool)
-                    .filter(|&slot| self.index.add_edges(slot, &o.edges, pool))
-                    .unwrap_or(0);
-            }
-            self.zmin_bound = self.zmin_bound.max(zmin);
-            self.occluders.push(o);
-            self.changes += 1;
-            return AddOutcome::New;
+        if n_matches > 0 {
+            self.join(&mut matches[..n_matches], &offered, pool)
+        } else if may_start {
+            self.start_occluder(&offered, limits, pool)
+        } else {
+            AddOutcome::NotEligible
         }
-        let matches = &mut matches[..n_matches];
-        // Merge into the occluder with the most triangles (chapter 5).
+    }
+
+    /// Starts an occluder of the `offered` triangle alone (it shares no edge with any).
+    fn start_occluder(&mut self, offered: &Offered, limits: &Limits, pool: &Pool) -> AddOutcome {
+        // A full bin makes room by dropping its farthest occluder when this triangle lies
+        // entirely in front of it (see `evict_farther_than`), and covers at least the bin's
+        // share per occluder: near a street's vanishing point, full bins otherwise trade
+        // occluders for sub-pixel ones that hide next to nothing, one eviction per visible
+        // speck (measured in `docs/BENCHMARKS.md`).
+        if self.occluders.len() >= limits.max_occluders {
+            let s = &offered.tri.screen;
+            let area = 0.5 * (s[1] - s[0]).perp_dot(s[2] - s[0]).abs();
+            if area < limits.min_evicting_area || !self.evict_farther_than(offered.zmax, pool) {
+                return AddOutcome::Full;
+            }
+        }
+        if !reserve_from(&mut self.occluders, 1, pool) {
+            return AddOutcome::Full;
+        }
+        let mut o = Occluder {
+            tris: std::mem::take(&mut self.spare_tris),
+            edges: std::mem::take(&mut self.spare_edges),
+            rect: offered.tri.rect,
+            zmin: offered.zmin,
+            zmax: offered.zmax,
+            front: offered.front,
+            slot: 0,
+        };
+        if !reserve_from(&mut o.tris, 1, pool) || !reserve_from(&mut o.edges, 3, pool) {
+            release_to(&mut o.tris, pool);
+            release_to(&mut o.edges, pool);
+            return AddOutcome::Full;
+        }
+        o.tris.push(offered.tri);
+        o.edges.extend_from_slice(&offered.edges);
+        self.edge_count += 3;
+        if self.index.active() {
+            // Without index memory the bin scans linearly (`insert` turned the index off).
+            o.slot = self
+                .index
+                .insert(self.occluders.len(), &o.rect, o.front, pool)
+                .filter(|&slot| self.index.add_edges(slot, &o.edges, pool))
+                .unwrap_or(0);
+        }
+        self.zmin_bound = self.zmin_bound.max(offered.zmin);
+        self.occluders.push(o);
+        self.changes += 1;
+        AddOutcome::New
+    }
+
+    /// Adds the `offered` triangle to the occluders at positions `matches` (those it shares an
+    /// edge with), merging them into the one with the most triangles (chapter 5).
+    fn join(&mut self, matches: &mut [usize], offered: &Offered, pool: &Pool) -> AddOutcome {
         let target = matches
             .iter()
             .copied()
@@ -385,14 +372,31 @@ impl BinState {
             main.zmax = main.zmax.max(o.zmax);
             self.recycle(o, pool);
         }
-        main.tris.push(occ_tri);
-        main.rect = main.rect.union(&occ_tri.rect);
-        main.zmin = main.zmin.min(zmin);
-        main.zmax = main.zmax.max(zmax);
-        // Directed edge update: an edge walked the other way by the patch cancels (it leaves
-        // the silhouette), any other edge joins it. Cancelling only exact inverse pairs keeps
-        // the winding number of the silhouette equal to the sum of the triangles' windings.
-        for e in edges {
+        main.tris.push(offered.tri);
+        main.rect = main.rect.union(&offered.tri.rect);
+        main.zmin = main.zmin.min(offered.zmin);
+        main.zmax = main.zmax.max(offered.zmax);
+        self.add_edges_to(&mut main, &offered.edges, pool);
+        if self.index.active() {
+            self.index.moved(main.slot, self.occluders.len());
+            // Without memory for the new cells the index turns off (see `grow`).
+            self.index.grow(main.slot, &main.rect, pool);
+        }
+        self.occluders.push(main);
+        self.changes += 1;
+        if merged {
+            AddOutcome::Merged
+        } else {
+            AddOutcome::Grown
+        }
+    }
+
+    /// Directed edge update of a detached occluder `main` taking a triangle's `edges`: an edge
+    /// walked the other way by the patch cancels (it leaves the silhouette), any other edge
+    /// joins it. Cancelling only exact inverse pairs keeps the winding number of the
+    /// silhouette equal to the sum of the triangles' windings.
+    fn add_edges_to(&mut self, main: &mut Occluder, edges: &[Edge; 3], pool: &Pool) {
+        for &e in edges {
             if let Some(k) = main.edges.iter().position(|f| f.inverse(&e)) {
                 let gone = main.edges.swap_remove(k);
                 self.edge_count -= 1;
@@ -407,18 +411,6 @@ impl BinState {
                     self.index.add_edges(main.slot, &[e], pool);
                 }
             }
-        }
-        if self.index.active() {
-            self.index.moved(main.slot, self.occluders.len());
-            // Without memory for the new cells the index turns off (see `grow`).
-            self.index.grow(main.slot, &main.rect, pool);
-        }
-        self.occluders.push(main);
-        self.changes += 1;
-        if merged {
-            AddOutcome::Merged
-        } else {
-            AddOutcome::Grown
         }
     }
 
@@ -487,6 +479,8 @@ impl BinState {
 
 #[cfg(test)]
 mod tests {
+    use glam::DVec3;
+
     use super::*;
 
     fn limits() -> Limits {

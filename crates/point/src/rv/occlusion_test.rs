@@ -39,7 +39,8 @@
 use glam::{DVec2, DVec3};
 
 use super::depth::{behind, eye_plane, in_front, occludee_behind, OccluderView, DEPTH_EPS};
-use super::occluders::{BinState, Edge, Occluder};
+use super::occluder::{Edge, Occluder};
+use super::occluders::BinState;
 use super::overlap::{convex_overlap, inner_point, ray_winding, segment_overlaps, Rect};
 use super::projection::Projection;
 

@@ -21,7 +21,6 @@ use std::collections::VecDeque;
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
 
 use super::geometry_stage::{Batch, BinGrid};
-use super::visibility_stage::StageStats;
 
 /// Scheduler state shared by the producer and the workers.
 #[derive(Debug)]
@@ -211,20 +210,4 @@ impl Drop for AbortOnPanic<'_> {
             }
         }
     }
-}
-
-/// Adds `b` into `a`.
-pub(crate) fn merge_stats(a: &mut StageStats, b: &StageStats) {
-    a.tested += b.tested;
-    a.occluded += b.occluded;
-    a.visible += b.visible;
-    a.clipped_away += b.clipped_away;
-    a.occluders_created += b.occluders_created;
-    a.occluders_grown += b.occluders_grown;
-    a.occluder_merges += b.occluder_merges;
-    a.pool_full += b.pool_full;
-    a.fused_occluded += b.fused_occluded;
-    a.init_accepted += b.init_accepted;
-    a.counters.silhouette_tests += b.counters.silhouette_tests;
-    a.counters.triangle_tests += b.counters.triangle_tests;
 }

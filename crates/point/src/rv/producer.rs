@@ -21,7 +21,7 @@ use super::geometry_stage::{bins_of, project, Batch, BinGrid, ProjTri};
 use super::pipeline::Scheduler;
 use super::projection::Projection;
 use super::source::{SourceTriangle, TriangleSource};
-use super::{RvError, RvOptions};
+use super::types::{RvError, RvOptions};
 
 /// Counters of the geometry stage.
 #[derive(Clone, Copy, Debug, Default)]
@@ -33,6 +33,16 @@ pub(crate) struct Produced {
     pub(crate) settled: u64,
     /// Whether the stream came in id order (`Producers::ids_ascending`; set once per pass).
     pub(crate) ids_ascending: bool,
+}
+
+impl Produced {
+    /// Adds another geometry thread's counts (all but `ids_ascending`, which is the pass's).
+    pub(crate) fn add(&mut self, other: &Produced) {
+        self.streamed += other.streamed;
+        self.on_screen += other.on_screen;
+        self.entries += other.entries;
+        self.settled += other.settled;
+    }
 }
 
 /// The stream, shared by the geometry threads.
@@ -461,44 +471,7 @@ fn seal(
 
 #[cfg(test)]
 mod tests {
-    use glam::Vec3;
-    use sightline_core::Camera;
-
-    use super::super::{conservative_visible, RvError, RvOptions, StreamingCity};
     use super::*;
-
-    fn camera(city: &StreamingCity) -> Camera {
-        let h = city.half_extent();
-        Camera::look_at(
-            Vec3::new(-h, -h, 30.0),
-            Vec3::ZERO,
-            Vec3::Z,
-            60.0,
-            64,
-            64,
-            0.1,
-        )
-        .expect("camera")
-    }
-
-    #[test]
-    fn more_geometry_threads_give_the_same_set() {
-        let run = |g: usize| {
-            let mut city = StreamingCity::new(2, 20_000);
-            let cam = camera(&city);
-            let o = RvOptions {
-                geometry_threads: g,
-                threads: 2,
-                batch_triangles: 256,
-                bins: (8, 8),
-                ..RvOptions::default()
-            };
-            conservative_visible(&mut city, &cam, &o).expect("runs")
-        };
-        let (a, b) = (run(1), run(3));
-        assert_eq!(a.visible, b.visible);
-        assert_eq!(a.stats.triangles_streamed, b.stats.triangles_streamed);
-    }
 
     /// A sorted seal lists every (bin, triangle) pair once, each bin's entries front to back.
     #[test]
@@ -559,43 +532,5 @@ mod tests {
         got.sort_unstable();
         want.sort_unstable();
         assert_eq!(got, want);
-    }
-
-    /// Yields one good batch, then an id past its bound.
-    struct Bad(u32);
-
-    impl TriangleSource for Bad {
-        fn id_bound(&self) -> u32 {
-            10
-        }
-        fn next_batch(
-            &mut self,
-            _max: usize,
-            out: &mut Vec<SourceTriangle>,
-        ) -> Result<usize, RvError> {
-            self.0 += 1;
-            let id = if self.0 == 1 { 0 } else { 99 };
-            out.push(SourceTriangle {
-                id,
-                corners: [
-                    Vec3::new(0.0, 0.0, 5.0),
-                    Vec3::new(1.0, 0.0, 5.0),
-                    Vec3::new(0.0, 1.0, 5.0),
-                ],
-            });
-            Ok(1)
-        }
-    }
-
-    #[test]
-    fn bad_id_is_reported_with_several_threads() {
-        let cam = Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y, 60.0, 32, 32, 0.1).expect("cam");
-        let o = RvOptions {
-            geometry_threads: 3,
-            bins: (2, 2),
-            ..RvOptions::default()
-        };
-        let r = conservative_visible(&mut Bad(0), &cam, &o);
-        assert_eq!(r.err(), Some(RvError::IdOutOfRange { id: 99, bound: 10 }));
     }
 }

@@ -7,7 +7,7 @@
 use glam::Vec3;
 use sightline_core::{Scene, TriangleSet};
 
-use super::RvError;
+use super::types::RvError;
 
 /// One input triangle: its id (the bit it sets in the visible set) and world-space corners.
 #[derive(Clone, Copy, Debug, PartialEq)]
