@@ -26,8 +26,8 @@
 //! 1.5 s before border or reverse sampling run once, so a time- or ray-limited bake was RAND.
 //! Under a ray or time budget rounds are therefore adaptive: the first has [`FIRST_ROUND`] random
 //! rays, each doubles the next (and makes it at least as large as its exploration) up to
-//! `n_rand`, and a round explores at most half as many rays as its random phase cast, the rest
-//! of the queue waiting for the next round.
+//! `n_rand`, and a round explores at most [`EXPLORE_SHARE`] (4) times as many rays as its random
+//! phase cast, the rest of the queue waiting for the next round.
 //! `fixed_rounds` restores the paper's rounds of `n_rand`. A bake without a budget (to
 //! convergence) keeps the paper's rounds: adaptive ones reached the same error with 1.5x the
 //! rays there. The termination rule is the paper's (T = 10 new triangles in a 10^7-ray round)
@@ -125,9 +125,12 @@ pub struct GvsPlusPlus {
     pub params: GvsPlusPlusParams,
 }
 
-/// Under a budget, the exploration rays of a round as a share of its random rays: random rays
-/// keep two thirds of the budget.
-const EXPLORE_SHARE: f64 = 0.5;
+/// Under a budget, the most exploration rays a round casts, as a multiple of its random rays.
+/// Measured at 1M and 4M rays on free-space cells of etoile, munich and fzk_haus (`bench pvs
+/// --ray-budgets`, docs/BENCHMARKS.md): 0.5 left the queue mostly unexplored (etoile 5.4x
+/// better than RAND at 4M rays, fzk_haus 12x); 2, 4 and 8 were within noise of each other
+/// (etoile 33x, fzk_haus 98-243x), 4 the best on munich (3.8x) and at 1M rays.
+pub const EXPLORE_SHARE: f64 = 4.0;
 
 /// Rays the exploration of one triangle costs on average (69 ABS rays at the defaults, plus
 /// reverse sampling where its border rays find a discontinuity), for sizing chunks to a share.
@@ -174,11 +177,9 @@ impl Sampler for GvsPlusPlus {
         // (rays, new triangles) of the recent rounds, newest last, for the termination rule.
         let mut recent: std::collections::VecDeque<(u64, usize)> = Default::default();
         // The exploration queue. Without a budget each round drains it (the paper); under a
-        // budget a round explores at most half the rays its random phase cast and the rest
-        // waits for the next round, so that random rays keep two thirds of the budget: in a
-        // city the queue of the first 16k random rays would otherwise take any budget,
-        // exploring small neighbours while whole streets stay unfound (3.3x RAND's error on
-        // etoile at 1M rays; equal to RAND with this cap, docs/BENCHMARKS.md).
+        // budget a round explores at most EXPLORE_SHARE times the rays its random phase cast
+        // and the rest waits for the next round, so that random rays keep finding whole
+        // streets while the queue of the first 16k random rays explores their neighbours.
         let mut queue: Vec<Discovery> = Vec::new();
         let mut head = 0;
         loop {

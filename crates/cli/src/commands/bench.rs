@@ -127,6 +127,31 @@ struct ShareArgs {
     json: bool,
 }
 
+/// A comma-separated list of budgets, or `none`.
+#[derive(Clone, Debug, Default)]
+struct BudgetList(Vec<u64>);
+
+impl std::ops::Deref for BudgetList {
+    type Target = Vec<u64>;
+    fn deref(&self) -> &Vec<u64> {
+        &self.0
+    }
+}
+
+fn parse_budget_list(s: &str) -> Result<BudgetList, String> {
+    if s.trim() == "none" || s.trim().is_empty() {
+        return Ok(BudgetList::default());
+    }
+    s.split(',')
+        .map(|v| {
+            v.trim()
+                .parse::<u64>()
+                .map_err(|_| format!("'{v}' is not a whole number (or give 'none')"))
+        })
+        .collect::<Result<_, _>>()
+        .map(BudgetList)
+}
+
 /// Arguments of `sightline bench pvs`.
 #[derive(clap::Args, Debug)]
 struct PvsArgs {
@@ -156,14 +181,20 @@ struct PvsArgs {
     json: bool,
     /// Small time budgets (milliseconds, comma-separated) at which GVS++ and RAND are also
     /// compared at equal time, the paper's equal-time comparison (issue 24: GVS++ must start
-    /// exploring before such a budget is spent). Empty: none.
+    /// exploring before such a budget is spent). `none`: no equal-time rows.
     #[arg(
         long,
-        value_name = "MS,..",
-        value_delimiter = ',',
-        default_value = "250,1000"
+        value_name = "MS,..|none",
+        default_value = "250,1000",
+        value_parser = parse_budget_list
     )]
-    time_budgets: Vec<u64>,
+    time_budgets: BudgetList,
+    /// Small ray budgets (comma-separated) at which GVS++ and RAND are also compared at equal
+    /// rays: the equal-time comparison without the machine's load in it (both cast rays at the
+    /// same rate, about 5 M rays per second on two cores, so 1 M rays is about 250 ms there).
+    /// Empty (the default): none.
+    #[arg(long, value_name = "RAYS,..", default_value = "none", value_parser = parse_budget_list)]
+    ray_budgets: BudgetList,
     /// Only the equal-time rows of `--time-budgets` (GVS++ and RAND at each budget): skips the
     /// converged GVS++ bake and the baselines at its ray count, which take minutes per cell on
     /// large scenes.
@@ -546,6 +577,13 @@ fn pvs(args: PvsArgs) -> Result<()> {
     {
         anyhow::bail!("--time-budgets: {ms} ms is not a budget between 1 ms and one hour");
     }
+    if let Some(rays) = args
+        .ray_budgets
+        .iter()
+        .find(|&&r| r == 0 || r > 100_000_000_000)
+    {
+        anyhow::bail!("--ray-budgets: {rays} is not a budget between 1 and 10^11 rays");
+    }
     let specs = if args.scenes.is_empty() {
         vec![
             "procedural:city".to_string(),
@@ -597,9 +635,14 @@ fn pvs(args: PvsArgs) -> Result<()> {
                 .map(|(m, b)| (m.to_string(), b.to_string()))
                 .collect()
         };
-        for ms in &args.time_budgets {
+        for ms in args.time_budgets.iter() {
             for m in ["GVS++", "RAND"] {
                 labels.push((m.to_string(), format!("{ms} ms")));
+            }
+        }
+        for rays in args.ray_budgets.iter() {
+            for m in ["GVS++", "RAND"] {
+                labels.push((m.to_string(), format!("{rays} rays")));
             }
         }
         let mut rows: Vec<PvsRow> = labels
@@ -638,11 +681,16 @@ fn pvs(args: PvsArgs) -> Result<()> {
                 ]);
                 results.insert(0, a);
             }
-            for &ms in &args.time_budgets {
+            for &ms in args.time_budgets.iter() {
                 let budget = Budget {
                     max_rays: None,
                     max_time: Some(std::time::Duration::from_millis(ms)),
                 };
+                results.push(gvspp.sample(&ctx, &budget, none));
+                results.push(RandomSampler.sample(&ctx, &budget, none));
+            }
+            for &rays in args.ray_budgets.iter() {
+                let budget = Budget::rays(rays);
                 results.push(gvspp.sample(&ctx, &budget, none));
                 results.push(RandomSampler.sample(&ctx, &budget, none));
             }
@@ -732,7 +780,9 @@ fn pvs(args: PvsArgs) -> Result<()> {
     // erroneous pixels GVS++ leaves than RAND.
     for r in all_rows
         .iter()
-        .filter(|r| r.method == "GVS++" && r.budget.ends_with(" ms"))
+        .filter(|r| {
+            r.method == "GVS++" && (r.budget.ends_with(" ms") || r.budget.ends_with(" rays"))
+        })
     {
         let Some(rand) = all_rows
             .iter()

@@ -124,7 +124,7 @@ pub(crate) struct BakeArgs {
     seed: u64,
     /// GVS++/GVS: random rays per round (paper: 10,000,000). Under --rays or --time, GVS++
     /// rounds are adaptive: the first has 16,384 random rays, each doubles the next up to this
-    /// size, and a round explores at most half as many rays as its random phase cast.
+    /// size, and a round explores at most 4 times as many rays as its random phase cast.
     #[arg(long)]
     n_rand: Option<u64>,
     /// GVS++: every round casts --n-rand random rays, as in the paper (sized for a GPU: on a

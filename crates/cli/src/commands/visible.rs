@@ -96,8 +96,8 @@ pub(crate) struct Args {
     #[arg(long)]
     no_preculling: bool,
     /// With --exact: the set (`-o`, the counts) keeps the triangles whose visible area is at
-    /// least this many square pixels and whose visible region is somewhere at least 2^-19 px
-    /// (two units of the snapping grid) thick. The default, 1e-6, leaves out the slivers that
+    /// least this many square pixels and whose visible region is on average (its area over its
+    /// extent) at least 2^-19 px (two units of the snapping grid) thick. The default, 1e-6, leaves out the slivers that
     /// the 2^-20 px snapping and f64 rounding leave along shared edges and between nearly
     /// collinear edges (the same rule the conservative check uses); 0 keeps every positive area,
     /// however thin (needed at tiny image sizes, where whole triangles are smaller).

@@ -108,14 +108,19 @@ pub use svg::write_svg;
 /// judged against this threshold.
 pub const MIN_VISIBLE_AREA_PX2: f64 = 1e-6;
 
-/// The thickness (pixels) below which a visible region is what snapping leaves between two
-/// nearly collinear edges: 2 units of the 2^-20 px grid, the tolerance within which
-/// edges count as collinear (`intersect::NEAR_COLLINEAR_GRID`). A region's thickness is the
-/// largest `2 × area / perimeter` of its convex pieces, which is at most the piece's width in
-/// its narrowest direction. Area alone cannot tell such slivers from real pieces: a sliver one
-/// grid unit wide and 10 px long has 5e-6 px², above [`MIN_VISIBLE_AREA_PX2`], and how much of
-/// it survives depends on where bin borders cut it (measured on a Quake 3 map: 4.6e-7 px² at
-/// 1-px bins, 3.5e-6 px² at 16-px bins, never thicker than one grid unit).
+/// The mean thickness (pixels) below which a triangle's visible region is what snapping leaves
+/// between two nearly collinear edges: 2 units of the 2^-20 px grid, the tolerance within which
+/// edges count as collinear (`intersect::NEAR_COLLINEAR_GRID`). The mean thickness is the
+/// region's area over its extent (the diagonal of its pieces' bounding box): both are the
+/// region's own, whatever bins or convex pieces cut it, so the rule does not depend on the bin
+/// size (a largest `2 × area / perimeter` per piece did: cut into 1-px bins, a tapered sliver's
+/// pieces are up to twice as thick as the whole). Area alone cannot tell such slivers from real
+/// pieces: a sliver one grid unit wide and 10 px long has 5e-6 px², above
+/// [`MIN_VISIBLE_AREA_PX2`], and how much of it survives depends on where bin borders cut it
+/// (measured on a Quake 3 map: 4.6e-7 px² at 1-px bins, 3.5e-6 px² at 16-px bins, 0.2 grid units
+/// thick on average). A triangle that shows a real piece and, far from it, a sliver has a large
+/// extent: a piece of 1e-4 px² with a sliver 50 px away is 2 grid units thick on average, so
+/// real pieces much smaller than that can be left out with their slivers.
 pub const MIN_VISIBLE_THICKNESS_PX: f64 = 2.0 / 1_048_576.0;
 
 /// Options of [`visible_fragments`].
@@ -238,7 +243,7 @@ pub struct AnalyticResult {
     /// Visible area per triangle id (square pixels), summed once while `visible` is built (like
     /// `visible`, it describes `polygons` as `visible_fragments` made them).
     area: Vec<f64>,
-    /// Largest `2 × area / perimeter` of a triangle's pieces (pixels), see
+    /// Visible area over the extent of the visible region per triangle id (pixels), see
     /// [`MIN_VISIBLE_THICKNESS_PX`].
     thickness: Vec<f64>,
     width: u32,
@@ -271,7 +276,7 @@ impl AnalyticResult {
     }
 
     /// The triangles whose visible area is at least `min_area_px2` and whose visible region is
-    /// at least [`MIN_VISIBLE_THICKNESS_PX`] thick somewhere (over `n` ids); with
+    /// at least [`MIN_VISIBLE_THICKNESS_PX`] thick on average (over `n` ids); with
     /// [`MIN_VISIBLE_AREA_PX2`], the set without the pieces that rounding leaves along shared
     /// edges and between nearly collinear edges. A `min_area_px2` of 0 or less gives
     /// [`AnalyticResult::visible`] (every positive area, however thin).
@@ -287,9 +292,8 @@ impl AnalyticResult {
         set
     }
 
-    /// Thickness (pixels) of each triangle's visible region, over `n` ids: the largest
-    /// `2 × area / perimeter` of its pieces (zero where nothing is visible), the measure of
-    /// [`MIN_VISIBLE_THICKNESS_PX`].
+    /// Mean thickness (pixels) of each triangle's visible region, over `n` ids: its area over
+    /// its extent (zero where nothing is visible), the measure of [`MIN_VISIBLE_THICKNESS_PX`].
     pub fn visible_thickness(&self, n: usize) -> Vec<f64> {
         let mut out = self.thickness.clone();
         out.resize(n, 0.0);
@@ -383,7 +387,16 @@ pub fn visible_fragments(
     stats.max_pieces_per_bin = bins.iter().map(|b| b.members.len()).max().unwrap_or(0);
     let outputs: Vec<BinOutput> = bins.par_iter().map(|b| process_bin(&polys, b)).collect();
     let mut area = vec![0.0f64; n];
-    let mut thickness = vec![0.0f64; n];
+    // Bounding boxes of each triangle's pieces (min x, min y, max x, max y).
+    let mut extent = vec![
+        [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY
+        ];
+        n
+    ];
     let mut polygons = Vec::new();
     let mut ranges = Vec::with_capacity(bins.len());
     for (bin, o) in bins.iter().zip(outputs) {
@@ -398,11 +411,10 @@ pub fn visible_fragments(
         for p in o.pieces {
             let t = p.triangle as usize;
             if t < n {
-                let a = polygon::area(&p.points);
-                area[t] += a;
-                let perimeter = polygon::perimeter(&p.points);
-                if perimeter > 0.0 {
-                    thickness[t] = thickness[t].max(2.0 * a / perimeter);
+                area[t] += polygon::area(&p.points);
+                let e = &mut extent[t];
+                for q in &p.points {
+                    *e = [e[0].min(q.x), e[1].min(q.y), e[2].max(q.x), e[3].max(q.y)];
                 }
             }
             polygons.push(p);
@@ -413,6 +425,17 @@ pub fn visible_fragments(
             polys: first..polygons.len(),
         });
     }
+    let thickness: Vec<f64> = (0..n)
+        .map(|t| {
+            let [x0, y0, x1, y1] = extent[t];
+            let diagonal = (x1 - x0).hypot(y1 - y0);
+            if area[t] > 0.0 && diagonal > 0.0 {
+                area[t] / diagonal
+            } else {
+                0.0
+            }
+        })
+        .collect();
     let mut visible = TriangleSet::with_capacity(n);
     visible.extend((0..n).filter(|&t| area[t] > 0.0));
     stats.visibility_time = start.elapsed();

@@ -38,14 +38,6 @@ pub(crate) fn area(points: &[DVec2]) -> f64 {
     0.5 * s
 }
 
-/// Perimeter of a polygon (pixels).
-pub(crate) fn perimeter(points: &[DVec2]) -> f64 {
-    let n = points.len();
-    (0..n)
-        .map(|i| points[i].distance(points[(i + 1) % n]))
-        .sum()
-}
-
 /// Decomposes the region bounded by `segments` (all of one polygon) into convex pieces.
 pub(crate) fn pieces(segments: &[Segment], out: &mut Vec<Piece>) {
     let mut xs: Vec<f64> = segments.iter().flat_map(|s| [s.1.x, s.2.x]).collect();
