@@ -16,7 +16,8 @@
 //! - `ray_cast.rs` (+ `ray_cast.wgsl`): [`GpuRayCaster`], closest-hit and any-hit casting of
 //!   ray batches streamed in double-buffered chunks, on any device passed to
 //!   [`GpuRayCaster::with_device`]; its exactness against the CPU caster, the node width
-//!   chosen and why are in its module documentation.
+//!   chosen and why are in its module documentation. `sightline bench trace --device gpu`
+//!   measures it beside the CPU casters, `sightline pvs bake --device gpu` bakes with it.
 //! - `ray_layout.rs`: the CPU BVH (`sightline_core::trace::bvh::FlatBvh`) and rays in the
 //!   shader's layout; the traversal-stack depth check.
 //!

@@ -8,12 +8,20 @@
 //! Based on: Woop, Benthin, Wald. Watertight Ray/Triangle Intersection. JCGT 2(1), 2013.
 //! Based on: Ize. Robust BVH ray traversal. JCGT 2(2), 2013.
 //!
-//! # Layout: 2-wide nodes
-//! Measured on lavapipe (Mesa's software Vulkan driver, 2 shared cores) with
-//! `sightline bench trace --device gpu`: see `docs/BENCHMARKS.md`. Binary nodes with both
-//! children's boxes in the parent (64 bytes, Aila and Laine's layout) against 4- and 8-wide
-//! nodes of the same tree; [`GpuRayCasterOptions::width`] keeps the others selectable so the
-//! measurement can be repeated on real GPUs.
+//! # Layout: 4-wide nodes
+//! The CPU's binned-SAH tree collapsed to 4 children per node (112 bytes: the four boxes as
+//! rows of lanes, then one child word each), chosen by measuring the three widths on the same
+//! tree with `sightline bench trace --device gpu --gpu-width 2|4|8` on lavapipe (Mesa's
+//! software Vulkan driver, 256-bit SIMD, on 2 shared cores; `docs/BENCHMARKS.md`). On the
+//! 100k-triangle city, in the quieter of two runs, 4-wide nodes cast 1.05 M coherent and
+//! 0.50 M incoherent rays/s, binary nodes with both children's boxes in the parent (Aila and
+//! Laine's layout) 0.92 / 0.43 and 8-wide 0.89 / 0.44: wide enough that one node fetch
+//! replaces two levels of the binary tree, narrow enough that an invocation does not test
+//! empty lanes or sort long runs of entries on its stack (96 entries; `stack_needed` reports
+//! what a scene uses). The noisier run ranked binary nodes first, so the margin is small; the
+//! other widths stay selectable ([`GpuRayCasterOptions::width`]) and `scripts/gpu-check`
+//! measures all three on a real GPU, where wide nodes usually win (Ylitie, Karras, Laine.
+//! Efficient incoherent ray traversal on GPUs through compressed wide BVHs. HPG 2017).
 //!
 //! # Exactness
 //! Hits equal the CPU caster's ([`sightline_core::trace::Bvh`]): the same triangle, and the
@@ -81,7 +89,7 @@ pub struct GpuRayCasterOptions {
 impl Default for GpuRayCasterOptions {
     fn default() -> Self {
         Self {
-            width: 2,
+            width: 4,
             chunk_rays: 1 << 20,
             use_f64: true,
         }
