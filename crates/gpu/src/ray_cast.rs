@@ -49,7 +49,9 @@
 //! # Streaming
 //! Rays go up in chunks of [`GpuRayCasterOptions::chunk_rays`] (capped by the adapter's
 //! storage-binding and buffer limits) through two sets of buffers: while the GPU casts chunk
-//! `i`, the CPU prepares and uploads chunk `i + 1` and reads back chunk `i - 1`.
+//! `i`, the CPU prepares and uploads chunk `i + 1` and reads back chunk `i - 1`. Each call
+//! takes its own pair of buffer sets from a pool, so calls from several threads (a bake's
+//! cells, each casting batches of 64k rays) keep several chunks queued on the GPU at once.
 
 use std::sync::mpsc;
 use std::sync::Mutex;
@@ -167,7 +169,9 @@ pub struct GpuRayCaster {
     any_hit: wgpu::ComputePipeline,
     bind_layout: wgpu::BindGroupLayout,
     scene: Option<Uploaded>,
-    slots: Mutex<Vec<Slot>>,
+    /// Idle pairs of per-chunk buffer sets: a call takes one (or makes one) and gives it back,
+    /// so calls from several threads (the cells of a bake) have their chunks in flight at once.
+    idle: Mutex<Vec<Vec<Slot>>>,
     chunk_rays: usize,
     exact: bool,
     width: usize,
@@ -303,7 +307,7 @@ impl GpuRayCaster {
             any_hit,
             bind_layout,
             scene: uploaded,
-            slots: Mutex::new(Vec::new()),
+            idle: Mutex::new(Vec::new()),
             chunk_rays,
             exact,
             width: options.width,
@@ -387,12 +391,28 @@ impl GpuRayCaster {
         if rays.is_empty() {
             return Ok(());
         }
-        let mut slots = self.slots.lock().unwrap_or_else(|e| e.into_inner());
+        let idle = || self.idle.lock().unwrap_or_else(|e| e.into_inner());
+        let mut slots = idle().pop().unwrap_or_default();
+        self.run_on(&mut slots, scene, rays, any_hit, &mut sink)?;
+        // After an error the buffers may be left mapped: they are dropped, not reused.
+        idle().push(slots);
+        Ok(())
+    }
+
+    /// [`GpuRayCaster::run`] on one pair of buffer sets.
+    fn run_on(
+        &self,
+        slots: &mut Vec<Slot>,
+        scene: &Uploaded,
+        rays: &[Ray],
+        any_hit: bool,
+        mut sink: impl FnMut(usize, &[[u32; 2]]),
+    ) -> Result<(), GpuError> {
         let mut pending: Option<Pending> = None;
         let mut words = Vec::new();
         for (i, chunk) in rays.chunks(self.chunk_rays).enumerate() {
             let slot = i % 2;
-            self.reserve(&mut slots, slot, chunk.len(), scene);
+            self.reserve(slots, slot, chunk.len(), scene);
             let prepared: Vec<GpuRay> = chunk.par_iter().map(GpuRay::new).collect();
             let s = &slots[slot];
             let groups = (chunk.len() as u32).div_ceil(WORKGROUP);
@@ -437,7 +457,7 @@ impl GpuRayCaster {
                     let _ = tx.send(r);
                 });
             if let Some(p) = pending.take() {
-                self.finish(&slots, p, &mut words, &mut sink)?;
+                self.finish(slots, p, &mut words, &mut sink)?;
             }
             pending = Some(Pending {
                 slot,
@@ -448,7 +468,7 @@ impl GpuRayCaster {
             });
         }
         if let Some(p) = pending {
-            self.finish(&slots, p, &mut words, &mut sink)?;
+            self.finish(slots, p, &mut words, &mut sink)?;
         }
         Ok(())
     }
