@@ -109,6 +109,15 @@ fn stack_entries(width: usize) -> usize {
     }
 }
 
+/// The shader's stack size for `width`-wide nodes, or an error when a tree needs more.
+fn check_stack(needed: usize, width: usize) -> Result<usize, GpuError> {
+    let available = stack_entries(width);
+    if needed > available {
+        return Err(GpuError::StackTooShallow { needed, available });
+    }
+    Ok(available)
+}
+
 /// The uniform block of `ray_cast.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -199,13 +208,7 @@ impl GpuRayCaster {
             return Err(GpuError::ZeroChunk);
         }
         let bvh = GpuBvh::new(scene, options.width)?;
-        let stack = stack_entries(options.width);
-        if bvh.stack_needed > stack {
-            return Err(GpuError::StackTooShallow {
-                needed: bvh.stack_needed,
-                available: stack,
-            });
-        }
+        let stack = check_stack(bvh.stack_needed, options.width)?;
         let limits = device.limits();
         let binding_limit = limits
             .max_storage_buffer_binding_size
@@ -670,6 +673,18 @@ mod tests {
             .parse()
             .unwrap();
         assert!(value > 1.0 && value < 1.000_001);
+    }
+
+    #[test]
+    fn deeper_tree_than_the_stack_is_an_error() {
+        assert_eq!(check_stack(64, 2).unwrap(), 64);
+        assert!(matches!(
+            check_stack(65, 2),
+            Err(GpuError::StackTooShallow {
+                needed: 65,
+                available: 64
+            })
+        ));
     }
 
     #[test]
