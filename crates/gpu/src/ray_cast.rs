@@ -48,7 +48,8 @@
 //!
 //! # Streaming
 //! Rays go up in chunks of [`GpuRayCasterOptions::chunk_rays`] (capped by the adapter's
-//! storage-binding and buffer limits) through two sets of buffers: while the GPU casts chunk
+//! storage-binding and buffer limits, and by one row of workgroups, so a chunk is one 1D
+//! dispatch) through two sets of buffers: while the GPU casts chunk
 //! `i`, the CPU prepares and uploads chunk `i + 1` and reads back chunk `i - 1`. Each call
 //! takes its own pair of buffer sets from a pool, so calls from several threads (a bake's
 //! cells, each casting batches of 64k rays) keep several chunks queued on the GPU at once.
@@ -81,7 +82,8 @@ pub const APPROXIMATE_T_ULPS: u32 = 3;
 pub struct GpuRayCasterOptions {
     /// Children per node: 2, 4 or 8.
     pub width: usize,
-    /// Rays per chunk (at least 1; capped by the adapter's limits).
+    /// Rays per chunk (at least 1; capped by the adapter's limits: its storage-binding and
+    /// buffer sizes, and one dispatch row of workgroups, 4,194,240 rays on most adapters).
     pub chunk_rays: usize,
     /// Use f64 for bit-exact hits where the device has `SHADER_F64` (the default). `false`
     /// takes the path of adapters without it, so that it can be tested on one with it.
@@ -123,9 +125,8 @@ fn check_stack(needed: usize, width: usize) -> Result<usize, GpuError> {
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 struct Params {
     count: u32,
-    row: u32,
     zero: u32,
-    pad: u32,
+    pad: [u32; 2],
 }
 
 /// One of the two sets of per-chunk buffers.
@@ -231,7 +232,8 @@ impl GpuRayCaster {
         let groups = u64::from(limits.max_compute_workgroups_per_dimension);
         let chunk_rays = (options.chunk_rays as u64)
             .min(binding_limit / RAY_BYTES)
-            .min(groups * groups * u64::from(WORKGROUP))
+            // One dispatch row: at least 65,535 workgroups of 64, 4.19M rays.
+            .min(groups * u64::from(WORKGROUP))
             .max(1) as usize;
 
         let exact = options.use_f64 && device.features().contains(wgpu::Features::SHADER_F64);
@@ -418,14 +420,12 @@ impl GpuRayCaster {
             self.reserve(slots, slot, chunk.len(), scene);
             let prepared: Vec<GpuRay> = chunk.par_iter().map(GpuRay::new).collect();
             let s = &slots[slot];
+            // `chunk_rays` keeps this within the adapter's workgroups per dimension.
             let groups = (chunk.len() as u32).div_ceil(WORKGROUP);
-            let max_x = self.device.limits().max_compute_workgroups_per_dimension;
-            let (gx, gy) = (groups.min(max_x), groups.div_ceil(max_x));
             let params = Params {
                 count: chunk.len() as u32,
-                row: gx * WORKGROUP,
                 zero: 0,
-                pad: 0,
+                pad: [0; 2],
             };
             self.queue
                 .write_buffer(&s.params, 0, bytemuck::bytes_of(&params));
@@ -447,7 +447,7 @@ impl GpuRayCaster {
                     &self.closest
                 });
                 pass.set_bind_group(0, &s.bind_group, &[]);
-                pass.dispatch_workgroups(gx, gy, 1);
+                pass.dispatch_workgroups(groups, 1, 1);
             }
             let bytes = chunk.len() as u64 * HIT_BYTES;
             encoder.copy_buffer_to_buffer(&s.hits, 0, &s.readback, 0, bytes);

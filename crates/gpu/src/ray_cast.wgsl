@@ -21,15 +21,13 @@ const PARALLEL: u32 = 64u;
 struct Params {
     // Rays in this chunk.
     count: u32,
-    // Invocations per row of workgroups (the dispatch is 2D when a chunk needs more than the
-    // adapter's maximum workgroups in x).
-    row: u32,
     // Always 0. XOR-ed into every product that feeds a sum (`rounded`): the compiler cannot
     // know it is 0, so it must round the product to f32 first and cannot contract the product
     // and the sum into a fused multiply-add (Vulkan drivers may contract unless told not to,
     // and naga does not emit NoContraction). The CPU caster never fuses.
     zero: u32,
-    pad: u32,
+    pad0: u32,
+    pad1: u32,
 }
 
 struct Ray {
@@ -221,7 +219,7 @@ fn trace(index: u32, any_hit: bool) -> vec2<u32> {
 
 @compute @workgroup_size(64)
 fn cast_closest(@builtin(global_invocation_id) id: vec3<u32>) {
-    let index = id.x + id.y * params.row;
+    let index = id.x;
     if (index < params.count) {
         hits[index] = trace(index, false);
     }
@@ -229,7 +227,7 @@ fn cast_closest(@builtin(global_invocation_id) id: vec3<u32>) {
 
 @compute @workgroup_size(64)
 fn cast_any(@builtin(global_invocation_id) id: vec3<u32>) {
-    let index = id.x + id.y * params.row;
+    let index = id.x;
     if (index < params.count) {
         hits[index] = trace(index, true);
     }
