@@ -385,6 +385,50 @@ fn bench_rv_reports_both_views_and_passes_consistently() {
 }
 
 #[test]
+fn bench_trace_gpu_measures_the_gpu_caster_beside_the_cpu() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = [
+        "bench",
+        "trace",
+        "--device",
+        "gpu",
+        "--gpu-width",
+        "8",
+        "--rays",
+        "2000",
+        "--size",
+        "32",
+        "--seconds",
+        "0.05",
+        "--json",
+        "procedural:city?size=2000",
+    ];
+    let o = sightline(&args, dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let rows = v.as_array().unwrap();
+    let backends: Vec<&str> = rows
+        .iter()
+        .map(|r| r["backend"].as_str().unwrap())
+        .collect();
+    assert_eq!(backends[0], "sightline BVH");
+    // The GPU row names its node width and the adapter (lavapipe here).
+    let gpu = rows.last().unwrap();
+    let name = gpu["backend"].as_str().unwrap();
+    assert!(name.starts_with("GPU BVH8 ("), "{name}");
+    assert!(gpu["incoherent_mrays"].as_f64().unwrap() > 0.0);
+    assert!(gpu["coherent_mrays"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn bench_trace_rejects_an_unknown_device() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(&["bench", "trace", "--device", "tpu"], dir.path());
+    assert_eq!(o.status.code(), Some(2), "clap usage error: {}", stderr(&o));
+    assert!(stderr(&o).contains("tpu"));
+}
+
+#[test]
 fn bench_rv_rejects_zero_rounds() {
     let dir = tempfile::tempdir().unwrap();
     let o = sightline(&["bench", "rv", "--rounds", "0"], dir.path());

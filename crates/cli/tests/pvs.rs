@@ -35,6 +35,74 @@ fn baked(dir: &Path) -> PathBuf {
     dir.join("a.pvs")
 }
 
+/// The cells' triangle lists of a .pvs file, as `pvs show --json` prints them.
+fn cell_triangles(dir: &Path, file: &str) -> Vec<serde_json::Value> {
+    let o = sightline(&["pvs", "show", file, "--json"], dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let cells = v["cells"].as_array().unwrap();
+    cells.iter().map(|c| c["triangles"].clone()).collect()
+}
+
+#[test]
+fn gpu_bake_equals_cpu_bake() {
+    // GVS++ under a ray budget goes through random, border and reverse sampling; the GPU
+    // caster's hits are bit-identical to the CPU's (lavapipe has SHADER_F64), so every
+    // decision and the sets are the same.
+    let dir = tempfile::tempdir().unwrap();
+    for device in ["cpu", "gpu"] {
+        let out = format!("{device}.pvs");
+        let o = sightline(
+            &[
+                "pvs",
+                "bake",
+                SCENE,
+                "--cell",
+                "box:2,2,1,4,4,2",
+                "--cell",
+                "box:8,2,1,10,4,2",
+                "--rays",
+                "60000",
+                "--seed",
+                "5",
+                "--device",
+                device,
+                "-o",
+                &out,
+            ],
+            dir.path(),
+        );
+        assert!(o.status.success(), "{device}: {}", stderr(&o));
+    }
+    let cpu = cell_triangles(dir.path(), "cpu.pvs");
+    let gpu = cell_triangles(dir.path(), "gpu.pvs");
+    assert_eq!(cpu.len(), 2);
+    assert!(cpu.iter().all(|t| t.as_array().unwrap().len() > 10));
+    assert_eq!(cpu, gpu);
+}
+
+#[test]
+fn gpu_bake_refuses_shared_rays() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(
+        &[
+            "pvs",
+            "bake",
+            SCENE,
+            "--grid",
+            "2,1,1",
+            "--share-rays",
+            "--device",
+            "gpu",
+            "-o",
+            "x.pvs",
+        ],
+        dir.path(),
+    );
+    assert_fails_with(&o, "--share-rays");
+    assert!(!dir.path().join("x.pvs").exists());
+}
+
 #[test]
 fn bake_show_diff_eval_round_trip() {
     let dir = tempfile::tempdir().unwrap();

@@ -37,9 +37,55 @@ pub enum GpuError {
     /// A [`MeshId`](crate::MeshId) that this backend did not upload.
     #[error("mesh {0} was not uploaded to this backend")]
     UnknownMesh(u32),
-    /// Mapping the query readback buffer failed.
-    #[error("reading occlusion query results back failed: {0}")]
+    /// Mapping a readback buffer (occlusion query results, ray hits) failed.
+    #[error("reading GPU results back failed: {0}")]
     Readback(String),
+    /// A ray caster's node width other than 2, 4 or 8.
+    #[error("BVH node width {0} is not supported on the GPU (2, 4 or 8)")]
+    UnsupportedWidth(usize),
+    /// A ray caster's chunk of zero rays.
+    #[error("rays per chunk must be at least 1")]
+    ZeroChunk,
+    /// The BVH is deeper than the ray-casting shader's fixed traversal stack.
+    #[error(
+        "the BVH needs a traversal stack of {needed} entries; the GPU shader has {available} \
+         (try another node width)"
+    )]
+    StackTooShallow {
+        /// Entries the tree needs.
+        needed: usize,
+        /// Entries the shader has.
+        available: usize,
+    },
+    /// More triangles or nodes than the GPU layout's 28-bit indices address.
+    #[error("{triangles} triangles in {nodes} BVH nodes do not fit the GPU layout (2^28 each)")]
+    SceneTooLarge {
+        /// Triangles the BVH holds.
+        triangles: usize,
+        /// Its nodes.
+        nodes: usize,
+    },
+    /// A buffer larger than the adapter binds.
+    #[error("{what} take {bytes} bytes; this adapter binds at most {limit}")]
+    BufferTooLarge {
+        /// What the buffer holds.
+        what: &'static str,
+        /// Its size.
+        bytes: u64,
+        /// The adapter's limit.
+        limit: u64,
+    },
+    /// The output slice of a ray query is not as long as its rays.
+    #[error("{rays} rays but {out} output slots")]
+    LengthMismatch {
+        /// Rays given.
+        rays: usize,
+        /// Output slots given.
+        out: usize,
+    },
+    /// A shader or pipeline failed to compile or validate (a bug, or a driver's).
+    #[error("GPU shader failed: {0}")]
+    Shader(String),
 }
 
 /// Checks that `info` describes a Vulkan adapter.
@@ -117,8 +163,17 @@ pub fn vulkan_device() -> Result<(Device, Queue, AdapterInfo), GpuError> {
     let adapter = pick(adapters).ok_or(GpuError::NoVulkanAdapter)?;
     let info = adapter.get_info();
     check_vulkan(&info)?;
+    // Optional: f64 makes the ray caster's hits bit-exact (`ray_cast.rs`), and the adapter's
+    // own buffer limits let it hold large scenes. Neither changes the occlusion queries.
+    let adapter_limits = adapter.limits();
     let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
         label: Some("sightline-gpu"),
+        required_features: adapter.features() & wgpu::Features::SHADER_F64,
+        required_limits: wgpu::Limits {
+            max_storage_buffer_binding_size: adapter_limits.max_storage_buffer_binding_size,
+            max_buffer_size: adapter_limits.max_buffer_size,
+            ..Default::default()
+        },
         ..Default::default()
     }))?;
     Ok((device, queue, info))

@@ -1,6 +1,8 @@
-//! sightline-gpu: the GPU paths of sightline. For now one: a hardware-occlusion-query backend
+//! sightline-gpu: the GPU paths of sightline. Two: a hardware-occlusion-query backend
 //! ([`GpuBackend`]) for the run-time culling of `sightline-cull`, implementing its
-//! [`OcclusionBackend`](sightline_cull::OcclusionBackend) trait with `wgpu` on Vulkan.
+//! [`OcclusionBackend`](sightline_cull::OcclusionBackend) trait with `wgpu` on Vulkan; and a
+//! compute-shader ray caster ([`GpuRayCaster`]) implementing `sightline-core`'s
+//! [`RayCaster`](sightline_core::trace::RayCaster), with hits equal to the CPU caster's.
 //!
 //! Based on: Seletsky. Real Time Visibility Culling With Hardware Occlusion Queries and Uniform
 //! Grids. 2013, sections 2.4 (hardware occlusion queries) and 4.3.2 (depth pre-pass and
@@ -11,6 +13,13 @@
 //!   ([`check_vulkan`]); errors are [`GpuError`].
 //! - `occlusion_query.rs` (+ `occlusion_query.wgsl`): [`GpuBackend`], working on any device
 //!   passed to [`GpuBackend::with_device`] (tests pass their own).
+//! - `ray_cast.rs` (+ `ray_cast.wgsl`): [`GpuRayCaster`], closest-hit and any-hit casting of
+//!   ray batches streamed in double-buffered chunks, on any device passed to
+//!   [`GpuRayCaster::with_device`]; its exactness against the CPU caster, the node width
+//!   chosen and why are in its module documentation. `sightline bench trace --device gpu`
+//!   measures it beside the CPU casters, `sightline pvs bake --device gpu` bakes with it.
+//! - `ray_layout.rs`: the CPU BVH (`sightline_core::trace::bvh::FlatBvh`) and rays in the
+//!   shader's layout; the traversal-stack depth check.
 //!
 //! # Adapter requirements
 //! - **Vulkan only** (`wgpu` is built with just its `vulkan` and `wgsl` features). wgpu's GL
@@ -18,8 +27,10 @@
 //!   thesis' algorithm is tested here on Vulkan's exact sample counts. [`vulkan_device`]
 //!   returns [`GpuError::NotVulkan`] if the adapter is not Vulkan and
 //!   [`GpuError::NoVulkanAdapter`] if none exists.
-//! - No optional feature or raised limit: occlusion queries, `Depth32Float` and depth-only
-//!   pipelines are core WebGPU; any Vulkan 1.x driver that wgpu supports works.
+//! - No required feature or raised limit: occlusion queries, `Depth32Float`, depth-only
+//!   pipelines and compute shaders are core WebGPU; any Vulkan 1.x driver that wgpu supports
+//!   works. `SHADER_F64` is requested where the adapter has it: with it the ray caster's hits
+//!   are bit-exact with the CPU's, without it `t` is within [`APPROXIMATE_T_ULPS`].
 //! - Without a GPU (CI, servers): Mesa's lavapipe, `apt-get install -y mesa-vulkan-drivers`.
 //!   The tests of this crate **fail** (they do not skip) when no Vulkan adapter is found.
 //!
@@ -47,6 +58,9 @@
 
 mod device;
 mod occlusion_query;
+mod ray_cast;
+mod ray_layout;
 
 pub use device::{check_vulkan, pick_adapter, vulkan_device, GpuError};
 pub use occlusion_query::{GpuBackend, GpuFrameStats, MeshId, QueryOutcome};
+pub use ray_cast::{GpuRayCaster, GpuRayCasterOptions, APPROXIMATE_T_ULPS};

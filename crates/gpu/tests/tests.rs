@@ -10,6 +10,9 @@ use wgpu::{AdapterInfo, Device, Queue};
 
 /// The adapter is Vulkan, and a missing adapter is a loud failure.
 mod adapter;
+/// The compute-shader ray caster against the CPU caster: same triangles, same `t` bits (with
+/// `SHADER_F64`), on the bunny, a city and a Quake 3 map; unusable rays, chunks, errors.
+mod ray_cast;
 /// Against the reference rasterizer's exact depth test on random occluder scenes: no visible
 /// box is reported occluded, except at pixel-centre edge and depth ties (tolerance stated there).
 mod reference;

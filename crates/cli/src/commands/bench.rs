@@ -24,8 +24,9 @@ pub(crate) struct Args {
 
 #[derive(Subcommand, Debug)]
 enum What {
-    /// Ray casting: our BVH (and Embree, when built with `--features embree`), coherent camera
-    /// rays and incoherent random rays, million rays per second.
+    /// Ray casting: our BVH (and Embree, when built with `--features embree`, and the GPU
+    /// caster with `--device gpu`), coherent camera rays and incoherent random rays, million
+    /// rays per second.
     Trace(TraceArgs),
     /// Reference rasterizer: frame time and triangles per second at a given resolution.
     Raster(RasterArgs),
@@ -221,9 +222,25 @@ struct TraceArgs {
     /// Seconds per backend and ray set, split into 5 alternating rounds (best round kept).
     #[arg(long, default_value_t = 2.0)]
     seconds: f64,
+    /// `gpu` adds the GPU ray caster (wgpu compute shaders, on the adapter `sightline-gpu`
+    /// picks; `SIGHTLINE_GPU_ADAPTER` chooses) beside the CPU casters, on the same rays.
+    #[arg(long, value_enum, default_value_t = Device::Cpu)]
+    device: Device,
+    /// Children per node of the GPU caster's BVH (2, 4 or 8), to compare layouts.
+    #[arg(long, default_value_t = sightline_gpu::GpuRayCasterOptions::default().width)]
+    gpu_width: usize,
     /// Print JSON instead of a Markdown table.
     #[arg(long)]
     json: bool,
+}
+
+/// Where rays are cast (`bench trace --device`, `pvs bake --device`).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Device {
+    /// The CPU casters only.
+    Cpu,
+    /// The CPU casters and the GPU caster.
+    Gpu,
 }
 
 /// Arguments of `sightline bench raster`.
@@ -405,6 +422,8 @@ fn trace(args: TraceArgs) -> Result<()> {
         args.scenes.clone()
     };
     let mut rows = Vec::new();
+    // One device for every scene (acquiring one takes a while on lavapipe).
+    let mut gpu = None;
     for spec in &specs {
         let scene = load(spec)?;
         let camera = overview_camera(&scene, args.size)?;
@@ -426,6 +445,32 @@ fn trace(args: TraceArgs) -> Result<()> {
                 "Embree 3".into(),
                 t.elapsed().as_secs_f64(),
                 Box::new(embree),
+            ));
+        }
+        if args.device == Device::Gpu && gpu.is_none() {
+            gpu = Some(sightline_gpu::vulkan_device()?);
+        }
+        if let Some((device, queue, info)) = &gpu {
+            let t = Instant::now();
+            let options = sightline_gpu::GpuRayCasterOptions {
+                width: args.gpu_width,
+                ..Default::default()
+            };
+            let caster = sightline_gpu::GpuRayCaster::with_device(
+                device,
+                queue,
+                info.clone(),
+                &scene,
+                options,
+            )?;
+            let exact = if caster.exact() { "" } else { ", approximate" };
+            casters.push((
+                format!(
+                    "GPU BVH{} ({}, {:?}{exact})",
+                    args.gpu_width, info.name, info.device_type
+                ),
+                t.elapsed().as_secs_f64(),
+                Box::new(caster),
             ));
         }
         // Alternate the backends in several short rounds and keep each one's best round, so

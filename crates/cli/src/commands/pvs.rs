@@ -8,7 +8,7 @@ use anyhow::{bail, Context, Result};
 use glam::Vec3;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use serde::Serialize;
-use sightline_core::trace::Bvh;
+use sightline_core::trace::{Bvh, RayCaster};
 use sightline_region::bake::{BakeSetup, BakedCell};
 use sightline_region::cell_sources::{
     inside_solid, q3_cells, read_cells_file, Q3CellKind, Q3Cells, Q3Origins, Q3_ORIGINS_KEY,
@@ -21,6 +21,7 @@ use sightline_region::reachable::{ReachParams, DEFAULT_STEP};
 use sightline_region::shards::{merge, Shard};
 use sightline_region::{Budget, PvsFile, ViewCell};
 
+use super::bench::Device;
 use crate::args::{thread_count, SceneArgs};
 use crate::errors::ExitStatus;
 use crate::output::{print_json, refuse_overwriting_inputs};
@@ -122,6 +123,12 @@ pub(crate) struct BakeArgs {
     /// Seed of every random choice (same seed, same result).
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// `gpu` casts the bake's rays with the GPU ray caster (wgpu compute shaders; see
+    /// `sightline bench trace --device gpu`). Hits are bit-identical to the CPU caster's on
+    /// adapters with `SHADER_F64`, so the PVS is the same as a CPU bake's for the same seed and
+    /// ray budget. Cells still run in parallel, each casting its own batches.
+    #[arg(long, value_enum, default_value_t = Device::Cpu)]
+    device: Device,
     /// GVS++/GVS: random rays per round (paper: 10,000,000). Under --rays or --time, GVS++
     /// rounds are adaptive: the first has 16,384 random rays, each doubles the next up to this
     /// size, and a round explores at most 4 times as many rays as its random phase cast.
@@ -421,6 +428,20 @@ fn run_bake(args: BakeArgs) -> Result<()> {
         .install(|| bake_command(&args))
 }
 
+/// The GPU ray caster for a bake, with a line on stderr naming the adapter.
+fn gpu_caster(scene: &sightline_core::Scene) -> Result<sightline_gpu::GpuRayCaster> {
+    let caster = sightline_gpu::GpuRayCaster::new(scene, Default::default())?;
+    let info = caster.adapter_info();
+    eprintln!("casting rays on {} ({:?})", info.name, info.device_type);
+    if !caster.exact() {
+        eprintln!(
+            "warning: this adapter has no SHADER_F64: hit distances may differ from the CPU \
+             caster's in the last bits, and the PVS slightly from a CPU bake's"
+        );
+    }
+    Ok(caster)
+}
+
 fn bake_command(args: &BakeArgs) -> Result<()> {
     // The --since file may be the output: it is read whole before the output is replaced,
     // so an in-place incremental rebake is safe.
@@ -476,6 +497,9 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
         if args.shard.is_some() || args.since.is_some() || args.restart {
             bail!("--share-rays bakes all cells at once: it cannot be combined with --shard, --since or --restart");
         }
+        if args.device == Device::Gpu {
+            bail!("--share-rays casts on the CPU only (--device gpu is not supported with it yet)");
+        }
         let mut extra = serde_json::json!({
             "parameters": format!("{params:?}"),
             "clusters": clusters,
@@ -494,9 +518,17 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
             extra,
         );
     }
+    let gpu = match args.device {
+        Device::Cpu => None,
+        Device::Gpu => Some(gpu_caster(&scene)?),
+    };
+    let caster: &dyn RayCaster = match &gpu {
+        Some(g) => g,
+        None => &bvh,
+    };
     let setup = BakeSetup {
         scene: &scene,
-        caster: &bvh,
+        caster,
         cells: &cells,
         sampler: sampler.as_ref(),
         free_space: &free_space,

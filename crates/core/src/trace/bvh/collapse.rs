@@ -50,7 +50,7 @@ pub(super) fn collapse<N: WideNode>(
 /// its two children, then the inner child with the largest surface area (the likeliest to be
 /// entered) opened again and again until there are `WIDTH` or only leaves (Wald et al. 2008).
 /// Returns their number.
-fn open_children(inner: &Node, sparse: &[NodePair], kids: &mut [Node]) -> usize {
+pub(super) fn open_children(inner: &Node, sparse: &[NodePair], kids: &mut [Node]) -> usize {
     kids[..2].copy_from_slice(&sparse[inner.first as usize].0);
     let mut len = 2;
     while len < kids.len() {

@@ -21,6 +21,8 @@
 //! `WideNode` trait both are generic over), one file per node layout (`node4.rs`,
 //! `node8.rs`: the node, its child encoding and its SIMD box test) and `slab.rs` (the box test
 //! every layout's kernel equals). This file picks the layout and drives the rest.
+//! `flatten.rs` hands the same tree, collapsed to any width, to engines outside this crate
+//! (the GPU ray caster of `sightline-gpu`) as plain arrays ([`FlatBvh`]).
 //!
 //! # Layout
 //! 4-wide nodes are 128 bytes on two cache lines: the four child boxes as six rows of four
@@ -48,6 +50,7 @@
 
 mod build;
 mod collapse;
+mod flatten;
 mod node;
 mod node4;
 mod node8;
@@ -65,6 +68,7 @@ use crate::scene::Scene;
 use super::tri4::Tri4;
 use super::RayCaster;
 use collapse::collapse;
+pub use flatten::{FlatBvh, FlatChild, FlatLink};
 use node::WideNode;
 use node4::Node4;
 use node8::Node8;
@@ -131,6 +135,25 @@ fn usable(corners: [Vec3; 3]) -> bool {
     a.is_finite() && b.is_finite() && c.is_finite() && (b - a).cross(c - a) != Vec3::ZERO
 }
 
+/// The corners of triangle `t` of `scene`; `None` when an index is out of range.
+fn corners(scene: &Scene, t: &[u32; 3]) -> Option<[Vec3; 3]> {
+    let p = |i: u32| scene.positions.get(i as usize).copied();
+    Some([p(t[0])?, p(t[1])?, p(t[2])?])
+}
+
+/// The box of every triangle of `scene` by id, [`Aabb::EMPTY`] for those the leaf test can never
+/// hit (an index out of range, a non-finite corner, zero area): the build leaves them out.
+fn triangle_boxes(scene: &Scene) -> Vec<Aabb> {
+    scene
+        .triangles
+        .par_iter()
+        .map(|t| match corners(scene, t) {
+            Some(c) if usable(c) => Aabb::from_points(c),
+            _ => Aabb::EMPTY,
+        })
+        .collect()
+}
+
 impl Bvh {
     /// Builds the BVH for `scene`. Triangles with an index out of range, a non-finite corner
     /// or zero area are left out: the leaf test would never hit them.
@@ -140,20 +163,7 @@ impl Bvh {
 
     /// [`Bvh::build`] with nodes of the given width.
     fn build_with(scene: &Scene, width: Width) -> Self {
-        let corners = |t: &[u32; 3]| -> Option<[Vec3; 3]> {
-            let p = |i: u32| scene.positions.get(i as usize).copied();
-            Some([p(t[0])?, p(t[1])?, p(t[2])?])
-        };
-        let boxes: Vec<Aabb> = scene
-            .triangles
-            .par_iter()
-            .map(|t| match corners(t) {
-                Some(c) if usable(c) => Aabb::from_points(c),
-                _ => Aabb::EMPTY,
-            })
-            .collect();
-        let tree = build::binary_tree(&boxes);
-        drop(boxes);
+        let tree = build::binary_tree(&triangle_boxes(scene));
         let Some(tree) = tree else {
             let nodes = match width {
                 Width::Four => Nodes::Four(Vec::new()),
@@ -173,7 +183,7 @@ impl Bvh {
             for chunk in leaf.chunks(4) {
                 let mut tris = [([Vec3::ZERO; 3], 0); 4];
                 for (slot, &id) in tris.iter_mut().zip(chunk) {
-                    let c = corners(&scene.triangles[id as usize]).unwrap_or_default();
+                    let c = corners(scene, &scene.triangles[id as usize]).unwrap_or_default();
                     *slot = (c, id);
                 }
                 packets.push(Tri4::new(&tris[..chunk.len()]));
