@@ -47,9 +47,10 @@ use sightline_core::trace::RayCaster;
 use sightline_core::{Hit, Ray, Scene, TriangleSet};
 
 use crate::bake::cell_seed;
-use crate::gvspp::{abs_rays, find_discontinuities, GvsPlusPlusParams, ReverseOrigins, ABS_CHUNK};
+use crate::guided::Phase;
+use crate::gvspp::{GvsPlusPlusParams, GvsppCell, Rounds};
 use crate::pvs_file::{CellPvs, PvsFile};
-use crate::rays::{cast, Discovery, RandomRays, BATCH};
+use crate::rays::{cast, Discovery, BATCH};
 use crate::sampler::{Budget, CellContext, CellResult, ConvergencePoint};
 use crate::segment_cells::SegmentCells;
 use crate::viewcell::ViewCell;
@@ -164,15 +165,6 @@ impl SharedBake {
     }
 }
 
-/// Which phase cast a ray (the `found_by` slot its owner credits).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Phase {
-    Random = 0,
-    Abs = 1,
-    Rs = 2,
-}
-const SHARED: usize = 3;
-
 /// A triangle seen from a point of a cell.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Contribution {
@@ -182,24 +174,39 @@ struct Contribution {
     discovery: Discovery,
 }
 
-/// One cell's sampling state.
+/// One cell's state: its GVS++ state, stepped as the per-cell sampler steps it, and the PVS
+/// that its own and other cells' rays fill.
 struct CellState {
-    random: RandomRays,
-    next_random: u64,
-    reverse: ReverseOrigins,
-    rs_round: u64,
+    gvspp: GvsppCell,
     pvs: TriangleSet,
     pvs_size: usize,
     /// Triangles queued for exploration (a subset of `pvs`).
     explored: TriangleSet,
-    queue: Vec<Discovery>,
-    head: usize,
+    /// Rays the cell cast itself.
     rays: u64,
-    round_new: usize,
-    found: [usize; 4],
+    /// `rays` when the round began.
+    round_start: u64,
+    /// Random rays the cell cast this round.
+    random_rays: u64,
     /// Stopped random sampling (converged, or no free space for origins).
     converged: bool,
     convergence: Vec<ConvergencePoint>,
+}
+
+impl CellState {
+    /// Rays the cell cast exploring this round.
+    fn explored(&self) -> u64 {
+        self.rays - self.round_start - self.random_rays
+    }
+
+    /// How many queued triangles the cell explores next (see [`GvsppCell::explore_take`]);
+    /// `None` when it explores no more this round.
+    fn explore_take(&self) -> Option<usize> {
+        if self.gvspp.queue.is_empty() {
+            return None;
+        }
+        self.gvspp.explore_take(self.random_rays, self.explored())
+    }
 }
 
 /// Rays per shared batch: several caster batches, so each batch's bookkeeping (crossings,
@@ -261,18 +268,13 @@ pub fn bake_shared(
     let states: Vec<CellState> = contexts
         .par_iter()
         .map(|ctx| CellState {
-            random: RandomRays::new(ctx.cell, scene, ctx.seed),
-            next_random: 0,
-            reverse: ReverseOrigins::new(ctx, p.n_rs_edge, p.n_rs_area),
-            rs_round: 0,
+            gvspp: GvsppCell::new(ctx, p, Rounds::PaperPerRound),
             pvs: TriangleSet::with_capacity(scene.triangle_count()),
             pvs_size: 0,
             explored: TriangleSet::with_capacity(scene.triangle_count()),
-            queue: Vec::new(),
-            head: 0,
             rays: 0,
-            round_new: 0,
-            found: [0; 4],
+            round_start: 0,
+            random_rays: 0,
             converged: false,
             convergence: Vec::new(),
         })
@@ -305,12 +307,7 @@ pub fn bake_shared(
             rays: s.rays,
             seconds: per_cell,
             convergence: s.convergence,
-            found_by: vec![
-                ("random", s.found[0]),
-                ("abs", s.found[1]),
-                ("rs", s.found[2]),
-                ("shared", s.found[SHARED]),
-            ],
+            found_by: s.gvspp.found.found_by_with_shared(),
         })
         .collect();
     SharedBake {
@@ -347,18 +344,22 @@ impl Bake<'_> {
     }
 
     fn run(&mut self) {
-        let p = self.params.gvspp.clone();
         let unlimited = self.budget.is_unlimited();
         loop {
             let rays_before = self.total_rays;
             for s in &mut self.states {
-                s.round_new = 0;
+                s.round_start = s.rays;
             }
-            self.random_phase(p.n_rand);
-            self.exploration_phase(&p);
+            self.random_phase();
+            for s in &mut self.states {
+                s.random_rays = s.rays - s.round_start;
+            }
+            self.exploration_phase();
             let mut sampling = 0;
             for s in &mut self.states {
-                if unlimited && !s.converged && s.round_new < p.termination_threshold {
+                // Termination (4.4): here over the cell's last round alone (see the module docs).
+                let done = s.gvspp.end_round(s.rays - s.round_start, s.random_rays);
+                if unlimited && done {
                     s.converged = true;
                 }
                 sampling += usize::from(!s.converged);
@@ -372,8 +373,7 @@ impl Bake<'_> {
             let nothing_cast = self.total_rays == rays_before;
             let nothing_left = (0..self.states.len()).all(|i| {
                 self.exhausted(i)
-                    || (self.states[i].converged
-                        && self.states[i].head == self.states[i].queue.len())
+                    || (self.states[i].converged && self.states[i].gvspp.queue.is_empty())
             });
             if nothing_cast || nothing_left || self.out_of_time() || sampling == 0 && unlimited {
                 // With sampling == 0 every cell has converged; the last exploration phase
@@ -383,20 +383,20 @@ impl Bake<'_> {
         }
     }
 
-    /// GVS++ random sampling (4.1) from every cell still sampling, `n_rand` rays each.
-    fn random_phase(&mut self, n_rand: u64) {
+    /// GVS++ random sampling (4.1) from every cell still sampling, a round's rays each.
+    fn random_phase(&mut self) {
         let mut owners: Vec<u32> = Vec::new();
         let mut rays: Vec<Ray> = Vec::new();
         for i in 0..self.states.len() {
             if self.states[i].converged {
                 continue;
             }
-            let mut remaining = n_rand.min(self.rays_left(i) / self.random_cost());
+            let round_size = self.states[i].gvspp.round_size();
+            let mut remaining = round_size.min(self.rays_left(i) / self.random_cost());
             while remaining > 0 && !self.out_of_time() {
                 let n = remaining.min(SHARED_BATCH as u64) as usize;
                 let s = &mut self.states[i];
-                let batch = s.random.batch(&self.contexts[i], s.next_random, n);
-                s.next_random += n as u64;
+                let batch = s.gvspp.random.next_batch(&self.contexts[i], n);
                 remaining -= n as u64;
                 if batch.is_empty() {
                     // A whole batch without an allowed origin: no free space in this cell.
@@ -419,21 +419,15 @@ impl Bake<'_> {
 
     /// Exploration (4.2, 4.3): every cell's queue drained a few triangles at a time, all cells
     /// together, until all queues are empty or out of budget.
-    fn exploration_phase(&mut self, p: &GvsPlusPlusParams) {
-        let diagonal = self
-            .contexts
-            .first()
-            .map_or(1.0, |c| c.scene.bounds().diagonal().max(f32::MIN_POSITIVE));
-        let delta_abs = p.delta_abs * diagonal;
-        let delta = p.delta_discontinuity * diagonal;
+    fn exploration_phase(&mut self) {
         loop {
             let active: Vec<usize> = (0..self.states.len())
-                .filter(|&i| self.states[i].head < self.states[i].queue.len() && !self.exhausted(i))
+                .filter(|&i| self.states[i].explore_take().is_some() && !self.exhausted(i))
                 .collect();
             if active.is_empty() {
                 return;
             }
-            // Each active cell takes the next ABS_CHUNK triangles of its queue, as GVS++ does
+            // Each active cell takes the next chunk of its queue, as the per-cell sampler does
             // (all their ABS rays, then RS of their discontinuities); cells are grouped so that
             // a group casts about SHARED_BATCH ABS rays at once.
             let mut k = 0;
@@ -450,14 +444,10 @@ impl Bake<'_> {
                         continue;
                     }
                     let s = &mut self.states[i];
-                    let end = (s.head + ABS_CHUNK).min(s.queue.len());
-                    let (r, t) = abs_rays(
-                        &self.contexts[i],
-                        &s.queue[s.head..end],
-                        delta_abs,
-                        p.n_abs_edge,
-                    );
-                    s.head = end;
+                    let Some(take) = s.explore_take() else {
+                        continue;
+                    };
+                    let (r, t) = s.gvspp.abs_rays(&self.contexts[i], take);
                     ranges.push((i, rays.len(), rays.len() + r.len()));
                     owners.extend(std::iter::repeat_n(i as u32, r.len()));
                     rays.extend(r);
@@ -467,7 +457,7 @@ impl Bake<'_> {
                     continue;
                 }
                 let hits = self.cast_and_share(&owners, &rays, Phase::Abs);
-                self.reverse_sampling(&ranges, &rays, &hits, &targets, delta);
+                self.reverse_sampling(&ranges, &rays, &hits, &targets);
             }
         }
     }
@@ -480,22 +470,20 @@ impl Bake<'_> {
         rays: &[Ray],
         hits: &[Hit],
         targets: &[Option<Vec3>],
-        delta: f32,
     ) {
         let mut rs_owners = Vec::new();
         let mut rs_rays = Vec::new();
         for &(i, a, b) in ranges {
-            let found = find_discontinuities(&rays[a..b], &hits[a..b], &targets[a..b], delta);
-            let group_size = self.states[i].reverse.group_size();
+            let cell = &self.states[i].gvspp;
+            let found = cell.discontinuities(&rays[a..b], &hits[a..b], &targets[a..b]);
+            let group_size = cell.rs_group_size();
             // RS rays of this cell generated but not yet cast (the budget counts them).
             let mut pending = 0u64;
             for group in found.chunks(group_size) {
                 if self.rays_left(i) <= pending || self.out_of_time() {
                     break;
                 }
-                let s = &mut self.states[i];
-                let r = s.reverse.rays(&self.contexts[i], group, s.rs_round);
-                s.rs_round += 1;
+                let r = self.states[i].gvspp.rs_rays(&self.contexts[i], group);
                 pending += r.len() as u64;
                 rs_owners.extend(std::iter::repeat_n(i as u32, r.len()));
                 rs_rays.extend(r);
@@ -546,17 +534,16 @@ impl Bake<'_> {
                     if !s.pvs.contains(t) {
                         s.pvs.insert(t);
                         s.pvs_size += 1;
-                        s.round_new += 1;
                         if c.own {
-                            s.found[phase as usize] += 1;
+                            s.gvspp.found.credit(phase, 1);
                         } else {
-                            s.found[SHARED] += 1;
+                            s.gvspp.found.credit(Phase::Shared, 1);
                             shared += 1;
                         }
                     }
                     if (c.own || explore_shared) && !s.explored.contains(t) {
                         s.explored.insert(t);
-                        s.queue.push(c.discovery);
+                        s.gvspp.queue.push(c.discovery);
                     }
                 }
                 shared
