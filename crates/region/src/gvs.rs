@@ -4,7 +4,7 @@
 //! ACM TOG 25(3), 2006 — as summarised and re-implemented for comparison by Koch & Wimmer 2021
 //! (sections 4.2, 4.3, figure 3 and table 1: recursive subdivision up to three times).
 //!
-//! Differences from GVS++ (`gvspp.rs`), which are the point of this baseline:
+//! Differences from GVS++ (`gvspp/`), which are the point of this baseline:
 //! - adaptive border sampling samples the 9 border-polygon vertices and subdivides a border
 //!   edge (at its midpoint, recursively, at most `max_subdivision` times) only when the samples
 //!   at its two ends hit different triangles — so an edge whose ends see the same triangle is
