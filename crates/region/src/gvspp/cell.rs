@@ -156,3 +156,104 @@ impl GvsppCell {
         self.termination.round_done(round_rays, new)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sightline_core::scene::SceneBuilder;
+    use sightline_core::trace::Bvh;
+    use sightline_core::Scene;
+
+    use crate::viewcell::ViewCell;
+
+    /// A unit cell and a box in front of it.
+    fn box_scene() -> (Scene, ViewCell) {
+        let mut b = SceneBuilder::new("box");
+        b.add_box(Vec3::new(3.0, -1.0, -1.0), Vec3::new(4.0, 1.0, 1.0));
+        let cell = ViewCell::aabb(Vec3::ZERO, Vec3::ONE).unwrap();
+        (b.finish(), cell)
+    }
+
+    /// Runs `f` with the context of `box_scene`'s cell.
+    fn with_box_cell(f: impl FnOnce(&CellContext<'_>)) {
+        let (scene, cell) = box_scene();
+        let bvh = Bvh::build(&scene);
+        f(&CellContext {
+            scene: &scene,
+            caster: &bvh,
+            cell: &cell,
+            seed: 1,
+            free_space: None,
+        });
+    }
+
+    fn params() -> GvsPlusPlusParams {
+        GvsPlusPlusParams {
+            n_rand: 100_000,
+            ..GvsPlusPlusParams::default()
+        }
+    }
+
+    #[test]
+    fn adaptive_rounds_double_up_to_n_rand_and_cover_exploration() {
+        with_box_cell(|ctx| {
+            let mut state = GvsppCell::new(ctx, &params(), Rounds::Adaptive);
+            assert_eq!(state.round_size(), FIRST_ROUND);
+            state.end_round(FIRST_ROUND, FIRST_ROUND);
+            assert_eq!(state.round_size(), 2 * FIRST_ROUND);
+            // An exploration larger than the doubled round sets the next round's size.
+            state.end_round(2 * FIRST_ROUND + 70_000, 2 * FIRST_ROUND);
+            assert_eq!(state.round_size(), 70_000);
+            state.end_round(70_000, 70_000);
+            assert_eq!(state.round_size(), 100_000);
+        });
+    }
+
+    #[test]
+    fn paper_rounds_keep_n_rand_and_take_whole_chunks() {
+        with_box_cell(|ctx| {
+            let mut state = GvsppCell::new(ctx, &params(), Rounds::Paper);
+            assert_eq!(state.round_size(), 100_000);
+            assert_eq!(state.explore_take(0, u64::MAX / 2), Some(ABS_CHUNK));
+            state.end_round(150_000, 100_000);
+            assert_eq!(state.round_size(), 100_000);
+        });
+    }
+
+    #[test]
+    fn adaptive_exploration_stops_at_its_share() {
+        with_box_cell(|ctx| {
+            let state = GvsppCell::new(ctx, &params(), Rounds::Adaptive);
+            let share = (EXPLORE_SHARE * 1000.0) as u64;
+            assert_eq!(state.explore_take(1000, share), None);
+            // Less than one triangle's worth left: still one triangle.
+            assert_eq!(state.explore_take(1000, share - 1), Some(1));
+            assert_eq!(state.explore_take(1_000_000_000, 0), Some(ABS_CHUNK));
+        });
+    }
+
+    #[test]
+    fn empty_queue_gives_no_abs_rays() {
+        with_box_cell(|ctx| {
+            let mut state = GvsppCell::new(ctx, &params(), Rounds::Paper);
+            let (rays, targets) = state.abs_rays(ctx, ABS_CHUNK);
+            assert!(rays.is_empty() && targets.is_empty());
+            assert!(state.discontinuities(&rays, &[], &targets).is_empty());
+            assert!(state.rs_rays(ctx, &[]).is_empty());
+        });
+    }
+
+    #[test]
+    fn per_round_termination_ends_a_quiet_round() {
+        with_box_cell(|ctx| {
+            let mut per_round = GvsppCell::new(ctx, &params(), Rounds::PaperPerRound);
+            let mut windowed = GvsppCell::new(ctx, &params(), Rounds::Paper);
+            for state in [&mut per_round, &mut windowed] {
+                state.found.credit(Phase::Random, 3);
+            }
+            // Three new triangles in 100k rays: below T = 10, but the window needs 10^7 rays.
+            assert!(per_round.end_round(100_000, 100_000));
+            assert!(!windowed.end_round(100_000, 100_000));
+        });
+    }
+}
