@@ -4,7 +4,7 @@
 //! ACM TOG 25(3), 2006 — as summarised and re-implemented for comparison by Koch & Wimmer 2021
 //! (sections 4.2, 4.3, figure 3 and table 1: recursive subdivision up to three times).
 //!
-//! Differences from GVS++ (`gvspp.rs`), which are the point of this baseline:
+//! Differences from GVS++ (`gvspp/`), which are the point of this baseline:
 //! - adaptive border sampling samples the 9 border-polygon vertices and subdivides a border
 //!   edge (at its midpoint, recursively, at most `max_subdivision` times) only when the samples
 //!   at its two ends hit different triangles — so an edge whose ends see the same triangle is
@@ -15,7 +15,8 @@
 //!   dropped (figure 3b). This is our reading of the original mutation, which the GVS++ paper
 //!   describes only by its shortcoming.
 //!
-//! Random sampling, the queue and termination are the same as in GVS++.
+//! Random sampling, the queue and termination are the same as in GVS++ (the skeleton both
+//! share is `guided.rs`); GVS ends after a round that found fewer than `T` new triangles.
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -23,6 +24,7 @@ use serde::Serialize;
 use sightline_core::{Hit, Ray, Scene};
 
 use crate::border::vertex_targets;
+use crate::guided::{ExploreQueue, Found, Phase, Termination};
 use crate::rays::{cast, discover, Discovery, RandomRays};
 use crate::sampler::{Budget, CellContext, CellResult, ConvergencePoint, Sampler, Tally};
 use crate::viewcell::{Rect, ViewCell};
@@ -82,112 +84,146 @@ impl Sampler for Gvs {
     ) -> CellResult {
         let p = &self.params;
         let diagonal = ctx.scene.bounds().diagonal().max(f32::MIN_POSITIVE);
-        let delta_abs = p.delta_abs * diagonal;
-        let delta = p.delta_discontinuity * diagonal;
-        let faces = ctx.cell.faces();
+        let explorer = Explorer {
+            ctx,
+            faces: ctx.cell.faces(),
+            delta_abs: p.delta_abs * diagonal,
+            delta: p.delta_discontinuity * diagonal,
+            max_subdivision: p.max_subdivision,
+        };
         let mut tally = Tally::new(ctx.scene.triangle_count(), *budget);
         let mut random = RandomRays::new(ctx.cell, ctx.scene, ctx.seed);
-        let mut found = [0usize; 3];
+        let mut queue = ExploreQueue::default();
+        let mut found = Found::default();
+        let mut termination = Termination::per_round(p.termination_threshold);
         loop {
-            let mut round_new = 0usize;
-            let mut queue: Vec<Discovery> = Vec::new();
+            let round_start = tally.rays;
             let Some(new) = random.sample_round(ctx, &mut tally, p.n_rand, progress) else {
                 break;
             };
-            found[0] += new.len();
-            round_new += new.len();
+            found.credit(Phase::Random, new.len());
             queue.extend(new);
-            let mut head = 0;
-            while head < queue.len() && !tally.exhausted() {
-                let chunk: Vec<Discovery> = queue[head..(head + 2048).min(queue.len())].to_vec();
-                head += chunk.len();
-                // Level 0: the nine border vertices of every triangle in the chunk.
-                let mut samples: Vec<BorderSample> = chunk
-                    .iter()
-                    .flat_map(|d| {
-                        vertex_targets(ctx.scene.triangle(d.triangle), delta_abs).map(|target| {
-                            BorderSample {
-                                origin: d.origin,
-                                target,
-                                hit: Hit::MISS,
-                            }
-                        })
-                    })
-                    .collect();
-                let rays = sample_rays(&samples);
-                let hits = cast(ctx.caster, &rays);
-                for (s, h) in samples.iter_mut().zip(&hits) {
-                    s.hit = *h;
-                }
-                let new = discover(&tally.pvs, &rays, &hits);
-                found[1] += new.len();
-                round_new += new.len();
-                queue.extend(new);
-                tally.batch_done(rays.len(), progress);
-                // Border edges between consecutive vertices (cyclic, 9 per triangle).
-                let mut edges: Vec<(BorderSample, BorderSample)> = samples
-                    .chunks(9)
-                    .flat_map(|poly| (0..9).map(move |k| (poly[k], poly[(k + 1) % 9])))
-                    .collect();
-                let mut all = samples;
-                for _ in 0..p.max_subdivision {
-                    let split: Vec<(BorderSample, BorderSample)> = edges
-                        .into_iter()
-                        .filter(|(a, b)| a.hit.triangle != b.hit.triangle)
-                        .collect();
-                    if split.is_empty() || tally.exhausted() {
-                        break;
-                    }
-                    let mids: Vec<BorderSample> = split
-                        .iter()
-                        .map(|(a, b)| BorderSample {
-                            origin: a.origin,
-                            target: (a.target + b.target) * 0.5,
-                            hit: Hit::MISS,
-                        })
-                        .collect();
-                    let rays = sample_rays(&mids);
-                    let hits = cast(ctx.caster, &rays);
-                    let new = discover(&tally.pvs, &rays, &hits);
-                    found[1] += new.len();
-                    round_new += new.len();
-                    queue.extend(new);
-                    tally.batch_done(rays.len(), progress);
-                    let mids: Vec<BorderSample> = mids
-                        .into_iter()
-                        .zip(&hits)
-                        .map(|(m, h)| BorderSample { hit: *h, ..m })
-                        .collect();
-                    edges = split
-                        .iter()
-                        .zip(&mids)
-                        .flat_map(|((a, b), m)| [(*a, *m), (*m, *b)])
-                        .collect();
-                    all.extend(mids);
-                }
-                // Reverse sampling: one mutated ray per discontinuity.
-                let rs: Vec<Ray> = all
-                    .par_iter()
-                    .filter_map(|s| mutated_ray(ctx.scene, ctx.cell, &faces, s, delta, delta_abs))
-                    .filter(|r| ctx.origin_allowed(r.origin))
-                    .collect();
-                if !rs.is_empty() && !tally.exhausted() {
-                    let new = discover(&tally.pvs, &rs, &cast(ctx.caster, &rs));
-                    found[2] += new.len();
-                    round_new += new.len();
-                    queue.extend(new);
-                    tally.batch_done(rs.len(), progress);
-                }
+            while !queue.is_empty() && !tally.exhausted() {
+                let chunk = queue.take(EXPLORE_CHUNK);
+                explorer.explore(&chunk, &mut tally, &mut queue, &mut found, progress);
             }
-            if tally.exhausted() || (budget.is_unlimited() && round_new < p.termination_threshold) {
+            let converged = termination.round_done(tally.rays - round_start, found.end_round());
+            if tally.exhausted() || (budget.is_unlimited() && converged) {
                 break;
             }
         }
-        tally.finish(vec![
-            ("random", found[0]),
-            ("abs", found[1]),
-            ("rs", found[2]),
-        ])
+        tally.finish(found.found_by())
+    }
+}
+
+/// Triangles explored per step.
+const EXPLORE_CHUNK: usize = 2048;
+
+/// GVS's exploration of one chunk of the queue: what it needs besides the queue and counters.
+struct Explorer<'a> {
+    ctx: &'a CellContext<'a>,
+    faces: Vec<Rect>,
+    delta_abs: f32,
+    delta: f32,
+    max_subdivision: u32,
+}
+
+impl Explorer<'_> {
+    /// Adaptive border sampling with recursive edge subdivision around the triangles of
+    /// `chunk`, then one mutated reverse-sampling ray per discontinuity; new triangles are
+    /// credited in `found` and queued.
+    fn explore(
+        &self,
+        chunk: &[Discovery],
+        tally: &mut Tally,
+        queue: &mut ExploreQueue,
+        found: &mut Found,
+        progress: &(dyn Fn(&ConvergencePoint) + Sync),
+    ) {
+        let ctx = self.ctx;
+        // Level 0: the nine border vertices of every triangle in the chunk.
+        let mut samples: Vec<BorderSample> = chunk
+            .iter()
+            .flat_map(|d| {
+                vertex_targets(ctx.scene.triangle(d.triangle), self.delta_abs).map(|target| {
+                    BorderSample {
+                        origin: d.origin,
+                        target,
+                        hit: Hit::MISS,
+                    }
+                })
+            })
+            .collect();
+        let rays = sample_rays(&samples);
+        let hits = cast(ctx.caster, &rays);
+        for (s, h) in samples.iter_mut().zip(&hits) {
+            s.hit = *h;
+        }
+        let new = discover(&tally.pvs, &rays, &hits);
+        found.credit(Phase::Abs, new.len());
+        queue.extend(new);
+        tally.batch_done(rays.len(), progress);
+        // Border edges between consecutive vertices (cyclic, 9 per triangle).
+        let mut edges: Vec<(BorderSample, BorderSample)> = samples
+            .chunks(9)
+            .flat_map(|poly| (0..9).map(move |k| (poly[k], poly[(k + 1) % 9])))
+            .collect();
+        let mut all = samples;
+        for _ in 0..self.max_subdivision {
+            let split: Vec<(BorderSample, BorderSample)> = edges
+                .into_iter()
+                .filter(|(a, b)| a.hit.triangle != b.hit.triangle)
+                .collect();
+            if split.is_empty() || tally.exhausted() {
+                break;
+            }
+            let mids: Vec<BorderSample> = split
+                .iter()
+                .map(|(a, b)| BorderSample {
+                    origin: a.origin,
+                    target: (a.target + b.target) * 0.5,
+                    hit: Hit::MISS,
+                })
+                .collect();
+            let rays = sample_rays(&mids);
+            let hits = cast(ctx.caster, &rays);
+            let new = discover(&tally.pvs, &rays, &hits);
+            found.credit(Phase::Abs, new.len());
+            queue.extend(new);
+            tally.batch_done(rays.len(), progress);
+            let mids: Vec<BorderSample> = mids
+                .into_iter()
+                .zip(&hits)
+                .map(|(m, h)| BorderSample { hit: *h, ..m })
+                .collect();
+            edges = split
+                .iter()
+                .zip(&mids)
+                .flat_map(|((a, b), m)| [(*a, *m), (*m, *b)])
+                .collect();
+            all.extend(mids);
+        }
+        // Reverse sampling: one mutated ray per discontinuity.
+        let rs: Vec<Ray> = all
+            .par_iter()
+            .filter_map(|s| {
+                mutated_ray(
+                    ctx.scene,
+                    ctx.cell,
+                    &self.faces,
+                    s,
+                    self.delta,
+                    self.delta_abs,
+                )
+            })
+            .filter(|r| ctx.origin_allowed(r.origin))
+            .collect();
+        if !rs.is_empty() && !tally.exhausted() {
+            let new = discover(&tally.pvs, &rs, &cast(ctx.caster, &rs));
+            found.credit(Phase::Rs, new.len());
+            queue.extend(new);
+            tally.batch_done(rs.len(), progress);
+        }
     }
 }
 

@@ -6,6 +6,7 @@ pub mod bake;
 mod border;
 pub mod cell_sources;
 pub mod checkpoint;
+mod guided;
 pub mod gvs;
 pub mod gvspp;
 pub mod hull_box;

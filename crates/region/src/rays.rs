@@ -95,6 +95,14 @@ impl RandomRays {
 }
 
 impl RandomRays {
+    /// The next `count` rays of the sequence whose origins `ctx` allows; the sequence moves on
+    /// by `count` (allowed or not).
+    pub fn next_batch(&mut self, ctx: &CellContext<'_>, count: usize) -> Vec<Ray> {
+        let rays = self.batch(ctx, self.next, count);
+        self.next += count as u64;
+        rays
+    }
+
     /// One random-sampling phase (section 4.1): up to `n_rays` more rays of the sequence,
     /// within the budget of `tally`, in batches; returns the newly found triangles in ray
     /// order, or `None` when a whole batch had no allowed origin (the cell has no free space).
@@ -109,8 +117,7 @@ impl RandomRays {
         let mut remaining = n_rays;
         while remaining > 0 && !tally.exhausted() {
             let n = remaining.min(BATCH as u64).min(tally.rays_left()) as usize;
-            let rays = self.batch(ctx, self.next, n);
-            self.next += n as u64;
+            let rays = self.next_batch(ctx, n);
             remaining -= n as u64;
             if rays.is_empty() {
                 return None;

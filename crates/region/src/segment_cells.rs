@@ -6,7 +6,7 @@
 //! Based on: Amanatides, Woo. A Fast Voxel Traversal Algorithm for Ray Tracing. Eurographics
 //! 1987 (the bin walk); Kay, Kajiya. Ray Tracing Complex Scenes. SIGGRAPH 1986 (the slab test).
 //!
-//! Used by ray sharing (`ray_sharing.rs`): a segment of free space found by one cell's ray is
+//! Used by ray sharing (`ray_sharing/`): a segment of free space found by one cell's ray is
 //! handed to every cell it crosses. A regular grid of cells (the common case, e.g. `--grid
 //! 16,16,1`) gets one bin per cell, so the walk visits about as many bins as the segment
 //! crosses cells.
