@@ -1,7 +1,7 @@
 //! The list of from-region methods: a new sampler is one file plus one line here.
 
 use crate::gvs::{Gvs, GvsParams};
-use crate::gvspp::{GvsPlusPlus, GvsPlusPlusParams};
+use crate::gvspp::{GvsPlusPlus, GvsPlusPlusParams, GvsPlusPlusParamsError};
 use crate::rand::RandomSampler;
 use crate::raster_sampler::RasterSampler;
 use crate::sampler::Sampler;
@@ -82,8 +82,26 @@ impl MethodOverrides {
     }
 }
 
+/// Why [`sampler`] cannot make a sampler.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum MethodError {
+    /// The name is none of [`METHODS`].
+    #[error("unknown method '{name}' (known: {})", METHODS.join(", "))]
+    Unknown {
+        /// The name as given.
+        name: String,
+    },
+    /// The GVS++ parameters make no sense.
+    #[error(transparent)]
+    GvsPlusPlus(#[from] GvsPlusPlusParamsError),
+    /// The RASTER resolution is outside 1..=8192.
+    #[error("raster resolution {0} is outside 1..=8192")]
+    RasterResolution(u32),
+}
+
 /// The sampler called `name` with `params`.
-pub fn sampler(name: &str, params: &MethodParams) -> Result<Box<dyn Sampler>, String> {
+pub fn sampler(name: &str, params: &MethodParams) -> Result<Box<dyn Sampler>, MethodError> {
     match name {
         "gvs++" | "gvspp" => {
             params.gvspp.validate()?;
@@ -99,16 +117,15 @@ pub fn sampler(name: &str, params: &MethodParams) -> Result<Box<dyn Sampler>, St
             let mut s = RasterSampler::default();
             if let Some(r) = params.raster_resolution {
                 if r == 0 || r > 8192 {
-                    return Err(format!("raster resolution {r} is outside 1..=8192"));
+                    return Err(MethodError::RasterResolution(r));
                 }
                 s.resolution = r;
             }
             Ok(Box::new(s))
         }
-        _ => Err(format!(
-            "unknown method '{name}' (known: {})",
-            METHODS.join(", ")
-        )),
+        _ => Err(MethodError::Unknown {
+            name: name.to_string(),
+        }),
     }
 }
 
@@ -126,14 +143,25 @@ mod tests {
     #[test]
     fn unknown_method_and_bad_parameters_are_errors() {
         let e = sampler("magic", &MethodParams::default()).err().unwrap();
-        assert!(e.contains("unknown"));
+        assert_eq!(
+            e.to_string(),
+            "unknown method 'magic' (known: gvs++, gvs, rand, raster)"
+        );
         let mut p = MethodParams::default();
         p.gvspp.delta_abs = -1.0;
-        assert!(sampler("gvs++", &p).is_err());
+        assert_eq!(
+            sampler("gvs++", &p).err(),
+            Some(MethodError::GvsPlusPlus(GvsPlusPlusParamsError::DeltaAbs(
+                -1.0
+            )))
+        );
         p = MethodParams {
             raster_resolution: Some(0),
             ..MethodParams::default()
         };
-        assert!(sampler("raster", &p).is_err());
+        assert_eq!(
+            sampler("raster", &p).err(),
+            Some(MethodError::RasterResolution(0))
+        );
     }
 }

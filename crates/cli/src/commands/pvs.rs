@@ -449,7 +449,7 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
     };
     let origins_record = q3.as_ref().map(|q| q.summary.clone());
     let params = method_params(args);
-    let sampler = sampler(&args.method, &params).map_err(anyhow::Error::msg)?;
+    let sampler = sampler(&args.method, &params)?;
     if args.rays == Some(0) || args.time == Some(0) {
         bail!("--rays and --time must be positive");
     }
