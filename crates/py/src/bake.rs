@@ -29,44 +29,13 @@ use crate::{ids_array, value_error};
 #[derive(Clone)]
 pub(crate) struct PyMethod {
     name: String,
-    options: MethodOptions,
+    /// The keyword arguments as given (kept for `repr` and pickling).
+    options: MethodOverrides,
     params: MethodParams,
 }
 
-/// The optional parameters as given (kept for `repr` and pickling).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-struct MethodOptions {
-    n_rand: Option<u64>,
-    n_abs_edge: Option<u32>,
-    delta_abs: Option<f32>,
-    n_rs_edge: Option<u32>,
-    n_rs_area: Option<u32>,
-    delta: Option<f32>,
-    termination: Option<usize>,
-    raster_resolution: Option<u32>,
-    fixed_rounds: bool,
-}
-
-impl MethodOptions {
-    /// The same mapping from options to parameters as the CLI's `pvs bake`.
-    fn params(&self) -> MethodParams {
-        MethodOverrides {
-            n_rand: self.n_rand,
-            n_abs_edge: self.n_abs_edge,
-            delta_abs: self.delta_abs,
-            n_rs_edge: self.n_rs_edge,
-            n_rs_area: self.n_rs_area,
-            delta: self.delta,
-            termination: self.termination,
-            raster_resolution: self.raster_resolution,
-            fixed_rounds: self.fixed_rounds,
-        }
-        .params()
-    }
-}
-
 impl PyMethod {
-    fn from_options(name: &str, options: MethodOptions) -> PyResult<Self> {
+    fn from_options(name: &str, options: MethodOverrides) -> PyResult<Self> {
         let params = options.params();
         // Validate now so that a bad method fails where it is made, not in a worker.
         sampler(name, &params).map_err(value_error)?;
@@ -86,6 +55,10 @@ impl PyMethod {
 impl PyMethod {
     /// A method by name (`gvs++`, `gvs`, `rand`, `raster`) with optional parameters; see
     /// `sightline pvs bake --help` for their meaning (`fixed_rounds` is `--fixed-rounds`).
+    // The keywords are the fields of `MethodOverrides`, the list the CLI's flags come from:
+    // pyo3 names each keyword after its argument, and the arguments fill the struct by
+    // field-init shorthand, so a field without a keyword of its name does not compile (and a
+    // keyword without a field is an unused argument, which clippy refuses).
     #[new]
     #[pyo3(signature = (name = "gvs++", *, n_rand = None, n_abs_edge = None, delta_abs = None,
         n_rs_edge = None, n_rs_area = None, delta = None, termination = None,
@@ -103,7 +76,7 @@ impl PyMethod {
         raster_resolution: Option<u32>,
         fixed_rounds: bool,
     ) -> PyResult<Self> {
-        let options = MethodOptions {
+        let options = MethodOverrides {
             n_rand,
             n_abs_edge,
             delta_abs,
@@ -128,7 +101,8 @@ impl PyMethod {
     }
 
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
-        // Rebuilt through the keyword-free helper below, in the field order of MethodOptions.
+        // Rebuilt through the keyword-free helper below, in the order of the keywords (not
+        // MethodOverrides' field order: pickles from earlier versions keep unpickling).
         let o = self.options;
         let args = (
             self.name.clone(),
@@ -191,7 +165,7 @@ impl MethodArg<'_> {
     fn resolve(&self) -> PyResult<PyMethod> {
         match self {
             MethodArg::Method(m) => Ok(m.get().clone()),
-            MethodArg::Name(n) => PyMethod::from_options(n, MethodOptions::default()),
+            MethodArg::Name(n) => PyMethod::from_options(n, MethodOverrides::default()),
         }
     }
 }

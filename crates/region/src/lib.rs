@@ -25,7 +25,7 @@ pub mod shards;
 pub mod viewcell;
 
 pub use gvs::{Gvs, GvsParams};
-pub use gvspp::{GvsPlusPlus, GvsPlusPlusParams};
+pub use gvspp::{GvsPlusPlus, GvsPlusPlusParams, GvsPlusPlusParamsError};
 pub use pvs_file::{CellPvs, EncodedSet, ObjectTable, PvsError, PvsFile, PvsObject};
 pub use rand::RandomSampler;
 pub use raster_sampler::RasterSampler;

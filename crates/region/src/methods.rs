@@ -1,7 +1,7 @@
 //! The list of from-region methods: a new sampler is one file plus one line here.
 
 use crate::gvs::{Gvs, GvsParams};
-use crate::gvspp::{GvsPlusPlus, GvsPlusPlusParams};
+use crate::gvspp::{GvsPlusPlus, GvsPlusPlusParams, GvsPlusPlusParamsError};
 use crate::rand::RandomSampler;
 use crate::raster_sampler::RasterSampler;
 use crate::sampler::Sampler;
@@ -20,29 +20,48 @@ pub struct MethodParams {
     pub raster_resolution: Option<u32>,
 }
 
-/// Optional overrides of the default parameters, as the command line and the Python package
-/// take them; one value may set the same parameter of several methods.
-#[derive(Clone, Debug, Default, PartialEq)]
+/// The tunable parameters of the methods, as a user gives them: the one list that
+/// `sightline pvs bake` takes as flags (with the `clap` feature, it is flattened into the
+/// command's arguments: each field is `--field-name`, its doc comment is the flag's `--help`
+/// text) and the Python `Method` takes as keyword arguments of the same names. `None` (or
+/// `false`) keeps the method's default ([`GvsPlusPlusParams::default`],
+/// [`GvsParams::default`], [`RasterSampler::default`]); one value may set the same parameter of
+/// several methods. [`MethodOverrides::params`] applies them.
+///
+/// The field order is the order of the flags in `--help`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
 pub struct MethodOverrides {
-    /// Random rays per round (GVS++ and GVS).
+    /// GVS++/GVS: random rays per round (paper: 10,000,000). Under --rays or --time, GVS++
+    /// rounds are adaptive: the first has 16,384 random rays, each doubles the next up to this
+    /// size, and a round explores at most 4 times as many rays as its random phase cast.
+    #[cfg_attr(feature = "clap", arg(long))]
     pub n_rand: Option<u64>,
-    /// Samples along each long edge of the ABS border polygon (GVS++).
-    pub n_abs_edge: Option<u32>,
-    /// Border polygon offset as a fraction of the scene diagonal (GVS++ and GVS).
-    pub delta_abs: Option<f32>,
-    /// Reverse-sampling samples per edge (GVS++).
-    pub n_rs_edge: Option<u32>,
-    /// Reverse-sampling samples per area (GVS++).
-    pub n_rs_area: Option<u32>,
-    /// Discontinuity threshold as a fraction of the scene diagonal (GVS++ and GVS).
-    pub delta: Option<f32>,
-    /// Rounds without news before stopping (GVS++ and GVS).
-    pub termination: Option<usize>,
-    /// RASTER cube-map resolution.
-    pub raster_resolution: Option<u32>,
-    /// GVS++: every round casts `n_rand` random rays, as in the paper (default: adaptive under a
-    /// budget).
+    /// GVS++: every round casts --n-rand random rays, as in the paper (sized for a GPU: on a
+    /// CPU a budget below one round is then spent on random rays alone).
+    #[cfg_attr(feature = "clap", arg(long))]
     pub fixed_rounds: bool,
+    /// GVS++: samples per border-polygon edge (paper: 20).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub n_abs_edge: Option<u32>,
+    /// GVS++/GVS: border offset as a fraction of the scene diagonal (default 1e-6).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub delta_abs: Option<f32>,
+    /// GVS++: reverse-sampling origins per cell edge (paper: 20).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub n_rs_edge: Option<u32>,
+    /// GVS++: reverse-sampling origins on the cell surface (paper: 20).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub n_rs_area: Option<u32>,
+    /// GVS++/GVS: discontinuity threshold as a fraction of the scene diagonal (default 1e-5).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub delta: Option<f32>,
+    /// GVS++/GVS: stop after a round finding fewer new triangles (paper: 10).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub termination: Option<usize>,
+    /// RASTER: cube-map face resolution (default 512).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub raster_resolution: Option<u32>,
 }
 
 impl MethodOverrides {
@@ -82,8 +101,26 @@ impl MethodOverrides {
     }
 }
 
+/// Why [`sampler`] cannot make a sampler.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum MethodError {
+    /// The name is none of [`METHODS`].
+    #[error("unknown method '{name}' (known: {})", METHODS.join(", "))]
+    Unknown {
+        /// The name as given.
+        name: String,
+    },
+    /// The GVS++ parameters make no sense.
+    #[error(transparent)]
+    GvsPlusPlus(#[from] GvsPlusPlusParamsError),
+    /// The RASTER resolution is outside 1..=8192.
+    #[error("raster resolution {0} is outside 1..=8192")]
+    RasterResolution(u32),
+}
+
 /// The sampler called `name` with `params`.
-pub fn sampler(name: &str, params: &MethodParams) -> Result<Box<dyn Sampler>, String> {
+pub fn sampler(name: &str, params: &MethodParams) -> Result<Box<dyn Sampler>, MethodError> {
     match name {
         "gvs++" | "gvspp" => {
             params.gvspp.validate()?;
@@ -99,22 +136,62 @@ pub fn sampler(name: &str, params: &MethodParams) -> Result<Box<dyn Sampler>, St
             let mut s = RasterSampler::default();
             if let Some(r) = params.raster_resolution {
                 if r == 0 || r > 8192 {
-                    return Err(format!("raster resolution {r} is outside 1..=8192"));
+                    return Err(MethodError::RasterResolution(r));
                 }
                 s.resolution = r;
             }
             Ok(Box::new(s))
         }
-        _ => Err(format!(
-            "unknown method '{name}' (known: {})",
-            METHODS.join(", ")
-        )),
+        _ => Err(MethodError::Unknown {
+            name: name.to_string(),
+        }),
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The flags' help text states these defaults; it is written by hand, so this keeps it
+    /// true.
+    #[test]
+    fn documented_defaults_are_the_samplers_defaults() {
+        let p = MethodOverrides::default().params();
+        assert_eq!((p.gvspp.n_rand, p.gvs.n_rand), (10_000_000, 10_000_000));
+        assert_eq!(
+            (p.gvspp.n_abs_edge, p.gvspp.n_rs_edge, p.gvspp.n_rs_area),
+            (20, 20, 20)
+        );
+        assert_eq!((p.gvspp.delta_abs, p.gvs.delta_abs), (1e-6, 1e-6));
+        assert_eq!(
+            (p.gvspp.delta_discontinuity, p.gvs.delta_discontinuity),
+            (1e-5, 1e-5)
+        );
+        assert_eq!(
+            (p.gvspp.termination_threshold, p.gvs.termination_threshold),
+            (10, 10)
+        );
+        assert!(!p.gvspp.fixed_rounds);
+        assert_eq!(p.raster_resolution, None);
+        assert_eq!(RasterSampler::default().resolution, 512);
+    }
+
+    #[test]
+    fn overrides_set_every_method_they_name() {
+        let p = MethodOverrides {
+            n_rand: Some(7),
+            delta: Some(0.01),
+            fixed_rounds: true,
+            ..MethodOverrides::default()
+        }
+        .params();
+        assert_eq!((p.gvspp.n_rand, p.gvs.n_rand), (7, 7));
+        assert_eq!(
+            (p.gvspp.delta_discontinuity, p.gvs.delta_discontinuity),
+            (0.01, 0.01)
+        );
+        assert!(p.gvspp.fixed_rounds);
+    }
 
     #[test]
     fn every_listed_method_exists_under_its_name() {
@@ -126,14 +203,25 @@ mod tests {
     #[test]
     fn unknown_method_and_bad_parameters_are_errors() {
         let e = sampler("magic", &MethodParams::default()).err().unwrap();
-        assert!(e.contains("unknown"));
+        assert_eq!(
+            e.to_string(),
+            "unknown method 'magic' (known: gvs++, gvs, rand, raster)"
+        );
         let mut p = MethodParams::default();
         p.gvspp.delta_abs = -1.0;
-        assert!(sampler("gvs++", &p).is_err());
+        assert_eq!(
+            sampler("gvs++", &p).err(),
+            Some(MethodError::GvsPlusPlus(GvsPlusPlusParamsError::DeltaAbs(
+                -1.0
+            )))
+        );
         p = MethodParams {
             raster_resolution: Some(0),
             ..MethodParams::default()
         };
-        assert!(sampler("raster", &p).is_err());
+        assert_eq!(
+            sampler("raster", &p).err(),
+            Some(MethodError::RasterResolution(0))
+        );
     }
 }

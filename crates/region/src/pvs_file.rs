@@ -29,12 +29,12 @@ use glam::Vec3;
 use sightline_core::atomic_file::write_atomic;
 use sightline_core::{Scene, TriangleSet};
 use sightline_runtime::format::{
-    decode_set, SetRef, CELL_RECORD_BYTES_V1, ENCODING_BITSET, ENCODING_DELTA_VARINT, MAGIC,
-    NO_INDEX,
+    decode_set, SetError, SetRef, CELL_RECORD_BYTES_V1, ENCODING_BITSET, ENCODING_DELTA_VARINT,
+    MAGIC, NO_INDEX,
 };
 use sightline_runtime::Pvs;
 
-pub use crate::pvs_objects::{ObjectTable, PvsObject};
+pub use crate::pvs_objects::{ObjectTable, ObjectTableError, PvsObject};
 use crate::viewcell::ViewCell;
 
 /// The format version this code writes (it reads it and version 1).
@@ -76,6 +76,27 @@ pub enum PvsError {
     /// The data to write is inconsistent (e.g. a set larger than the scene).
     #[error("cannot write: {0}")]
     Invalid(String),
+    /// The object table to write does not fit the scene.
+    #[error("cannot write: {0}")]
+    ObjectTable(#[from] ObjectTableError),
+    /// An encoded set to write does not decode.
+    #[error("cannot write: {0}")]
+    Set(#[from] EncodedSetError),
+}
+
+/// Why an [`EncodedSet`] does not decode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum EncodedSetError {
+    /// The capacity asked for is past the format's `u32` ids.
+    #[error("{ids} ids do not fit the format")]
+    TooManyIds {
+        /// The capacity asked for.
+        ids: usize,
+    },
+    /// The payload is malformed.
+    #[error(transparent)]
+    Set(#[from] SetError),
 }
 
 fn corrupt(offset: usize, what: String) -> PvsError {
@@ -360,9 +381,9 @@ impl EncodedSet {
     }
 
     /// The set, with capacity `n`.
-    pub fn decode(&self, n: usize) -> Result<TriangleSet, String> {
+    pub fn decode(&self, n: usize) -> Result<TriangleSet, EncodedSetError> {
         let mut set = TriangleSet::with_capacity(n);
-        let capacity = u32::try_from(n).map_err(|_| format!("{n} ids do not fit the format"))?;
+        let capacity = u32::try_from(n).map_err(|_| EncodedSetError::TooManyIds { ids: n })?;
         decode_set(self.encoding, &self.payload, capacity, self.size, |id| {
             set.insert(id as usize)
         })?;
@@ -403,9 +424,7 @@ pub fn write_encoded<'a>(
     for (cell, set) in cells {
         let object_set = match objects {
             Some(table) => {
-                let triangles = set
-                    .decode(triangle_count as usize)
-                    .map_err(PvsError::Invalid)?;
+                let triangles = set.decode(triangle_count as usize)?;
                 Some(EncodedSet::encode(
                     &table.visible_objects(&triangles),
                     table.objects.len(),
@@ -427,9 +446,7 @@ pub fn write_encoded<'a>(
 
 fn check_object_table(objects: Option<&ObjectTable>, triangle_count: u32) -> Result<(), PvsError> {
     match objects {
-        Some(table) => table
-            .check(triangle_count as usize)
-            .map_err(PvsError::Invalid),
+        Some(table) => Ok(table.check(triangle_count as usize)?),
         None => Ok(()),
     }
 }
@@ -864,7 +881,10 @@ mod tests {
         f.objects.as_mut().unwrap().object_of_triangle.pop();
         assert!(matches!(
             f.write(&mut Vec::new()),
-            Err(PvsError::Invalid(_))
+            Err(PvsError::ObjectTable(ObjectTableError::TriangleCount {
+                mapped: 23,
+                triangles: 24
+            }))
         ));
     }
 }

@@ -30,6 +30,34 @@ pub struct ObjectTable {
     pub object_of_triangle: Vec<u32>,
 }
 
+/// Why an object table does not fit a scene.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ObjectTableError {
+    /// The table maps another number of triangles than the scene has.
+    #[error("the object table maps {mapped} triangles, the scene has {triangles}")]
+    TriangleCount {
+        /// Triangles the table maps.
+        mapped: usize,
+        /// Triangles of the scene.
+        triangles: usize,
+    },
+    /// A triangle names an object past the table's objects.
+    #[error("triangle {triangle} names an object >= the {objects} objects")]
+    ObjectPastEnd {
+        /// The triangle.
+        triangle: usize,
+        /// Objects in the table.
+        objects: usize,
+    },
+    /// An object's index or part is `u32::MAX`, which the file format reserves for "none".
+    #[error("object {object}: index or part {} is reserved", u32::MAX)]
+    ReservedNumber {
+        /// The object.
+        object: usize,
+    },
+}
+
 impl ObjectTable {
     /// The scene's objects with the bounds of their triangles.
     pub fn from_scene(scene: &Scene) -> Self {
@@ -61,14 +89,14 @@ impl ObjectTable {
         }
     }
 
-    /// Checks the table against a scene of `triangle_count` triangles; the message names the
+    /// Checks the table against a scene of `triangle_count` triangles; the error names the
     /// first problem.
-    pub fn check(&self, triangle_count: usize) -> Result<(), String> {
+    pub fn check(&self, triangle_count: usize) -> Result<(), ObjectTableError> {
         if self.object_of_triangle.len() != triangle_count {
-            return Err(format!(
-                "the object table maps {} triangles, the scene has {triangle_count}",
-                self.object_of_triangle.len()
-            ));
+            return Err(ObjectTableError::TriangleCount {
+                mapped: self.object_of_triangle.len(),
+                triangles: triangle_count,
+            });
         }
         let k = self.objects.len();
         if let Some(t) = self
@@ -76,7 +104,10 @@ impl ObjectTable {
             .iter()
             .position(|&o| o as usize >= k)
         {
-            return Err(format!("triangle {t} names an object >= the {k} objects"));
+            return Err(ObjectTableError::ObjectPastEnd {
+                triangle: t,
+                objects: k,
+            });
         }
         if let Some((i, _)) = self
             .objects
@@ -84,10 +115,7 @@ impl ObjectTable {
             .enumerate()
             .find(|(_, o)| o.index == Some(u32::MAX) || o.part == Some(u32::MAX))
         {
-            return Err(format!(
-                "object {i}: index or part {} is reserved",
-                u32::MAX
-            ));
+            return Err(ObjectTableError::ReservedNumber { object: i });
         }
         Ok(())
     }

@@ -26,8 +26,10 @@ pub struct Shard {
 
 impl Shard {
     /// Parses `I/N` (`0 <= I < N`).
-    pub fn parse(s: &str) -> Result<Self, String> {
-        let bad = || format!("shard '{s}': expected I/N with 0 <= I < N, e.g. 0/4");
+    pub fn parse(s: &str) -> Result<Self, ShardParseError> {
+        let bad = || ShardParseError {
+            spec: s.to_string(),
+        };
         let (i, n) = s.split_once('/').ok_or_else(bad)?;
         let index: usize = i.trim().parse().map_err(|_| bad())?;
         let count: usize = n.trim().parse().map_err(|_| bad())?;
@@ -41,6 +43,14 @@ impl Shard {
     pub fn indices(&self, total: usize) -> Vec<usize> {
         (self.index..total).step_by(self.count).collect()
     }
+}
+
+/// A shard spec that is not `I/N` with `0 <= I < N`.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("shard '{spec}': expected I/N with 0 <= I < N, e.g. 0/4")]
+pub struct ShardParseError {
+    /// The spec as given.
+    pub spec: String,
 }
 
 /// Why shard files could not be merged.

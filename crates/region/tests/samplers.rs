@@ -272,11 +272,11 @@ fn cracked_room() -> (Scene, usize, glam::Quat) {
     let mut b = sightline_core::scene::SceneBuilder::new("cracked room");
     // A quad wall from `o` spanning `u` and `v`, as an `nu` × `nv` grid of triangle pairs.
     let wall = |b: &mut sightline_core::scene::SceneBuilder,
-                    o: Vec3,
-                    u: Vec3,
-                    v: Vec3,
-                    nu: u32,
-                    nv: u32| {
+                o: Vec3,
+                u: Vec3,
+                v: Vec3,
+                nu: u32,
+                nv: u32| {
         let p =
             |i: u32, j: u32| rot * (o + u * (i as f32 / nu as f32) + v * (j as f32 / nv as f32));
         for i in 0..nu {

@@ -441,6 +441,55 @@ pub fn check_cell_geometry(
     Ok(())
 }
 
+/// Why an encoded set of ids is malformed (the set's record and payload disagree, or the
+/// payload breaks its encoding's rules).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SetError {
+    /// A bitset payload whose length is not one bit per id, rounded up to whole bytes.
+    #[error("bitset of {bytes} bytes for {ids} ids")]
+    BitsetLength {
+        /// Bytes of the payload.
+        bytes: usize,
+        /// Ids the set can hold (its capacity).
+        ids: u64,
+    },
+    /// A bitset with a padding bit set, past the last id.
+    #[error("bit set past the {ids} ids")]
+    BitPastEnd {
+        /// Ids the set can hold (its capacity).
+        ids: u64,
+    },
+    /// A delta varint of more than 5 bytes (a `u32` gap takes at most 5).
+    #[error("varint longer than 5 bytes")]
+    VarintTooLong,
+    /// A gap of 0 after the first id: an id listed twice.
+    #[error("repeated id (zero gap)")]
+    RepeatedId,
+    /// An id at or past the capacity.
+    #[error("id {id} past the {ids} ids")]
+    IdPastEnd {
+        /// The id.
+        id: u64,
+        /// Ids the set can hold (its capacity).
+        ids: u64,
+    },
+    /// The payload ends inside a varint.
+    #[error("payload ends inside a varint")]
+    TruncatedVarint,
+    /// An encoding byte that is neither [`ENCODING_BITSET`] nor [`ENCODING_DELTA_VARINT`].
+    #[error("unknown set encoding {0}")]
+    UnknownEncoding(u8),
+    /// The payload holds another number of ids than the set's record says.
+    #[error("set holds {count} ids, its record says {size}")]
+    CountMismatch {
+        /// Ids in the payload.
+        count: u64,
+        /// Ids the record says.
+        size: u32,
+    },
+}
+
 /// Decodes one set of ids below `capacity`, handing each id to `each` in ascending order, and
 /// checks it completely: known encoding, bitset length, no bit past `capacity`, no varint
 /// longer than 5 bytes, strictly ascending ids, no varint cut off, and exactly `size` ids.
@@ -450,19 +499,22 @@ pub fn decode_set(
     capacity: u32,
     size: u32,
     mut each: impl FnMut(u32),
-) -> Result<(), String> {
+) -> Result<(), SetError> {
     let n = capacity as u64;
     let mut count: u64 = 0;
     match encoding {
         ENCODING_BITSET => {
             if payload.len() as u64 != n.div_ceil(8) {
-                return Err(format!("bitset of {} bytes for {n} ids", payload.len()));
+                return Err(SetError::BitsetLength {
+                    bytes: payload.len(),
+                    ids: n,
+                });
             }
             // Only the last byte can hold bits past the capacity.
             if let Some(&last) = payload.last() {
                 let used = n - 8 * (payload.len() as u64 - 1);
                 if used < 8 && last >> used != 0 {
-                    return Err(format!("bit set past the {n} ids"));
+                    return Err(SetError::BitPastEnd { ids: n });
                 }
             }
             for (byte_index, &byte) in payload.iter().enumerate() {
@@ -480,7 +532,7 @@ pub fn decode_set(
             let mut shift = 0u32;
             for &byte in payload {
                 if shift > 28 {
-                    return Err("varint longer than 5 bytes".into());
+                    return Err(SetError::VarintTooLong);
                 }
                 value |= u64::from(byte & 0x7f) << shift;
                 shift += 7;
@@ -488,11 +540,11 @@ pub fn decode_set(
                     continue;
                 }
                 if count > 0 && value == 0 {
-                    return Err("repeated id (zero gap)".into());
+                    return Err(SetError::RepeatedId);
                 }
                 id = if count == 0 { value } else { id + value };
                 if id >= n {
-                    return Err(format!("id {id} past the {n} ids"));
+                    return Err(SetError::IdPastEnd { id, ids: n });
                 }
                 each(id as u32);
                 count += 1;
@@ -500,13 +552,13 @@ pub fn decode_set(
                 shift = 0;
             }
             if shift != 0 {
-                return Err("payload ends inside a varint".into());
+                return Err(SetError::TruncatedVarint);
             }
         }
-        other => return Err(format!("unknown set encoding {other}")),
+        other => return Err(SetError::UnknownEncoding(other)),
     }
     if count != u64::from(size) {
-        return Err(format!("set holds {count} ids, its record says {size}"));
+        return Err(SetError::CountMismatch { count, size });
     }
     Ok(())
 }
@@ -517,7 +569,8 @@ mod tests {
 
     fn ids(encoding: u8, payload: &[u8], capacity: u32, size: u32) -> Result<Vec<u32>, String> {
         let mut out = Vec::new();
-        decode_set(encoding, payload, capacity, size, |id| out.push(id))?;
+        decode_set(encoding, payload, capacity, size, |id| out.push(id))
+            .map_err(|e| e.to_string())?;
         Ok(out)
     }
 

@@ -823,12 +823,9 @@ fn pvs(args: PvsArgs) -> Result<()> {
     }
     // The equal-time comparison in one line per scene and budget: how many times fewer
     // erroneous pixels GVS++ leaves than RAND.
-    for r in all_rows
-        .iter()
-        .filter(|r| {
-            r.method == "GVS++" && (r.budget.ends_with(" ms") || r.budget.ends_with(" rays"))
-        })
-    {
+    for r in all_rows.iter().filter(|r| {
+        r.method == "GVS++" && (r.budget.ends_with(" ms") || r.budget.ends_with(" rays"))
+    }) {
         let Some(rand) = all_rows
             .iter()
             .find(|x| x.scene == r.scene && x.method == "RAND" && x.budget == r.budget)

@@ -129,36 +129,10 @@ pub(crate) struct BakeArgs {
     /// ray budget. Cells still run in parallel, each casting its own batches.
     #[arg(long, value_enum, default_value_t = Device::Cpu)]
     device: Device,
-    /// GVS++/GVS: random rays per round (paper: 10,000,000). Under --rays or --time, GVS++
-    /// rounds are adaptive: the first has 16,384 random rays, each doubles the next up to this
-    /// size, and a round explores at most 4 times as many rays as its random phase cast.
-    #[arg(long)]
-    n_rand: Option<u64>,
-    /// GVS++: every round casts --n-rand random rays, as in the paper (sized for a GPU: on a
-    /// CPU a budget below one round is then spent on random rays alone).
-    #[arg(long)]
-    fixed_rounds: bool,
-    /// GVS++: samples per border-polygon edge (paper: 20).
-    #[arg(long)]
-    n_abs_edge: Option<u32>,
-    /// GVS++/GVS: border offset as a fraction of the scene diagonal (default 1e-6).
-    #[arg(long)]
-    delta_abs: Option<f32>,
-    /// GVS++: reverse-sampling origins per cell edge (paper: 20).
-    #[arg(long)]
-    n_rs_edge: Option<u32>,
-    /// GVS++: reverse-sampling origins on the cell surface (paper: 20).
-    #[arg(long)]
-    n_rs_area: Option<u32>,
-    /// GVS++/GVS: discontinuity threshold as a fraction of the scene diagonal (default 1e-5).
-    #[arg(long)]
-    delta: Option<f32>,
-    /// GVS++/GVS: stop after a round finding fewer new triangles (paper: 10).
-    #[arg(long)]
-    termination: Option<usize>,
-    /// RASTER: cube-map face resolution (default 512).
-    #[arg(long)]
-    raster_resolution: Option<u32>,
+    // The methods' parameters (`--n-rand` to `--raster-resolution`): one list in the region
+    // crate, which the Python `Method` takes as keywords too.
+    #[command(flatten)]
+    method_overrides: MethodOverrides,
     /// Output .pvs file (written atomically). While baking, finished cells are kept in
     /// OUTPUT.checkpoint; rerunning the same command resumes from it.
     #[arg(short, long)]
@@ -402,21 +376,6 @@ struct BakeSummary {
     reachable: Option<serde_json::Value>,
 }
 
-fn method_params(args: &BakeArgs) -> MethodParams {
-    MethodOverrides {
-        n_rand: args.n_rand,
-        n_abs_edge: args.n_abs_edge,
-        delta_abs: args.delta_abs,
-        n_rs_edge: args.n_rs_edge,
-        n_rs_area: args.n_rs_area,
-        delta: args.delta,
-        termination: args.termination,
-        raster_resolution: args.raster_resolution,
-        fixed_rounds: args.fixed_rounds,
-    }
-    .params()
-}
-
 fn run_bake(args: BakeArgs) -> Result<()> {
     if args.threads.is_none() {
         return bake_command(&args);
@@ -469,8 +428,8 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
         }),
     };
     let origins_record = q3.as_ref().map(|q| q.summary.clone());
-    let params = method_params(args);
-    let sampler = sampler(&args.method, &params).map_err(anyhow::Error::msg)?;
+    let params = args.method_overrides.params();
+    let sampler = sampler(&args.method, &params)?;
     if args.rays == Some(0) || args.time == Some(0) {
         bail!("--rays and --time must be positive");
     }

@@ -72,12 +72,13 @@ pub enum LoadError {
         path: PathBuf,
     },
     /// A `procedural:` spec is malformed.
-    #[error("scene spec '{spec}': {message}")]
+    #[error("scene spec '{spec}': {error}")]
     Spec {
         /// The spec as given.
         spec: String,
         /// What is wrong.
-        message: String,
+        #[source]
+        error: super::procedural::SpecError,
     },
 }
 

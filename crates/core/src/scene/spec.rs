@@ -58,9 +58,9 @@ impl SceneSpec {
         match spec.strip_prefix("procedural:") {
             Some(rest) => procedural::Params::parse(rest)
                 .map(SceneSpec::Procedural)
-                .map_err(|message| LoadError::Spec {
+                .map_err(|error| LoadError::Spec {
                     spec: spec.to_string(),
-                    message,
+                    error,
                 }),
             None => Ok(SceneSpec::File(PathBuf::from(spec))),
         }

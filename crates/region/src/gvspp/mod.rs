@@ -51,5 +51,7 @@ mod params;
 mod sampler;
 
 pub(crate) use cell::{GvsppCell, Rounds};
-pub use params::{GvsPlusPlusParams, EXPLORE_SHARE, FIRST_ROUND, TERMINATION_WINDOW};
+pub use params::{
+    GvsPlusPlusParams, GvsPlusPlusParamsError, EXPLORE_SHARE, FIRST_ROUND, TERMINATION_WINDOW,
+};
 pub use sampler::GvsPlusPlus;

@@ -54,24 +54,39 @@ impl Default for GvsPlusPlusParams {
 
 impl GvsPlusPlusParams {
     /// Checks that the parameters make sense.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), GvsPlusPlusParamsError> {
         if self.n_rand == 0 {
-            return Err("n_rand must be >= 1".into());
+            return Err(GvsPlusPlusParamsError::NoRandomRays);
         }
         if !(self.delta_abs > 0.0 && self.delta_abs < 0.1) {
-            return Err(format!("delta_abs {} must be in (0, 0.1)", self.delta_abs));
+            return Err(GvsPlusPlusParamsError::DeltaAbs(self.delta_abs));
         }
         if !(self.delta_discontinuity >= 0.0 && self.delta_discontinuity < 0.1) {
-            return Err(format!(
-                "delta {} must be in [0, 0.1)",
-                self.delta_discontinuity
-            ));
+            return Err(GvsPlusPlusParamsError::Delta(self.delta_discontinuity));
         }
         if self.n_abs_edge > 10_000 || self.n_rs_edge > 10_000 || self.n_rs_area > 100_000 {
-            return Err("sample counts are implausibly large".into());
+            return Err(GvsPlusPlusParamsError::TooManySamples);
         }
         Ok(())
     }
+}
+
+/// Why [`GvsPlusPlusParams`] make no sense.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum GvsPlusPlusParamsError {
+    /// `n_rand` is 0.
+    #[error("n_rand must be >= 1")]
+    NoRandomRays,
+    /// `delta_abs` is outside (0, 0.1).
+    #[error("delta_abs {0} must be in (0, 0.1)")]
+    DeltaAbs(f32),
+    /// `delta_discontinuity` is outside [0, 0.1).
+    #[error("delta {0} must be in [0, 0.1)")]
+    Delta(f32),
+    /// `n_abs_edge` or `n_rs_edge` is above 10,000, or `n_rs_area` above 100,000.
+    #[error("sample counts are implausibly large")]
+    TooManySamples,
 }
 
 /// Under a budget, the most exploration rays a round casts, as a multiple of its random rays.

@@ -56,6 +56,44 @@ pub struct Params {
     pub size: usize,
 }
 
+/// Why the part of a spec after `procedural:` does not parse.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SpecError {
+    /// The name is none of [`GENERATORS`].
+    #[error("unknown generator '{name}' (known: {})", GENERATORS.join(", "))]
+    UnknownGenerator {
+        /// The name as given.
+        name: String,
+    },
+    /// A query part without `=`.
+    #[error("'{pair}' is not key=value")]
+    NotKeyValue {
+        /// The part as given.
+        pair: String,
+    },
+    /// A value that is not a non-negative integer (`_` separators allowed).
+    #[error("{key}={value}: not a non-negative integer")]
+    NotANumber {
+        /// The key.
+        key: String,
+        /// The value as given.
+        value: String,
+    },
+    /// A `size` of 0 or above [`MAX_SIZE`].
+    #[error("size={size}: must be in 1..={MAX_SIZE}")]
+    SizeOutOfRange {
+        /// The size given.
+        size: usize,
+    },
+    /// A key other than `seed` and `size`.
+    #[error("unknown parameter '{key}' (known: seed, size)")]
+    UnknownParameter {
+        /// The key as given.
+        key: String,
+    },
+}
+
 impl Params {
     /// Default parameters of generator `name` (seed 1, a size that renders in well under a
     /// second).
@@ -75,35 +113,41 @@ impl Params {
     }
 
     /// Parses `NAME[?seed=S&size=N]` (the part after `procedural:`).
-    pub fn parse(s: &str) -> Result<Self, String> {
+    pub fn parse(s: &str) -> Result<Self, SpecError> {
         let (name, query) = s.split_once('?').unwrap_or((s, ""));
         if !GENERATORS.contains(&name) {
-            return Err(format!(
-                "unknown generator '{name}' (known: {})",
-                GENERATORS.join(", ")
-            ));
+            return Err(SpecError::UnknownGenerator {
+                name: name.to_string(),
+            });
         }
         let mut params = Self::new(name);
         for pair in query.split('&').filter(|p| !p.is_empty()) {
-            let (key, value) = pair
-                .split_once('=')
-                .ok_or_else(|| format!("'{pair}' is not key=value"))?;
+            let (key, value) = pair.split_once('=').ok_or_else(|| SpecError::NotKeyValue {
+                pair: pair.to_string(),
+            })?;
             let number = || {
                 value
                     .replace('_', "")
                     .parse::<u64>()
-                    .map_err(|_| format!("{key}={value}: not a non-negative integer"))
+                    .map_err(|_| SpecError::NotANumber {
+                        key: key.to_string(),
+                        value: value.to_string(),
+                    })
             };
             match key {
                 "seed" => params.seed = number()?,
                 "size" => {
                     let n = number()? as usize;
                     if n == 0 || n > MAX_SIZE {
-                        return Err(format!("size={n}: must be in 1..={MAX_SIZE}"));
+                        return Err(SpecError::SizeOutOfRange { size: n });
                     }
                     params.size = n;
                 }
-                _ => return Err(format!("unknown parameter '{key}' (known: seed, size)")),
+                _ => {
+                    return Err(SpecError::UnknownParameter {
+                        key: key.to_string(),
+                    })
+                }
             }
         }
         Ok(params)
@@ -172,20 +216,47 @@ mod tests {
     }
 
     #[test]
-    fn parse_rejects_bad_input() {
-        assert!(Params::parse("town")
-            .unwrap_err()
-            .contains("unknown generator"));
-        assert!(Params::parse("city?size=0").unwrap_err().contains("size=0"));
-        assert!(Params::parse("city?size=-3")
-            .unwrap_err()
-            .contains("non-negative"));
-        assert!(Params::parse("city?colour=red")
-            .unwrap_err()
-            .contains("unknown parameter"));
-        assert!(Params::parse("city?seed")
-            .unwrap_err()
-            .contains("key=value"));
+    fn parse_rejects_unknown_generator() {
+        let e = Params::parse("town").unwrap_err();
+        assert_eq!(
+            e,
+            SpecError::UnknownGenerator {
+                name: "town".into()
+            }
+        );
+        assert_eq!(
+            e.to_string(),
+            "unknown generator 'town' (known: city, rooms, canyon, boxes, spheres, spikes, zoneplate)"
+        );
+    }
+
+    #[test]
+    fn parse_rejects_size_out_of_range() {
+        let e = Params::parse("city?size=0").unwrap_err();
+        assert_eq!(e, SpecError::SizeOutOfRange { size: 0 });
+        assert_eq!(e.to_string(), "size=0: must be in 1..=200000000");
+    }
+
+    #[test]
+    fn parse_rejects_negative_number() {
+        let e = Params::parse("city?size=-3").unwrap_err();
+        assert!(matches!(e, SpecError::NotANumber { .. }));
+        assert_eq!(e.to_string(), "size=-3: not a non-negative integer");
+    }
+
+    #[test]
+    fn parse_rejects_unknown_parameter() {
+        let e = Params::parse("city?colour=red").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "unknown parameter 'colour' (known: seed, size)"
+        );
+    }
+
+    #[test]
+    fn parse_rejects_part_without_value() {
+        let e = Params::parse("city?seed").unwrap_err();
+        assert_eq!(e.to_string(), "'seed' is not key=value");
     }
 
     #[test]
