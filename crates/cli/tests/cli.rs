@@ -317,6 +317,23 @@ fn demo_writes_report_with_every_step() {
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert!(v["steps"].as_array().unwrap().len() >= 7);
+    // RAND gets each cell's own GVS++ ray count (the bake reports cells in completion order;
+    // the demo used to pair them by that order).
+    let cells = v["equal_rays"].as_array().unwrap();
+    assert_eq!(cells.len(), 2);
+    for c in cells {
+        assert!(c["gvspp_rays"].as_u64().unwrap() > 0, "{c}");
+        assert_eq!(c["gvspp_rays"], c["rand_rays"], "{c}");
+    }
+    let pvs = dir.path().join("sightline-report/demo.pvs");
+    let o = sightline(&["pvs", "show", pvs.to_str().unwrap(), "--json"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let shown: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let text = shown.to_string();
+    for c in cells {
+        let rays = c["gvspp_rays"].as_u64().unwrap().to_string();
+        assert!(text.contains(&rays), "cell rays {rays} not in the file's metadata");
+    }
     let html = std::fs::read_to_string(dir.path().join("sightline-report/index.html")).unwrap();
     for id in [
         "steps-table",

@@ -21,25 +21,44 @@ fn at_bin_size(scene: &sightline_core::Scene, cam: &Camera, bin_size: u32) -> An
     visible_fragments(scene, cam, &options).expect("valid camera")
 }
 
+/// A shared scene (path below `shared/scenes`) and the sweep's 60° 256² camera at `eye`.
+fn shared_view(name: &str, eye: Vec3, look: Vec3) -> (sightline_core::Scene, Camera) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/scenes")
+        .join(name);
+    let scene = open(&path.to_string_lossy(), &LoadOptions::default()).expect("shared scene");
+    let near = scene.bounds().diagonal() * 1e-5;
+    let cam = Camera::look_at(eye, look, scene.up.vector(), 60.0, 256, 256, near).expect("camera");
+    (scene, cam)
+}
+
+/// The listed sets of `results` (one view at several bin sizes) all equal the first, which lists
+/// more than `at_least` triangles.
+fn assert_same_listing(results: &[AnalyticResult], n: usize, at_least: usize) {
+    let first = results[0].visible_at_least(n, MIN_VISIBLE_AREA_PX2);
+    assert!(first.count_ones(..) > at_least, "the scene is seen");
+    for r in &results[1..] {
+        let set = r.visible_at_least(n, MIN_VISIBLE_AREA_PX2);
+        let differ: Vec<usize> = set.symmetric_difference(&first).collect();
+        assert!(
+            differ.is_empty(),
+            "bin size {}: {differ:?} differ",
+            r.bin_size()
+        );
+    }
+}
+
 #[test]
 fn a_sliver_between_nearly_collinear_edges_is_listed_at_no_bin_size() {
     // czest3ctf's aerial orbit (the exact_real_scenes sweep, 256²): a diagonal wall, triangle
     // 13943, shows a sliver at most one grid unit wide and 10 px long beside an occluder's edge
     // that is one grid unit away after snapping. Its area was 4.6e-7 px² at 1-px bins and
     // 3.5e-6 px² at 16-px bins, so the area threshold alone listed it at one and not the other.
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/q3/czest3ctf.bsp");
-    let scene = open(&path.to_string_lossy(), &LoadOptions::default()).expect("shared scene");
-    let cam = Camera::look_at(
+    let (scene, cam) = shared_view(
+        "q3/czest3ctf.bsp",
         Vec3::new(-2892.4973, 2892.497, 3560.487),
         Vec3::new(0.0, 0.0, 288.0),
-        scene.up.vector(),
-        60.0,
-        256,
-        256,
-        scene.bounds().diagonal() * 1e-5,
-    )
-    .expect("camera");
+    );
     let n = scene.triangle_count();
     let sliver = 13943;
     let results: Vec<AnalyticResult> = [1, 4, 16, 32].map(|b| at_bin_size(&scene, &cam, b)).into();
@@ -67,18 +86,10 @@ fn a_sliver_between_nearly_collinear_edges_is_listed_at_no_bin_size() {
             r.bin_size()
         );
     }
-    let first = results[0].visible_at_least(n, MIN_VISIBLE_AREA_PX2);
-    assert!(!first.contains(sliver));
-    assert!(first.count_ones(..) > 1000, "the map is seen");
-    for r in &results[1..] {
-        let set = r.visible_at_least(n, MIN_VISIBLE_AREA_PX2);
-        let differ: Vec<usize> = set.symmetric_difference(&first).collect();
-        assert!(
-            differ.is_empty(),
-            "bin size {}: {differ:?} differ",
-            r.bin_size()
-        );
-    }
+    assert!(!results[0]
+        .visible_at_least(n, MIN_VISIBLE_AREA_PX2)
+        .contains(sliver));
+    assert_same_listing(&results, n, 1000);
 }
 
 #[test]
@@ -132,33 +143,17 @@ fn a_roof_seen_edge_on_is_listed_alike_at_every_bin_size() {
     // 4 cm below the eye project to slivers 1 px long and under two grid units thick. Measured
     // per piece (2 × area / perimeter), the 1-px bins' pieces were twice as thick as the whole
     // and crossed the threshold that the 16-px pieces did not; area over extent is the same.
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/city/etoile.ply.gz");
-    let scene = open(&path.to_string_lossy(), &LoadOptions::default()).expect("shared scene");
-    let cam = Camera::look_at(
+    let (scene, cam) = shared_view(
+        "city/etoile.ply.gz",
         Vec3::new(-595.87286, 476.69824, 25.0),
         Vec3::new(0.0, 0.0, 25.0),
-        scene.up.vector(),
-        60.0,
-        256,
-        256,
-        scene.bounds().diagonal() * 1e-5,
-    )
-    .expect("camera");
+    );
     let n = scene.triangle_count();
     let results: Vec<AnalyticResult> = [1, 16, 32].map(|b| at_bin_size(&scene, &cam, b)).into();
     let roof = 5888;
-    let first = results[0].visible_at_least(n, MIN_VISIBLE_AREA_PX2);
-    assert!(first.count_ones(..) > 1000, "the city is seen");
     for r in &results {
         let area = r.visible_area(n)[roof];
         assert!(area >= MIN_VISIBLE_AREA_PX2, "the roof shows {area:e} px²");
-        let set = r.visible_at_least(n, MIN_VISIBLE_AREA_PX2);
-        let differ: Vec<usize> = set.symmetric_difference(&first).collect();
-        assert!(
-            differ.is_empty(),
-            "bin size {}: {differ:?} differ",
-            r.bin_size()
-        );
     }
+    assert_same_listing(&results, n, 1000);
 }

@@ -220,7 +220,9 @@ pub(crate) fn run(args: Args) -> Result<()> {
         },
     };
     let seed = 1;
-    let mut per_cell = Vec::new();
+    // Indexed by cell: `bake` reports cells in completion order, so RAND must look its
+    // ray count up by the cell's index, not by the order the cells finished in.
+    let mut per_cell = vec![(0u64, Vec::new()); cells.len()];
     let mut file = bake(
         &scene,
         &bvh,
@@ -231,7 +233,11 @@ pub(crate) fn run(args: Args) -> Result<()> {
         seed,
         serde_json::json!({"parameters": format!("{:?}", gvspp.params)}),
         &|_, _| {},
-        &mut |_, r| per_cell.push((r.rays, r.convergence.clone())),
+        &mut |i, r| {
+            if let Some(slot) = per_cell.get_mut(i) {
+                *slot = (r.rays, r.convergence.clone());
+            }
+        },
     );
     // Record the convergence curves where the bake did not (older bake drivers).
     for (i, (_, curve)) in per_cell.iter().enumerate() {
@@ -243,7 +249,8 @@ pub(crate) fn run(args: Args) -> Result<()> {
                 .collect();
         }
     }
-    let rand_sets: Vec<Vec<TriangleSet>> = cells
+    // RAND at each cell's own GVS++ ray count: (rays, set) per cell.
+    let rand_results: Vec<(u64, TriangleSet)> = cells
         .iter()
         .enumerate()
         .map(|(i, cell)| {
@@ -254,14 +261,18 @@ pub(crate) fn run(args: Args) -> Result<()> {
                 seed: cell_seed(seed, i),
                 free_space: None,
             };
-            let rays = per_cell.get(i).map_or(0, |c| c.0).max(1);
-            vec![
-                RandomSampler
-                    .sample(&ctx, &Budget::rays(rays), &|_| {})
-                    .visible,
-            ]
+            let rays = per_cell[i].0.max(1);
+            let r = RandomSampler.sample(&ctx, &Budget::rays(rays), &|_| {});
+            (r.rays, r.visible)
         })
         .collect();
+    let equal_rays: Vec<serde_json::Value> = per_cell
+        .iter()
+        .zip(&rand_results)
+        .map(|(g, r)| serde_json::json!({"gvspp_rays": g.0, "rand_rays": r.0}))
+        .collect();
+    let rand_sets: Vec<Vec<TriangleSet>> =
+        rand_results.into_iter().map(|(_, set)| vec![set]).collect();
     let pvs_path = args.output.join("demo.pvs");
     file.save(&pvs_path)?;
     let mean_pvs = file
@@ -274,11 +285,11 @@ pub(crate) fn run(args: Args) -> Result<()> {
         "PVS bake (GVS++, RAND)",
         t,
         format!(
-            "{} view cells, mean PVS {:.0} triangles ({:.2}%), {} rays per cell",
+            "{} view cells, mean PVS {:.0} triangles ({:.2}%), {:.0} rays per cell on average",
             file.cells.len(),
             mean_pvs,
             100.0 * mean_pvs / scene.triangle_count().max(1) as f64,
-            per_cell.first().map_or(0, |c| c.0)
+            per_cell.iter().map(|c| c.0 as f64).sum::<f64>() / per_cell.len().max(1) as f64
         ),
     );
 
@@ -403,6 +414,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
             "report": index,
             "pvs": pvs_path,
             "steps": steps,
+            "equal_rays": equal_rays,
         }));
     }
     outln!("sightline demo on {}", scene.source);
