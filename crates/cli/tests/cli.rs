@@ -326,13 +326,19 @@ fn demo_writes_report_with_every_step() {
         assert_eq!(c["gvspp_rays"], c["rand_rays"], "{c}");
     }
     let pvs = dir.path().join("sightline-report/demo.pvs");
-    let o = sightline(&["pvs", "show", pvs.to_str().unwrap(), "--json"], dir.path());
+    let o = sightline(
+        &["pvs", "show", pvs.to_str().unwrap(), "--json"],
+        dir.path(),
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let shown: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let text = shown.to_string();
     for c in cells {
         let rays = c["gvspp_rays"].as_u64().unwrap().to_string();
-        assert!(text.contains(&rays), "cell rays {rays} not in the file's metadata");
+        assert!(
+            text.contains(&rays),
+            "cell rays {rays} not in the file's metadata"
+        );
     }
     let html = std::fs::read_to_string(dir.path().join("sightline-report/index.html")).unwrap();
     for id in [

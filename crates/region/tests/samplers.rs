@@ -360,3 +360,30 @@ fn exploration_rays_do_not_leak_through_cracks_between_triangles() {
         "every wall triangle is seen"
     );
 }
+
+/// A ray budget is kept to within one exploration step of one triangle and one discontinuity:
+/// the last steps before the budget take only as many triangles and discontinuities as the
+/// rays left allow (a whole step used to cast 1.6x a 20k-ray budget on a city cell).
+#[test]
+fn gvspp_keeps_a_small_ray_budget() {
+    let scene = scene::open("procedural:city?size=2000", &LoadOptions::default()).unwrap();
+    let b = scene.bounds();
+    let c = b.center();
+    let cell = ViewCell::aabb(
+        Vec3::new(c.x - 20.0, c.y - 20.0, 1.0),
+        Vec3::new(c.x + 20.0, c.y + 20.0, 3.0),
+    )
+    .unwrap();
+    // One ABS triangle (9 + 3 n_ABSEdge rays) and one discontinuity's reverse-sampling origins
+    // (8 corners, n_RSEdge per edge, n_RSArea on the surface) at the defaults.
+    let p = GvsPlusPlusParams::default();
+    let step = 9 + 3 * p.n_abs_edge as u64 + 8 + 12 * p.n_rs_edge as u64 + p.n_rs_area as u64;
+    for budget in [20_000, 50_000, 120_000] {
+        let r = run(&GvsPlusPlus::default(), &scene, &cell, Budget::rays(budget));
+        assert!(
+            r.rays >= budget && r.rays <= budget + step,
+            "{} rays for a budget of {budget}",
+            r.rays
+        );
+    }
+}

@@ -111,7 +111,8 @@ pub(crate) struct BakeArgs {
     /// Sampling method.
     #[arg(long, default_value = "gvs++", value_parser = clap::builder::PossibleValuesParser::new(METHODS))]
     method: String,
-    /// Ray budget per cell (RASTER counts 6 R² per cube map). Without --rays and --time, GVS++
+    /// Ray budget per cell (RASTER counts 6 R² per cube map). GVS++ keeps it to within one
+    /// exploration step (about 340 rays at the defaults). Without --rays and --time, GVS++
     /// and GVS run until their own termination rule, RAND casts 10M rays, RASTER renders 64
     /// cube maps.
     #[arg(long)]

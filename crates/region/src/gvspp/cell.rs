@@ -98,11 +98,15 @@ impl GvsppCell {
     }
 
     /// How many queued triangles the next exploration step takes, once this round cast
-    /// `random_rays` random rays and `explored` rays exploring; `None` when the round's share
-    /// of exploration is spent (adaptive rounds only: the paper's rounds drain the queue).
-    pub fn explore_take(&self, random_rays: u64, explored: u64) -> Option<usize> {
+    /// `random_rays` random rays and `explored` rays exploring, with `rays_left` rays left in
+    /// the budget (`u64::MAX` without a ray limit); `None` when the round's share of exploration
+    /// is spent (adaptive rounds only: the paper's rounds drain the queue). Never more
+    /// triangles than the rays left can explore, so a small budget is kept to within one
+    /// triangle's step.
+    pub fn explore_take(&self, random_rays: u64, explored: u64, rays_left: u64) -> Option<usize> {
+        let within_budget = fitting(rays_left, EXPLORE_RAYS_PER_TRIANGLE as usize);
         if !self.adaptive {
-            return Some(ABS_CHUNK);
+            return Some(ABS_CHUNK.min(within_budget));
         }
         let share = EXPLORE_SHARE * random_rays as f64;
         if explored as f64 >= share {
@@ -112,7 +116,11 @@ impl GvsppCell {
         // plus reverse sampling of their discontinuities): one full chunk could cost 300k
         // rays in a city and take the whole share.
         let left = share - explored as f64;
-        Some(((left / EXPLORE_RAYS_PER_TRIANGLE) as usize).clamp(1, ABS_CHUNK))
+        Some(
+            ((left / EXPLORE_RAYS_PER_TRIANGLE) as usize)
+                .clamp(1, ABS_CHUNK)
+                .min(within_budget),
+        )
     }
 
     /// Takes up to `n` triangles off the queue and returns their ABS rays (4.2) with, for each
@@ -132,9 +140,12 @@ impl GvsppCell {
         find_discontinuities(rays, hits, targets, self.delta)
     }
 
-    /// Discontinuities reverse-sampled together (a batch of about [`crate::rays::BATCH`] rays).
-    pub fn rs_group_size(&self) -> usize {
-        self.reverse.group_size()
+    /// Discontinuities reverse-sampled together: a batch of about [`crate::rays::BATCH`] rays,
+    /// and no more than `rays_left` rays allow (at least one).
+    pub fn rs_group_size(&self, rays_left: u64) -> usize {
+        self.reverse
+            .group_size()
+            .min(fitting(rays_left, self.reverse.origins_per_discontinuity()))
     }
 
     /// The RS rays (4.3) of a group of discontinuities.
@@ -155,6 +166,14 @@ impl GvsppCell {
         let new = self.found.end_round();
         self.termination.round_done(round_rays, new)
     }
+}
+
+/// How many steps costing `cost` rays each fit in `rays_left` (at least one, so a step always
+/// makes progress; with no ray limit, `u64::MAX`, any count fits).
+fn fitting(rays_left: u64, cost: usize) -> usize {
+    (rays_left / cost.max(1) as u64)
+        .min(usize::MAX as u64)
+        .max(1) as usize
 }
 
 #[cfg(test)]
@@ -214,7 +233,10 @@ mod tests {
         with_box_cell(|ctx| {
             let mut state = GvsppCell::new(ctx, &params(), Rounds::Paper);
             assert_eq!(state.round_size(), 100_000);
-            assert_eq!(state.explore_take(0, u64::MAX / 2), Some(ABS_CHUNK));
+            assert_eq!(
+                state.explore_take(0, u64::MAX / 2, u64::MAX),
+                Some(ABS_CHUNK)
+            );
             state.end_round(150_000, 100_000);
             assert_eq!(state.round_size(), 100_000);
         });
@@ -225,10 +247,13 @@ mod tests {
         with_box_cell(|ctx| {
             let state = GvsppCell::new(ctx, &params(), Rounds::Adaptive);
             let share = (EXPLORE_SHARE * 1000.0) as u64;
-            assert_eq!(state.explore_take(1000, share), None);
+            assert_eq!(state.explore_take(1000, share, u64::MAX), None);
             // Less than one triangle's worth left: still one triangle.
-            assert_eq!(state.explore_take(1000, share - 1), Some(1));
-            assert_eq!(state.explore_take(1_000_000_000, 0), Some(ABS_CHUNK));
+            assert_eq!(state.explore_take(1000, share - 1, u64::MAX), Some(1));
+            assert_eq!(
+                state.explore_take(1_000_000_000, 0, u64::MAX),
+                Some(ABS_CHUNK)
+            );
         });
     }
 

@@ -108,7 +108,7 @@ impl ReverseOrigins {
         }
     }
 
-    fn origins_per_discontinuity(&self) -> usize {
+    pub(crate) fn origins_per_discontinuity(&self) -> usize {
         self.fixed.len() + self.n_area as usize
     }
 

@@ -54,7 +54,8 @@ impl Sampler for GvsPlusPlus {
             // of the first 16k random rays explores their neighbours.
             let explore_start = tally.rays;
             while !cell.queue.is_empty() && !tally.exhausted() {
-                let Some(take) = cell.explore_take(random_rays, tally.rays - explore_start) else {
+                let explored = tally.rays - explore_start;
+                let Some(take) = cell.explore_take(random_rays, explored, tally.rays_left()) else {
                     break;
                 };
                 explore_step(ctx, &mut cell, &mut tally, take, progress);
@@ -83,10 +84,11 @@ fn explore_step(
     cell.found_new(Phase::Abs, discover(&tally.pvs, &rays, &hits));
     tally.batch_done(rays.len(), progress);
     let discontinuities = cell.discontinuities(&rays, &hits, &targets);
-    for group in discontinuities.chunks(cell.rs_group_size()) {
-        if tally.exhausted() {
-            break;
-        }
+    let mut rest = &discontinuities[..];
+    while !rest.is_empty() && !tally.exhausted() {
+        let size = cell.rs_group_size(tally.rays_left());
+        let (group, after) = rest.split_at(size.min(rest.len()));
+        rest = after;
         let rs = cell.rs_rays(ctx, group);
         cell.found_new(Phase::Rs, discover(&tally.pvs, &rs, &cast(ctx.caster, &rs)));
         tally.batch_done(rs.len(), progress);

@@ -47,13 +47,14 @@ impl CellState {
         self.rays - self.round_start - self.random_rays
     }
 
-    /// How many queued triangles the cell explores next (see [`GvsppCell::explore_take`]);
-    /// `None` when it explores no more this round.
-    fn explore_take(&self) -> Option<usize> {
+    /// How many queued triangles the cell explores next with `rays_left` rays left in its
+    /// budget (see [`GvsppCell::explore_take`]); `None` when it explores no more this round.
+    fn explore_take(&self, rays_left: u64) -> Option<usize> {
         if self.gvspp.queue.is_empty() {
             return None;
         }
-        self.gvspp.explore_take(self.random_rays, self.explored())
+        self.gvspp
+            .explore_take(self.random_rays, self.explored(), rays_left)
     }
 }
 
@@ -270,7 +271,9 @@ impl Bake<'_> {
     fn exploration_phase(&mut self) {
         loop {
             let active: Vec<usize> = (0..self.states.len())
-                .filter(|&i| self.states[i].explore_take().is_some() && !self.exhausted(i))
+                .filter(|&i| {
+                    self.states[i].explore_take(self.rays_left(i)).is_some() && !self.exhausted(i)
+                })
                 .collect();
             if active.is_empty() {
                 return;
@@ -291,8 +294,9 @@ impl Bake<'_> {
                     if self.exhausted(i) {
                         continue;
                     }
+                    let rays_left = self.rays_left(i);
                     let s = &mut self.states[i];
-                    let Some(take) = s.explore_take() else {
+                    let Some(take) = s.explore_take(rays_left) else {
                         continue;
                     };
                     let (r, t) = s.gvspp.abs_rays(&self.contexts[i], take);
@@ -324,13 +328,18 @@ impl Bake<'_> {
         for &(i, a, b) in ranges {
             let cell = &self.states[i].gvspp;
             let found = cell.discontinuities(&rays[a..b], &hits[a..b], &targets[a..b]);
-            let group_size = cell.rs_group_size();
             // RS rays of this cell generated but not yet cast (the budget counts them).
             let mut pending = 0u64;
-            for group in found.chunks(group_size) {
+            let mut rest = &found[..];
+            while !rest.is_empty() {
                 if self.rays_left(i) <= pending || self.out_of_time() {
                     break;
                 }
+                let size = self.states[i]
+                    .gvspp
+                    .rs_group_size(self.rays_left(i) - pending);
+                let (group, after) = rest.split_at(size.min(rest.len()));
+                rest = after;
                 let r = self.states[i].gvspp.rs_rays(&self.contexts[i], group);
                 pending += r.len() as u64;
                 rs_owners.extend(std::iter::repeat_n(i as u32, r.len()));
