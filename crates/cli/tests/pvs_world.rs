@@ -133,6 +133,24 @@ fn shards_merge_into_the_unsharded_bake() {
     );
     assert_fails_with(&o, "--allow-partial");
     assert!(!dir.path().join("p.pvs").exists());
+    // Ray sharing is a way of baking, not of merging: merge refuses the flag (it used to
+    // accept it and do nothing).
+    let o = sightline(
+        &[
+            "pvs",
+            "merge",
+            "s0.pvs",
+            "s1.pvs",
+            "s2.pvs",
+            "-o",
+            "p.pvs",
+            "--share-rays",
+        ],
+        dir.path(),
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--share-rays"), "{}", stderr(&o));
+    assert!(!dir.path().join("p.pvs").exists());
     let o = sightline(
         &[
             "pvs", "merge", "s0.pvs", "s0.pvs", "s1.pvs", "s2.pvs", "-o", "p.pvs",

@@ -191,10 +191,6 @@ pub(crate) struct MergeArgs {
     /// Print a JSON summary.
     #[arg(long)]
     json: bool,
-    /// GVS++ only: bake all cells together, every ray also counting for every other cell it
-    /// crosses (ray sharing); --rays and --time stay per cell.
-    #[arg(long)]
-    share_rays: bool,
 }
 
 #[derive(clap::Args, Debug)]
