@@ -546,3 +546,42 @@ fn q3_leaf_bake_leaves_out_unreachable_leaves_and_records_them() {
     );
     assert_fails_with(&o, "--q3-leaves and --q3-clusters only");
 }
+
+#[test]
+fn raster_bake_below_one_cube_map_says_what_it_renders() {
+    // RASTER spends its budget a cube map at a time: --rays below one (6 x 16² = 1536 pixels)
+    // still renders one per cell, and the bake says so instead of silently casting more.
+    let dir = tempfile::tempdir().unwrap();
+    let run = |rays: &str| {
+        sightline(
+            &[
+                "pvs",
+                "bake",
+                "procedural:boxes?size=200",
+                "--grid",
+                "1,1,1",
+                "--method",
+                "raster",
+                "--raster-resolution",
+                "16",
+                "--rays",
+                rays,
+                "--json",
+                "-o",
+                "r.pvs",
+                "--restart",
+            ],
+            dir.path(),
+        )
+    };
+    let o = run("1000");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("less than one RASTER cube map (6 x 16² = 1536"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run("3072");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("cube map"), "{}", stderr(&o));
+}

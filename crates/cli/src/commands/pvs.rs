@@ -19,6 +19,7 @@ use sightline_region::methods::{sampler, MethodOverrides, MethodParams, METHODS}
 use sightline_region::pvs_file::EncodedPvsFile;
 use sightline_region::reachable::{ReachParams, DEFAULT_STEP};
 use sightline_region::shards::{merge, Shard};
+use sightline_region::RasterSampler;
 use sightline_region::{Budget, PvsFile, ViewCell};
 
 use super::bench::Device;
@@ -429,6 +430,22 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
     let sampler = sampler(&args.method, &params)?;
     if args.rays == Some(0) || args.time == Some(0) {
         bail!("--rays and --time must be positive");
+    }
+    if args.method == "raster" {
+        // RASTER spends its budget a cube map at a time (6 R² pixels, counted as rays): a
+        // smaller budget still renders one per cell, which the user should hear about.
+        let r = u64::from(
+            params
+                .raster_resolution
+                .unwrap_or(RasterSampler::default().resolution),
+        );
+        let cube_map = 6 * r * r;
+        if let Some(rays) = args.rays.filter(|&rays| rays < cube_map) {
+            eprintln!(
+                "warning: --rays {rays} is less than one RASTER cube map (6 x {r}² = {cube_map} \
+                 pixels, counted as rays); every cell renders one, {cube_map} rays"
+            );
+        }
     }
     if !(args.checkpoint_every.is_finite() && args.checkpoint_every >= 0.0) {
         bail!("--checkpoint-every must be a non-negative number of seconds");
