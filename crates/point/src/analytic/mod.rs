@@ -243,9 +243,6 @@ pub struct AnalyticResult {
     /// Visible area per triangle id (square pixels), summed once while `visible` is built (like
     /// `visible`, it describes `polygons` as `visible_fragments` made them).
     area: Vec<f64>,
-    /// Visible area over the extent of the visible region per triangle id (pixels), see
-    /// [`MIN_VISIBLE_THICKNESS_PX`].
-    thickness: Vec<f64>,
     width: u32,
     height: u32,
     bin_size: u32,
@@ -285,9 +282,12 @@ impl AnalyticResult {
             return self.visible.clone();
         }
         let mut set = TriangleSet::with_capacity(n);
+        let thickness = self.visible_thickness(n);
         set.extend(self.visible.ones().filter(|&t| {
             self.area.get(t).is_some_and(|&a| a >= min_area_px2)
-                && self.thickness[t] >= MIN_VISIBLE_THICKNESS_PX
+                && thickness
+                    .get(t)
+                    .is_some_and(|&d| d >= MIN_VISIBLE_THICKNESS_PX)
         }));
         set
     }
@@ -295,9 +295,37 @@ impl AnalyticResult {
     /// Mean thickness (pixels) of each triangle's visible region, over `n` ids: its area over
     /// its extent (zero where nothing is visible), the measure of [`MIN_VISIBLE_THICKNESS_PX`].
     pub fn visible_thickness(&self, n: usize) -> Vec<f64> {
-        let mut out = self.thickness.clone();
-        out.resize(n, 0.0);
-        out
+        // Derived from the pieces when asked (the listing and its checks), not while
+        // `visible_fragments` runs: the extent is one pass over the pieces' corners.
+        let mut extent = vec![
+            [
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY
+            ];
+            n
+        ];
+        for p in &self.polygons {
+            if let Some(e) = extent.get_mut(p.triangle as usize) {
+                for q in &p.points {
+                    *e = [e[0].min(q.x), e[1].min(q.y), e[2].max(q.x), e[3].max(q.y)];
+                }
+            }
+        }
+        extent
+            .iter()
+            .enumerate()
+            .map(|(t, &[x0, y0, x1, y1])| {
+                let area = self.area.get(t).copied().unwrap_or(0.0);
+                let diagonal = (x1 - x0).hypot(y1 - y0);
+                if area > 0.0 && diagonal > 0.0 {
+                    area / diagonal
+                } else {
+                    0.0
+                }
+            })
+            .collect()
     }
 }
 
@@ -387,16 +415,6 @@ pub fn visible_fragments(
     stats.max_pieces_per_bin = bins.iter().map(|b| b.members.len()).max().unwrap_or(0);
     let outputs: Vec<BinOutput> = bins.par_iter().map(|b| process_bin(&polys, b)).collect();
     let mut area = vec![0.0f64; n];
-    // Bounding boxes of each triangle's pieces (min x, min y, max x, max y).
-    let mut extent = vec![
-        [
-            f64::INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NEG_INFINITY
-        ];
-        n
-    ];
     let mut polygons = Vec::new();
     let mut ranges = Vec::with_capacity(bins.len());
     for (bin, o) in bins.iter().zip(outputs) {
@@ -409,13 +427,8 @@ pub fn visible_fragments(
         stats.completion_segments += o.completion_segments;
         let first = polygons.len();
         for p in o.pieces {
-            let t = p.triangle as usize;
-            if t < n {
-                area[t] += polygon::area(&p.points);
-                let e = &mut extent[t];
-                for q in &p.points {
-                    *e = [e[0].min(q.x), e[1].min(q.y), e[2].max(q.x), e[3].max(q.y)];
-                }
+            if let Some(a) = area.get_mut(p.triangle as usize) {
+                *a += polygon::area(&p.points);
             }
             polygons.push(p);
         }
@@ -425,17 +438,6 @@ pub fn visible_fragments(
             polys: first..polygons.len(),
         });
     }
-    let thickness: Vec<f64> = (0..n)
-        .map(|t| {
-            let [x0, y0, x1, y1] = extent[t];
-            let diagonal = (x1 - x0).hypot(y1 - y0);
-            if area[t] > 0.0 && diagonal > 0.0 {
-                area[t] / diagonal
-            } else {
-                0.0
-            }
-        })
-        .collect();
     let mut visible = TriangleSet::with_capacity(n);
     visible.extend((0..n).filter(|&t| area[t] > 0.0));
     stats.visibility_time = start.elapsed();
@@ -444,7 +446,6 @@ pub fn visible_fragments(
         polygons,
         stats,
         area,
-        thickness,
         width: camera.width,
         height: camera.height,
         bin_size: options.bin_size,
