@@ -29,6 +29,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use sightline_core::scene::Scene;
 use sightline_core::trace::bvh::{FlatBvh, FlatLink};
+use sightline_core::trace::triangle::ShearedRay;
 use sightline_core::Ray;
 
 use crate::GpuError;
@@ -169,26 +170,10 @@ impl GpuRay {
                 ..Self::zeroed()
             };
         }
-        let a = d.abs();
-        // kz = dimension where the direction is largest (ties as in `ShearedRay::new`).
-        let kz = if a.x > a.y {
-            if a.x > a.z {
-                0
-            } else {
-                2
-            }
-        } else if a.y > a.z {
-            1
-        } else {
-            2
-        };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
-        // d[kz] != 0: the direction is not zero and kz is its largest component.
-        let shear = [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]];
+        // The CPU caster's permutation and shear, the same bits (the direction is not zero).
+        let sheared = ShearedRay::new(ray);
+        let [kx, ky, kz] = sheared.axes();
+        let shear = sheared.shear();
         let mut flags = (kx | ky << 2 | kz << 4) as u32;
         let mut inv = [0.0; 3];
         for axis in 0..3 {

@@ -29,6 +29,19 @@ pub struct ShearedRay {
 }
 
 impl ShearedRay {
+    /// The permutation `[kx, ky, kz]`: `kz` the axis where the direction is largest, `kx`
+    /// and `ky` the others, swapped when the direction points down `kz` (keeps the winding).
+    /// Other engines that must reproduce this test bit for bit (the GPU caster) take it here.
+    pub fn axes(&self) -> [usize; 3] {
+        [self.kx, self.ky, self.kz]
+    }
+
+    /// The shear `[d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz]]` (`[0, 0, NaN]` for a zero
+    /// direction).
+    pub fn shear(&self) -> [f32; 3] {
+        [self.sx, self.sy, self.sz]
+    }
+
     /// Prepares `ray`. A ray with a zero direction never hits anything.
     pub fn new(ray: &Ray) -> Self {
         let d = ray.dir;
