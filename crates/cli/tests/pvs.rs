@@ -10,24 +10,22 @@ use std::path::{Path, PathBuf};
 
 const SCENE: &str = "procedural:rooms?seed=2&size=2000";
 
+/// `pvs bake SCENE` of the two test cells with `extra` arguments (output and budget).
+fn bake_two_cells(dir: &Path, extra: &[&str]) -> std::process::Output {
+    let cells = [
+        "pvs",
+        "bake",
+        SCENE,
+        "--cell",
+        "box:2,2,1,4,4,2",
+        "--cell",
+        "box:8,2,1,10,4,2",
+    ];
+    sightline(&[&cells[..], extra].concat(), dir)
+}
+
 fn baked(dir: &Path) -> PathBuf {
-    let o = sightline(
-        &[
-            "pvs",
-            "bake",
-            SCENE,
-            "--cell",
-            "box:2,2,1,4,4,2",
-            "--cell",
-            "box:8,2,1,10,4,2",
-            "--n-rand",
-            "20000",
-            "-o",
-            "a.pvs",
-            "--json",
-        ],
-        dir,
-    );
+    let o = bake_two_cells(dir, &["--n-rand", "20000", "-o", "a.pvs", "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["cells"], 2);
@@ -52,25 +50,11 @@ fn gpu_bake_equals_cpu_bake() {
     let dir = tempfile::tempdir().unwrap();
     for device in ["cpu", "gpu"] {
         let out = format!("{device}.pvs");
-        let o = sightline(
-            &[
-                "pvs",
-                "bake",
-                SCENE,
-                "--cell",
-                "box:2,2,1,4,4,2",
-                "--cell",
-                "box:8,2,1,10,4,2",
-                "--rays",
-                "60000",
-                "--seed",
-                "5",
-                "--device",
-                device,
-                "-o",
-                &out,
-            ],
+        let o = bake_two_cells(
             dir.path(),
+            &[
+                "--rays", "60000", "--seed", "5", "--device", device, "-o", &out,
+            ],
         );
         assert!(o.status.success(), "{device}: {}", stderr(&o));
     }

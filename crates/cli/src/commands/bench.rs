@@ -132,13 +132,6 @@ struct ShareArgs {
 #[derive(Clone, Debug, Default)]
 struct BudgetList(Vec<u64>);
 
-impl std::ops::Deref for BudgetList {
-    type Target = Vec<u64>;
-    fn deref(&self) -> &Vec<u64> {
-        &self.0
-    }
-}
-
 fn parse_budget_list(s: &str) -> Result<BudgetList, String> {
     if s.trim() == "none" || s.trim().is_empty() {
         return Ok(BudgetList::default());
@@ -617,6 +610,7 @@ fn pvs(args: PvsArgs) -> Result<()> {
     };
     if let Some(ms) = args
         .time_budgets
+        .0
         .iter()
         .find(|&&ms| ms == 0 || ms > 3_600_000)
     {
@@ -624,11 +618,25 @@ fn pvs(args: PvsArgs) -> Result<()> {
     }
     if let Some(rays) = args
         .ray_budgets
+        .0
         .iter()
         .find(|&&r| r == 0 || r > 100_000_000_000)
     {
         anyhow::bail!("--ray-budgets: {rays} is not a budget between 1 and 10^11 rays");
     }
+    // The small budgets at which GVS++ and RAND are compared side by side: (label, budget).
+    let small_budgets: Vec<(String, Budget)> = (args.time_budgets.0.iter())
+        .map(|&ms| {
+            let budget = Budget {
+                max_rays: None,
+                max_time: Some(std::time::Duration::from_millis(ms)),
+            };
+            (format!("{ms} ms"), budget)
+        })
+        .chain(
+            (args.ray_budgets.0.iter()).map(|&rays| (format!("{rays} rays"), Budget::rays(rays))),
+        )
+        .collect();
     let specs = if args.scenes.is_empty() {
         vec![
             "procedural:city".to_string(),
@@ -680,14 +688,9 @@ fn pvs(args: PvsArgs) -> Result<()> {
                 .map(|(m, b)| (m.to_string(), b.to_string()))
                 .collect()
         };
-        for ms in args.time_budgets.iter() {
+        for (label, _) in &small_budgets {
             for m in ["GVS++", "RAND"] {
-                labels.push((m.to_string(), format!("{ms} ms")));
-            }
-        }
-        for rays in args.ray_budgets.iter() {
-            for m in ["GVS++", "RAND"] {
-                labels.push((m.to_string(), format!("{rays} rays")));
+                labels.push((m.to_string(), label.clone()));
             }
         }
         let mut rows: Vec<PvsRow> = labels
@@ -718,26 +721,17 @@ fn pvs(args: PvsArgs) -> Result<()> {
                     max_rays: None,
                     max_time: Some(std::time::Duration::from_secs_f64(a.seconds)),
                 };
-                results.extend([
+                results = vec![
+                    a,
                     RandomSampler.sample(&ctx, &equal_rays, none),
                     RandomSampler.sample(&ctx, &equal_time, none),
                     gvs.sample(&ctx, &equal_rays, none),
                     raster.sample(&ctx, &equal_rays, none),
-                ]);
-                results.insert(0, a);
+                ];
             }
-            for &ms in args.time_budgets.iter() {
-                let budget = Budget {
-                    max_rays: None,
-                    max_time: Some(std::time::Duration::from_millis(ms)),
-                };
-                results.push(gvspp.sample(&ctx, &budget, none));
-                results.push(RandomSampler.sample(&ctx, &budget, none));
-            }
-            for &rays in args.ray_budgets.iter() {
-                let budget = Budget::rays(rays);
-                results.push(gvspp.sample(&ctx, &budget, none));
-                results.push(RandomSampler.sample(&ctx, &budget, none));
+            for (_, budget) in &small_budgets {
+                results.push(gvspp.sample(&ctx, budget, none));
+                results.push(RandomSampler.sample(&ctx, budget, none));
             }
             let sets: Vec<&sightline_core::TriangleSet> =
                 results.iter().map(|r| &r.visible).collect();
@@ -824,7 +818,7 @@ fn pvs(args: PvsArgs) -> Result<()> {
     // The equal-time comparison in one line per scene and budget: how many times fewer
     // erroneous pixels GVS++ leaves than RAND.
     for r in all_rows.iter().filter(|r| {
-        r.method == "GVS++" && (r.budget.ends_with(" ms") || r.budget.ends_with(" rays"))
+        r.method == "GVS++" && small_budgets.iter().any(|(label, _)| *label == r.budget)
     }) {
         let Some(rand) = all_rows
             .iter()
