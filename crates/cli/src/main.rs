@@ -9,6 +9,8 @@ mod stdout;
 mod args;
 mod commands;
 mod errors;
+mod features;
+#[cfg(feature = "gpu")]
 mod headless;
 mod limits;
 mod output;
@@ -18,7 +20,7 @@ mod report;
 use std::io::Write;
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Subcommand};
 
 /// sightline — 3D visibility toolkit: potentially visible sets, exact and conservative
 /// from-point visibility, and run-time occlusion culling.
@@ -32,7 +34,7 @@ use clap::{Parser, Subcommand};
 /// sets differ, 2 on an error). A closed stdout pipe (`| head`) ends a command quietly with 0.
 /// Outputs that are inputs are refused; sizes (cells, frames, pixels) are checked against
 /// stated limits before anything is allocated.
-#[derive(Parser, Debug)]
+#[derive(clap::Parser, Debug)]
 #[command(name = "sightline", version, about, long_about)]
 struct Cli {
     #[command(subcommand)]
@@ -70,7 +72,14 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    // The long version names the optional features built in (a headless build has none);
+    // clap wants a 'static text, and this one string lives as long as the process anyway.
+    let long_version: &'static str = Box::leak(features::long_version().into_boxed_str());
+    let matches = Cli::command().long_version(long_version).get_matches();
+    let cli = match Cli::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
     let result = match stdout::catch_print_panics(|| run(cli.command)) {
         Ok(result) => result.and_then(|()| Ok(stdout::flush_stdout()?)),
         Err(stdout::PrintFailure::Stdout(e)) => Err(e.into()),

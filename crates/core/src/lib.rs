@@ -8,6 +8,7 @@
 pub mod atomic_file;
 pub mod atomic_set;
 pub mod camera;
+pub mod camera_path;
 pub mod cpu_time;
 pub mod geometry;
 pub mod near_plane;

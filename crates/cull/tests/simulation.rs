@@ -17,27 +17,14 @@ use sightline_core::{Aabb, Camera};
 use sightline_cull::scenes::the_grid;
 use sightline_cull::{
     simulate, simulate_methods, simulate_methods_with_cameras, simulate_viewports, Method,
-    OcclusionBackend, SchedulerConfig, SimConfig, SimReport, SoftwareBackend,
+    OcclusionBackend, SimConfig, SimReport, SoftwareBackend,
 };
-
-fn config(latency: u32) -> SimConfig {
-    SimConfig {
-        frames: 40,
-        width: 160,
-        height: 90,
-        latency,
-        scheduler: SchedulerConfig {
-            visible_duration: if latency == 0 { 1 } else { 30 },
-            ..SchedulerConfig::default()
-        },
-        ..SimConfig::default()
-    }
-}
+use sightline_test_support::simulation::small_grid_config;
 
 #[test]
 fn immediate_results_never_pop() {
     let scene = the_grid(5, 3);
-    let cfg = config(0);
+    let cfg = small_grid_config(0);
     let mut backend = SoftwareBackend::new(cfg.width, cfg.height);
     let report = simulate(&scene, &mut backend, &cfg).unwrap();
     assert_eq!(report.frames.len(), 40);
@@ -54,7 +41,7 @@ fn immediate_results_never_pop() {
 #[test]
 fn one_frame_latency_objects_return_quickly() {
     let scene = the_grid(5, 3);
-    let cfg = config(1);
+    let cfg = small_grid_config(1);
     let mut backend = SoftwareBackend::new(cfg.width, cfg.height);
     let report = simulate(&scene, &mut backend, &cfg).unwrap();
     let bound = (cfg.scheduler.invisible_duration + 1) as usize;
@@ -65,7 +52,7 @@ fn one_frame_latency_objects_return_quickly() {
 #[test]
 fn baselines_run_in_the_same_frames_and_never_pop() {
     let scene = the_grid(5, 3);
-    let cfg = config(1);
+    let cfg = small_grid_config(1);
     let mut backend = SoftwareBackend::new(cfg.width, cfg.height);
     let reports = simulate_methods(&scene, &mut backend, &cfg, &Method::ALL).unwrap();
     let methods: Vec<Method> = reports.iter().map(|r| r.method).collect();
@@ -97,7 +84,7 @@ fn baselines_run_in_the_same_frames_and_never_pop() {
 #[test]
 fn two_viewports_share_one_grid_without_interfering() {
     let scene = the_grid(5, 3);
-    let cfg = config(1);
+    let cfg = small_grid_config(1);
     let path_camera = |f: u32| {
         let t = f as f32 / cfg.fps;
         scene.path.camera(t, cfg.width, cfg.height, cfg.fov_y_deg)
@@ -157,7 +144,7 @@ fn two_viewports_share_one_grid_without_interfering() {
 #[test]
 fn object_refinements_draw_fewer_objects_within_the_bounds() {
     let scene = the_grid(5, 3);
-    let refined = config(1);
+    let refined = small_grid_config(1);
     let boxes = SimConfig {
         triangle_tests: false,
         tested_prepass_cap: 0,
@@ -211,7 +198,7 @@ fn diagnosis_accounts_for_every_drawn_object_that_is_not_visible() {
     let scene = the_grid(5, 3);
     let cfg = SimConfig {
         diagnose: true,
-        ..config(1)
+        ..small_grid_config(1)
     };
     let mut backend = SoftwareBackend::new(cfg.width, cfg.height);
     let methods = [
@@ -271,7 +258,7 @@ fn popping_percent(r: &SimReport) -> f64 {
 #[test]
 fn object_queries_cull_inside_drawn_cells_when_answers_come_later() {
     let scene = the_grid(5, 3);
-    let with = config(1);
+    let with = small_grid_config(1);
     let without = SimConfig {
         object_queries: false,
         ..with

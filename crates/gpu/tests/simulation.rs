@@ -9,28 +9,15 @@
 //!   fewer objects drawn than with cell queries alone, within the same popping bounds.
 
 use sightline_cull::scenes::the_grid;
-use sightline_cull::{simulate, SchedulerConfig, SimConfig, SoftwareBackend};
+use sightline_cull::{simulate, SimConfig, SoftwareBackend};
 
 use super::gpu;
-
-fn config(latency: u32) -> SimConfig {
-    SimConfig {
-        frames: 40,
-        width: 160,
-        height: 90,
-        latency,
-        scheduler: SchedulerConfig {
-            visible_duration: if latency == 0 { 1 } else { 30 },
-            ..SchedulerConfig::default()
-        },
-        ..SimConfig::default()
-    }
-}
+use sightline_test_support::simulation::small_grid_config;
 
 #[test]
 fn immediate_results_never_pop_on_the_gpu() {
     let scene = the_grid(5, 3);
-    let cfg = config(0);
+    let cfg = small_grid_config(0);
     let mut backend = gpu();
     let report = simulate(&scene, &mut backend, &cfg).unwrap();
     eprintln!("gpu, latency 0: {}", report.summary());
@@ -51,7 +38,7 @@ fn one_frame_latency_within_the_software_bounds() {
     // Cell queries only on both sides (object queries are tested below).
     let cfg = SimConfig {
         object_queries: false,
-        ..config(1)
+        ..small_grid_config(1)
     };
     let mut backend = gpu();
     let report = simulate(&scene, &mut backend, &cfg).unwrap();
@@ -84,7 +71,7 @@ fn one_frame_latency_within_the_software_bounds() {
 #[test]
 fn object_queries_draw_fewer_objects_within_the_bounds() {
     let scene = the_grid(5, 3);
-    let with = config(1);
+    let with = small_grid_config(1);
     let without = SimConfig {
         object_queries: false,
         ..with

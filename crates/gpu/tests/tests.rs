@@ -3,9 +3,7 @@
 //! there is none.
 #![allow(clippy::unwrap_used)]
 
-use std::sync::OnceLock;
-
-use sightline_gpu::{vulkan_device, GpuBackend};
+use sightline_gpu::GpuBackend;
 use wgpu::{AdapterInfo, Device, Queue};
 
 /// The adapter is Vulkan, and a missing adapter is a loud failure.
@@ -24,15 +22,7 @@ mod wall;
 
 /// One device shared by all tests (creating a Vulkan device on lavapipe takes a while).
 fn shared_device() -> &'static (Device, Queue, AdapterInfo) {
-    static DEVICE: OnceLock<(Device, Queue, AdapterInfo)> = OnceLock::new();
-    DEVICE.get_or_init(|| {
-        vulkan_device().unwrap_or_else(|e| {
-            panic!(
-                "{e}\nThe sightline-gpu tests need a Vulkan adapter and fail rather than skip. \
-                 Install Mesa's software Vulkan driver: apt-get install -y mesa-vulkan-drivers"
-            )
-        })
-    })
+    sightline_test_support::vulkan::shared_device("sightline-gpu")
 }
 
 /// A fresh backend on the shared device.

@@ -41,13 +41,8 @@ pub enum ViewError {
     #[error("camera: {0}")]
     Camera(#[from] sightline_core::camera::CameraError),
     /// A camera path file is unreadable or malformed.
-    #[error("camera path {path}: {message}")]
-    CameraPath {
-        /// The file.
-        path: PathBuf,
-        /// What is wrong.
-        message: String,
-    },
+    #[error(transparent)]
+    CameraPath(#[from] sightline_core::camera_path::CameraPathError),
     /// Writing an output file failed.
     #[error("writing {path}: {source}")]
     Write {

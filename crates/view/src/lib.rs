@@ -11,7 +11,6 @@
 //! - `occlusion.rs`: [`OcclusionCuller`], per-frame occlusion culling of scene chunks with
 //!   `sightline_cull::OcclusionBuffer`.
 //! - `fly_camera.rs`: [`FlyCamera`], the camera controller (keys, mouse, scroll).
-//! - `camera_path.rs`: camera path files and the automatic orbit of the headless mode.
 //! - `headless.rs`: [`run_headless`], PNG frames and `frames.json` without a window.
 //! - `window.rs`: [`run_window`], the interactive window (winit).
 //!
@@ -37,7 +36,6 @@
 //! ```
 #![deny(missing_docs)]
 
-mod camera_path;
 mod error;
 mod fly_camera;
 mod headless;
@@ -46,11 +44,14 @@ mod renderer;
 mod viewer;
 mod window;
 
-pub use camera_path::{interpolate, orbit, read_camera_path, Keyframe};
+// Camera paths live in core (the culling simulation and headless builds read them too).
 pub use error::ViewError;
 pub use fly_camera::{FlyCamera, Movement};
 pub use headless::{run_headless, HeadlessReport, Offscreen, HEADLESS_FORMAT};
 pub use occlusion::{OcclusionCuller, OcclusionStats, TRIANGLES_PER_CHUNK};
 pub use renderer::{GpuFrame, IdImage, Renderer, Shading};
+pub use sightline_core::camera_path::{
+    interpolate, orbit, read_camera_path, CameraPathError, Keyframe,
+};
 pub use viewer::{FrameRecord, Method, PoppingStats, Viewer, ViewerOptions};
 pub use window::{run_window, Lens};

@@ -3,12 +3,9 @@
 //! adapter `sightline_gpu::vulkan_device` picks (lavapipe in CI) and FAIL, never skip, when
 //! there is none.
 
-use std::sync::OnceLock;
-
 use glam::Vec3;
 use sightline_core::scene::{self, LoadOptions};
 use sightline_core::{Camera, Scene};
-use sightline_gpu::vulkan_device;
 use wgpu::{AdapterInfo, Device, Queue};
 
 /// Headless frames: PNGs of the right size, not blank; `frames.json` with one record a frame.
@@ -21,15 +18,7 @@ mod reference;
 
 /// One device shared by all tests (creating a Vulkan device on lavapipe takes a while).
 fn shared_device() -> &'static (Device, Queue, AdapterInfo) {
-    static DEVICE: OnceLock<(Device, Queue, AdapterInfo)> = OnceLock::new();
-    DEVICE.get_or_init(|| {
-        vulkan_device().unwrap_or_else(|e| {
-            panic!(
-                "{e}\nThe sightline-view tests need a Vulkan adapter and fail rather than skip. \
-                 Install Mesa's software Vulkan driver: apt-get install -y mesa-vulkan-drivers"
-            )
-        })
-    })
+    sightline_test_support::vulkan::shared_device("sightline-view")
 }
 
 /// A small procedural scene.

@@ -219,9 +219,10 @@ struct TraceArgs {
     /// picks; `SIGHTLINE_GPU_ADAPTER` chooses) beside the CPU casters, on the same rays.
     #[arg(long, value_enum, default_value_t = Device::Cpu)]
     device: Device,
-    /// Children per node of the GPU caster's BVH (2, 4 or 8), to compare layouts.
-    #[arg(long, default_value_t = sightline_gpu::GpuRayCasterOptions::default().width)]
-    gpu_width: usize,
+    /// Children per node of the GPU caster's BVH (2, 4 or 8), to compare layouts (default:
+    /// the GPU caster's own, 4).
+    #[arg(long, value_name = "N")]
+    gpu_width: Option<usize>,
     /// Print JSON instead of a Markdown table.
     #[arg(long)]
     json: bool,
@@ -415,7 +416,11 @@ fn trace(args: TraceArgs) -> Result<()> {
         args.scenes.clone()
     };
     let mut rows = Vec::new();
+    if args.device == Device::Gpu && !cfg!(feature = "gpu") {
+        return Err(crate::features::not_built("gpu", "--device gpu"));
+    }
     // One device for every scene (acquiring one takes a while on lavapipe).
+    #[cfg(feature = "gpu")]
     let mut gpu = None;
     for spec in &specs {
         let scene = load(spec)?;
@@ -440,15 +445,16 @@ fn trace(args: TraceArgs) -> Result<()> {
                 Box::new(embree),
             ));
         }
+        #[cfg(feature = "gpu")]
         if args.device == Device::Gpu && gpu.is_none() {
             gpu = Some(sightline_gpu::vulkan_device()?);
         }
+        #[cfg(feature = "gpu")]
         if let Some((device, queue, info)) = &gpu {
             let t = Instant::now();
-            let options = sightline_gpu::GpuRayCasterOptions {
-                width: args.gpu_width,
-                ..Default::default()
-            };
+            let defaults = sightline_gpu::GpuRayCasterOptions::default();
+            let width = args.gpu_width.unwrap_or(defaults.width);
+            let options = sightline_gpu::GpuRayCasterOptions { width, ..defaults };
             let caster = sightline_gpu::GpuRayCaster::with_device(
                 device,
                 queue,
@@ -459,8 +465,8 @@ fn trace(args: TraceArgs) -> Result<()> {
             let exact = if caster.exact() { "" } else { ", approximate" };
             casters.push((
                 format!(
-                    "GPU BVH{} ({}, {:?}{exact})",
-                    args.gpu_width, info.name, info.device_type
+                    "GPU BVH{width} ({}, {:?}{exact})",
+                    info.name, info.device_type
                 ),
                 t.elapsed().as_secs_f64(),
                 Box::new(caster),

@@ -20,6 +20,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use glam::{Quat, Vec3};
 use serde::Serialize;
+use sightline_core::camera_path::{interpolate, read_camera_path};
 use sightline_core::scene::{self, LoadOptions};
 use sightline_core::validate::validate;
 use sightline_core::{Camera, NearPlaneRule};
@@ -27,7 +28,6 @@ use sightline_cull::scenes::{animate, graveyard, the_grid, walk_keys, CullScene}
 use sightline_cull::{
     simulate_methods_with_cameras, FrameStats, Method, SimConfig, SimReport, SoftwareBackend,
 };
-use sightline_view::{interpolate, read_camera_path};
 
 use crate::args::{parse_size, print_load_warnings, LoadLimitArgs};
 use crate::output::print_json;
@@ -103,6 +103,9 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if args.backend != "sw" && args.backend != "gpu" {
         bail!("unknown backend {:?}: use `sw` (software occlusion buffer) or `gpu` (Vulkan occlusion queries)", args.backend);
     }
+    if args.backend == "gpu" && !cfg!(feature = "gpu") {
+        return Err(crate::features::not_built("gpu", "--backend gpu"));
+    }
     if args.frames == 0 {
         bail!("--frames must be at least 1");
     }
@@ -129,22 +132,18 @@ pub(crate) fn run(args: Args) -> Result<()> {
         ..SimConfig::default()
     };
     let cameras = cameras(&args, &scene, &config)?;
-    let mut software;
-    let mut gpu;
     // On the GPU every stop-and-wait query is its own submission (hundreds of ms per frame on
     // a software Vulkan driver), so the GPU run has the grid method and frustum culling only.
-    let (backend, methods): (&mut dyn sightline_cull::OcclusionBackend, &[Method]) =
+    let (mut backend, methods): (Box<dyn sightline_cull::OcclusionBackend>, &[Method]) =
         if args.backend == "gpu" {
-            crate::headless::quiet_vulkan_layers();
-            gpu = sightline_gpu::GpuBackend::new().context("--backend gpu")?;
-            (&mut gpu, &[Method::Grid, Method::Frustum])
+            (gpu_backend()?, &[Method::Grid, Method::Frustum])
         } else {
-            software = SoftwareBackend::new(width, height);
-            (&mut software, &Method::ALL)
+            (Box::new(SoftwareBackend::new(width, height)), &Method::ALL)
         };
     let camera_of = |f: u32| cameras.get(f as usize).copied();
-    let reports = simulate_methods_with_cameras(&scene, &camera_of, backend, &config, methods)
-        .with_context(|| format!("simulating {}", args.scene))?;
+    let reports =
+        simulate_methods_with_cameras(&scene, &camera_of, &mut *backend, &config, methods)
+            .with_context(|| format!("simulating {}", args.scene))?;
     let summaries: Vec<Summary> = reports.iter().map(summarize).collect();
     if let Some(plot) = &args.plot {
         write_plot(plot, &reports, &args.scene)?;
@@ -257,6 +256,21 @@ fn load_scene(spec: &str, options: &LoadOptions) -> Result<CullScene> {
 
 /// The camera of every frame: from `--path`, else the procedural scene's own path, else a
 /// walk through the scene's bounds.
+/// The GPU occlusion backend (Vulkan occlusion queries).
+#[cfg(feature = "gpu")]
+fn gpu_backend() -> Result<Box<dyn sightline_cull::OcclusionBackend>> {
+    crate::headless::quiet_vulkan_layers();
+    Ok(Box::new(
+        sightline_gpu::GpuBackend::new().context("--backend gpu")?,
+    ))
+}
+
+/// A headless build has no GPU backend (`run` refuses `--backend gpu` before loading).
+#[cfg(not(feature = "gpu"))]
+fn gpu_backend() -> Result<Box<dyn sightline_cull::OcclusionBackend>> {
+    Err(crate::features::not_built("gpu", "--backend gpu"))
+}
+
 fn cameras(args: &Args, scene: &CullScene, config: &SimConfig) -> Result<Vec<Camera>> {
     let up = scene.scene.up.vector();
     let (w, h, fov) = (config.width, config.height, config.fov_y_deg);
@@ -409,7 +423,7 @@ fn write_plot(path: &Path, reports: &[SimReport], title: &str) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sightline_view::Keyframe;
+    use sightline_core::camera_path::Keyframe;
 
     fn key(x: f32) -> Keyframe {
         Keyframe {

@@ -386,7 +386,8 @@ fn run_bake(args: BakeArgs) -> Result<()> {
 }
 
 /// The GPU ray caster for a bake, with a line on stderr naming the adapter.
-fn gpu_caster(scene: &sightline_core::Scene) -> Result<sightline_gpu::GpuRayCaster> {
+#[cfg(feature = "gpu")]
+fn gpu_caster(scene: &sightline_core::Scene) -> Result<Box<dyn RayCaster>> {
     let caster = sightline_gpu::GpuRayCaster::new(scene, Default::default())?;
     let info = caster.adapter_info();
     eprintln!("casting rays on {} ({:?})", info.name, info.device_type);
@@ -396,10 +397,19 @@ fn gpu_caster(scene: &sightline_core::Scene) -> Result<sightline_gpu::GpuRayCast
              caster's in the last bits, and the PVS slightly from a CPU bake's"
         );
     }
-    Ok(caster)
+    Ok(Box::new(caster))
+}
+
+/// A headless build has no GPU caster (`bake_command` refuses `--device gpu` before loading).
+#[cfg(not(feature = "gpu"))]
+fn gpu_caster(_scene: &sightline_core::Scene) -> Result<Box<dyn RayCaster>> {
+    Err(crate::features::not_built("gpu", "--device gpu"))
 }
 
 fn bake_command(args: &BakeArgs) -> Result<()> {
+    if args.device == Device::Gpu && !cfg!(feature = "gpu") {
+        return Err(crate::features::not_built("gpu", "--device gpu"));
+    }
     // The --since file may be the output: it is read whole before the output is replaced,
     // so an in-place incremental rebake is safe.
     let mut inputs = vec![Path::new(&args.scene.scene)];
@@ -496,7 +506,7 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
         Device::Gpu => Some(gpu_caster(&scene)?),
     };
     let caster: &dyn RayCaster = match &gpu {
-        Some(g) => g,
+        Some(g) => g.as_ref(),
         None => &bvh,
     };
     let setup = BakeSetup {

@@ -5,20 +5,11 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Context, Result};
-use glam::Vec3;
-use sightline_core::{Camera, NearPlaneRule};
-use sightline_region::PvsFile;
-use sightline_view::{
-    interpolate, orbit, read_camera_path, run_headless, run_window, FlyCamera, Lens, Method,
-    Viewer, ViewerOptions,
-};
-
 use crate::args::{CameraArgs, SceneArgs};
-use crate::output::print_json;
 
 /// Arguments of `sightline view`.
 #[derive(clap::Args, Debug)]
+#[cfg_attr(not(feature = "viewer"), allow(dead_code))]
 pub(crate) struct Args {
     #[command(flatten)]
     scene: SceneArgs,
@@ -57,135 +48,162 @@ pub(crate) struct Args {
     json: bool,
 }
 
-pub(crate) fn run(args: Args) -> Result<()> {
-    if let Some(frames) = args.frames {
-        crate::limits::check_frames(u64::from(frames), "--frames")?;
+/// Runs the viewer, or says that this build has none.
+pub(crate) fn run(args: Args) -> anyhow::Result<()> {
+    #[cfg(feature = "viewer")]
+    return window_or_headless::run(args);
+    #[cfg(not(feature = "viewer"))]
+    {
+        let _ = args;
+        Err(crate::features::not_built("viewer", "`sightline view`"))
     }
-    if let Some(out) = &args.out {
-        let mut inputs = vec![std::path::Path::new(&args.scene.scene)];
-        inputs.extend(args.pvs.as_deref());
-        inputs.extend(args.path.as_deref());
-        crate::output::refuse_overwriting_inputs(&[out, &out.join("frames.json")], &inputs)?;
-    }
-    let scene = args.scene.load()?;
-    // The near plane is checked on the cameras used: the start (window) or the path (headless).
-    let camera = args.camera.camera_unchecked(&scene)?;
-    let look = args.camera.look.unwrap_or(scene.bounds().center());
-    let up = args.camera.up.unwrap_or(scene.up.vector());
-    let pvs = match &args.pvs {
-        Some(p) => Some(PvsFile::load(p).with_context(|| format!("reading {}", p.display()))?),
-        None => None,
-    };
-    let method = match &args.method {
-        Some(name) => Method::parse(name).with_context(|| {
-            format!("unknown method {name:?}: use none, pvs, occlusion or exact")
-        })?,
-        None if pvs.is_some() => Method::Pvs,
-        None => Method::None,
-    };
-    if method == Method::Pvs && pvs.is_none() {
-        bail!("--method pvs needs --pvs FILE");
-    }
-    if args.exact_divisor == 0 {
-        bail!("--exact-divisor must be at least 1");
-    }
-    let diagonal = scene.bounds().diagonal().max(1e-6);
-    let options = ViewerOptions {
-        exact_divisor: args.exact_divisor,
-        ..Default::default()
-    };
-    let source = args.scene.scene.clone();
-    let mut viewer = Viewer::new(scene, pvs, options).with_context(|| {
-        format!(
-            "{} does not go with {}",
-            args.pvs
-                .as_ref()
-                .map_or(String::new(), |p| p.display().to_string()),
-            source
-        )
-    })?;
-    viewer.set_method(method);
-    viewer.shading.xray = args.xray;
+}
 
-    let (Some(frames), Some(out)) = (args.frames, &args.out) else {
-        args.camera.warn_if_near_hides(viewer.scene(), &[camera]);
-        let speed = args.speed.unwrap_or(diagonal * 0.05);
-        let fly = FlyCamera::new(camera.eye, look, up, speed).context("invalid camera")?;
-        let lens = Lens {
-            fov_y_deg: camera.fov_y_deg,
-            near: camera.near,
+/// The viewer itself (cargo feature `viewer`).
+#[cfg(feature = "viewer")]
+mod window_or_headless {
+    use anyhow::{bail, Context, Result};
+    use glam::Vec3;
+    use sightline_core::{Camera, NearPlaneRule};
+    use sightline_region::PvsFile;
+    use sightline_view::{
+        interpolate, orbit, read_camera_path, run_headless, run_window, FlyCamera, Lens, Method,
+        Viewer, ViewerOptions,
+    };
+
+    use super::Args;
+    use crate::output::print_json;
+
+    pub(super) fn run(args: Args) -> Result<()> {
+        if let Some(frames) = args.frames {
+            crate::limits::check_frames(u64::from(frames), "--frames")?;
+        }
+        if let Some(out) = &args.out {
+            let mut inputs = vec![std::path::Path::new(&args.scene.scene)];
+            inputs.extend(args.pvs.as_deref());
+            inputs.extend(args.path.as_deref());
+            crate::output::refuse_overwriting_inputs(&[out, &out.join("frames.json")], &inputs)?;
+        }
+        let scene = args.scene.load()?;
+        // The near plane is checked on the cameras used: the start (window) or the path (headless).
+        let camera = args.camera.camera_unchecked(&scene)?;
+        let look = args.camera.look.unwrap_or(scene.bounds().center());
+        let up = args.camera.up.unwrap_or(scene.up.vector());
+        let pvs = match &args.pvs {
+            Some(p) => Some(PvsFile::load(p).with_context(|| format!("reading {}", p.display()))?),
+            None => None,
         };
-        return run_window(viewer, fly, lens, camera.width, camera.height)
-            .context("the viewer window (headless: --frames N --out DIR)");
-    };
-    if frames == 0 {
-        bail!("--frames must be at least 1");
-    }
-
-    let n = frames as usize;
-    let poses = match &args.path {
-        Some(path) => {
-            let keys = read_camera_path(path)?;
-            (0..n).map(|f| interpolate(&keys, f, n)).collect()
+        let method = match &args.method {
+            Some(name) => Method::parse(name).with_context(|| {
+                format!("unknown method {name:?}: use none, pvs, occlusion or exact")
+            })?,
+            None if pvs.is_some() => Method::Pvs,
+            None => Method::None,
+        };
+        if method == Method::Pvs && pvs.is_none() {
+            bail!("--method pvs needs --pvs FILE");
         }
-        None => orbit(camera.eye, look, up, n),
-    };
-    // One near plane for the whole path, by the default rule at every eye on it (the start
-    // eye's could clip what a later frame passes close to).
-    let near = match args.camera.near {
-        Some(near) => near,
-        None => {
-            let eyes: Vec<Vec3> = poses.iter().map(|&(eye, _)| eye).collect();
-            NearPlaneRule::new(viewer.scene()).along(&eyes)
+        if args.exact_divisor == 0 {
+            bail!("--exact-divisor must be at least 1");
         }
-    };
-    let cameras = poses
-        .into_iter()
-        .enumerate()
-        .map(|(f, (eye, look))| {
-            Camera::look_at(
-                eye,
-                look,
-                up,
-                camera.fov_y_deg,
-                camera.width,
-                camera.height,
-                near,
+        let diagonal = scene.bounds().diagonal().max(1e-6);
+        let options = ViewerOptions {
+            exact_divisor: args.exact_divisor,
+            ..Default::default()
+        };
+        let source = args.scene.scene.clone();
+        let mut viewer = Viewer::new(scene, pvs, options).with_context(|| {
+            format!(
+                "{} does not go with {}",
+                args.pvs
+                    .as_ref()
+                    .map_or(String::new(), |p| p.display().to_string()),
+                source
             )
-            .with_context(|| {
-                format!(
-                    "frame {f}: no camera from eye {eye} looking at {look} (eye equal to look, \
-                     or looking along the up axis?)"
+        })?;
+        viewer.set_method(method);
+        viewer.shading.xray = args.xray;
+
+        let (Some(frames), Some(out)) = (args.frames, &args.out) else {
+            args.camera.warn_if_near_hides(viewer.scene(), &[camera]);
+            let speed = args.speed.unwrap_or(diagonal * 0.05);
+            let fly = FlyCamera::new(camera.eye, look, up, speed).context("invalid camera")?;
+            let lens = Lens {
+                fov_y_deg: camera.fov_y_deg,
+                near: camera.near,
+            };
+            return run_window(viewer, fly, lens, camera.width, camera.height)
+                .context("the viewer window (headless: --frames N --out DIR)");
+        };
+        if frames == 0 {
+            bail!("--frames must be at least 1");
+        }
+
+        let n = frames as usize;
+        let poses = match &args.path {
+            Some(path) => {
+                let keys = read_camera_path(path)?;
+                (0..n).map(|f| interpolate(&keys, f, n)).collect()
+            }
+            None => orbit(camera.eye, look, up, n),
+        };
+        // One near plane for the whole path, by the default rule at every eye on it (the start
+        // eye's could clip what a later frame passes close to).
+        let near = match args.camera.near {
+            Some(near) => near,
+            None => {
+                let eyes: Vec<Vec3> = poses.iter().map(|&(eye, _)| eye).collect();
+                NearPlaneRule::new(viewer.scene()).along(&eyes)
+            }
+        };
+        let cameras = poses
+            .into_iter()
+            .enumerate()
+            .map(|(f, (eye, look))| {
+                Camera::look_at(
+                    eye,
+                    look,
+                    up,
+                    camera.fov_y_deg,
+                    camera.width,
+                    camera.height,
+                    near,
                 )
+                .with_context(|| {
+                    format!(
+                        "frame {f}: no camera from eye {eye} looking at {look} (eye equal to look, \
+                         or looking along the up axis?)"
+                    )
+                })
             })
-        })
-        .collect::<Result<Vec<_>>>()?;
-    args.camera.warn_if_near_hides(viewer.scene(), &cameras);
-    crate::headless::quiet_vulkan_layers();
-    let (device, queue, info) = sightline_gpu::vulkan_device()?;
-    let report = run_headless(&device, &queue, &info.name, &mut viewer, &cameras, out)?;
-    if args.json {
-        return print_json(&report);
+            .collect::<Result<Vec<_>>>()?;
+        args.camera.warn_if_near_hides(viewer.scene(), &cameras);
+        crate::headless::quiet_vulkan_layers();
+        let (device, queue, info) = sightline_gpu::vulkan_device()?;
+        let report = run_headless(&device, &queue, &info.name, &mut viewer, &cameras, out)?;
+        if args.json {
+            return print_json(&report);
+        }
+        let drawn_mean = report
+            .frames
+            .iter()
+            .map(|f| f.triangles_drawn as f64)
+            .sum::<f64>()
+            / report.frames.len().max(1) as f64;
+        outln!(
+            "wrote {} frames ({}x{}, method {}) and frames.json to {} on {}: {:.0} of {} triangles \
+             drawn on average, popping max {} px, mean {:.1} px per frame (GPU id-image compare)",
+            report.frames.len(),
+            report.width,
+            report.height,
+            method.name(),
+            out.display(),
+            report.adapter,
+            drawn_mean,
+            viewer.scene().triangle_count(),
+            report.popping.max,
+            report.popping_mean,
+        );
+        Ok(())
     }
-    let drawn_mean = report
-        .frames
-        .iter()
-        .map(|f| f.triangles_drawn as f64)
-        .sum::<f64>()
-        / report.frames.len().max(1) as f64;
-    outln!(
-        "wrote {} frames ({}x{}, method {}) and frames.json to {} on {}: {:.0} of {} triangles \
-         drawn on average, popping max {} px, mean {:.1} px per frame (GPU id-image compare)",
-        report.frames.len(),
-        report.width,
-        report.height,
-        method.name(),
-        out.display(),
-        report.adapter,
-        drawn_mean,
-        viewer.scene().triangle_count(),
-        report.popping.max,
-        report.popping_mean,
-    );
-    Ok(())
 }

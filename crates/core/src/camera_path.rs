@@ -1,13 +1,29 @@
-//! Camera paths for the headless viewer: a JSON file of keyframes (the format of
-//! `sightline cull --path`: `{"frames": [{"eye": [x, y, z], "look": [x, y, z]}, ...]}`,
+//! Camera paths: a JSON file of keyframes (the format of `sightline cull --path` and of the
+//! viewer's headless mode: `{"frames": [{"eye": [x, y, z], "look": [x, y, z]}, ...]}`,
 //! interpolated linearly when it has fewer keyframes than frames), or an automatic orbit.
+//!
+//! Here rather than in the viewer because the culling simulation replays the same paths, and a
+//! headless build (no window, no GPU) must read them too.
 
-use std::path::Path;
+use std::io::Read;
+use std::path::{Path, PathBuf};
 
 use glam::{Quat, Vec3};
 use serde::Deserialize;
 
-use crate::error::ViewError;
+/// The largest camera path file read: 16 MiB is about 250,000 keyframes, far more than any
+/// flight needs; a larger file is refused before it is parsed.
+pub const MAX_CAMERA_PATH_BYTES: u64 = 16 << 20;
+
+/// A camera path file that cannot be used; the message names what is wrong.
+#[derive(Debug, thiserror::Error)]
+#[error("camera path {}: {message}", path.display())]
+pub struct CameraPathError {
+    /// The file.
+    pub path: PathBuf,
+    /// What is wrong with it.
+    pub message: String,
+}
 
 /// One keyframe: eye and look-at point.
 #[derive(Deserialize, Debug, Clone, Copy, PartialEq)]
@@ -25,13 +41,23 @@ struct PathFile {
     frames: Vec<Keyframe>,
 }
 
-/// Reads a camera path file; errors name the file and the bad keyframe.
-pub fn read_camera_path(path: &Path) -> Result<Vec<Keyframe>, ViewError> {
-    let err = |message: String| ViewError::CameraPath {
+/// Reads a camera path file (at most [`MAX_CAMERA_PATH_BYTES`]); errors name the file and the
+/// bad keyframe.
+pub fn read_camera_path(path: &Path) -> Result<Vec<Keyframe>, CameraPathError> {
+    let err = |message: String| CameraPathError {
         path: path.to_path_buf(),
         message,
     };
-    let text = std::fs::read_to_string(path).map_err(|e| err(e.to_string()))?;
+    let mut text = String::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_CAMERA_PATH_BYTES + 1).read_to_string(&mut text))
+        .map_err(|e| err(e.to_string()))?;
+    if text.len() as u64 > MAX_CAMERA_PATH_BYTES {
+        return Err(err(format!(
+            "larger than the limit of {} MiB for a camera path",
+            MAX_CAMERA_PATH_BYTES >> 20
+        )));
+    }
     let file: PathFile = serde_json::from_str(&text).map_err(|e| {
         err(format!(
             "{e}; expected {{\"frames\": [{{\"eye\": [x, y, z], \"look\": [x, y, z]}}, ...]}}"
@@ -125,5 +151,16 @@ mod tests {
         assert!(read_camera_path(&p).is_err());
         std::fs::write(&p, r#"{"frames": [{"eye": [0,0,0], "look": [1,0,0]}]}"#).unwrap();
         assert_eq!(read_camera_path(&p).unwrap().len(), 1);
+    }
+
+    #[test]
+    fn oversized_path_files_are_refused_without_being_parsed() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("huge.json");
+        let f = std::fs::File::create(&p).unwrap();
+        // A sparse file: its size is past the limit without writing 16 MiB.
+        f.set_len(MAX_CAMERA_PATH_BYTES + 10).unwrap();
+        let e = read_camera_path(&p).unwrap_err().to_string();
+        assert!(e.contains("huge.json") && e.contains("limit"), "{e}");
     }
 }
