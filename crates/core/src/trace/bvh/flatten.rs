@@ -12,7 +12,7 @@ use crate::scene::Scene;
 
 use super::build::{self, Node, NodePair, MAX_LEAF};
 use super::collapse::{open_children, MAX_WIDTH};
-use super::triangle_boxes;
+use super::input::triangle_boxes;
 
 /// What a child slot of a [`FlatBvh`] node holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
