@@ -60,8 +60,12 @@ use std::path::Path;
 
 use glam::Vec3;
 
+use super::builder::SceneBuilder;
+use super::error::{LoadError, Location};
 use super::limits::{show_bytes, RAISE};
-use super::{text, LoadError, LoadOptions, Location, Object, Scene, SceneBuilder};
+use super::options::LoadOptions;
+use super::text;
+use super::types::{Object, Scene};
 
 /// Loads an OBJ file from its (decompressed) bytes with the default [`LoadOptions`]; `path` is
 /// for error messages.
