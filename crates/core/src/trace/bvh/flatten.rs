@@ -19,7 +19,7 @@ use super::input::triangle_boxes;
 pub enum FlatLink {
     /// An unused slot (nodes have fewer children than the width where the tree runs out).
     Empty,
-    /// The inner node at this index of [`FlatBvh::nodes`].
+    /// The inner node at this index ([`FlatBvh::node`]).
     Inner(u32),
     /// A leaf: `count` (1 to [`FlatBvh::MAX_LEAF`]) triangles from position `first` of
     /// [`FlatBvh::triangles`] on.
