@@ -381,7 +381,7 @@ mod tests {
     /// 2-unit box standing on it at the origin.
     fn ground_and_box(half: f32) -> Scene {
         let mut b = SceneBuilder::new("ground and box");
-        b.set_up(crate::UpAxis::Z);
+        b.set_up(crate::scene::UpAxis::Z);
         let v = [(-half, -half), (half, -half), (half, half), (-half, half)]
             .map(|(x, y)| b.add_vertex(Vec3::new(x, y, 0.0)));
         b.add_triangle([v[0], v[1], v[2]]);
@@ -398,7 +398,7 @@ mod tests {
     /// The 2-unit box alone.
     fn box_only() -> Scene {
         let mut b = SceneBuilder::new("box");
-        b.set_up(crate::UpAxis::Z);
+        b.set_up(crate::scene::UpAxis::Z);
         b.add_box(Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 2.0));
         b.finish()
     }

@@ -17,7 +17,7 @@ use std::fmt;
 use serde::Serialize;
 
 use crate::geometry::Aabb;
-use crate::scene::Scene;
+use crate::scene::types::Scene;
 
 /// How many example ids each finding lists.
 const EXAMPLES: usize = 8;
@@ -274,7 +274,7 @@ fn push_example(list: &mut Vec<u32>, id: u32) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::SceneBuilder;
+    use crate::scene::builder::SceneBuilder;
     use glam::Vec3;
 
     fn unit_triangle() -> SceneBuilder {

@@ -64,8 +64,8 @@ use sightline_core::trace::RayCaster;
 use sightline_core::{Hit, Ray};
 use wgpu::{AdapterInfo, Device, Queue};
 
+use crate::device::{vulkan_device, GpuError};
 use crate::ray_layout::{GpuBvh, GpuRay};
-use crate::{vulkan_device, GpuError};
 
 /// Invocations per workgroup (`@workgroup_size` in `ray_cast.wgsl`).
 const WORKGROUP: u32 = 64;

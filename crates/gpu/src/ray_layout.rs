@@ -32,7 +32,7 @@ use sightline_core::trace::bvh::{FlatBvh, FlatLink};
 use sightline_core::trace::triangle::ShearedRay;
 use sightline_core::Ray;
 
-use crate::GpuError;
+use crate::device::GpuError;
 
 /// An unused child slot.
 pub(crate) const EMPTY: u32 = u32::MAX;

@@ -10,7 +10,7 @@
 //!
 //! Memory: 32 bytes per node, about one node per two cells, and 4 bytes per cell.
 
-use crate::Cell;
+use crate::types::Cell;
 
 impl Cell {
     /// The tolerance of [`Cell::contains`]: 1e-5 of the cell's size (and of its distance

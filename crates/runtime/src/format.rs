@@ -8,7 +8,7 @@
 
 use std::ops::Range;
 
-use crate::Error;
+use crate::error::Error;
 
 /// The file's first eight bytes (the CR LF and Ctrl-Z catch text-mode mangling, as PNG's do).
 pub const MAGIC: [u8; 8] = *b"SLPVS\r\n\x1a";

@@ -31,6 +31,7 @@
 mod cell_index;
 mod error;
 pub mod format;
+mod types;
 
 use std::ops::Range;
 use std::path::Path;
@@ -39,6 +40,7 @@ use std::sync::Arc;
 use cell_index::CellIndex;
 pub use error::Error;
 use format::{decode_set, read_vec3, Layout, NO_INDEX};
+pub use types::{Cell, Object};
 
 /// The largest file [`Pvs::open`] reads unless told otherwise (4 GiB: offsets in the format
 /// are 32-bit per set, and a bigger file is more likely a wrong path than a bake).
@@ -74,33 +76,6 @@ impl std::fmt::Debug for Pvs {
             .field("triangles", &self.layout.triangle_count)
             .finish_non_exhaustive()
     }
-}
-
-/// A view cell: an oriented box (one half extent may be 0: a rectangle).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Cell {
-    /// Centre.
-    pub center: [f32; 3],
-    /// The cell's local x, y, z axes (orthonormal unit vectors).
-    pub axes: [[f32; 3]; 3],
-    /// Half extents along the axes.
-    pub half_extents: [f32; 3],
-}
-
-/// One object of the baked scene: what an engine draws as a mesh instance.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Object<'a> {
-    /// The object's name from the scene file (glTF: node path `Root/House/Door.001`; see
-    /// `docs/objects.md` for every format).
-    pub name: &'a str,
-    /// Format-specific number: glTF node index, Quake 3 model number; `None` elsewhere.
-    pub index: Option<u32>,
-    /// Format-specific part: glTF primitive index, Quake 3 shader index; `None` elsewhere.
-    pub part: Option<u32>,
-    /// Minimum corner of the bounds of its triangles (`+inf` for an object with none).
-    pub bounds_min: [f32; 3],
-    /// Maximum corner (`-inf` for an object with no triangles).
-    pub bounds_max: [f32; 3],
 }
 
 impl Pvs {

@@ -27,6 +27,7 @@
 //! id, so the frame does not depend on thread scheduling.
 
 mod clip;
+mod frame;
 mod setup;
 mod tiled;
 
@@ -36,67 +37,9 @@ use crate::camera::{Camera, CameraError};
 use crate::scene::Scene;
 use crate::TriangleSet;
 
+pub use frame::Frame;
 pub use setup::SUBPIXEL_BITS;
 pub use tiled::{Rasterizer, BAND_ROWS, CHUNK};
-
-/// A rendered frame: per-pixel triangle id ([`crate::Hit::NONE`] for background) and view depth.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Frame {
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-    /// Triangle id per pixel, row-major, top row first.
-    pub ids: Vec<u32>,
-    /// View depth per pixel (`f32::INFINITY` for background).
-    pub depth: Vec<f32>,
-}
-
-impl Frame {
-    /// A `width × height` frame of background.
-    pub fn new(width: u32, height: u32) -> Self {
-        let mut f = Self {
-            width: 0,
-            height: 0,
-            ids: Vec::new(),
-            depth: Vec::new(),
-        };
-        f.reset(width, height);
-        f
-    }
-
-    /// Resizes to `width × height` (keeping the allocation) and fills with background.
-    pub(crate) fn reset(&mut self, width: u32, height: u32) {
-        let n = width as usize * height as usize;
-        self.width = width;
-        self.height = height;
-        self.ids.clear();
-        self.ids.resize(n, tiled::BACKGROUND);
-        self.depth.clear();
-        self.depth.resize(n, f32::INFINITY);
-    }
-
-    /// The id at pixel `(x, y)`, `None` for background or outside the frame.
-    pub fn id_at(&self, x: u32, y: u32) -> Option<u32> {
-        if x >= self.width || y >= self.height {
-            return None;
-        }
-        let id = self.ids[y as usize * self.width as usize + x as usize];
-        (id != tiled::BACKGROUND).then_some(id)
-    }
-
-    /// The set of triangle ids visible in the frame, over `n_triangles` ids (ids at or above
-    /// `n_triangles` are ignored).
-    pub fn visible_set(&self, n_triangles: usize) -> TriangleSet {
-        let mut set = TriangleSet::with_capacity(n_triangles);
-        for &id in &self.ids {
-            if (id as usize) < n_triangles {
-                set.insert(id as usize);
-            }
-        }
-        set
-    }
-}
 
 /// Renders `scene` from `camera`.
 pub fn render(scene: &Scene, camera: &Camera) -> Frame {

@@ -17,13 +17,12 @@ use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use crate::camera::{Camera, ScreenMapping as Projection};
-use crate::geometry::Hit;
 use crate::scene::Scene;
 use crate::TriangleSet;
 
 use super::clip::{clip_guard_band, clip_near, Poly, GUARD_BAND};
+use super::frame::Frame;
 use super::setup::{count_coverage, rasterize, setup, snap, Band, RasterTri};
-use super::Frame;
 
 /// Rows per tile (band). 32 keeps 32+ bands in flight at 1024² for load balance.
 pub const BAND_ROWS: u32 = 32;
@@ -254,6 +253,3 @@ fn setup_triangle(
         emit([fixed[0], fixed[k], fixed[k + 1]]);
     }
 }
-
-/// Frame background value for ids (re-exported for readability in `mod.rs`).
-pub(crate) const BACKGROUND: u32 = Hit::NONE;

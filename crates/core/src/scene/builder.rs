@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 
-use super::{Object, Scene, UpAxis};
+use super::types::{Object, Scene, UpAxis};
 
 /// Where a generator puts its geometry: a [`SceneBuilder`], or a consumer that hands the
 /// triangles on without keeping the scene (e.g. a streaming visibility pass). Vertex indices

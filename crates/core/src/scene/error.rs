@@ -78,7 +78,7 @@ pub enum LoadError {
         spec: String,
         /// What is wrong.
         #[source]
-        error: super::procedural::SpecError,
+        error: super::procedural::params::SpecError,
     },
 }
 

@@ -72,8 +72,11 @@ use glam::{Mat4, Vec3};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::{Mode, Semantic};
 
+use super::builder::SceneBuilder;
+use super::error::{LoadError, Location};
 use super::limits::{check_geometry, show_bytes, RAISE};
-use super::{LoadError, LoadOptions, Location, Object, Scene, SceneBuilder};
+use super::options::LoadOptions;
+use super::types::{Object, Scene};
 
 const GLB_MAGIC: &[u8; 4] = b"glTF";
 const CHUNK_JSON: u32 = 0x4E4F_534A;

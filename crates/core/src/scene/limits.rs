@@ -6,7 +6,8 @@
 use std::io::Read;
 use std::path::Path;
 
-use super::{LoadError, LoadOptions, Location};
+use super::error::{LoadError, Location};
+use super::options::LoadOptions;
 
 /// Scene memory of one vertex (a `Vec3`), the figure of the [`super`] module docs ("Memory").
 pub(crate) const VERTEX_BYTES: u64 = 12;

@@ -42,9 +42,9 @@
 //!   one object), or `default` before any `usemtl`. These names may repeat (fzk_haus has 177
 //!   such objects and 11 material names); an engine that imported the file as one mesh treats
 //!   them together.
-//! - [`Object::index`] and [`Object::part`] are `None`, except in files written by [`write`].
+//! - [`Object::index`] and [`Object::part`] are `None`, except in files written by [`write()`].
 //!
-//! [`write`] precedes each `o` line with a comment `# sightline-object K [index I] [part P]`
+//! [`write()`] precedes each `o` line with a comment `# sightline-object K [index I] [part P]`
 //! (K = the object's id, I and P its `index` and `part` when set). When the `o`/`g` line that
 //! starts a face run directly follows such a comment (other lines may come between, but no
 //! other `o`/`g`), the run joins object K instead of the object of its name: all runs with the
@@ -60,8 +60,12 @@ use std::path::Path;
 
 use glam::Vec3;
 
+use super::builder::SceneBuilder;
+use super::error::{LoadError, Location};
 use super::limits::{show_bytes, RAISE};
-use super::{text, LoadError, LoadOptions, Location, Object, Scene, SceneBuilder};
+use super::options::LoadOptions;
+use super::text;
+use super::types::{Object, Scene};
 
 /// Loads an OBJ file from its (decompressed) bytes with the default [`LoadOptions`]; `path` is
 /// for error messages.
@@ -219,7 +223,7 @@ pub fn load_with(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Sce
     Ok(builder.finish())
 }
 
-/// The comment word that [`write`] puts before each `o` line.
+/// The comment word that [`write()`] puts before each `o` line.
 const TAG: &str = "sightline-object";
 
 /// A `# sightline-object K [index I] [part P]` comment (see the module docs, "Objects").

@@ -35,8 +35,11 @@ use std::path::Path;
 
 use glam::Vec3;
 
+use super::builder::SceneBuilder;
+use super::error::{LoadError, Location};
 use super::limits::check_geometry;
-use super::{LoadError, LoadOptions, Location, Scene, SceneBuilder};
+use super::options::LoadOptions;
+use super::types::Scene;
 
 /// A scalar type of the PLY header.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -26,8 +26,12 @@ use std::path::Path;
 
 use glam::Vec3;
 
+use super::builder::SceneBuilder;
+use super::error::{LoadError, Location};
 use super::limits::check_geometry;
-use super::{text, LoadError, LoadOptions, Location, Scene, SceneBuilder};
+use super::options::LoadOptions;
+use super::text;
+use super::types::Scene;
 
 /// Binary record size: normal, three corners (12 bytes each), `u16` attribute.
 const RECORD: u64 = 50;

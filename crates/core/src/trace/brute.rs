@@ -6,8 +6,8 @@ use rayon::prelude::*;
 use crate::geometry::{Hit, Ray};
 use crate::scene::Scene;
 
+use super::ray_caster::RayCaster;
 use super::triangle::{intersect, ShearedRay};
-use super::RayCaster;
 
 /// Tests every triangle for every ray. Use only on small scenes.
 #[derive(Debug)]

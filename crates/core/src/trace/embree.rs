@@ -27,7 +27,7 @@ use rayon::prelude::*;
 use crate::geometry::{Hit, Ray};
 use crate::scene::Scene;
 
-use super::RayCaster;
+use super::ray_caster::RayCaster;
 
 /// Rays per `rayon` task.
 const RAYS_PER_TASK: usize = 64;
@@ -378,7 +378,7 @@ mod tests {
     use super::*;
     use crate::geometry::Aabb;
     use crate::scene::SceneBuilder;
-    use crate::trace::Bvh;
+    use crate::trace::bvh::Bvh;
 
     /// xorshift64*, fixed seed.
     struct Rng(u64);

@@ -11,7 +11,7 @@ use glam::Vec3;
 use crate::camera::Camera;
 use crate::geometry::{Aabb, Hit, Ray};
 
-use super::RayCaster;
+use super::ray_caster::RayCaster;
 
 /// Rays per second of `caster` closest-hit casting `rays` in one batch, repeated until at least
 /// `min_seconds` have passed (at least once). Returns 0 for no rays.

@@ -3,7 +3,7 @@
 use glam::Vec3;
 
 use crate::random::SplitMix64;
-use crate::scene::SceneBuilder;
+use crate::scene::builder::SceneBuilder;
 
 /// Volume edge length.
 const EXTENT: f32 = 100.0;

@@ -8,7 +8,8 @@
 use glam::Vec3;
 
 use crate::random::SplitMix64;
-use crate::scene::{SceneBuilder, UpAxis};
+use crate::scene::builder::SceneBuilder;
+use crate::scene::types::UpAxis;
 
 const EXTENT: f32 = 1000.0;
 const CHUNK: usize = 16;

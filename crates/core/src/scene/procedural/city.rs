@@ -8,9 +8,10 @@
 
 use glam::Vec3;
 
-use super::{add_box_on_floor, add_quad};
+use super::shapes::{add_box_on_floor, add_quad};
 use crate::random::SplitMix64;
-use crate::scene::{SceneBuilder, TriangleSink, UpAxis};
+use crate::scene::builder::{SceneBuilder, TriangleSink};
+use crate::scene::types::UpAxis;
 
 const LOTS: usize = 4;
 const LOT: f32 = 20.0;
@@ -134,7 +135,7 @@ mod tests {
         let mut total = 0;
         let mut blocks = 0;
         loop {
-            let mut c = crate::scene::CountingSink::default();
+            let mut c = crate::scene::builder::CountingSink::default();
             if !city.next_block(&mut c) {
                 break;
             }

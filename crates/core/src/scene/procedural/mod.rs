@@ -19,148 +19,18 @@
 mod boxes;
 mod canyon;
 mod city;
+pub(super) mod params;
 mod rooms;
+mod shapes;
 mod spheres;
 mod spikes;
 mod zoneplate;
 
-use glam::Vec3;
-
-use super::{Scene, SceneBuilder, TriangleSink};
+use super::builder::SceneBuilder;
+use super::types::Scene;
 
 pub use city::City;
-
-/// The generator names, in the order `--help` lists them.
-pub const GENERATORS: [&str; 7] = [
-    "city",
-    "rooms",
-    "canyon",
-    "boxes",
-    "spheres",
-    "spikes",
-    "zoneplate",
-];
-
-/// The largest `size` accepted: beyond this a scene would not fit the memory of the machines
-/// this is built for (about 24 bytes per triangle plus ray-casting structures).
-pub const MAX_SIZE: usize = 200_000_000;
-
-/// Parameters of a procedural scene.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Params {
-    /// Generator name, one of [`GENERATORS`].
-    pub name: String,
-    /// Random seed.
-    pub seed: u64,
-    /// Approximate triangle count.
-    pub size: usize,
-}
-
-/// Why the part of a spec after `procedural:` does not parse.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[non_exhaustive]
-pub enum SpecError {
-    /// The name is none of [`GENERATORS`].
-    #[error("unknown generator '{name}' (known: {})", GENERATORS.join(", "))]
-    UnknownGenerator {
-        /// The name as given.
-        name: String,
-    },
-    /// A query part without `=`.
-    #[error("'{pair}' is not key=value")]
-    NotKeyValue {
-        /// The part as given.
-        pair: String,
-    },
-    /// A value that is not a non-negative integer (`_` separators allowed).
-    #[error("{key}={value}: not a non-negative integer")]
-    NotANumber {
-        /// The key.
-        key: String,
-        /// The value as given.
-        value: String,
-    },
-    /// A `size` of 0 or above [`MAX_SIZE`].
-    #[error("size={size}: must be in 1..={MAX_SIZE}")]
-    SizeOutOfRange {
-        /// The size given.
-        size: usize,
-    },
-    /// A key other than `seed` and `size`.
-    #[error("unknown parameter '{key}' (known: seed, size)")]
-    UnknownParameter {
-        /// The key as given.
-        key: String,
-    },
-}
-
-impl Params {
-    /// Default parameters of generator `name` (seed 1, a size that renders in well under a
-    /// second).
-    pub fn new(name: &str) -> Self {
-        let size = match name {
-            "city" => 20_000,
-            "rooms" => 8_000,
-            "canyon" => 32_000,
-            "spheres" => 20_000,
-            _ => 12_000,
-        };
-        Self {
-            name: name.to_string(),
-            seed: 1,
-            size,
-        }
-    }
-
-    /// Parses `NAME[?seed=S&size=N]` (the part after `procedural:`).
-    pub fn parse(s: &str) -> Result<Self, SpecError> {
-        let (name, query) = s.split_once('?').unwrap_or((s, ""));
-        if !GENERATORS.contains(&name) {
-            return Err(SpecError::UnknownGenerator {
-                name: name.to_string(),
-            });
-        }
-        let mut params = Self::new(name);
-        for pair in query.split('&').filter(|p| !p.is_empty()) {
-            let (key, value) = pair.split_once('=').ok_or_else(|| SpecError::NotKeyValue {
-                pair: pair.to_string(),
-            })?;
-            let number = || {
-                value
-                    .replace('_', "")
-                    .parse::<u64>()
-                    .map_err(|_| SpecError::NotANumber {
-                        key: key.to_string(),
-                        value: value.to_string(),
-                    })
-            };
-            match key {
-                "seed" => params.seed = number()?,
-                "size" => {
-                    let n = number()? as usize;
-                    if n == 0 || n > MAX_SIZE {
-                        return Err(SpecError::SizeOutOfRange { size: n });
-                    }
-                    params.size = n;
-                }
-                _ => {
-                    return Err(SpecError::UnknownParameter {
-                        key: key.to_string(),
-                    })
-                }
-            }
-        }
-        Ok(params)
-    }
-
-    /// The spec string that parses back to these parameters.
-    pub fn spec(&self) -> String {
-        format!(
-            "procedural:{}?seed={}&size={}",
-            self.name, self.seed, self.size
-        )
-    }
-}
+pub use params::{Params, SpecError, GENERATORS, MAX_SIZE};
 
 /// Generates the scene. Unknown names (not produced by [`Params::parse`]) give boxes.
 pub fn generate(params: &Params) -> Scene {
@@ -175,24 +45,6 @@ pub fn generate(params: &Params) -> Scene {
         _ => boxes::generate(&mut b, params.seed, params.size),
     }
     b.finish()
-}
-
-/// Adds an axis-aligned box with Z up but without its bottom (-Z) face: buildings and walls
-/// stand on a floor, and a bottom face coplanar with the floor would only make depth ties.
-fn add_box_on_floor<S: TriangleSink + ?Sized>(b: &mut S, min: Vec3, max: Vec3) {
-    super::builder::add_box_faces(b, min, max, false);
-}
-
-/// Adds a quad `a b c d` (counter-clockwise seen from the side it faces) as two triangles.
-fn add_quad<S: TriangleSink + ?Sized>(b: &mut S, a: Vec3, bb: Vec3, c: Vec3, d: Vec3) {
-    let i = [
-        b.add_vertex(a),
-        b.add_vertex(bb),
-        b.add_vertex(c),
-        b.add_vertex(d),
-    ];
-    b.add_triangle([i[0], i[1], i[2]]);
-    b.add_triangle([i[0], i[2], i[3]]);
 }
 
 #[cfg(test)]

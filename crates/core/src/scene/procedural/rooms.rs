@@ -9,9 +9,10 @@
 
 use glam::Vec3;
 
-use super::{add_box_on_floor, add_quad};
+use super::shapes::{add_box_on_floor, add_quad};
 use crate::random::SplitMix64;
-use crate::scene::{SceneBuilder, UpAxis};
+use crate::scene::builder::SceneBuilder;
+use crate::scene::types::UpAxis;
 
 const ROOM: f32 = 6.0;
 const WALL: f32 = 0.2;

@@ -4,7 +4,7 @@
 use glam::Vec3;
 
 use crate::random::SplitMix64;
-use crate::scene::SceneBuilder;
+use crate::scene::builder::SceneBuilder;
 
 const EXTENT: f32 = 100.0;
 /// Latitude bands and longitude segments per sphere: 2*24*(12-1) = 528 triangles.

@@ -5,7 +5,7 @@
 use glam::Vec3;
 
 use crate::random::SplitMix64;
-use crate::scene::SceneBuilder;
+use crate::scene::builder::SceneBuilder;
 
 pub(super) fn generate(b: &mut SceneBuilder, seed: u64, size: usize) {
     // Four triangles per pyramid, n x n pyramids.

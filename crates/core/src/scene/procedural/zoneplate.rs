@@ -6,7 +6,7 @@
 
 use glam::Vec3;
 
-use crate::scene::SceneBuilder;
+use crate::scene::builder::SceneBuilder;
 
 /// Rings per plate (half of them solid). Ring `k` spans radii `R sqrt(k / RINGS) ..
 /// R sqrt((k + 1) / RINGS)`: equal areas, so outer rings are thin.

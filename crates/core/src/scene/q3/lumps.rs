@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use super::super::{LoadError, Location};
+use super::super::error::{LoadError, Location};
 
 /// Size of the header: magic, version, 17 directory entries of two `int32`.
 pub(super) const HEADER_BYTES: usize = 8 + 17 * 8;

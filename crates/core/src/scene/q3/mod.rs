@@ -52,7 +52,7 @@
 //! Every offset, count and index in the file is checked before use; errors name the lump and
 //! record (`lump 13 (surfaces), record 12`) or the byte offset of the header field.
 
-mod data;
+pub(super) mod data;
 mod entities;
 mod lumps;
 mod patch;
@@ -61,7 +61,10 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use super::{LoadError, LoadOptions, Location, Scene, SceneBuilder, UpAxis};
+use super::builder::SceneBuilder;
+use super::error::{LoadError, Location};
+use super::options::LoadOptions;
+use super::types::{Scene, UpAxis};
 use crate::geometry::Aabb;
 pub use data::{BspData, Leaf, Model, Node, Plane, Shader, Surface, SurfaceFlags, SurfaceKind};
 pub use entities::Entity;
@@ -637,7 +640,7 @@ fn assign_objects(scene: &mut Scene, bsp: &BspData) {
                 (0, c) => format!("model0/cluster{c}/{shader_name}"),
                 (m, _) => format!("model{m}/{shader_name}"),
             };
-            super::Object {
+            super::types::Object {
                 name,
                 index: Some(model),
                 part: Some(shader),

@@ -12,14 +12,14 @@ use crate::scene::Scene;
 
 use super::build::{self, Node, NodePair, MAX_LEAF};
 use super::collapse::{open_children, MAX_WIDTH};
-use super::triangle_boxes;
+use super::input::triangle_boxes;
 
 /// What a child slot of a [`FlatBvh`] node holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FlatLink {
     /// An unused slot (nodes have fewer children than the width where the tree runs out).
     Empty,
-    /// The inner node at this index of [`FlatBvh::nodes`].
+    /// The inner node at this index ([`FlatBvh::node`]).
     Inner(u32),
     /// A leaf: `count` (1 to [`FlatBvh::MAX_LEAF`]) triangles from position `first` of
     /// [`FlatBvh::triangles`] on.

@@ -20,7 +20,8 @@
 //! `traverse.rs` (the one traversal loop, closest-hit and any-hit), `node.rs` (the
 //! `WideNode` trait both are generic over), one file per node layout (`node4.rs`,
 //! `node8.rs`: the node, its child encoding and its SIMD box test) and `slab.rs` (the box test
-//! every layout's kernel equals). This file picks the layout and drives the rest.
+//! every layout's kernel equals). `input.rs` says which triangles the tree holds and their boxes.
+//! This file picks the layout and drives the rest.
 //! `flatten.rs` hands the same tree, collapsed to any width, to engines outside this crate
 //! (the GPU ray caster of `sightline-gpu`) as plain arrays ([`FlatBvh`]).
 //!
@@ -51,6 +52,7 @@
 mod build;
 mod collapse;
 mod flatten;
+mod input;
 mod node;
 mod node4;
 mod node8;
@@ -62,17 +64,17 @@ mod traverse;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::geometry::{Aabb, Hit, Ray};
+use crate::geometry::{Hit, Ray};
 use crate::scene::Scene;
 
+use super::ray_caster::RayCaster;
 use super::tri4::Tri4;
-use super::RayCaster;
 use collapse::collapse;
 pub use flatten::{FlatBvh, FlatChild, FlatLink};
-use node::WideNode;
+use input::{corners, triangle_boxes};
+use node::{Tree, WideNode};
 use node4::Node4;
 use node8::Node8;
-use traverse::Tree;
 
 /// Rays per `rayon` task in [`Bvh::cast`].
 const RAYS_PER_TASK: usize = 64;
@@ -127,31 +129,6 @@ impl Width {
         }
         Width::Four
     }
-}
-
-/// True when the triangle can ever be hit: finite corners and a non-zero cross product.
-fn usable(corners: [Vec3; 3]) -> bool {
-    let [a, b, c] = corners;
-    a.is_finite() && b.is_finite() && c.is_finite() && (b - a).cross(c - a) != Vec3::ZERO
-}
-
-/// The corners of triangle `t` of `scene`; `None` when an index is out of range.
-fn corners(scene: &Scene, t: &[u32; 3]) -> Option<[Vec3; 3]> {
-    let p = |i: u32| scene.positions.get(i as usize).copied();
-    Some([p(t[0])?, p(t[1])?, p(t[2])?])
-}
-
-/// The box of every triangle of `scene` by id, [`Aabb::EMPTY`] for those the leaf test can never
-/// hit (an index out of range, a non-finite corner, zero area): the build leaves them out.
-fn triangle_boxes(scene: &Scene) -> Vec<Aabb> {
-    scene
-        .triangles
-        .par_iter()
-        .map(|t| match corners(scene, t) {
-            Some(c) if usable(c) => Aabb::from_points(c),
-            _ => Aabb::EMPTY,
-        })
-        .collect()
 }
 
 impl Bvh {

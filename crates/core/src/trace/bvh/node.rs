@@ -1,15 +1,16 @@
 //! What a wide node layout of [`super::Bvh`] provides, so that one collapse (`collapse.rs`) and
 //! one traversal (`traverse.rs`) serve every width. A new layout (another width, compressed
 //! boxes, another SIMD kernel) is one new file implementing [`WideNode`], plus its variant in
-//! `Nodes` and its pick in `Width` (`mod.rs`).
+//! `Nodes` and its pick in `Width` (`mod.rs`). The two types the trait's methods name live here
+//! too, beside it: the traversal stack's [`Entry`] and the [`Tree`] a traversal reads.
 //!
 //! Based on: Embree's `kernels/bvh` (one BVH-N traverser templated on the node width N).
 
 use crate::geometry::{Hit, Ray};
+use crate::trace::tri4::Tri4;
 
 use super::build::Node;
 use super::slab::BoxRay;
-use super::traverse::{Entry, Tree};
 
 /// A node of up to [`WideNode::WIDTH`] children: their boxes side by side (one SIMD lane per
 /// child) and, per child, either an inner node's index or a leaf's run of packets.
@@ -70,4 +71,20 @@ pub(super) trait WideNode: Copy + Sized {
     /// # Safety
     /// As [`WideNode::enter`].
     unsafe fn occluded(tree: Tree<'_, Self>, rays: &[Ray], out: &mut [bool]);
+}
+
+/// A node on the traversal stack: what the parent node says of the child, and its entry
+/// distance.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Entry<C> {
+    pub(super) child: C,
+    pub(super) t: f32,
+}
+
+/// The arrays one traversal reads: the nodes (the root first) and the triangle packets in leaf
+/// order.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Tree<'a, N> {
+    pub(super) nodes: &'a [N],
+    pub(super) packets: &'a [Tri4],
 }

@@ -19,9 +19,9 @@ use std::arch::x86_64::{
 use crate::geometry::{Hit, Ray};
 
 use super::build::Node;
-use super::node::WideNode;
+use super::node::{Entry, Tree, WideNode};
 use super::slab::{empty_boxes, set_lane, BoxRay, Boxes};
-use super::traverse::{self, stack_size, Entry, Tree};
+use super::traverse::{self, stack_size};
 
 /// A 4-wide node (see the module documentation). Unused slots have [`empty_boxes`]'
 /// never-entered boxes.

@@ -21,9 +21,9 @@ use std::arch::x86_64::{
 use crate::geometry::{Hit, Ray};
 
 use super::build::{Node, MAX_LEAF};
-use super::node::WideNode;
+use super::node::{Entry, Tree, WideNode};
 use super::slab::{empty_boxes, set_lane, BoxRay, Boxes};
-use super::traverse::{self, stack_size, Entry, Tree};
+use super::traverse::{self, stack_size};
 
 /// Bits of a slot that hold a leaf's packet count.
 const PACKET_BITS: u32 = 3;

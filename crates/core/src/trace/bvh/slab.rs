@@ -143,7 +143,7 @@ pub(super) mod kernel_tests {
     }
 
     /// The box ahead and the flat box touching the ray are entered at 1, nothing else.
-    pub(in super::super) fn hits_box_ahead_only<const N: usize>(
+    pub(crate) fn hits_box_ahead_only<const N: usize>(
         enter: impl Fn(&BoxRay, &Boxes<N>, f32, f32) -> ([f32; N], u32),
     ) {
         let r = BoxRay::new(&Ray::new(Vec3::ZERO, Vec3::X), 0.0).expect("usable ray");
@@ -154,7 +154,7 @@ pub(super) mod kernel_tests {
     }
 
     /// [`empty_boxes`] are never entered, whatever the signs of the direction.
-    pub(in super::super) fn empty_boxes_are_never_entered<const N: usize>(
+    pub(crate) fn empty_boxes_are_never_entered<const N: usize>(
         enter: impl Fn(&BoxRay, &Boxes<N>, f32, f32) -> ([f32; N], u32),
     ) {
         for dir in [Vec3::X, Vec3::NEG_Y, Vec3::new(0.0, -0.0, 1.0), Vec3::ONE] {
@@ -167,7 +167,7 @@ pub(super) mod kernel_tests {
 
     /// `enter` gives the reference's mask and, for entered lanes, its bits, on random boxes;
     /// node `i` uses the first `used(i)` lanes and leaves the rest empty slots.
-    pub(in super::super) fn equals_scalar_on_random_boxes<const N: usize>(
+    pub(crate) fn equals_scalar_on_random_boxes<const N: usize>(
         enter: impl Fn(&BoxRay, &Boxes<N>, f32, f32) -> ([f32; N], u32),
         used: impl Fn(usize) -> usize,
     ) {

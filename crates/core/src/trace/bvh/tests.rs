@@ -3,6 +3,7 @@
 
 use super::build::PARALLEL_BIN;
 use super::*;
+use crate::geometry::Aabb;
 use crate::scene::SceneBuilder;
 use crate::trace::BruteForce;
 

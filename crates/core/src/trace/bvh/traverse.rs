@@ -21,7 +21,7 @@ use crate::trace::tri4::{intersect4, Tri4};
 use crate::trace::triangle::ShearedRay;
 
 use super::build::MAX_SAH_DEPTH;
-use super::node::WideNode;
+use super::node::{Entry, Tree, WideNode};
 use super::slab::BoxRay;
 
 /// `gamma(n) = n eps / (1 - n eps)` of Pharr et al. with `eps = 2^-24`.
@@ -43,22 +43,6 @@ const CULL_SLACK: f32 = 16.0 * gamma(3.0);
 /// sorting).
 pub(super) const fn stack_size(width: usize) -> usize {
     (width - 1) * (MAX_SAH_DEPTH as usize + 32) + 1
-}
-
-/// A node on the traversal stack: what the parent node says of the child, and its entry
-/// distance.
-#[derive(Clone, Copy, Debug, Default)]
-pub(super) struct Entry<C> {
-    child: C,
-    t: f32,
-}
-
-/// The arrays one traversal reads: the nodes (the root first) and the triangle packets in leaf
-/// order.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Tree<'a, N> {
-    pub(super) nodes: &'a [N],
-    pub(super) packets: &'a [Tri4],
 }
 
 /// `t` moved up by the culling slack (infinity stays infinity).
