@@ -274,19 +274,21 @@ fn round_trip_glb_fzk_haus() {
 /// Mutations per fixture; `SIGHTLINE_FUZZ_ITERATIONS` overrides it for longer local runs.
 const ITERATIONS: usize = 5000;
 
-/// Tiny xorshift64* generator: deterministic across platforms, no dependency.
-struct XorShift(u64);
+/// The fuzz tests' generator: the project's SplitMix64 (deterministic on every platform) with
+/// `usize` bounds, 0 for an empty range.
+struct Fuzz(sightline_core::random::SplitMix64);
 
-impl XorShift {
+impl Fuzz {
+    fn new(seed: u64) -> Self {
+        Self(sightline_core::random::SplitMix64::new(seed))
+    }
+
     fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+        self.0.next_u64()
     }
 
     fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
+        self.0.below(n.max(1) as u64) as usize
     }
 }
 
@@ -322,7 +324,7 @@ const NUMBER_WORDS: &[u32] = &[
     0x7149_F2CA, // 1e30
 ];
 
-fn mutate(rng: &mut XorShift, original: &[u8]) -> Vec<u8> {
+fn mutate(rng: &mut Fuzz, original: &[u8]) -> Vec<u8> {
     let mut b = original.to_vec();
     for _ in 0..1 + rng.below(3) {
         if b.is_empty() {
@@ -419,7 +421,7 @@ fn fuzz(name: &str, original: &[u8], load: Loader, seed: u64) {
             run(&original[..len], &format!("truncation at {len}"));
         }
     }
-    let mut rng = XorShift(seed);
+    let mut rng = Fuzz::new(seed);
     for i in 0..iterations {
         let bytes = mutate(&mut rng, original);
         run(&bytes, &format!("mutation {i}"));

@@ -377,18 +377,16 @@ impl RayCaster for EmbreeCaster {
 mod tests {
     use super::*;
     use crate::geometry::Aabb;
+    use crate::random::SplitMix64;
     use crate::scene::SceneBuilder;
     use crate::trace::bvh::Bvh;
 
-    /// xorshift64*, fixed seed.
-    struct Rng(u64);
+    /// Random points and directions from the project's generator, fixed seeds.
+    struct Rng(SplitMix64);
 
     impl Rng {
         fn unit(&mut self) -> f32 {
-            self.0 ^= self.0 >> 12;
-            self.0 ^= self.0 << 25;
-            self.0 ^= self.0 >> 27;
-            ((self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 40) as f32) / (1u32 << 24) as f32
+            self.0.next_f32()
         }
 
         fn point(&mut self, b: &Aabb) -> Vec3 {
@@ -408,7 +406,7 @@ mod tests {
     }
 
     fn random_boxes(n: usize, seed: u64) -> Scene {
-        let mut rng = Rng(seed);
+        let mut rng = Rng(SplitMix64::new(seed));
         let mut b = SceneBuilder::new("random boxes");
         let region = Aabb::new(Vec3::ZERO, Vec3::splat(20.0));
         for _ in 0..n {
@@ -420,7 +418,7 @@ mod tests {
     }
 
     fn random_soup(n: usize, seed: u64) -> Scene {
-        let mut rng = Rng(seed);
+        let mut rng = Rng(SplitMix64::new(seed));
         let mut b = SceneBuilder::new("random soup");
         let region = Aabb::new(Vec3::ZERO, Vec3::splat(10.0));
         for i in 0..n {
@@ -439,7 +437,7 @@ mod tests {
     }
 
     fn random_rays(bounds: Aabb, n: usize, seed: u64) -> Vec<Ray> {
-        let mut rng = Rng(seed);
+        let mut rng = Rng(SplitMix64::new(seed));
         (0..n)
             .map(|_| Ray::new(rng.point(&bounds), rng.direction()))
             .collect()

@@ -171,16 +171,11 @@ pub(super) mod kernel_tests {
         enter: impl Fn(&BoxRay, &Boxes<N>, f32, f32) -> ([f32; N], u32),
         used: impl Fn(usize) -> usize,
     ) {
-        // xorshift64*, fixed seed; coordinates on a coarse lattice so that origins often lie on
-        // planes (NaN distances) and directions often have (signed) zero components.
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            state ^= state >> 12;
-            state ^= state << 25;
-            state ^= state >> 27;
-            (state.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 40) as u32
-        };
-        let mut coord = || (next() % 9) as f32 - 4.0;
+        // The project's generator, fixed seed; coordinates on a coarse lattice so that origins
+        // often lie on planes (NaN distances) and directions often have (signed) zero
+        // components.
+        let mut rng = crate::random::SplitMix64::new(0x9e37_79b9_7f4a_7c15);
+        let mut coord = || rng.below(9) as f32 - 4.0;
         for i in 0..20_000 {
             let mut boxes = empty_boxes::<N>();
             for a in 0..3 {

@@ -4,27 +4,29 @@
 use super::build::PARALLEL_BIN;
 use super::*;
 use crate::geometry::Aabb;
+use crate::random::SplitMix64;
 use crate::scene::SceneBuilder;
 use crate::trace::BruteForce;
 
-/// xorshift64*: a tiny fixed-seed generator so the tests need no dependency.
-struct Rng(u64);
+/// Random points, directions and sizes from the project's generator, fixed seeds.
+struct Rng(SplitMix64);
 
 impl Rng {
+    fn new(seed: u64) -> Self {
+        Self(SplitMix64::new(seed))
+    }
+
     fn next_u32(&mut self) -> u32 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 32) as u32
+        (self.0.next_u64() >> 32) as u32
     }
 
     /// Uniform in `[0, 1)`.
     fn unit(&mut self) -> f32 {
-        (self.next_u32() >> 8) as f32 / (1u32 << 24) as f32
+        self.0.next_f32()
     }
 
     fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.unit()
+        self.0.range_f32(lo, hi)
     }
 
     fn point(&mut self, b: &Aabb) -> Vec3 {
@@ -58,7 +60,7 @@ fn one_triangle() -> Scene {
 
 /// `n` small random triangles in a 10-unit cube, with a few degenerate ones mixed in.
 fn random_soup(n: usize, seed: u64) -> Scene {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     let mut b = SceneBuilder::new("random soup");
     let cube = Aabb::new(Vec3::ZERO, Vec3::splat(10.0));
     for i in 0..n {
@@ -81,7 +83,7 @@ fn random_soup(n: usize, seed: u64) -> Scene {
 /// A 6x6x3 grid of unit boxes that touch along faces and edges (many ties on shared
 /// edges and faces), plus random boxes.
 fn box_scene(seed: u64) -> Scene {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     let mut b = SceneBuilder::new("boxes");
     for x in 0..6 {
         for y in 0..6 {
@@ -106,7 +108,7 @@ fn box_scene(seed: u64) -> Scene {
 /// scene, random and axis-aligned directions (with zero and negative-zero components),
 /// lattice origins on box faces and edges, and limited `t` ranges.
 fn random_rays(bounds: Aabb, n: usize, seed: u64) -> Vec<Ray> {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     let grown = Aabb::new(bounds.min - 2.0, bounds.max + 2.0);
     let axes = [
         Vec3::X,
@@ -242,7 +244,7 @@ fn identical_centroids_match_brute_force() {
     let h = Bvh::build(&scene).cast_one(&Ray::new(Vec3::new(5.0, 5.0, 9.0), Vec3::NEG_Z));
     assert_eq!(h.triangle, 0);
     // Rays aimed at the disc the triangles cover, plus the usual mix.
-    let mut rng = Rng(7);
+    let mut rng = Rng::new(7);
     let around = Aabb::new(Vec3::ZERO, Vec3::splat(10.0));
     let mut rays = random_rays(scene.bounds(), 1000, 8);
     for _ in 0..1000 {
