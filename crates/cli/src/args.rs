@@ -3,7 +3,7 @@
 use anyhow::{bail, Context, Result};
 use glam::Vec3;
 use sightline_core::near_plane::{default_near, near_clipping, nearest_distance};
-use sightline_core::scene::{self, LoadOptions};
+use sightline_core::scene::{self, LoadOptions, UpAxis};
 use sightline_core::validate::validate;
 use sightline_core::{Camera, Scene};
 
@@ -42,6 +42,14 @@ pub(crate) struct LoadLimitArgs {
     /// paths, `../`); by default only files in that folder or below it are read.
     #[arg(long)]
     pub allow_outside_refs: bool,
+    /// The scene's up axis, whatever the file says or sightline infers: x, y or z. glTF is
+    /// Y-up and Quake 3 maps Z-up; OBJ, PLY and STL state no axis, so sightline takes the
+    /// axis along which the scene is flat (its extent below a quarter of both others: cities,
+    /// terrains) and Y otherwise, and says so in a warning when it is not Y. The axis sets the
+    /// default camera's up vector and the report's map from above; `convert -o FILE.glb`
+    /// writes the scene turned Y-up, as glTF requires.
+    #[arg(long, value_name = "AXIS", value_parser = parse_up_axis)]
+    pub up_axis: Option<UpAxis>,
 }
 
 impl Default for LoadLimitArgs {
@@ -50,8 +58,14 @@ impl Default for LoadLimitArgs {
         Self {
             max_scene_bytes: options.max_scene_bytes,
             allow_outside_refs: options.allow_outside_refs,
+            up_axis: options.up_axis,
         }
     }
+}
+
+/// `--up-axis`: x, y or z.
+fn parse_up_axis(s: &str) -> Result<UpAxis, String> {
+    UpAxis::parse(s).ok_or_else(|| format!("{s:?} is not an axis: use x, y or z"))
 }
 
 impl LoadLimitArgs {
@@ -61,6 +75,7 @@ impl LoadLimitArgs {
             patch_subdivisions,
             max_scene_bytes: self.max_scene_bytes,
             allow_outside_refs: self.allow_outside_refs,
+            up_axis: self.up_axis,
         }
     }
 }

@@ -516,3 +516,47 @@ fn exact_listing_keeps_triangles_above_the_stated_area() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("--min-area"), "{}", stderr(&o));
 }
+
+/// A flat OBJ (a 400 x 300 x 30 m block, Z up) is inferred Z-up with a warning naming the
+/// rule, `--up-axis` overrides it (and the warning goes), and bad axes are refused.
+#[test]
+fn up_axis_is_inferred_for_flat_meshes_and_overridable() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut obj = String::new();
+    for (x, y, z) in [
+        (0, 0, 0),
+        (400, 0, 0),
+        (400, 300, 0),
+        (0, 300, 0),
+        (0, 0, 30),
+        (400, 0, 30),
+        (400, 300, 30),
+        (0, 300, 30),
+    ] {
+        obj.push_str(&format!("v {x} {y} {z}\n"));
+    }
+    obj.push_str("f 1 2 3\nf 1 3 4\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\n");
+    std::fs::write(dir.path().join("block.obj"), obj).unwrap();
+    let info = |extra: &[&str]| {
+        let o = sightline(
+            &[&["info", "block.obj", "--json"], extra].concat(),
+            dir.path(),
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        (v["up"].as_str().unwrap().to_string(), stderr(&o))
+    };
+    let (up, err) = info(&[]);
+    assert_eq!(up, "Z");
+    assert!(
+        err.contains("up axis Z inferred") && err.contains("flat along Z"),
+        "{err}"
+    );
+    let (up, err) = info(&["--up-axis", "y"]);
+    assert_eq!(up, "Y");
+    assert!(!err.contains("inferred"), "{err}");
+    assert_eq!(info(&["--up-axis", "X"]).0, "X");
+    let o = sightline(&["info", "block.obj", "--up-axis", "w"], dir.path());
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("use x, y or z"), "{}", stderr(&o));
+}

@@ -1148,3 +1148,86 @@ fn header_fuzz_glb() {
         }
     }
 }
+
+/// A flat box (a city block: 400 x 300 m, 30 m high, Z up) as an OBJ file.
+fn flat_block_obj(dir: &Path) -> PathBuf {
+    let mut b = SceneBuilder::new("block");
+    b.add_box(Vec3::ZERO, Vec3::new(400.0, 300.0, 30.0));
+    let mut out = Vec::new();
+    scene::obj::write(&b.finish(), &mut out).unwrap();
+    let p = dir.join("block.obj");
+    std::fs::write(&p, out).unwrap();
+    p
+}
+
+/// OBJ, PLY and STL do not state an up axis: a flat scene is inferred up along its flat
+/// axis (with a load warning saying so), a compact one keeps Y, and `up_axis` overrides both.
+#[test]
+fn mesh_files_get_an_inferred_up_axis_that_options_override() {
+    let dir = tempfile::tempdir().unwrap();
+    let block = flat_block_obj(dir.path());
+    let s = scene::load_file(&block, &LoadOptions::default()).unwrap();
+    assert_eq!(s.up, scene::UpAxis::Z);
+    assert!(
+        s.load_warnings
+            .iter()
+            .any(|w| w.contains("up axis Z inferred") && w.contains("--up-axis")),
+        "{:?}",
+        s.load_warnings
+    );
+    let forced = LoadOptions {
+        up_axis: Some(scene::UpAxis::Y),
+        ..LoadOptions::default()
+    };
+    let s = scene::load_file(&block, &forced).unwrap();
+    assert_eq!(s.up, scene::UpAxis::Y);
+    assert!(s.load_warnings.is_empty(), "{:?}", s.load_warnings);
+    // The bunny is about as tall as it is wide: Y, the convention, and nothing to say.
+    let bunny = open_shared("models/bunny.obj");
+    assert_eq!(bunny.up, scene::UpAxis::Y);
+    assert!(bunny.load_warnings.is_empty(), "{:?}", bunny.load_warnings);
+    // The shared city meshes are Z-up PLY files: flat, so Z.
+    assert_eq!(open_shared("city/etoile.ply.gz").up, scene::UpAxis::Z);
+    // Procedural scenes keep their own axis unless overridden.
+    assert_eq!(
+        open("procedural:city?size=2000", &LoadOptions::default())
+            .unwrap()
+            .up,
+        scene::UpAxis::Z
+    );
+    assert_eq!(
+        open("procedural:city?size=2000", &forced).unwrap().up,
+        scene::UpAxis::Y
+    );
+}
+
+/// glTF is Y-up: a Z-up scene is written turned upright (its height along +Y, as other tools
+/// expect) with its axis in the scene's extras, and loads back with the same coordinates,
+/// ids and up axis.
+#[test]
+fn glb_of_a_z_up_scene_is_y_up_and_loads_back_unchanged() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = scene::load_file(&flat_block_obj(dir.path()), &LoadOptions::default()).unwrap();
+    assert_eq!(s.up, scene::UpAxis::Z);
+    let mut glb = Vec::new();
+    scene::gltf::write_glb(&s, &mut glb).unwrap();
+    // The JSON chunk: length at byte 12, text from byte 20.
+    let len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let json: serde_json::Value = serde_json::from_slice(&glb[20..20 + len]).unwrap();
+    assert_eq!(json["scenes"][0]["extras"]["sightline"]["up"], "z");
+    let max = &json["accessors"][0]["max"];
+    assert_eq!(max[1].as_f64().unwrap(), 30.0, "height along +Y: {max}");
+    let back = scene::gltf::load(Path::new("back.glb"), &glb).unwrap();
+    assert_eq!(back.up, scene::UpAxis::Z);
+    assert_eq!(back.geometry_hash(), s.geometry_hash());
+    // A Y-up scene is written as it is, with no tag.
+    let mut y_up = s.clone();
+    y_up.up = scene::UpAxis::Y;
+    let mut glb = Vec::new();
+    scene::gltf::write_glb(&y_up, &mut glb).unwrap();
+    let back = scene::gltf::load(Path::new("back.glb"), &glb).unwrap();
+    assert_eq!(
+        (back.up, back.geometry_hash()),
+        (scene::UpAxis::Y, s.geometry_hash())
+    );
+}

@@ -345,6 +345,7 @@ pub fn animate(scene: Scene) -> CullScene {
     let diag = bounds.diagonal().max(1e-6);
     let up = scene.up.vector();
     let (h1, h2) = match scene.up {
+        UpAxis::X => (Vec3::Y, Vec3::Z),
         UpAxis::Z => (Vec3::X, Vec3::Y),
         UpAxis::Y => (Vec3::X, Vec3::Z),
     };

@@ -57,11 +57,7 @@ fn checked(scene: Scene, what: &str) -> PyResult<PyScene> {
 }
 
 fn parse_up(up: &str) -> PyResult<UpAxis> {
-    match up {
-        "y" | "Y" => Ok(UpAxis::Y),
-        "z" | "Z" => Ok(UpAxis::Z),
-        _ => Err(value_error(format!("up axis '{up}': use 'y' or 'z'"))),
-    }
+    UpAxis::parse(up).ok_or_else(|| value_error(format!("up axis '{up}': use 'x', 'y' or 'z'")))
 }
 
 /// What `Scene.load` takes: a `str` is a spec (a path or `procedural:...`); any other
@@ -192,6 +188,7 @@ impl PyScene {
     #[getter]
     fn up(&self) -> &'static str {
         match self.data.scene.up {
+            UpAxis::X => "x",
             UpAxis::Y => "y",
             UpAxis::Z => "z",
         }

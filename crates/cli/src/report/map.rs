@@ -26,9 +26,14 @@ pub(crate) struct Plan {
 
 impl Plan {
     /// Seen from above along `up`: Z-up scenes show (x, y); Y-up scenes show (x, -z) (looking
-    /// down -Y with +X to the right, -Z points up the page).
+    /// down -Y with +X to the right, -Z points up the page); X-up scenes show (y, z).
     pub(crate) fn new(up: UpAxis) -> Self {
         match up {
+            UpAxis::X => Self {
+                right: Vec3::Y,
+                forward: Vec3::Z,
+                up: Vec3::X,
+            },
             UpAxis::Z => Self {
                 right: Vec3::X,
                 forward: Vec3::Y,

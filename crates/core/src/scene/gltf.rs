@@ -76,7 +76,7 @@ use super::builder::SceneBuilder;
 use super::error::{LoadError, Location};
 use super::limits::{check_geometry, show_bytes, RAISE};
 use super::options::LoadOptions;
-use super::types::{Object, Scene};
+use super::types::{Object, Scene, UpAxis};
 
 const GLB_MAGIC: &[u8; 4] = b"glTF";
 const CHUNK_JSON: u32 = 0x4E4F_534A;
@@ -848,7 +848,33 @@ fn build_scene(
         }
         builder.sort_objects_by_key(&keys);
     }
-    Ok(builder.finish())
+    let mut scene = builder.finish();
+    // A file `write_glb` wrote from a scene that was not Y-up holds that scene turned Y-up
+    // (as glTF requires) and names the original axis: turn it back, exactly, so the loaded
+    // scene has the original coordinates and ids (and so the `.pvs` files baked from it).
+    if let Some(up) = written_up_axis(doc) {
+        for p in &mut scene.positions {
+            *p = up.from_y_up(*p);
+        }
+        scene.up = up;
+    }
+    Ok(scene)
+}
+
+/// The up axis `write_glb` recorded in the default scene's `extras.sightline.up`, if any.
+fn written_up_axis(doc: &gltf::Document) -> Option<UpAxis> {
+    #[derive(serde::Deserialize)]
+    struct Extras {
+        sightline: Tag,
+    }
+    #[derive(serde::Deserialize)]
+    struct Tag {
+        up: String,
+    }
+    let scene = doc.default_scene().or_else(|| doc.scenes().next())?;
+    let raw = scene.extras().as_ref()?;
+    let extras: Extras = serde_json::from_str(raw.get()).ok()?;
+    UpAxis::parse(&extras.sightline.up)
 }
 
 /// The `extras.sightline` member of a node written by [`write_glb`]:
@@ -888,6 +914,11 @@ impl SightlineTag {
 /// `extras.sightline = {"object", "name", "index", "part"}` names the object it belongs to
 /// (module docs, "Objects"), so loading the result with [`load`] also gives the same objects:
 /// ids, names, `index` and `part`. Objects without triangles are not written.
+///
+/// glTF is Y-up: a scene with another up axis is written turned so that its up axis is +Y (an
+/// exact rotation, [`UpAxis::to_y_up`]), so other tools show it upright, and the scene's
+/// `extras.sightline.up` names the original axis, so [`load`] turns it back: the same
+/// coordinates, geometry hash and up axis as before writing.
 pub fn write_glb(scene: &Scene, w: &mut impl Write) -> io::Result<()> {
     let mut bin: Vec<u8> = Vec::new();
     let mut meshes = Vec::new();
@@ -922,7 +953,9 @@ pub fn write_glb(scene: &Scene, w: &mut impl Write) -> io::Result<()> {
         let mut max = Vec3::splat(f32::MIN);
         let position_offset = bin.len();
         for &i in &used {
-            let p = scene.positions[i as usize];
+            // glTF is Y-up: other scenes are turned (exactly) and the scene's extras say from
+            // which axis, so `load` turns them back.
+            let p = scene.up.to_y_up(scene.positions[i as usize]);
             // min/max must be numbers in JSON; non-finite coordinates are left out of them.
             if p.is_finite() {
                 min = min.min(p);
@@ -982,6 +1015,9 @@ pub fn write_glb(scene: &Scene, w: &mut impl Write) -> io::Result<()> {
         "scene": 0,
         "scenes": [{ "nodes": [] }],
     });
+    if scene.up != UpAxis::Y {
+        root["scenes"][0]["extras"] = serde_json::json!({ "sightline": { "up": scene.up.name() } });
+    }
     if !meshes.is_empty() {
         root["scenes"][0]["nodes"] = (0..meshes.len()).collect::<Vec<_>>().into();
         root["nodes"] = nodes.into();

@@ -31,12 +31,14 @@ mod spec;
 pub mod stl;
 mod text;
 pub(crate) mod types;
+mod up_axis;
 
 pub use builder::{CountingSink, SceneBuilder, TriangleSink};
 pub use error::{LoadError, Location};
 pub use options::LoadOptions;
 pub use spec::{load_file, open, SceneSpec};
 pub use types::{Object, Scene, UpAxis};
+pub use up_axis::{infer_up_axis, UpInference, FLAT_RATIO};
 
 #[cfg(test)]
 mod tests {

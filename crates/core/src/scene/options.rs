@@ -2,6 +2,8 @@
 //! loaders and the limit checks take their options from here, not from `spec.rs`, which
 //! dispatches to the loaders.
 
+use super::types::UpAxis;
+
 /// Options that change how files are turned into triangles, and the limits of loading.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LoadOptions {
@@ -19,6 +21,11 @@ pub struct LoadOptions {
     /// file from elsewhere cannot make the loader read `/etc/passwd` or `../../secret`;
     /// `true` also follows absolute paths and paths that leave the folder.
     pub allow_outside_refs: bool,
+    /// The scene's up axis, whatever the file says or the loader would infer (`--up-axis`).
+    /// `None` (the default): glTF is Y-up, Quake 3 maps Z-up, sightline's own `.glb` files
+    /// keep the axis they were written from, and OBJ, PLY and STL files are inferred
+    /// ([`infer_up_axis`](super::infer_up_axis)).
+    pub up_axis: Option<UpAxis>,
 }
 
 impl LoadOptions {
@@ -36,6 +43,7 @@ impl Default for LoadOptions {
             patch_subdivisions: 4,
             max_scene_bytes: Self::DEFAULT_MAX_SCENE_BYTES,
             allow_outside_refs: false,
+            up_axis: None,
         }
     }
 }

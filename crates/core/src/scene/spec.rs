@@ -7,6 +7,7 @@ use super::limits::read_capped;
 use super::options::LoadOptions;
 use super::procedural;
 use super::types::Scene;
+use super::up_axis::infer_up_axis;
 
 /// A parsed scene spec.
 #[derive(Clone, Debug, PartialEq)]
@@ -35,7 +36,13 @@ impl SceneSpec {
 /// Loads or generates the scene named by `spec` (see [`SceneSpec::parse`]).
 pub fn open(spec: &str, options: &LoadOptions) -> Result<Scene, LoadError> {
     match SceneSpec::parse(spec)? {
-        SceneSpec::Procedural(params) => Ok(procedural::generate(&params)),
+        SceneSpec::Procedural(params) => {
+            let mut scene = procedural::generate(&params);
+            if let Some(up) = options.up_axis {
+                scene.up = up;
+            }
+            Ok(scene)
+        }
         SceneSpec::File(path) => load_file(&path, options),
     }
 }
@@ -105,6 +112,23 @@ pub fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene, LoadError>
         }
     };
     scene.source = path.display().to_string();
+    match options.up_axis {
+        Some(up) => scene.up = up,
+        // These formats do not state an up axis (their loaders leave the default, Y).
+        None if matches!(ext, "obj" | "ply" | "stl") => {
+            let inferred = infer_up_axis(&scene);
+            if inferred.axis != scene.up {
+                scene.load_warnings.push(format!(
+                    "up axis {} inferred: {} ({ext} files do not state their up axis; \
+                     --up-axis chooses)",
+                    inferred.axis.name().to_ascii_uppercase(),
+                    inferred.reason
+                ));
+            }
+            scene.up = inferred.axis;
+        }
+        None => {}
+    }
     Ok(scene)
 }
 

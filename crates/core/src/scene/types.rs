@@ -10,12 +10,17 @@ use super::q3::data::BspData;
 use crate::geometry::Aabb;
 
 /// Which world axis points up (used for default camera `up` vectors and top-down views).
+/// Formats that state it set it (glTF: Y, Quake 3: Z); for OBJ, PLY and STL, which do not,
+/// the loader infers it (`up_axis.rs`) unless [`LoadOptions::up_axis`](super::LoadOptions)
+/// says.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub enum UpAxis {
+    /// +X is up (rare; only when a user says so).
+    X,
     /// +Y is up (OBJ, glTF, PLY scans by convention).
     #[default]
     Y,
-    /// +Z is up (Quake 3 maps, the city scenes, our procedural scenes).
+    /// +Z is up (Quake 3 maps, the city scenes, our procedural scenes, CAD and GIS exports).
     Z,
 }
 
@@ -23,8 +28,61 @@ impl UpAxis {
     /// The up direction as a unit vector.
     pub fn vector(self) -> Vec3 {
         match self {
+            UpAxis::X => Vec3::X,
             UpAxis::Y => Vec3::Y,
             UpAxis::Z => Vec3::Z,
+        }
+    }
+
+    /// The axis' index: 0, 1 or 2.
+    pub fn index(self) -> usize {
+        match self {
+            UpAxis::X => 0,
+            UpAxis::Y => 1,
+            UpAxis::Z => 2,
+        }
+    }
+
+    /// The axis of index 0, 1 or 2.
+    pub fn from_index(i: usize) -> Option<UpAxis> {
+        [UpAxis::X, UpAxis::Y, UpAxis::Z].get(i).copied()
+    }
+
+    /// Its lower-case name: `x`, `y` or `z` (as `--up-axis` takes it).
+    pub fn name(self) -> &'static str {
+        ["x", "y", "z"][self.index()]
+    }
+
+    /// `x`, `y` or `z`, either case.
+    pub fn parse(name: &str) -> Option<UpAxis> {
+        match name {
+            "x" | "X" => Some(UpAxis::X),
+            "y" | "Y" => Some(UpAxis::Y),
+            "z" | "Z" => Some(UpAxis::Z),
+            _ => None,
+        }
+    }
+
+    /// `p` in the Y-up frame of glTF: an exact rotation (a permutation with one sign change,
+    /// no rounding) that takes this axis to +Y and keeps the frame right-handed. The sign
+    /// change is `0.0 - v`, which makes a zero +0.0 (as `-v` would not): a loader's node
+    /// transform turns -0.0 into +0.0 anyway, and the round trip through
+    /// [`UpAxis::from_y_up`] then gives back every coordinate bit for bit except the sign of
+    /// a -0.0.
+    pub fn to_y_up(self, p: Vec3) -> Vec3 {
+        match self {
+            UpAxis::X => Vec3::new(0.0 - p.y, p.x, p.z),
+            UpAxis::Y => p,
+            UpAxis::Z => Vec3::new(p.x, p.z, 0.0 - p.y),
+        }
+    }
+
+    /// The inverse of [`UpAxis::to_y_up`], also exact (zeros come out +0.0).
+    pub fn from_y_up(self, p: Vec3) -> Vec3 {
+        match self {
+            UpAxis::X => Vec3::new(p.y, 0.0 - p.x, p.z),
+            UpAxis::Y => p,
+            UpAxis::Z => Vec3::new(p.x, 0.0 - p.z, p.y),
         }
     }
 }
