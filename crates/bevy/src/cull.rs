@@ -8,29 +8,8 @@ use bevy::ecs::prelude::*;
 use bevy::transform::components::GlobalTransform;
 
 use crate::asset::PvsAsset;
-
-/// Ties an entity to object `.0` of the `.pvs` its cameras cull with (the index into
-/// [`sightline_runtime::Pvs::objects`]). Set it by hand, or let [`crate::SightlineLevel`]
-/// fill it from glTF node names.
-///
-/// Only entities with this component are ever hidden by the plugin. An id past the file's
-/// objects never hides its entity.
-#[derive(Component, Clone, Copy, Debug, PartialEq, Eq, Hash)]
-#[require(Visibility, SightlineCulled)]
-pub struct SightlineObject(pub u32);
-
-/// What the plugin did to an entity's [`Visibility`]: added with [`SightlineObject`].
-///
-/// While `hidden`, the entity's `Visibility` is `Hidden` and `saved` is the value it had
-/// before (or the last value anyone else wrote since); it is written back when the object
-/// becomes visible again or the entity loses its [`SightlineObject`].
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct SightlineCulled {
-    /// True while the plugin hides the entity.
-    pub hidden: bool,
-    /// The entity's own visibility, restored when it is shown again.
-    pub saved: Visibility,
-}
+use crate::matching::{SightlineLevel, SightlineUnmatched};
+pub use crate::object::{SightlineCulled, SightlineObject};
 
 /// Put on a camera (any entity with a [`GlobalTransform`]) to cull with a `.pvs`: the
 /// camera's cell is the file's cell that holds its position, in the space of the
@@ -114,11 +93,11 @@ pub(crate) fn cull(
     mut events: MessageReader<AssetEvent<PvsAsset>>,
     assets: Res<Assets<PvsAsset>>,
     cameras: Query<(Entity, &SightlineCamera, &GlobalTransform, Option<&Camera>)>,
-    levels: Query<(&crate::SightlineLevel, &GlobalTransform)>,
+    levels: Query<(&SightlineLevel, &GlobalTransform)>,
     mut objects: Query<(Ref<SightlineObject>, &mut Visibility, &mut SightlineCulled)>,
     mut released: Query<(&mut Visibility, &mut SightlineCulled), Without<SightlineObject>>,
     mut removed: RemovedComponents<SightlineObject>,
-    unmatched: Query<(), With<crate::SightlineUnmatched>>,
+    unmatched: Query<(), With<SightlineUnmatched>>,
 ) {
     // (Every event is read, so none is seen again next frame.)
     let files_changed = events.read().fold(false, |changed, e| {

@@ -63,6 +63,7 @@
 pub mod asset;
 pub mod cull;
 pub mod matching;
+mod object;
 
 use bevy::app::{App, Plugin, PostUpdate};
 use bevy::asset::AssetApp;

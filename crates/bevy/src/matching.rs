@@ -61,7 +61,7 @@ use bevy::ecs::prelude::*;
 use bevy::mesh::Mesh3d;
 
 use crate::asset::PvsAsset;
-use crate::cull::SightlineObject;
+use crate::object::SightlineObject;
 
 /// Put on the entity that holds a glTF scene (`WorldAssetRoot`) to tie the mesh entities
 /// below it to the objects of a `.pvs` automatically (see the [module](self) documentation).

@@ -6,7 +6,7 @@ use std::cell::RefCell;
 use std::ffi::{c_char, CString};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-use crate::SlStatus;
+use crate::status::SlStatus;
 
 thread_local! {
     /// The message of the last failing call on this thread.

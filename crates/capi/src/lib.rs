@@ -18,45 +18,18 @@
 //!   call on it.
 
 mod guard;
+mod status;
 
 use std::ffi::{c_char, CStr};
 use std::ptr;
 
 use guard::{fail, guard_status, guard_value, Failure};
 use sightline_runtime::Pvs;
+pub use status::SlStatus;
 
 /// The value of an absent number (`UINT32_MAX`): `SlObject.index` and `SlObject.part` of an
 /// object whose format has none, the cell of a position outside every cell.
 pub const SL_NONE: u32 = 0xFFFF_FFFF;
-
-/// What a function did. Zero and positive values are success, negative values are errors
-/// (then `sl_last_error()` says why). The values are fixed: new codes may be added, existing
-/// ones never change.
-#[repr(i32)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SlStatus {
-    /// Success.
-    Ok = 0,
-    /// `sl_pvs_cell_at`: no cell holds the position (draw everything).
-    Outside = 1,
-    /// The caller's buffer was smaller than the set: it holds the first `capacity` ids and
-    /// the reported count is the full one.
-    Incomplete = 2,
-    /// A pointer argument that must not be `NULL` was `NULL`.
-    NullArgument = -1,
-    /// A cell or object index past the file's cells or objects.
-    OutOfRange = -2,
-    /// Objects were asked of a version-1 file, which has triangle sets only (bake it again).
-    NoObjects = -3,
-    /// The file (or a set in it, decoded on demand) is damaged.
-    Corrupt = -4,
-    /// An argument is unusable (a misaligned buffer, a path that is not UTF-8 on Windows).
-    InvalidArgument = -5,
-    /// A bug in the library was caught (a Rust panic); the handle is still usable.
-    Internal = -6,
-    /// Any other failure; the message says what.
-    Failed = -7,
-}
 
 /// An opened, checked `.pvs` file (opaque). Made by `sl_pvs_open` or `sl_pvs_open_memory`,
 /// freed by `sl_pvs_close`.

@@ -150,7 +150,7 @@ impl Diagnosis {
         self.order.clear();
         self.order
             .extend((0..visible.len() as u32).filter(|&o| visible[o as usize]));
-        crate::simulate::sort_front_to_back(&mut self.order, objects.boxes, camera.eye);
+        crate::front_to_back::sort_front_to_back(&mut self.order, objects.boxes, camera.eye);
         render(&mut self.ideal, &self.order);
         let method_test = |buffer: &OcclusionBuffer, o: u32| {
             buffer.test_box(&objects.boxes[o as usize], camera)

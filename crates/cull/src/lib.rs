@@ -18,6 +18,7 @@
 
 mod backend;
 mod diagnose;
+mod front_to_back;
 mod grid;
 mod hzb;
 mod masked_occlusion;

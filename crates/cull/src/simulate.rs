@@ -28,6 +28,7 @@ use sightline_core::{Aabb, Camera, Hit, Scene};
 
 use crate::backend::OcclusionBackend;
 use crate::diagnose::{Diagnosis, ExtraCauses, Objects};
+use crate::front_to_back::sort_front_to_back;
 use crate::grid::{Grid, GridError, GridShape};
 use crate::hzb::Hzb;
 use crate::masked_occlusion::OcclusionBuffer;
@@ -303,16 +304,6 @@ pub fn simulate(
 ) -> Result<SimReport, GridError> {
     let mut reports = simulate_methods(scene, backend, config, &[Method::Grid])?;
     Ok(reports.pop().unwrap_or_default())
-}
-
-/// Sorts object ids by the distance from `eye` to the nearest point of their boxes (ties by
-/// id, so the order never depends on the input's).
-pub(crate) fn sort_front_to_back(ids: &mut [u32], boxes: &[Aabb], eye: Vec3) {
-    let dist = |o: &u32| {
-        let b = &boxes[*o as usize];
-        (eye.clamp(b.min, b.max) - eye).length_squared()
-    };
-    ids.sort_by(|a, b| dist(a).total_cmp(&dist(b)).then(a.cmp(b)));
 }
 
 /// The world shared by the methods in one frame: objects in the grid, their current boxes

@@ -17,10 +17,10 @@ use sightline_region::methods::{sampler, MethodOverrides, MethodParams};
 use sightline_region::{Budget, CellContext, Sampler, ViewCell};
 
 use crate::cells::PyViewCell;
+use crate::convert::{ids_array, value_error};
 use crate::pvs::PyPvs;
 use crate::run::{progress_callback, run_interruptible, Control, Stopped};
 use crate::scene::{PyScene, SceneData};
-use crate::{ids_array, value_error};
 
 /// A sampling method with its parameters (the options of `sightline pvs bake`).
 ///

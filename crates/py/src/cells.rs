@@ -6,7 +6,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use sightline_region::ViewCell;
 
-use crate::value_error;
+use crate::convert::value_error;
 
 /// An oriented box (or flat rectangle) view cell: centre, orthonormal axes, half extents.
 #[pyclass(module = "sightline", name = "ViewCell", frozen, eq, from_py_object)]

@@ -8,8 +8,8 @@ use sightline_core::{default_near, Camera};
 use sightline_point::analytic::{visible_fragments, AnalyticOptions};
 use sightline_point::rv::{conservative_visible, Guarantee, RvOptions, SceneSource};
 
+use crate::convert::{ids_array, value_error};
 use crate::scene::{PyScene, SceneData};
-use crate::{ids_array, value_error};
 
 /// The camera of `sightline visible` from its options; defaults as the CLI's (up: the scene's
 /// up axis, near: [`sightline_core::near_plane`]'s rule at the eye).

@@ -10,8 +10,8 @@ use sightline_core::TriangleSet;
 use sightline_region::{CellPvs, PvsError, PvsFile};
 
 use crate::cells::PyViewCell;
+use crate::convert::{ids_array, io_error, value_error};
 use crate::scene::PyScene;
-use crate::{ids_array, io_error, value_error};
 
 /// The PVS of a list of view cells for one scene. Equality (`==`) compares the scene hash,
 /// triangle count, cells and sets, not the metadata (timings differ between runs).

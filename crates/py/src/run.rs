@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 
 use pyo3::prelude::*;
 
-use crate::value_error;
+use crate::convert::value_error;
 
 /// How often the calling thread checks for signals: Ctrl-C is noticed within this time (the
 /// cells under way then still finish).

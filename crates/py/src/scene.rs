@@ -14,7 +14,7 @@ use sightline_core::trace::Bvh;
 use sightline_core::validate::validate;
 use sightline_core::{Object, Scene, UpAxis};
 
-use crate::{io_error, rows_f32, rows_u32, value_error};
+use crate::convert::{io_error, rows_f32, rows_u32, value_error};
 
 /// A scene and its lazily built BVH, shared between Python objects and released threads.
 pub(crate) struct SceneData {

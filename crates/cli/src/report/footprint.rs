@@ -5,7 +5,7 @@
 use image::RgbImage;
 use sightline_core::Scene;
 
-use super::map::{MapFrame, Plan};
+use super::plan::{MapFrame, Plan};
 
 /// Grey of the lowest surface and of the highest (empty pixels are white).
 const LOW_GREY: f64 = 236.0;

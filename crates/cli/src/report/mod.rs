@@ -3,9 +3,9 @@
 //! per-cell table, worst views, convergence plots and a map of the view cells.
 //!
 //! Files: `html` (escaping, tables, page shell), `base64`, `colour` (the map's scale),
-//! `footprint` (top-down height map), `map` (cells from above), `plot` (line plots),
-//! `metadata` (the bake's records), `evaluate` (pixel error and worst views), `sections` (the
-//! parts of a PVS report).
+//! `plan` (the projection from above and its pixel frame), `footprint` (top-down height map),
+//! `map` (cells from above), `plot` (line plots), `metadata` (the bake's records), `evaluate`
+//! (pixel error and worst views), `sections` (the parts of a PVS report).
 
 pub(crate) mod base64;
 pub(crate) mod colour;
@@ -14,6 +14,7 @@ pub(crate) mod footprint;
 pub(crate) mod html;
 pub(crate) mod map;
 pub(crate) mod metadata;
+pub(crate) mod plan;
 pub(crate) mod plot;
 pub(crate) mod sections;
 

@@ -18,11 +18,11 @@ use std::arch::x86_64::*;
 
 use glam::Vec3;
 
-use super::kernel::RasterKernel;
+use super::constants::{TILE_H, TILE_W};
 use super::per_tile::{EMPTY_HI, EMPTY_LO};
 use super::project::{Projector, GUARD};
+use super::raster_kernel::RasterKernel;
 use super::tiles::{Block, Tiles};
-use super::{TILE_H, TILE_W};
 
 /// The AVX2 block kernel.
 pub(super) struct Avx2;

@@ -11,9 +11,9 @@ use std::arch::x86_64::*;
 
 use glam::Vec3;
 
-use super::kernel::RasterKernel;
 use super::per_tile::{self, ColClamp, Edges, TileRowSpans, TileSteps};
 use super::project::Projector;
+use super::raster_kernel::RasterKernel;
 use super::sse2::{packed_rel, Sse2};
 use super::tiles::Tiles;
 

@@ -1,6 +1,8 @@
-//! The rasterizer kernels of the masked occlusion buffer: the trait each implements, the public
-//! choice among them ([`Kernel`]), the ones kept only as measuring sticks ([`BaselineKernel`]),
-//! and the one place where the CPU's features are detected and a kernel is dispatched to.
+//! The rasterizer kernels of the masked occlusion buffer: the public choice among them
+//! ([`Kernel`]), the ones kept only as measuring sticks ([`BaselineKernel`]), and the one place
+//! where the CPU's features are detected and a kernel is dispatched to. The trait each
+//! implements, [`RasterKernel`], is in `raster_kernel.rs`: the kernels take it from there and
+//! never import this file, which imports them all.
 //!
 //! A new kernel (an AVX-512 one, say) is one new file with a unit struct implementing
 //! [`RasterKernel`], built from the shared pieces ([`Projector`] for the view transform and
@@ -12,24 +14,11 @@
 use glam::Vec3;
 
 use super::project::Projector;
+use super::raster_kernel::RasterKernel;
 use super::scalar::Scalar;
 use super::tiles::Tiles;
 #[cfg(target_arch = "x86_64")]
 use super::{avx2::Avx2, baseline::Avx2PerTile, sse2::Sse2};
-
-/// A rasterizer kernel: draws occluder triangles into the tiles.
-pub(super) trait RasterKernel {
-    /// Rasterizes occluder triangles, given as a flat list of world-space corners (three per
-    /// triangle; a trailing incomplete triangle is ignored) seen through `proj`, in their
-    /// order (the tile merge depends on it). Triangles are double-sided; non-finite and
-    /// degenerate ones and those behind the near plane are skipped, those crossing the near
-    /// plane or the guard band are clipped.
-    ///
-    /// # Safety
-    /// The CPU must support the instructions the kernel is compiled for: [`render`] calls a
-    /// kernel only after [`Kernel::available`] (or [`BaselineKernel::available`]) said so.
-    unsafe fn render(tiles: &mut Tiles, triangles: &[Vec3], proj: &Projector);
-}
 
 /// Which implementation of the rasterizer's inner loops an
 /// [`OcclusionBuffer`](super::OcclusionBuffer) uses.
@@ -178,4 +167,64 @@ pub(super) fn render_baseline(
         }
     }
     true
+}
+
+#[cfg(test)]
+mod tests {
+    // The tile-at-a-time kernels' mask steps, compared here where every kernel is known (in
+    // `per_tile.rs` the test would make the kernels and their shared rasterizer import each
+    // other).
+    use super::super::per_tile::{TileRowSpans, TileSteps, EMPTY_HI, EMPTY_LO};
+    use super::*;
+
+    /// The masks of every kernel on the same spans, on x86_64 (SSE2 always, AVX2 where the CPU
+    /// has it).
+    fn simd_masks(s: &TileRowSpans, base: i32) -> Vec<u32> {
+        #[allow(unused_mut)]
+        let mut out = Vec::new();
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: SSE2 is part of the x86_64 baseline.
+            out.push(unsafe { Sse2::mask(s, base) });
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: AVX2 support was just checked.
+                out.push(unsafe { Avx2PerTile::mask(s, base) });
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn masks_agree_on_every_span_pair() {
+        // Every start/end pair around one tile, in every row, through each kernel.
+        for a in -10..20 {
+            for b in -10..20 {
+                for k in 0..4 {
+                    let mut s = TileRowSpans {
+                        a: [EMPTY_LO; 4],
+                        b: [EMPTY_HI; 4],
+                    };
+                    s.a[k] = a;
+                    s.b[k] = b;
+                    s.a[(k + 1) % 4] = 3;
+                    s.b[(k + 1) % 4] = 12;
+                    // SAFETY: the scalar kernel is portable.
+                    let m = unsafe { Scalar::mask(&s, 8) };
+                    for simd in simd_masks(&s, 8) {
+                        assert_eq!(simd, m, "{s:?}");
+                    }
+                    // Against a per-pixel evaluation of the same spans.
+                    let mut expect = 0u32;
+                    for (row, (&lo, &hi)) in s.a.iter().zip(&s.b).enumerate() {
+                        for c in 0..8 {
+                            if lo <= 8 + c && 8 + c <= hi {
+                                expect |= 1 << (8 * row as i32 + c);
+                            }
+                        }
+                    }
+                    assert_eq!(m, expect, "{s:?}");
+                }
+            }
+        }
+    }
 }

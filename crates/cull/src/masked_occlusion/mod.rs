@@ -40,12 +40,15 @@
 //!   the comparison keeps a relative slack of [`DEPTH_SLACK`] for the rounding of `f32`.
 //!
 //! # Files, one job each
-//! - `mod.rs`: this face: the constants, [`OcclusionBuffer`] and its documented methods.
+//! - `mod.rs`: this face: [`OcclusionBuffer`] and its documented methods, and the re-exports;
+//!   none of the files below imports from it (the tests of `query.rs` aside).
+//! - `constants.rs`: the tile size and the tests' tolerances ([`DEPTH_SLACK`], [`COVER_MARGIN`]).
 //! - `project.rs`: view transform, projection, clipping to the near plane and the guard band,
 //!   a box against the near plane (shared with [`Hzb`](crate::Hzb)).
 //! - `tiles.rs`: the tile storage in 4x2-tile blocks and the two-layer tile merge.
-//! - `kernel.rs`: the kernel trait, [`Kernel`], the baseline kernels, CPU detection and
-//!   dispatch (a new kernel is a new file plus its arms there).
+//! - `raster_kernel.rs`: the kernel trait, which every kernel implements.
+//! - `kernel.rs`: [`Kernel`], the baseline kernels, CPU detection and dispatch (a new kernel is
+//!   a new file plus its arms there).
 //! - `per_tile.rs`: the tile-at-a-time rasterizer of the scalar, SSE2 and per-tile AVX2 kernels;
 //!   `scalar.rs`, `sse2.rs`, `baseline.rs` (per-tile AVX2): their span and mask steps.
 //! - `avx2.rs`: the batched AVX2 block kernel.
@@ -58,31 +61,21 @@ use sightline_core::{Aabb, Camera};
 mod avx2;
 #[cfg(target_arch = "x86_64")]
 mod baseline;
+mod constants;
 mod kernel;
 mod per_tile;
 pub(crate) mod project;
 mod query;
+mod raster_kernel;
 mod scalar;
 #[cfg(target_arch = "x86_64")]
 mod sse2;
 mod tiles;
 
+pub use constants::{COVER_MARGIN, DEPTH_SLACK, TILE_H, TILE_W};
 pub use kernel::{BaselineKernel, Kernel};
 use project::Projector;
 use tiles::Tiles;
-
-/// Tile width in pixels (a row of a tile is one byte of the mask).
-pub const TILE_W: u32 = 8;
-/// Tile height in pixels.
-pub const TILE_H: u32 = 4;
-/// Relative slack on `1/z` when comparing a box with the buffer: the box is treated as this
-/// much nearer than it is, which absorbs the `f32` rounding of both sides (about 1e-6
-/// relative inside the guard band) with a wide margin.
-pub const DEPTH_SLACK: f32 = 2e-5;
-/// Margin in pixels of [`OcclusionBuffer::covers_pixel_centre`]: far above the `f32` error of
-/// screen positions inside the guard band (about 1/100 px) and the reference rasterizer's
-/// snapping of vertices to 1/256 px.
-pub const COVER_MARGIN: f32 = 1.0 / 16.0;
 
 /// A conservative masked software depth buffer (masked occlusion culling). See the module
 /// documentation.

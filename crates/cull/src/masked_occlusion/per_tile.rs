@@ -16,9 +16,9 @@
 
 use glam::Vec3;
 
+use super::constants::{TILE_H, TILE_W};
 use super::project::{ceil_i, floor_i, Projector, ViewTriangle};
 use super::tiles::Tiles;
-use super::{TILE_H, TILE_W};
 
 /// The triangle's edges: `x = x0 + (y - y0) * slope`; `left` edges bound spans from the left.
 pub(super) struct Edges {
@@ -105,7 +105,7 @@ struct DepthPlane {
 /// # Safety
 /// The CPU must support `T`'s instructions.
 ///
-/// [`RasterKernel::render`]: super::kernel::RasterKernel::render
+/// [`RasterKernel::render`]: super::raster_kernel::RasterKernel::render
 #[inline(always)]
 pub(super) unsafe fn render<T: TileSteps>(tiles: &mut Tiles, triangles: &[Vec3], proj: &Projector) {
     let mut queued: Option<[[f32; 3]; 3]> = None;
@@ -296,63 +296,5 @@ unsafe fn raster_tile_row<T: TileSteps>(
             plane.r_far
         };
         tiles.update(tx, ty, mask, r);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::super::scalar::Scalar;
-    use super::*;
-
-    /// The masks of every kernel on the same spans, on x86_64 (SSE2 always, AVX2 where the CPU
-    /// has it).
-    fn simd_masks(s: &TileRowSpans, base: i32) -> Vec<u32> {
-        #[allow(unused_mut)]
-        let mut out = Vec::new();
-        #[cfg(target_arch = "x86_64")]
-        {
-            use super::super::{baseline::Avx2PerTile, sse2::Sse2};
-            // SAFETY: SSE2 is part of the x86_64 baseline.
-            out.push(unsafe { Sse2::mask(s, base) });
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: AVX2 support was just checked.
-                out.push(unsafe { Avx2PerTile::mask(s, base) });
-            }
-        }
-        out
-    }
-
-    #[test]
-    fn masks_agree_on_every_span_pair() {
-        // Every start/end pair around one tile, in every row, through each kernel.
-        for a in -10..20 {
-            for b in -10..20 {
-                for k in 0..4 {
-                    let mut s = TileRowSpans {
-                        a: [EMPTY_LO; 4],
-                        b: [EMPTY_HI; 4],
-                    };
-                    s.a[k] = a;
-                    s.b[k] = b;
-                    s.a[(k + 1) % 4] = 3;
-                    s.b[(k + 1) % 4] = 12;
-                    // SAFETY: the scalar kernel is portable.
-                    let m = unsafe { Scalar::mask(&s, 8) };
-                    for simd in simd_masks(&s, 8) {
-                        assert_eq!(simd, m, "{s:?}");
-                    }
-                    // Against a per-pixel evaluation of the same spans.
-                    let mut expect = 0u32;
-                    for (row, (&lo, &hi)) in s.a.iter().zip(&s.b).enumerate() {
-                        for c in 0..8 {
-                            if lo <= 8 + c && 8 + c <= hi {
-                                expect |= 1 << (8 * row as i32 + c);
-                            }
-                        }
-                    }
-                    assert_eq!(m, expect, "{s:?}");
-                }
-            }
-        }
     }
 }

@@ -13,9 +13,9 @@
 use glam::Vec3;
 use sightline_core::{Aabb, Camera};
 
+use super::constants::{COVER_MARGIN, DEPTH_SLACK, TILE_H, TILE_W};
 use super::project::{ceil_i, floor_i, screen_bounds, BoxView, Projector, ViewTriangle};
 use super::tiles::Tiles;
-use super::{COVER_MARGIN, DEPTH_SLACK, TILE_H, TILE_W};
 
 /// Pixel centres under a widened screen triangle's bounding box.
 enum CentreRange {

@@ -7,11 +7,11 @@
 
 use glam::Vec3;
 
-use super::kernel::RasterKernel;
+use super::constants::TILE_H;
 use super::per_tile::{self, ColClamp, Edges, TileRowSpans, TileSteps, EMPTY_HI, EMPTY_LO};
 use super::project::{ceil_i, floor_i, Projector};
+use super::raster_kernel::RasterKernel;
 use super::tiles::Tiles;
-use super::TILE_H;
 
 /// The scalar kernel.
 pub(super) struct Scalar;

@@ -13,11 +13,11 @@ use std::arch::x86_64::*;
 
 use glam::Vec3;
 
-use super::kernel::RasterKernel;
+use super::constants::TILE_H;
 use super::per_tile::{self, ColClamp, Edges, TileRowSpans, TileSteps, EMPTY_HI, EMPTY_LO};
 use super::project::Projector;
+use super::raster_kernel::RasterKernel;
 use super::tiles::Tiles;
-use super::TILE_H;
 
 /// The SSE2 kernel.
 pub(super) struct Sse2;

@@ -7,7 +7,7 @@
 //! layout: the fields of several tiles side by side, so that one register holds a field of
 //! every tile of a block).
 
-use super::{TILE_H, TILE_W};
+use super::constants::{TILE_H, TILE_W};
 
 /// A full coverage mask: every pixel of a tile.
 pub(super) const FULL: u32 = u32::MAX;

@@ -446,7 +446,7 @@ mod tests {
             verts: vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]],
             plane: [0.0, 0.0, 1.0],
             noise: 0.0,
-            collinear_grid: crate::analytic::intersect::NEAR_COLLINEAR_GRID,
+            collinear_grid: crate::analytic::project::NEAR_COLLINEAR_GRID,
         }
     }
 

@@ -30,7 +30,7 @@
 use sightline_core::Camera;
 
 use super::project::GRID;
-use super::AnalyticError;
+use super::types::AnalyticError;
 
 /// Largest `tan(fov / 2)`, vertically and horizontally (fov 170°: at 172.8° the bunny test
 /// still missed one triangle after the tie tolerance took the f32 input's precision in).

@@ -38,8 +38,7 @@
 use glam::DVec2;
 use rayon::prelude::*;
 
-use super::integrate::BinRange;
-use super::VisiblePolygon;
+use super::types::{BinRange, VisiblePolygon};
 
 /// Gauss–Legendre nodes and weights on [-1, 1], 4 points (2 pairs ± x).
 const GL_X: [f64; 2] = [0.339_981_043_584_856_3, 0.861_136_311_594_052_6];

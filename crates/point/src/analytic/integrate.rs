@@ -13,6 +13,7 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use super::polygon::area;
+use super::types::{BinRange, VisiblePolygon};
 
 /// Area of the part of convex polygon `poly` inside `[x0, x0+1] × [y0, y0+1]`.
 pub(crate) fn area_in_pixel(
@@ -67,24 +68,13 @@ pub(crate) fn area_in_pixel(
     area(a).max(0.0)
 }
 
-/// A bin's pieces for integration: bin origin (pixels), size and the range of its polygons.
-#[derive(Clone, Debug)]
-pub(crate) struct BinRange {
-    /// Left pixel column.
-    pub(crate) x: u32,
-    /// Top pixel row.
-    pub(crate) y: u32,
-    /// Range in the result's polygon list.
-    pub(crate) polys: std::ops::Range<usize>,
-}
-
 /// Box-filtered image: `sum over pieces of value(triangle) * area(piece ∩ pixel)`.
 pub(crate) fn box_image(
     width: u32,
     height: u32,
     bin_size: u32,
     bins: &[BinRange],
-    polygons: &[super::VisiblePolygon],
+    polygons: &[VisiblePolygon],
     value: &(dyn Fn(u32) -> f32 + Sync),
 ) -> Vec<f32> {
     let size = bin_size as usize;

@@ -18,6 +18,9 @@
 //! both ends count as collinear, parallel ones included: snapping breaks the collinearity of
 //! edges on one 3D line. So do edges within one ulp of the input (`ScreenPoly::collinear_grid`):
 //! two f32 copies of one 3D corner, one ulp apart, are one line as far as the input can tell.
+//! (The tolerance is the snapping's, so it lives with the snapping in `project.rs`.)
+//!
+//! [`NEAR_COLLINEAR_GRID`]: super::project::NEAR_COLLINEAR_GRID
 //!
 //! # Depth order
 //! Along an overlap interval the difference `1/z_C - 1/z_T` is affine in the edge parameter
@@ -184,14 +187,6 @@ pub(crate) fn narrow(lo: &mut f64, hi: &mut f64, t: f64, entering: bool) -> bool
     }
     *lo < *hi
 }
-
-/// Grid units within which an edge of a polygon counts as collinear with the edge being
-/// intersected. Snapping moves every vertex by up to half a grid unit per coordinate, so two
-/// edges on one 3D line (the vertical corner of two walls of different heights, a T-junction)
-/// end up a grid unit or so apart at a tiny angle. Taken as crossing, such an edge would make
-/// the other polygon cover both sides over a sliver 1e-6 px wide, and the depth slopes at the
-/// two edges would each hide the other: both polygons' boundaries would vanish there.
-pub(crate) const NEAR_COLLINEAR_GRID: f64 = 2.0;
 
 /// Whether the line of `edge` (grid units) passes within `tol_grid` grid units of both ends
 /// of the edge whose edge function is `alpha + beta t` (`t` in `[0, 1]`).
@@ -561,6 +556,7 @@ pub(crate) fn edge_intersections(
 
 #[cfg(test)]
 mod tests {
+    use super::super::project::NEAR_COLLINEAR_GRID;
     use super::*;
 
     fn edge(a: Pt, b: Pt) -> Edge {

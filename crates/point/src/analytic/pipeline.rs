@@ -11,7 +11,8 @@ use super::bin::{self, Bin, Polys};
 use super::boundary::{self, Segment};
 use super::crossing::{self, CrossingScratch};
 use super::intersect::{self, Counters, Edge, Pass};
-use super::{hidden_line, polygon, predicates, project, VisiblePolygon};
+use super::types::VisiblePolygon;
+use super::{hidden_line, polygon, predicates, project};
 
 /// What one bin produces.
 #[derive(Default)]

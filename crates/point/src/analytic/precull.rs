@@ -464,14 +464,14 @@ mod tests {
                 verts: vec![[x0, y0], [x1, y1], [x0, y1]],
                 plane,
                 noise: 0.0,
-                collinear_grid: crate::analytic::intersect::NEAR_COLLINEAR_GRID,
+                collinear_grid: crate::analytic::project::NEAR_COLLINEAR_GRID,
             },
             ScreenPoly {
                 id: id + 1,
                 verts: vec![[x0, y0], [x1, y0], [x1, y1]],
                 plane,
                 noise: 0.0,
-                collinear_grid: crate::analytic::intersect::NEAR_COLLINEAR_GRID,
+                collinear_grid: crate::analytic::project::NEAR_COLLINEAR_GRID,
             },
         ]
     }
@@ -482,7 +482,7 @@ mod tests {
             verts: verts.to_vec(),
             plane: [0.0, 0.0, inv_z],
             noise: 0.0,
-            collinear_grid: crate::analytic::intersect::NEAR_COLLINEAR_GRID,
+            collinear_grid: crate::analytic::project::NEAR_COLLINEAR_GRID,
         }
     }
 

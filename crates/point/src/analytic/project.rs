@@ -22,6 +22,14 @@ use super::predicates::Pt;
 /// `f64` whenever the float filter of `predicates.rs` accepts it.
 pub(crate) const GRID: f64 = 1_048_576.0;
 
+/// Grid units within which an edge of a polygon counts as collinear with the edge being
+/// intersected. Snapping moves every vertex by up to half a grid unit per coordinate, so two
+/// edges on one 3D line (the vertical corner of two walls of different heights, a T-junction)
+/// end up a grid unit or so apart at a tiny angle. Taken as crossing, such an edge would make
+/// the other polygon cover both sides over a sliver 1e-6 px wide, and the depth slopes at the
+/// two edges would each hide the other: both polygons' boundaries would vanish there.
+pub(crate) const NEAR_COLLINEAR_GRID: f64 = 2.0;
+
 /// Most vertices of a frustum-clipped triangle: 3 plus one per clipping plane (near + 4 sides).
 pub(crate) const MAX_CLIPPED: usize = 8;
 
@@ -42,7 +50,7 @@ pub(crate) struct ScreenPoly {
     /// whose depths differ by less are coincident as far as the input can tell.
     pub(crate) noise: f64,
     /// Grid units within which another polygon's edge counts as collinear with one of this
-    /// polygon's edges: the snapping (see `intersect::NEAR_COLLINEAR_GRID`), or one ulp of the
+    /// polygon's edges: the snapping (see [`NEAR_COLLINEAR_GRID`]), or one ulp of the
     /// largest coordinate seen at the smallest depth when that is more. Two f32 copies of one
     /// 3D corner (one ulp apart) are one line as far as the input can tell.
     pub(crate) collinear_grid: f64,
@@ -173,7 +181,7 @@ pub(crate) fn project_triangle(scene: &Scene, proj: &Projection, id: u32) -> Pro
     // F32_NOISE is two ulps of the magnitude; the projection scales angles by the focal length.
     let focal_px = proj.height / (2.0 * proj.tan_half_y);
     let ulp_grid = 0.5 * noise * focal_px * GRID;
-    let collinear_grid = super::intersect::NEAR_COLLINEAR_GRID.max(ulp_grid);
+    let collinear_grid = NEAR_COLLINEAR_GRID.max(ulp_grid);
     let mut verts: Vec<Pt> = Vec::with_capacity(clipped.len());
     for v in clipped {
         let s = proj.screen_of(v);

@@ -5,7 +5,7 @@
 
 use std::io::{self, Write};
 
-use super::AnalyticResult;
+use super::types::AnalyticResult;
 
 /// A stable, well-spread colour for a triangle id (a 32-bit integer hash).
 fn colour(id: u32) -> [u8; 3] {
@@ -49,7 +49,8 @@ pub fn write_svg(result: &AnalyticResult, mut w: impl Write) -> io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::analytic::{visible_fragments, AnalyticOptions};
+    use crate::analytic::driver::visible_fragments;
+    use crate::analytic::types::AnalyticOptions;
     use glam::Vec3;
     use sightline_core::{Camera, Scene};
 
