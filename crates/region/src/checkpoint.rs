@@ -144,35 +144,44 @@ pub fn checkpoint_key(
 
 /// The top-level keys in which two fingerprints differ, comma-separated.
 pub fn fingerprint_differences(a: &serde_json::Value, b: &serde_json::Value) -> String {
-    let empty = serde_json::Map::new();
-    let (ma, mb) = (
-        a.as_object().unwrap_or(&empty),
-        b.as_object().unwrap_or(&empty),
-    );
-    let mut keys: Vec<&String> = ma.keys().chain(mb.keys()).collect();
-    keys.sort();
-    keys.dedup();
-    let d: Vec<String> = keys
+    let mut keys: Vec<&str> = [a, b]
         .into_iter()
-        .filter(|k| ma.get(*k) != mb.get(*k))
-        .map(|k| {
-            let show = |v: Option<&serde_json::Value>| {
-                v.map_or("(none)".to_string(), |v| {
-                    let s = v.to_string();
-                    // By characters: a byte index could fall inside a multi-byte one (a scene
-                    // name or parameter in any script) and panic.
-                    match s.char_indices().nth(40) {
-                        Some((end, _)) => format!("{}..", &s[..end]),
-                        None => s,
-                    }
-                })
-            };
-            format!("{k} {} vs {}", show(ma.get(k)), show(mb.get(k)))
-        })
+        .filter_map(serde_json::Value::as_object)
+        .flat_map(|m| m.keys().map(String::as_str))
         .collect();
+    keys.sort_unstable();
+    keys.dedup();
+    let d = fingerprint_differences_in(a, b, &keys);
     if d.is_empty() && a != b {
         return "(whole fingerprint)".into();
     }
+    d
+}
+
+/// [`fingerprint_differences`] over `keys` only, in that order: for fingerprints that differ
+/// elsewhere by design (an incremental rebake's scene). Each entry is `key A vs B`.
+pub fn fingerprint_differences_in(
+    a: &serde_json::Value,
+    b: &serde_json::Value,
+    keys: &[&str],
+) -> String {
+    let show = |v: Option<&serde_json::Value>| {
+        v.map_or("(none)".to_string(), |v| {
+            let s = v.to_string();
+            // By characters: a byte index could fall inside a multi-byte one (a scene name or
+            // parameter in any script) and panic.
+            match s.char_indices().nth(40) {
+                Some((end, _)) => format!("{}..", &s[..end]),
+                None => s,
+            }
+        })
+    };
+    // `Value::get` is `None` for a value that is not an object (a damaged fingerprint).
+    let d: Vec<String> = keys
+        .iter()
+        .filter(|k| a.get(**k) != b.get(**k))
+        .map(|k| format!("{k} {} vs {}", show(a.get(*k)), show(b.get(*k))))
+        .collect();
     d.join(", ")
 }
 
@@ -476,6 +485,15 @@ mod tests {
         let d = fingerprint_differences(&json!({ "scene": long }), &json!({ "scene": "b" }));
         assert!(d.starts_with("scene \""), "{d}");
         assert!(d.contains("..") && d.contains("vs \"b\""), "{d}");
+    }
+
+    #[test]
+    fn differences_in_some_keys_ignore_the_others_and_keep_their_order() {
+        let a = json!({"seed": 1, "scene_hash": "a", "method": "rand"});
+        let b = json!({"seed": 2, "scene_hash": "b", "method": "gvs"});
+        let d = fingerprint_differences_in(&a, &b, &["seed", "method", "budget"]);
+        assert_eq!(d, r#"seed 1 vs 2, method "rand" vs "gvs""#);
+        assert_eq!(fingerprint_differences_in(&a, &a, &["seed"]), "");
     }
 
     #[test]

@@ -19,6 +19,7 @@ pub mod raster_sampler;
 pub mod ray_sharing;
 mod rays;
 pub mod reachable;
+pub mod rebake;
 pub mod sampler;
 pub mod segment_cells;
 pub mod shards;

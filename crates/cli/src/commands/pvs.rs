@@ -9,15 +9,17 @@ use glam::Vec3;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use serde::Serialize;
 use sightline_core::trace::{Bvh, RayCaster};
-use sightline_region::bake::{BakeSetup, BakedCell};
+use sightline_region::bake::BakeSetup;
 use sightline_region::cell_sources::{
     inside_solid, q3_cells, read_cells_file, Q3CellKind, Q3Cells, Q3Origins, Q3_ORIGINS_KEY,
 };
 use sightline_region::checkpoint::{checkpoint_path, fingerprint, ResumableBake};
-use sightline_region::incremental;
 use sightline_region::methods::{sampler, MethodOverrides, MethodParams, METHODS};
 use sightline_region::pvs_file::EncodedPvsFile;
 use sightline_region::reachable::{ReachParams, DEFAULT_STEP};
+use sightline_region::rebake::{
+    plan_incremental_bake, IncrementalBake, IncrementalBakeError, OldBake,
+};
 use sightline_region::shards::{merge, Shard};
 use sightline_region::RasterSampler;
 use sightline_region::{Budget, PvsFile, ViewCell};
@@ -533,12 +535,13 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
     }
     let (kept, run_key, incremental) = match (&args.since, &args.old_scene) {
         (Some(old_pvs), Some(old_scene)) => {
-            let (kept, report) = plan_incremental(args, old_pvs, old_scene, &scene, &cells, &fp)?;
+            let mut planned = plan_incremental(args, old_pvs, old_scene, &scene, &cells, &fp)?;
             let key = serde_json::json!({
                 "since": old_pvs.display().to_string(),
-                "since_scene_hash": format!("{:016x}", report.old_scene_hash),
+                "since_scene_hash": format!("{:016x}", planned.old_scene_hash),
             });
-            (kept, key, Some(report))
+            let kept = std::mem::take(&mut planned.kept);
+            (kept, key, Some((old_pvs, old_scene, planned)))
         }
         _ => (BTreeMap::new(), serde_json::Value::Null, None),
     };
@@ -594,10 +597,10 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
                 serde_json::json!(job.indices.iter().map(|&i| c[i]).collect::<Vec<_>>());
         }
     }
-    if let Some(r) = &incremental {
+    if let Some((since, old_scene, r)) = &incremental {
         extra["incremental"] = serde_json::json!({
-            "since": r.since.display().to_string(),
-            "old_scene": r.old_scene,
+            "since": since.display().to_string(),
+            "old_scene": old_scene,
             "removed_triangles": r.removed,
             "added_triangles": r.added,
             "added_boxes": r.boxes,
@@ -628,7 +631,7 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
     if args.json {
         return print_json(&summary);
     }
-    if let Some(r) = &incremental {
+    if let Some((_, _, r)) = &incremental {
         outln!(
             "incremental: {} triangles removed, {} added in {} groups; rebaked {} of {} cells, kept {}",
             r.removed,
@@ -656,18 +659,8 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
     Ok(())
 }
 
-/// What the incremental planner found.
-struct IncrementalReport {
-    since: PathBuf,
-    old_scene: String,
-    old_scene_hash: u64,
-    removed: usize,
-    added: usize,
-    boxes: usize,
-}
-
-/// The cells of `old_pvs` whose sets the edit from `old_scene` to `scene` cannot change,
-/// remapped to the new triangle ids.
+/// `--since OLD.pvs --old-scene OLD`: loads the old scene (with this bake's loading options)
+/// and file, and plans the rebake in `sightline-region`, which checks that the file fits.
 fn plan_incremental(
     args: &BakeArgs,
     old_pvs: &Path,
@@ -675,7 +668,7 @@ fn plan_incremental(
     scene: &sightline_core::Scene,
     cells: &[ViewCell],
     fp: &serde_json::Value,
-) -> Result<(BTreeMap<usize, BakedCell>, IncrementalReport)> {
+) -> Result<IncrementalBake> {
     let old_scene_args = SceneArgs {
         scene: old_scene.to_string(),
         ..args.scene.clone()
@@ -683,68 +676,19 @@ fn plan_incremental(
     let old = old_scene_args.load()?;
     let old_file =
         PvsFile::load(old_pvs).with_context(|| format!("reading {}", old_pvs.display()))?;
-    old_file
-        .check_scene(&old)
-        .with_context(|| format!("{} and --old-scene {old_scene}", old_pvs.display()))?;
-    let Some(old_fp) = old_file.metadata.get("fingerprint") else {
-        bail!(
-            "{} has no bake fingerprint (baked by an older sightline); rebake it fully",
-            old_pvs.display()
-        );
+    let old_bake = OldBake {
+        path: old_pvs,
+        file: &old_file,
+        scene: &old,
     };
-    if old_file.metadata.get("cell_indices").is_some() {
-        bail!(
-            "{} holds only some cells (a shard); merge the shards first",
-            old_pvs.display()
-        );
-    }
-    let differs: Vec<&str> = [
-        "method",
-        "parameters",
-        "seed",
-        "budget",
-        "cell_count",
-        "cells_hash",
-        "extra",
-    ]
-    .into_iter()
-    .filter(|k| old_fp.get(*k) != fp.get(*k))
-    .collect();
-    if !differs.is_empty() {
-        bail!(
-            "{} was baked differently (it differs in: {}); --since needs the same cells, method, \
-             parameters, seed and budget (with --grid, pass the same --bounds: the default is \
-             the scene bounds, which an edit can change)",
-            old_pvs.display(),
-            differs.join(", ")
-        );
-    }
-    if old_file.cells.len() != cells.len() {
-        bail!(
-            "{} has {} cells, this bake {}",
-            old_pvs.display(),
-            old_file.cells.len(),
-            cells.len()
-        );
-    }
-    let plan = if args.probe_rays > 0 {
-        let old_bvh = Bvh::build(&old);
-        incremental::plan_with_probe(&old, scene, &old_file, &old_bvh, args.probe_rays)
-    } else {
-        incremental::plan(&old, scene, &old_file)
-    };
-    let kept = plan.kept_cells(&old_file, scene.triangle_count());
-    Ok((
-        kept,
-        IncrementalReport {
-            since: old_pvs.to_path_buf(),
-            old_scene: old_scene.to_string(),
-            old_scene_hash: old.geometry_hash(),
-            removed: plan.matching.removed.len(),
-            added: plan.matching.added.len(),
-            boxes: plan.boxes.len(),
-        },
-    ))
+    let planned = plan_incremental_bake(&old_bake, scene, fp, cells.len(), args.probe_rays)
+        .map_err(|e| match e {
+            // The library names no flag; the user's own words say which scene was meant.
+            IncrementalBakeError::OldSceneMismatch { source, .. } => anyhow::Error::new(source)
+                .context(format!("{} and --old-scene {old_scene}", old_pvs.display())),
+            e => e.into(),
+        })?;
+    Ok(planned)
 }
 
 #[derive(Serialize)]
