@@ -61,7 +61,7 @@ pub fn infer_up_axis(scene: &Scene) -> UpInference {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::SceneBuilder;
+    use crate::scene::builder::SceneBuilder;
     use glam::Vec3;
 
     fn boxed(extent: Vec3) -> Scene {
