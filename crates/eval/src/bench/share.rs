@@ -219,11 +219,14 @@ struct Setup<'a> {
 }
 
 impl Setup<'_> {
-    /// Whether a bake may use origin `p` (outside solid geometry, with `free_space`).
+    /// Whether a bake may use origin `p`: with `free_space`, only outside solid geometry
+    /// (origins inside buildings see only the building's inside, which no evaluation
+    /// viewpoint does).
     fn origin_ok(&self, free_space: bool, p: glam::Vec3) -> bool {
         !free_space || !inside_solid(self.scene, &self.bvh, p)
     }
 
+    /// The evaluated cells' sets of a bake whose cell `i` has the set `visible(i)`.
     fn sets_of(&self, visible: impl Fn(usize) -> TriangleSet) -> Vec<TriangleSet> {
         self.evaluated.iter().map(|&i| visible(i)).collect()
     }
@@ -275,14 +278,12 @@ impl Setup<'_> {
         let mut runs = Vec::new();
         for &budget in &options.share_budgets {
             report(progress, Progress::SharedBake { budget });
-            let (scene, bvh, cells) = (self.scene, &self.bvh, &self.cells);
-            let budget_rays = Budget::rays(budget);
             let r = bake_shared(
-                scene,
-                bvh,
-                cells,
+                self.scene,
+                &self.bvh,
+                &self.cells,
                 &params,
-                &budget_rays,
+                &Budget::rays(budget),
                 options.seed,
                 &free,
                 &|_| {},
@@ -370,8 +371,6 @@ pub fn bench_share(
         evaluated: evaluated_subset(cells.len(), options.eval_cells, options.seed),
         cells,
     };
-    // Origins inside buildings see only the building's inside, which no evaluation viewpoint
-    // does: with `free_space` both bakes skip them.
     let mut runs = setup.independent(options, progress);
     runs.extend(setup.shared(options, progress));
     setup.evaluate(&mut runs, options, progress);
