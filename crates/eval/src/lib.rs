@@ -2,6 +2,7 @@
 //! the error measures of the from-region visibility literature.
 #![deny(missing_docs)]
 
+pub mod bench;
 pub mod error_regions;
 pub mod pixel_error;
 

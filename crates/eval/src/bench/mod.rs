@@ -1,0 +1,22 @@
+//! Whole-algorithm benchmarks, the measuring behind `sightline bench`: each takes a plain
+//! options struct (and scenes, cameras or casters the caller made) and returns rows that
+//! serialize to the tool's JSON. Progress goes to an optional callback; nothing is printed.
+
+mod common;
+mod convergence;
+mod pvs;
+mod raster;
+mod rv;
+mod share;
+mod trace;
+
+pub use common::{BenchError, OnProgress, Progress};
+pub use convergence::{convergence_curves, Convergence, ConvergenceSeries, ERROR_FLOOR, FRACTIONS};
+pub use pvs::{bench_pvs_scene, equal_budget_pairs, PvsBenchOptions, PvsRow, PvsSceneReport};
+pub use raster::{bench_raster, RasterRow};
+pub use rv::{bench_rv, RvBenchOptions, RvRow};
+pub use share::{
+    bench_share, cost_at_error, ShareBenchOptions, ShareReport, ShareRow, ShareSpeedup,
+    INDEPENDENT, SHARED,
+};
+pub use trace::{bench_trace, TraceBackend, TraceRays, TraceRow, TRACE_ROUNDS};
