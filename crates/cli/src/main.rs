@@ -15,7 +15,6 @@ mod headless;
 mod limits;
 mod output;
 mod output_lock;
-mod report;
 
 use std::io::Write;
 use std::process::ExitCode;

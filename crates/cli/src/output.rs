@@ -1,6 +1,6 @@
-//! Writing results: PNG images (atomically), JSON to stdout, colours for ids, and the checks
-//! every command makes on its output paths before working (an output that is an input, an
-//! image extension that is not PNG).
+//! Writing results: PNG images (atomically), JSON to stdout, the id image (its colours come
+//! from `sightline_eval::report::shading`), and the checks every command makes on its output
+//! paths before working (an output that is an input, an image extension that is not PNG).
 //!
 //! Colour conventions: the id and shaded images are 8-bit colours chosen as stored (sRGB codes,
 //! untagged); images of linear quantities averaged over pixel areas (the analytically
@@ -14,7 +14,11 @@ use anyhow::{bail, Context, Result};
 use image::RgbImage;
 use sightline_core::atomic_file::write_atomic;
 use sightline_core::raster::Frame;
-use sightline_core::{Camera, Hit, Scene};
+use sightline_core::Hit;
+use sightline_eval::report::shading::{id_colour, BACKGROUND};
+
+/// The shaded image (object colour under a headlight), built by the report's library.
+pub(crate) use sightline_eval::report::shading::shaded_image;
 
 /// Where `path` is or would be: its canonical path, or for a file not yet there its
 /// canonical parent (`.` for a bare name) joined with its name. `None` when the parent does
@@ -174,22 +178,6 @@ pub(crate) fn print_json<T: serde::Serialize>(value: &T) -> Result<()> {
     Ok(())
 }
 
-/// A well-spread colour for an integer key (golden-ratio hue walk via an integer hash).
-pub(crate) fn id_colour(key: u32) -> [u8; 3] {
-    let mut h = key.wrapping_mul(0x9e37_79b9) ^ 0x5bd1_e995;
-    h ^= h >> 15;
-    h = h.wrapping_mul(0x2c1b_3c6d);
-    h ^= h >> 12;
-    [
-        (h & 0xff) as u8 | 0x30,
-        ((h >> 8) & 0xff) as u8 | 0x30,
-        ((h >> 16) & 0xff) as u8 | 0x30,
-    ]
-}
-
-/// Background colour of images.
-const BACKGROUND: [u8; 3] = [24, 26, 32];
-
 /// Triangle-id image: every triangle its own colour.
 pub(crate) fn id_image(frame: &Frame) -> RgbImage {
     RgbImage::from_fn(frame.width, frame.height, |x, y| {
@@ -199,25 +187,6 @@ pub(crate) fn id_image(frame: &Frame) -> RgbImage {
         } else {
             id_colour(id)
         })
-    })
-}
-
-/// Shaded image: object colour times a headlight term |n · v|, so shapes read clearly.
-pub(crate) fn shaded_image(frame: &Frame, scene: &Scene, camera: &Camera) -> RgbImage {
-    RgbImage::from_fn(frame.width, frame.height, |x, y| {
-        let id = frame.ids[(y * frame.width + x) as usize];
-        if id == Hit::NONE || id as usize >= scene.triangles.len() {
-            return image::Rgb(BACKGROUND);
-        }
-        let [a, b, c] = scene.triangle(id);
-        let normal = (b - a).cross(c - a).normalize_or_zero();
-        let view = camera.pixel_ray(x, y).dir.normalize_or_zero();
-        let light = 0.25 + 0.75 * normal.dot(view).abs();
-        let base = id_colour(scene.object_of_triangle[id as usize]);
-        image::Rgb(
-            base.map(|c| (0.35 * 255.0 + 0.65 * c as f32).min(255.0) as u8)
-                .map(|c| (c as f32 * light).round().clamp(0.0, 255.0) as u8),
-        )
     })
 }
 

@@ -33,9 +33,10 @@ use sightline_region::{
 
 use super::demo_sections::{self as ds, FromPoint, Step};
 use crate::args::{default_eye, SceneArgs};
-use crate::output::{id_image, save_png, shaded_image};
-use crate::report::html::{page, Section};
-use crate::report::{pvs_report, CellOutcome, PvsReport, PvsReportOptions};
+use crate::output::{id_image, save_png};
+use sightline_eval::report::html::{page, Section};
+use sightline_eval::report::shading::shaded_image;
+use sightline_eval::report::{pvs_report, CellOutcome, PvsReport, PvsReportOptions};
 
 /// Arguments of `sightline demo`.
 #[derive(clap::Args, Debug)]

@@ -8,10 +8,10 @@ use anyhow::Result;
 use image::RgbImage;
 use sightline_cull::{FrameStats, SimReport};
 
-use crate::report::colour::hex;
-use crate::report::html::{escape, img, Cell, Section, Table};
-use crate::report::plot::{line_plot, series_colour, Series};
-use crate::report::CellOutcome;
+use sightline_eval::report::colour::hex;
+use sightline_eval::report::html::{escape, img, Cell, Section, Table};
+use sightline_eval::report::plot::{line_plot, series_colour, Series};
+use sightline_eval::report::CellOutcome;
 
 /// One step of the demo.
 pub(crate) struct Step {

@@ -13,8 +13,9 @@ use sightline_eval::{evaluate_cell_in, CellEvaluation, EvalParams, ViewMode};
 use sightline_region::PvsFile;
 
 use crate::args::SceneArgs;
-use crate::output::{id_colour, print_json, save_png};
-use crate::report::evaluate::{Rejected, Viewpoints};
+use crate::output::{print_json, save_png};
+use sightline_eval::report::evaluate::{Rejected, Viewpoints};
+use sightline_eval::report::shading::id_colour;
 use sightline_region::cell_sources::Q3Origins;
 use sightline_region::reachable::ReachParams;
 

@@ -1094,7 +1094,7 @@ struct ClusterComparison {
     q3map2_avg_error_pixels: Option<f64>,
     /// Viewpoints not evaluated (outside the cluster, or unreachable in a bake with reachable
     /// origins), with --viewpoints.
-    rejected_viewpoints: crate::report::evaluate::Rejected,
+    rejected_viewpoints: sightline_eval::report::evaluate::Rejected,
 }
 
 fn run_compare_q3(args: CompareQ3Args) -> Result<()> {
@@ -1138,7 +1138,7 @@ fn run_compare_q3(args: CompareQ3Args) -> Result<()> {
     };
     // Viewpoints where the bake took its origins: the cluster, and reachable space when the
     // bake recorded one.
-    let viewpoints = crate::report::evaluate::Viewpoints::of(&scene, &file, None)?;
+    let viewpoints = sightline_eval::report::evaluate::Viewpoints::of(&scene, &file, None)?;
     let mut rows = Vec::new();
     for (cluster, (leaves, ours)) in by_cluster {
         let mut q3 = fixedbitset::FixedBitSet::with_capacity(scene.triangle_count());

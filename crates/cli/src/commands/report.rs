@@ -14,8 +14,8 @@ use sightline_eval::EvalParams;
 use crate::args::SceneArgs;
 use crate::commands::eval::{load_pvs_of, view_mode};
 use crate::output::print_json;
-use crate::report::html::page;
-use crate::report::{pvs_report, PvsReportOptions};
+use sightline_eval::report::html::page;
+use sightline_eval::report::{pvs_report, PvsReportOptions};
 
 /// Arguments of `sightline report`.
 #[derive(clap::Args, Debug)]
@@ -61,7 +61,7 @@ struct CellSummary {
     avg_unconfirmed_pixels: f64,
     false_negatives: usize,
     /// Viewpoints not evaluated (Quake 3 cells: outside the cluster, or unreachable).
-    rejected_viewpoints: crate::report::evaluate::Rejected,
+    rejected_viewpoints: sightline_eval::report::evaluate::Rejected,
 }
 
 #[derive(Serialize)]

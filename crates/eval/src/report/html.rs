@@ -9,7 +9,7 @@ use image::RgbImage;
 use super::base64;
 
 /// `s` with the five HTML-special characters escaped (safe in text and in quoted attributes).
-pub(crate) fn escape(s: &str) -> String {
+pub fn escape(s: &str) -> String {
     let mut out = String::with_capacity(s.len());
     for c in s.chars() {
         match c {
@@ -35,7 +35,7 @@ pub(crate) fn png_data_uri(image: &RgbImage) -> Result<String> {
 }
 
 /// An `<img>` element showing `image` inline.
-pub(crate) fn img(image: &RgbImage, alt: &str, width: u32) -> Result<String> {
+pub fn img(image: &RgbImage, alt: &str, width: u32) -> Result<String> {
     Ok(format!(
         "<img src=\"{}\" alt=\"{}\" width=\"{width}\">",
         png_data_uri(image)?,
@@ -44,7 +44,7 @@ pub(crate) fn img(image: &RgbImage, alt: &str, width: u32) -> Result<String> {
 }
 
 /// One cell of a table row: text (escaped) or numeric (right-aligned).
-pub(crate) enum Cell {
+pub enum Cell {
     /// Left-aligned text.
     Text(String),
     /// A right-aligned number, already formatted.
@@ -53,7 +53,7 @@ pub(crate) enum Cell {
 
 /// A table with a header row; `id` names it for the page and for tests. Rows may carry
 /// `data-*` attributes so the numbers can be read back from the DOM exactly.
-pub(crate) struct Table {
+pub struct Table {
     id: String,
     header: Vec<String>,
     rows: String,
@@ -61,7 +61,7 @@ pub(crate) struct Table {
 
 impl Table {
     /// An empty table with these column names.
-    pub(crate) fn new(id: &str, header: &[&str]) -> Self {
+    pub fn new(id: &str, header: &[&str]) -> Self {
         Self {
             id: id.to_string(),
             header: header.iter().map(|h| h.to_string()).collect(),
@@ -70,7 +70,7 @@ impl Table {
     }
 
     /// Appends a row; `data` are `(name, value)` pairs written as `data-name="value"`.
-    pub(crate) fn row(&mut self, cells: Vec<Cell>, data: &[(&str, String)]) {
+    pub fn row(&mut self, cells: Vec<Cell>, data: &[(&str, String)]) {
         self.rows.push_str("<tr");
         for (name, value) in data {
             let _ = write!(self.rows, " data-{}=\"{}\"", escape(name), escape(value));
@@ -90,7 +90,7 @@ impl Table {
     }
 
     /// The table's HTML.
-    pub(crate) fn html(&self) -> String {
+    pub fn html(&self) -> String {
         let header: String = self
             .header
             .iter()
@@ -115,7 +115,7 @@ pub(crate) fn key_value_table(id: &str, rows: &[(&str, String)]) -> String {
 }
 
 /// A titled part of the page; `body` is HTML.
-pub(crate) struct Section {
+pub struct Section {
     /// Anchor id.
     pub id: String,
     /// Heading (plain text, escaped when written).
@@ -126,7 +126,7 @@ pub(crate) struct Section {
 
 impl Section {
     /// A section from its parts.
-    pub(crate) fn new(id: &str, title: &str, body: String) -> Self {
+    pub fn new(id: &str, title: &str, body: String) -> Self {
         Self {
             id: id.to_string(),
             title: title.to_string(),
@@ -156,7 +156,7 @@ var p=parseFloat(a),q=parseFloat(c);var r=(isNaN(p)||isNaN(q))?a.localeCompare(c
 return asc?r:-r;});rs.forEach(function(r){b.appendChild(r);});});});});";
 
 /// The whole page: title, a one-line intro, a table of contents and the sections.
-pub(crate) fn page(title: &str, intro: &str, sections: &[Section]) -> String {
+pub fn page(title: &str, intro: &str, sections: &[Section]) -> String {
     let nav: String = sections
         .iter()
         .map(|s| format!("<a href=\"#{}\">{}</a>", escape(&s.id), escape(&s.title)))

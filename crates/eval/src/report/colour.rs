@@ -26,7 +26,7 @@ pub(crate) fn ramp(t: f64) -> [u8; 3] {
 }
 
 /// `#rrggbb` of a colour.
-pub(crate) fn hex(c: [u8; 3]) -> String {
+pub fn hex(c: [u8; 3]) -> String {
     format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
 }
 

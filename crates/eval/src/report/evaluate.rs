@@ -1,25 +1,25 @@
 //! The pixel error of every cell of a `.pvs` file, with the GVS++ paper's metric
-//! (`sightline_eval::evaluate_cell_in`), and the worst views rendered with their error pixels
+//! (`crate::evaluate_cell_in`), and the worst views rendered with their error pixels
 //! highlighted.
 //!
 //! Based on: Koch, Wimmer. Guided Visibility Sampling++. 2021, section 6 (the error measures),
-//! as implemented in `sightline_eval::pixel_error`.
+//! as implemented in `crate::pixel_error`.
 
 use std::cell::Cell;
 use std::time::Instant;
 
+use crate::{evaluate_cell_in, view_errors, CellEvaluation, EvalParams, ViewErrors};
 use glam::Vec3;
 use image::RgbImage;
 use sightline_core::trace::Bvh;
 use sightline_core::{Scene, TriangleSet};
-use sightline_eval::{evaluate_cell_in, view_errors, CellEvaluation, EvalParams, ViewErrors};
 use sightline_region::cell_sources::{Q3OriginRule, Q3Origins};
 use sightline_region::PvsFile;
 
-use crate::output::shaded_image;
+use super::shading::shaded_image;
 
 /// One cell's evaluation.
-pub(crate) struct CellOutcome {
+pub struct CellOutcome {
     /// The file's PVS.
     pub eval: CellEvaluation,
     /// Further sets of the same cell judged on the same views (e.g. a baseline method).
@@ -33,7 +33,7 @@ pub(crate) struct CellOutcome {
 
 /// Viewpoints of a cell that were not evaluated, by reason.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
-pub(crate) struct Rejected {
+pub struct Rejected {
     /// Outside the cell's cluster (solid space, or another cluster in the cell's box).
     pub outside_cluster: usize,
     /// In the cluster, but not in the space reachable from the map's spawn points.
@@ -43,14 +43,14 @@ pub(crate) struct Rejected {
 /// Where the viewpoints of a file's cells may be: Quake 3 cells (`metadata["clusters"]`) take
 /// them where the bake took its ray origins (the cell's cluster, and reachable space when the
 /// bake recorded one); other cells anywhere in the cell.
-pub(crate) struct Viewpoints<'a> {
+pub struct Viewpoints<'a> {
     rule: Option<Q3OriginRule<'a>>,
 }
 
 impl<'a> Viewpoints<'a> {
     /// The rule of `file` (its reachable space is rebuilt from the recorded parameters), or
     /// the rule `origins` for its Quake 3 cells when given.
-    pub(crate) fn of(
+    pub fn of(
         scene: &'a Scene,
         file: &PvsFile,
         origins: Option<Q3Origins>,
@@ -60,7 +60,7 @@ impl<'a> Viewpoints<'a> {
     }
 
     /// The filter of cell `cell`.
-    pub(crate) fn cell(&self, cell: usize) -> CellViewpoints<'_> {
+    pub fn cell(&self, cell: usize) -> CellViewpoints<'_> {
         CellViewpoints {
             rule: self.rule.as_ref(),
             cluster: self
@@ -73,7 +73,7 @@ impl<'a> Viewpoints<'a> {
     }
 
     /// The same filter for every cell of cluster `cluster` (`pvs compare-q3`).
-    pub(crate) fn cluster(&self, cluster: u32) -> CellViewpoints<'_> {
+    pub fn cluster(&self, cluster: u32) -> CellViewpoints<'_> {
         CellViewpoints {
             rule: self.rule.as_ref(),
             cluster: Some(cluster),
@@ -86,7 +86,7 @@ impl<'a> Viewpoints<'a> {
 /// The viewpoint filter of one cell, counting what it rejects. The evaluation asks once per
 /// view (six times per viewpoint for cube faces), so the last answer is kept: each viewpoint
 /// is judged and counted once.
-pub(crate) struct CellViewpoints<'r> {
+pub struct CellViewpoints<'r> {
     rule: Option<&'r Q3OriginRule<'r>>,
     cluster: Option<u32>,
     last: Cell<Option<(Vec3, bool)>>,
@@ -95,7 +95,7 @@ pub(crate) struct CellViewpoints<'r> {
 
 impl CellViewpoints<'_> {
     /// True when `eye` may be a viewpoint.
-    pub(crate) fn allows(&self, eye: Vec3) -> bool {
+    pub fn allows(&self, eye: Vec3) -> bool {
         if let Some((p, ok)) = self.last.get() {
             if p == eye {
                 return ok;
@@ -120,7 +120,7 @@ impl CellViewpoints<'_> {
     }
 
     /// What was rejected so far.
-    pub(crate) fn rejected(&self) -> Rejected {
+    pub fn rejected(&self) -> Rejected {
         self.rejected.get()
     }
 }

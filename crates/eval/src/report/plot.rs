@@ -5,7 +5,7 @@ use anyhow::{anyhow, Result};
 use plotters::prelude::*;
 
 /// One line of a plot.
-pub(crate) struct Series {
+pub struct Series {
     /// Legend text.
     pub label: String,
     /// Points `(x, y)`, x increasing.
@@ -16,7 +16,7 @@ pub(crate) struct Series {
 pub(crate) const MAX_LINES: usize = 48;
 
 /// The colour of line `i` (plotters' 99-colour palette), for legends written outside a plot.
-pub(crate) fn series_colour(i: usize) -> [u8; 3] {
+pub fn series_colour(i: usize) -> [u8; 3] {
     let c = Palette99::pick(i).to_rgba();
     [c.0, c.1, c.2]
 }
@@ -24,7 +24,7 @@ pub(crate) fn series_colour(i: usize) -> [u8; 3] {
 /// A plot of `series` with axis descriptions, `width x height` pixels. With `legend`, a legend
 /// is drawn in the lower right when there are at most 12 lines (callers plotting curves that
 /// pass there write their own legend with [`series_colour`]).
-pub(crate) fn line_plot(
+pub fn line_plot(
     series: &[Series],
     x_desc: &str,
     y_desc: &str,

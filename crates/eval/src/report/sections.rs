@@ -3,9 +3,9 @@
 
 use std::fmt::Write as _;
 
+use crate::{EvalParams, ViewMode};
 use anyhow::Result;
 use sightline_core::Scene;
-use sightline_eval::{EvalParams, ViewMode};
 use sightline_region::PvsFile;
 
 use super::evaluate::{CellOutcome, WorstImage};

@@ -5,30 +5,31 @@
 //! Files: `html` (escaping, tables, page shell), `base64`, `colour` (the map's scale),
 //! `plan` (the projection from above and its pixel frame), `footprint` (top-down height map),
 //! `map` (cells from above), `plot` (line plots), `metadata` (the bake's records), `evaluate`
-//! (pixel error and worst views), `sections` (the parts of a PVS report).
+//! (pixel error and worst views), `sections` (the parts of a PVS report), `shading` (id colours and the shaded image).
 
 pub(crate) mod base64;
-pub(crate) mod colour;
-pub(crate) mod evaluate;
+pub mod colour;
+pub mod evaluate;
 pub(crate) mod footprint;
-pub(crate) mod html;
+pub mod html;
 pub(crate) mod map;
 pub(crate) mod metadata;
 pub(crate) mod plan;
-pub(crate) mod plot;
+pub mod plot;
 pub(crate) mod sections;
+pub mod shading;
 
+use crate::EvalParams;
 use anyhow::Result;
 use sightline_core::{Scene, TriangleSet};
-use sightline_eval::EvalParams;
 use sightline_region::PvsFile;
 
-pub(crate) use evaluate::CellOutcome;
-pub(crate) use html::Section;
+pub use evaluate::CellOutcome;
+pub use html::Section;
 
 /// How a PVS is judged and shown.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct PvsReportOptions {
+pub struct PvsReportOptions {
     /// The evaluation's viewpoints, views and resolution.
     pub params: EvalParams,
     /// Worst views shown (one per cell, the cells with the most erroneous pixels first).
@@ -36,7 +37,7 @@ pub(crate) struct PvsReportOptions {
 }
 
 /// A PVS report: its sections and the numbers behind them.
-pub(crate) struct PvsReport {
+pub struct PvsReport {
     /// Summary, cells, worst views, convergence, map.
     pub sections: Vec<Section>,
     /// Per-cell evaluation, in the file's cell order.
@@ -46,7 +47,7 @@ pub(crate) struct PvsReport {
 /// Evaluates `file` (made for `scene`; the caller checks) and builds its sections.
 /// `extra[i]` are further sets for cell `i` judged on the same views (their evaluations come
 /// back in `outcomes[i].extra`); `progress(cell, view, views)` reports the evaluation.
-pub(crate) fn pvs_report(
+pub fn pvs_report(
     scene: &Scene,
     file: &PvsFile,
     pvs_label: &str,
