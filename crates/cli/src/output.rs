@@ -17,9 +17,6 @@ use sightline_core::raster::Frame;
 use sightline_core::Hit;
 use sightline_eval::report::shading::{id_colour, BACKGROUND};
 
-/// The shaded image (object colour under a headlight), built by the report's library.
-pub(crate) use sightline_eval::report::shading::shaded_image;
-
 /// Where `path` is or would be: its canonical path, or for a file not yet there its
 /// canonical parent (`.` for a bare name) joined with its name. `None` when the parent does
 /// not exist either (the write will fail with its own error).

@@ -8,8 +8,10 @@ use sightline_core::raster;
 use sightline_core::Camera;
 
 use crate::args::{CameraArgs, SceneArgs};
+use sightline_eval::report::shading::shaded_image;
+
 use crate::output::{
-    id_image, print_json, refuse_overwriting_inputs, require_png_extension, save_png, shaded_image,
+    id_image, print_json, refuse_overwriting_inputs, require_png_extension, save_png,
 };
 
 /// Arguments of `sightline render`.
