@@ -2,7 +2,7 @@
 //!
 //! `println!` panics when stdout cannot be written (exit 101 and a backtrace hint): Rust ignores
 //! SIGPIPE, so `sightline ... | head` gets EPIPE, and `> /dev/full` gets ENOSPC. The CLI's
-//! output goes through [`outln!`] instead, which returns a [`StdoutError`] that `main` turns
+//! output goes through `outln!` instead, which returns a [`StdoutError`] that `main` turns
 //! into the exit status: a closed pipe ends the command quietly with status 0 (as ripgrep
 //! does: the reader chose to stop, which is no failure of ours, and it keeps `set -o pipefail`
 //! scripts with `| head` working), any other write error is reported on stderr with status 1.
