@@ -24,6 +24,9 @@ mod hzb;
 mod masked_occlusion;
 pub mod scenes;
 mod scheduler;
+mod sim_method;
+mod sim_types;
+mod sim_world;
 mod simulate;
 mod traversal;
 
@@ -36,8 +39,6 @@ pub use hzb::Hzb;
 pub use masked_occlusion::BaselineKernel;
 pub use masked_occlusion::{Kernel, OcclusionBuffer, COVER_MARGIN, DEPTH_SLACK, TILE_H, TILE_W};
 pub use scheduler::{DepthClass, Scheduler, SchedulerConfig};
-pub use simulate::{
-    simulate, simulate_methods, simulate_methods_with_cameras, simulate_viewports, FrameStats,
-    Method, SimConfig, SimReport,
-};
+pub use sim_types::{FrameStats, Method, SimConfig, SimReport};
+pub use simulate::{simulate, simulate_methods, simulate_methods_with_cameras, simulate_viewports};
 pub use traversal::{can_occlude, frustum_corners, Traversal};
