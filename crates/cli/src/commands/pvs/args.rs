@@ -1,0 +1,220 @@
+//! The arguments of `sightline pvs` and its subcommands (clap). A leaf: the subcommands
+//! take their arguments from here.
+
+use std::path::PathBuf;
+
+use sightline_region::methods::{MethodOverrides, METHODS};
+use sightline_region::reachable::DEFAULT_STEP;
+
+use crate::args::SceneArgs;
+use crate::commands::bench::Device;
+
+/// Arguments of `sightline pvs`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct Args {
+    #[command(subcommand)]
+    pub(crate) what: What,
+}
+
+#[derive(clap::Subcommand, Debug)]
+pub(crate) enum What {
+    /// Compute the PVS of view cells and write a .pvs file.
+    Bake(Box<BakeArgs>),
+    /// Print a .pvs file's header, metadata, object count and per-cell triangle and object set
+    /// sizes (--objects: the object table).
+    Show(ShowArgs),
+    /// Join the shard files of a bake (`pvs bake --shard I/N`) into one .pvs, cells in order.
+    Merge(MergeArgs),
+    /// Compare two .pvs files of the same scene cell by cell. Exit status as `diff`: 0 when
+    /// every cell's set is equal, 1 when some differ (with a summary line: cells differing,
+    /// triangles only in the second file = added, only in the first = removed), 2 on errors.
+    Diff(DiffArgs),
+    /// Compare a PVS baked on a Quake 3 map's leaves (--q3-leaves) with the map's own compiled
+    /// cluster PVS, cluster by cluster.
+    CompareQ3(CompareQ3Args),
+}
+
+/// Where the view cells come from (exactly one source).
+#[derive(clap::Args, Debug)]
+pub(crate) struct CellArgs {
+    /// JSON or TOML file with `cells`: `{"min": [..], "max": [..]}` or
+    /// `{"center", "axes", "half_extents"}` entries.
+    #[arg(long, value_name = "FILE")]
+    pub(crate) cells: Option<PathBuf>,
+    /// A cell on the command line: `box:MINX,MINY,MINZ,MAXX,MAXY,MAXZ` or `point:X,Y,Z,R`
+    /// (repeatable).
+    #[arg(long, value_name = "SPEC", allow_hyphen_values = true)]
+    pub(crate) cell: Vec<String>,
+    /// A regular grid of NX,NY,NZ cells over --bounds (default: the scene bounds); at most
+    /// 2^20 cells in all (every cell's set stays in memory until the file is written).
+    #[arg(long, value_name = "NX,NY,NZ")]
+    pub(crate) grid: Option<String>,
+    /// Region of --grid: MINX,MINY,MINZ,MAXX,MAXY,MAXZ.
+    #[arg(
+        long,
+        value_name = "MINX,MINY,MINZ,MAXX,MAXY,MAXZ",
+        allow_hyphen_values = true
+    )]
+    pub(crate) bounds: Option<String>,
+    /// With --grid: drop cells whose centre is inside solid geometry.
+    #[arg(long)]
+    pub(crate) skip_solid: bool,
+    /// Quake 3 maps: one cell per BSP leaf box (cells of a cluster together form it). Ray
+    /// origins stay inside the leaf's cluster and in the space reachable from the map's spawn
+    /// points; leaves without reachable space are not baked (see --include-unreachable).
+    #[arg(long)]
+    pub(crate) q3_leaves: bool,
+    /// Quake 3 maps: one cell per cluster (the bounding box of its leaves; ray origins stay
+    /// inside the cluster and in reachable space, as for --q3-leaves).
+    #[arg(long)]
+    pub(crate) q3_clusters: bool,
+    /// With --q3-leaves or --q3-clusters: only these clusters (comma-separated).
+    #[arg(long, value_name = "C1,C2,..", value_delimiter = ',')]
+    pub(crate) clusters: Vec<u32>,
+    /// With --q3-leaves or --q3-clusters: bake every cell, with origins anywhere in the cell's
+    /// cluster (the rule before reachable space: also inside detail brushes, behind patches and
+    /// in sealed voids, where no player can be).
+    #[arg(long)]
+    pub(crate) include_unreachable: bool,
+    /// With --q3-leaves or --q3-clusters: lattice step, in map units, of the reachable space
+    /// (the free space flood-filled from the spawn points; a player box is 32 x 32 x 56).
+    /// Smaller finds narrower passages and costs 8x the memory and time per halving; the
+    /// lattice is capped at 2^28 points.
+    #[arg(long, value_name = "UNITS", default_value_t = DEFAULT_STEP, allow_hyphen_values = true)]
+    pub(crate) reach_step: f32,
+}
+
+#[derive(clap::Args, Debug)]
+pub(crate) struct BakeArgs {
+    #[command(flatten)]
+    pub(crate) scene: SceneArgs,
+    #[command(flatten)]
+    pub(crate) cells: CellArgs,
+    /// Sampling method.
+    #[arg(long, default_value = "gvs++", value_parser = clap::builder::PossibleValuesParser::new(METHODS))]
+    pub(crate) method: String,
+    /// Ray budget per cell (RASTER counts 6 R² per cube map). GVS++ keeps it to within one
+    /// exploration step (about 340 rays at the defaults). Without --rays and --time, GVS++
+    /// and GVS run until their own termination rule, RAND casts 10M rays, RASTER renders 64
+    /// cube maps.
+    #[arg(long)]
+    pub(crate) rays: Option<u64>,
+    /// Time budget per cell in milliseconds (wall clock: cells bake in parallel and share the
+    /// cores; results under a time budget are not reproducible, use --rays for that).
+    #[arg(long, value_name = "MS")]
+    pub(crate) time: Option<u64>,
+    /// Seed of every random choice (same seed, same result).
+    #[arg(long, default_value_t = 1)]
+    pub(crate) seed: u64,
+    /// `gpu` casts the bake's rays with the GPU ray caster (wgpu compute shaders; see
+    /// `sightline bench trace --device gpu`). Hits are bit-identical to the CPU caster's on
+    /// adapters with `SHADER_F64`, so the PVS is the same as a CPU bake's for the same seed and
+    /// ray budget. Cells still run in parallel, each casting its own batches.
+    #[arg(long, value_enum, default_value_t = Device::Cpu)]
+    pub(crate) device: Device,
+    // The methods' parameters (`--n-rand` to `--raster-resolution`): one list in the region
+    // crate, which the Python `Method` takes as keywords too.
+    #[command(flatten)]
+    pub(crate) method_overrides: MethodOverrides,
+    /// Output .pvs file (written atomically). While baking, finished cells are kept in
+    /// OUTPUT.checkpoint; rerunning the same command resumes from it.
+    #[arg(short, long)]
+    pub(crate) output: PathBuf,
+    /// Discard an existing checkpoint of OUTPUT instead of resuming from it.
+    #[arg(long)]
+    pub(crate) restart: bool,
+    /// Least seconds between checkpoint writes (the first finished cell and the end are always
+    /// written).
+    #[arg(long, default_value_t = 2.0, value_name = "S")]
+    pub(crate) checkpoint_every: f64,
+    /// Bake only shard I of N: the cells whose index modulo N is I. Join the shard files with
+    /// `sightline pvs merge`.
+    #[arg(long, value_name = "I/N")]
+    pub(crate) shard: Option<String>,
+    /// Incremental rebake: reuse the sets of this earlier .pvs (baked with the same cells,
+    /// method, parameters, seed and budget on --old-scene) for every cell the scene edit cannot
+    /// change, and rebake only the others.
+    #[arg(long, value_name = "OLD.pvs", requires = "old_scene")]
+    pub(crate) since: Option<PathBuf>,
+    /// With --since: the scene the earlier .pvs was baked for (file or procedural spec).
+    #[arg(long, value_name = "SCENE", requires = "since")]
+    pub(crate) old_scene: Option<String>,
+    /// With --since: rays per cell and added object cast in the old scene from the cell
+    /// through the added geometry's box; one that gets there unblocked rebakes the cell
+    /// (catches geometry seen only against the sky, with no old triangle behind it). 0 skips
+    /// the probe.
+    #[arg(long, default_value_t = 16384, value_name = "N")]
+    pub(crate) probe_rays: usize,
+    /// Worker threads (default: all cores; at most 4 per core, more are capped with a
+    /// warning). Results do not depend on it.
+    #[arg(long)]
+    pub(crate) threads: Option<usize>,
+    /// Print a JSON summary.
+    #[arg(long)]
+    pub(crate) json: bool,
+    /// GVS++ only: bake all cells together, every ray also counting for every other cell it
+    /// crosses (ray sharing); --rays and --time stay per cell.
+    #[arg(long)]
+    pub(crate) share_rays: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub(crate) struct MergeArgs {
+    /// The shard files (from `pvs bake --shard I/N` with otherwise identical arguments).
+    #[arg(required = true)]
+    pub(crate) files: Vec<PathBuf>,
+    /// Output .pvs file (written atomically).
+    #[arg(short, long)]
+    pub(crate) output: PathBuf,
+    /// Write the merge even when some cells are in none of the files (the result lists its
+    /// cells' global indices in `cell_indices`).
+    #[arg(long)]
+    pub(crate) allow_partial: bool,
+    /// Print a JSON summary.
+    #[arg(long)]
+    pub(crate) json: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub(crate) struct ShowArgs {
+    /// The .pvs file.
+    pub(crate) file: PathBuf,
+    /// Also list the object table (name, index, part, triangles, bounds) of a version-2 file.
+    #[arg(long)]
+    pub(crate) objects: bool,
+    /// Print JSON (with the triangle and object ids of every cell, and the object table).
+    #[arg(long)]
+    pub(crate) json: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub(crate) struct DiffArgs {
+    /// First .pvs file.
+    pub(crate) a: PathBuf,
+    /// Second .pvs file.
+    pub(crate) b: PathBuf,
+    /// Print JSON.
+    #[arg(long)]
+    pub(crate) json: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub(crate) struct CompareQ3Args {
+    /// The Quake 3 map (.bsp) the PVS was baked for.
+    pub(crate) map: PathBuf,
+    /// A .pvs baked with --q3-leaves on that map.
+    pub(crate) pvs: PathBuf,
+    /// Quake 3 maps: patch tessellation used for the bake.
+    #[arg(long, default_value_t = 4)]
+    pub(crate) patch_subdivisions: u32,
+    /// Also measure the pixel error of both PVSs from this many viewpoints per leaf (inside
+    /// the leaf's own cluster), six cube faces each; 0 skips it.
+    #[arg(long, default_value_t = 0)]
+    pub(crate) viewpoints: usize,
+    /// Resolution of those views.
+    #[arg(long, default_value_t = 256)]
+    pub(crate) resolution: u32,
+    /// Print JSON.
+    #[arg(long)]
+    pub(crate) json: bool,
+}

@@ -1,0 +1,607 @@
+//! `sightline pvs bake` and `pvs merge`: cells from their sources, the bake (per cell or
+//! with shared rays, on the CPU or the GPU caster), incremental rebakes, shard merging.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::{bail, Context, Result};
+use glam::Vec3;
+use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
+use serde::Serialize;
+use sightline_core::trace::{Bvh, RayCaster};
+use sightline_region::bake::BakeSetup;
+use sightline_region::cell_sources::{
+    inside_solid, q3_cells, read_cells_file, Q3CellKind, Q3Cells, Q3Origins, Q3_ORIGINS_KEY,
+};
+use sightline_region::checkpoint::{checkpoint_path, fingerprint, ResumableBake};
+use sightline_region::methods::{sampler, MethodParams};
+use sightline_region::pvs_file::EncodedPvsFile;
+use sightline_region::reachable::{ReachParams, DEFAULT_STEP};
+use sightline_region::rebake::{
+    plan_incremental_bake, IncrementalBake, IncrementalBakeError, OldBake,
+};
+use sightline_region::shards::{merge, Shard};
+use sightline_region::RasterSampler;
+use sightline_region::{Budget, PvsFile, ViewCell};
+
+use crate::args::{thread_count, SceneArgs};
+use crate::commands::bench::Device;
+use crate::output::{print_json, refuse_overwriting_inputs};
+use crate::output_lock::OutputLock;
+
+use super::args::{BakeArgs, CellArgs, MergeArgs};
+
+fn parse_numbers(s: &str, n: usize, what: &str) -> Result<Vec<f32>> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("{what} '{s}': not a list of numbers"))?;
+    if v.len() != n || v.iter().any(|x| !x.is_finite()) {
+        bail!("{what} '{s}': expected {n} finite numbers");
+    }
+    Ok(v)
+}
+
+/// The cells and, for Quake 3 leaves and clusters, their clusters and origin rule.
+fn collect_cells<'a>(
+    args: &CellArgs,
+    scene: &'a sightline_core::Scene,
+    caster: &Bvh,
+) -> Result<(Vec<ViewCell>, Option<Q3Cells<'a>>)> {
+    let sources = usize::from(args.cells.is_some())
+        + usize::from(!args.cell.is_empty())
+        + usize::from(args.grid.is_some())
+        + usize::from(args.q3_leaves)
+        + usize::from(args.q3_clusters);
+    if sources != 1 {
+        bail!("give exactly one cell source: --cells FILE, --cell SPEC, --grid NX,NY,NZ, --q3-leaves or --q3-clusters");
+    }
+    let q3 = args.q3_leaves || args.q3_clusters;
+    if !q3 && (args.include_unreachable || args.reach_step != DEFAULT_STEP) {
+        bail!("--include-unreachable and --reach-step apply to --q3-leaves and --q3-clusters only");
+    }
+    if let Some(path) = &args.cells {
+        return Ok((read_cells_file(path)?, None));
+    }
+    if !args.cell.is_empty() {
+        let cells = args
+            .cell
+            .iter()
+            .map(|s| ViewCell::parse(s))
+            .collect::<Result<_, _>>()?;
+        return Ok((cells, None));
+    }
+    if let Some(grid) = &args.grid {
+        let n = parse_numbers(grid, 3, "--grid")?;
+        if n.iter().any(|&x| x < 1.0 || x.fract() != 0.0 || x > 4096.0) {
+            bail!("--grid '{grid}': counts must be whole numbers in 1..=4096");
+        }
+        let (min, max) = match &args.bounds {
+            Some(b) => {
+                let v = parse_numbers(b, 6, "--bounds")?;
+                (Vec3::new(v[0], v[1], v[2]), Vec3::new(v[3], v[4], v[5]))
+            }
+            None => {
+                let b = scene.bounds();
+                (b.min, b.max)
+            }
+        };
+        crate::limits::check_cells(&[n[0] as u64, n[1] as u64, n[2] as u64], "--grid")?;
+        let mut cells = ViewCell::grid(min, max, [n[0] as u32, n[1] as u32, n[2] as u32])?;
+        if args.skip_solid {
+            cells.retain(|c| !inside_solid(scene, caster, c.center));
+        }
+        return Ok((cells, None));
+    }
+    if scene.bsp.is_none() {
+        bail!("--q3-leaves and --q3-clusters need a Quake 3 map (.bsp) as the scene");
+    }
+    let filter = (!args.clusters.is_empty()).then_some(args.clusters.as_slice());
+    let kind = if args.q3_clusters {
+        Q3CellKind::Clusters
+    } else {
+        Q3CellKind::Leaves
+    };
+    let origins = if args.include_unreachable {
+        Q3Origins::Cluster
+    } else {
+        Q3Origins::Reachable(ReachParams {
+            step: args.reach_step,
+        })
+    };
+    let mut q3 = q3_cells(scene, kind, filter, origins).context("--reach-step")?;
+    let map = Path::new(&scene.source).file_stem().map_or_else(
+        || scene.source.clone(),
+        |s| s.to_string_lossy().into_owned(),
+    );
+    let line = q3.summary.describe(&map);
+    match (&q3.summary.fallback, q3.summary.dropped_cells) {
+        (Some(_), _) => eprintln!("warning: {line}"),
+        (None, 0) if q3.rule.reach.is_none() => {}
+        (None, 0) => eprintln!("{line}"),
+        (None, _) => eprintln!("{line} (--include-unreachable bakes them with the old rule)"),
+    }
+    let cells = std::mem::take(&mut q3.cells);
+    Ok((cells, Some(q3)))
+}
+
+#[derive(Serialize)]
+struct BakeSummary {
+    output: PathBuf,
+    method: String,
+    cells: usize,
+    /// Cells taken from the checkpoint of an interrupted run.
+    resumed_cells: usize,
+    /// Cells baked by this run.
+    baked_cells: usize,
+    /// With --since: cells whose sets were kept (remapped) from the earlier .pvs.
+    kept_cells: usize,
+    total_rays: u64,
+    seconds: f64,
+    mean_pvs_size: f64,
+    mean_pvs_percent: f64,
+    /// Bytes per finished cell kept in memory while baking (encoded set, statistics text,
+    /// bookkeeping).
+    memory_bytes_per_cell: f64,
+    /// Bytes per cell of the encoded sets alone.
+    set_bytes_per_cell: f64,
+    /// Bytes per cell of the written file (including its metadata).
+    file_bytes_per_cell: f64,
+    /// Quake 3 cells: the origin rule and what it found (unreachable leaves and clusters,
+    /// dropped cells, the reachable space's parameters and cost), as in the file's metadata.
+    reachable: Option<serde_json::Value>,
+}
+
+pub(super) fn run_bake(args: BakeArgs) -> Result<()> {
+    if args.threads.is_none() {
+        return bake_command(&args);
+    }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(thread_count(args.threads)?)
+        .build()
+        .context("starting the worker threads")?
+        .install(|| bake_command(&args))
+}
+
+/// The GPU ray caster for a bake, with a line on stderr naming the adapter.
+#[cfg(feature = "gpu")]
+fn gpu_caster(scene: &sightline_core::Scene) -> Result<Box<dyn RayCaster>> {
+    let caster = sightline_gpu::GpuRayCaster::new(scene, Default::default())?;
+    let info = caster.adapter_info();
+    eprintln!("casting rays on {} ({:?})", info.name, info.device_type);
+    if !caster.exact() {
+        eprintln!(
+            "warning: this adapter has no SHADER_F64: hit distances may differ from the CPU \
+             caster's in the last bits, and the PVS slightly from a CPU bake's"
+        );
+    }
+    Ok(Box::new(caster))
+}
+
+/// A headless build has no GPU caster (`bake_command` refuses `--device gpu` before loading).
+#[cfg(not(feature = "gpu"))]
+fn gpu_caster(_scene: &sightline_core::Scene) -> Result<Box<dyn RayCaster>> {
+    Err(crate::features::not_built("gpu", "--device gpu"))
+}
+
+fn bake_command(args: &BakeArgs) -> Result<()> {
+    if args.device == Device::Gpu && !cfg!(feature = "gpu") {
+        return Err(crate::features::not_built("gpu", "--device gpu"));
+    }
+    // The --since file may be the output: it is read whole before the output is replaced,
+    // so an in-place incremental rebake is safe.
+    let mut inputs = vec![Path::new(&args.scene.scene)];
+    inputs.extend(args.cells.cells.as_deref());
+    inputs.extend(args.old_scene.as_deref().map(Path::new));
+    let checkpoint = checkpoint_path(&args.output);
+    refuse_overwriting_inputs(&[&args.output, &checkpoint], &inputs)?;
+    let _lock = OutputLock::acquire(&args.output)?;
+    let scene = args.scene.load()?;
+    let bvh = Bvh::build(&scene);
+    let (cells, q3) = collect_cells(&args.cells, &scene, &bvh)?;
+    if cells.is_empty() {
+        bail!("no view cells to bake (all filtered out?)");
+    }
+    let clusters = q3.as_ref().map(|q| q.rule.clusters.clone());
+    // What the bake's cells depend on beyond their boxes: the cluster of each Quake 3 cell and
+    // the origin rule (the reachable space's parameters). Plain cells keep `{"clusters": null}`,
+    // the value the Python bindings' fingerprint uses for them.
+    let cells_key = match &q3 {
+        None => serde_json::json!({ "clusters": null }),
+        Some(q) => serde_json::json!({
+            "clusters": clusters,
+            "origins": q.origins().fingerprint(),
+        }),
+    };
+    let origins_record = q3.as_ref().map(|q| q.summary.clone());
+    let params = args.method_overrides.params();
+    let sampler = sampler(&args.method, &params)?;
+    if args.rays == Some(0) || args.time == Some(0) {
+        bail!("--rays and --time must be positive");
+    }
+    if args.method == "raster" {
+        // RASTER spends its budget a cube map at a time (6 R² pixels, counted as rays): a
+        // smaller budget still renders one per cell, which the user should hear about.
+        let r = u64::from(
+            params
+                .raster_resolution
+                .unwrap_or(RasterSampler::default().resolution),
+        );
+        let cube_map = 6 * r * r;
+        if let Some(rays) = args.rays.filter(|&rays| rays < cube_map) {
+            eprintln!(
+                "warning: --rays {rays} is less than one RASTER cube map (6 x {r}² = {cube_map} \
+                 pixels, counted as rays); every cell renders one, {cube_map} rays"
+            );
+        }
+    }
+    if !(args.checkpoint_every.is_finite() && args.checkpoint_every >= 0.0) {
+        bail!("--checkpoint-every must be a non-negative number of seconds");
+    }
+    let shard = args
+        .shard
+        .as_deref()
+        .map(Shard::parse)
+        .transpose()
+        .map_err(|e| anyhow::anyhow!("--shard: {e}"))?;
+    let budget = Budget {
+        max_rays: args.rays,
+        max_time: args.time.map(Duration::from_millis),
+    };
+    // Quake 3 leaf boxes are bounding boxes of convex leaves and reach into solid space: only
+    // points whose BSP cluster is the leaf's own serve as origins, and by default only those a
+    // player can reach.
+    let free_space = |cell: usize, p: Vec3| q3.as_ref().is_none_or(|q| q.rule.allows(cell, p));
+    if args.share_rays {
+        // All cells are baked together, so the per-cell machinery (shards, checkpoints,
+        // incremental rebakes) does not apply.
+        if args.shard.is_some() || args.since.is_some() || args.restart {
+            bail!("--share-rays bakes all cells at once: it cannot be combined with --shard, --since or --restart");
+        }
+        if args.device == Device::Gpu {
+            bail!("--share-rays casts on the CPU only (--device gpu is not supported with it yet)");
+        }
+        let mut extra = serde_json::json!({
+            "parameters": format!("{params:?}"),
+            "clusters": clusters,
+        });
+        if let Some(r) = &origins_record {
+            extra[Q3_ORIGINS_KEY] = serde_json::json!(r);
+        }
+        return bake_with_shared_rays(
+            args,
+            &scene,
+            &bvh,
+            &cells,
+            &params,
+            &budget,
+            &free_space,
+            extra,
+        );
+    }
+    let gpu = match args.device {
+        Device::Cpu => None,
+        Device::Gpu => Some(gpu_caster(&scene)?),
+    };
+    let caster: &dyn RayCaster = match &gpu {
+        Some(g) => g.as_ref(),
+        None => &bvh,
+    };
+    let setup = BakeSetup {
+        scene: &scene,
+        caster,
+        cells: &cells,
+        sampler: sampler.as_ref(),
+        free_space: &free_space,
+        budget,
+        seed: args.seed,
+    };
+    let parameters = format!("{params:?}");
+    let fp = fingerprint(&setup, &parameters, cells_key);
+    let indices = match shard {
+        Some(s) => s.indices(cells.len()),
+        None => (0..cells.len()).collect(),
+    };
+    if indices.is_empty() {
+        bail!(
+            "shard {} has no cells (the bake has only {} cells)",
+            args.shard.as_deref().unwrap_or(""),
+            cells.len()
+        );
+    }
+    let (kept, run_key, incremental) = match (&args.since, &args.old_scene) {
+        (Some(old_pvs), Some(old_scene)) => {
+            let mut planned = plan_incremental(args, old_pvs, old_scene, &scene, &cells, &fp)?;
+            let key = serde_json::json!({
+                "since": old_pvs.display().to_string(),
+                "since_scene_hash": format!("{:016x}", planned.old_scene_hash),
+            });
+            let kept = std::mem::take(&mut planned.kept);
+            (kept, key, Some((old_pvs, old_scene, planned)))
+        }
+        _ => (BTreeMap::new(), serde_json::Value::Null, None),
+    };
+    let kept_count = indices.iter().filter(|i| kept.contains_key(i)).count();
+    let job = ResumableBake {
+        setup,
+        indices,
+        kept,
+        fingerprint: fp,
+        run_key,
+        checkpoint: Some(checkpoint_path(&args.output)),
+        restart: args.restart,
+        checkpoint_interval: Duration::from_secs_f64(args.checkpoint_every),
+        max_new_cells: None,
+    };
+
+    let multi = MultiProgress::new();
+    let cells_bar = multi.add(
+        ProgressBar::new(job.indices.len() as u64).with_style(
+            ProgressStyle::with_template("cells {bar:30} {pos}/{len} [{elapsed_precise} < {eta}]")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        ),
+    );
+    let cell_bar = multi.add(ProgressBar::new_spinner());
+    let n = scene.triangle_count().max(1) as f64;
+    let progress = job.run_with(
+        &mut |done| cells_bar.set_position(done as u64),
+        &|cell, p| {
+            cell_bar.set_message(format!(
+                "cell {cell}: {} rays, PVS {} ({:.2}%)",
+                p.rays,
+                p.pvs_size,
+                100.0 * p.pvs_size as f64 / n
+            ));
+            cell_bar.tick();
+        },
+        &mut |_, _| cells_bar.inc(1),
+    )?;
+    cell_bar.finish_and_clear();
+    cells_bar.finish_and_clear();
+    let mut extra = serde_json::json!({
+        "parameters": parameters,
+        "clusters": clusters,
+    });
+    if let Some(r) = &origins_record {
+        extra[Q3_ORIGINS_KEY] = serde_json::json!(r);
+    }
+    if let Some(s) = shard {
+        extra["shard"] = serde_json::json!({"index": s.index, "count": s.count});
+        // Each shard file carries only its cells' clusters.
+        if let Some(c) = &clusters {
+            extra["clusters"] =
+                serde_json::json!(job.indices.iter().map(|&i| c[i]).collect::<Vec<_>>());
+        }
+    }
+    if let Some((since, old_scene, r)) = &incremental {
+        extra["incremental"] = serde_json::json!({
+            "since": since.display().to_string(),
+            "old_scene": old_scene,
+            "removed_triangles": r.removed,
+            "added_triangles": r.added,
+            "added_boxes": r.boxes,
+            "kept_cells": kept_count,
+            "rebaked_cells": job.indices.len() - kept_count,
+        });
+    }
+    job.write_output(&args.output, &progress, extra)?;
+    let sizes: Vec<usize> = progress.done.values().map(|c| c.set.len()).collect();
+    let mean = sizes.iter().sum::<usize>() as f64 / sizes.len().max(1) as f64;
+    let summary = BakeSummary {
+        output: args.output.clone(),
+        method: sampler.name().to_string(),
+        cells: job.indices.len(),
+        resumed_cells: progress.resumed,
+        baked_cells: progress.baked,
+        kept_cells: kept_count,
+        total_rays: progress.done.values().map(|c| c.rays).sum(),
+        seconds: progress.seconds,
+        mean_pvs_size: mean,
+        mean_pvs_percent: 100.0 * mean / n,
+        memory_bytes_per_cell: progress.memory_bytes() as f64 / sizes.len().max(1) as f64,
+        set_bytes_per_cell: progress.set_bytes() as f64 / sizes.len().max(1) as f64,
+        file_bytes_per_cell: std::fs::metadata(&args.output).map_or(0.0, |m| m.len() as f64)
+            / sizes.len().max(1) as f64,
+        reachable: origins_record.as_ref().map(|r| serde_json::json!(r)),
+    };
+    if args.json {
+        return print_json(&summary);
+    }
+    if let Some((_, _, r)) = &incremental {
+        outln!(
+            "incremental: {} triangles removed, {} added in {} groups; rebaked {} of {} cells, kept {}",
+            r.removed,
+            r.added,
+            r.boxes,
+            job.indices.len() - kept_count,
+            job.indices.len(),
+            kept_count
+        );
+    }
+    outln!(
+        "baked {} cells with {} in {:.2} s ({} resumed from the checkpoint, {} rays): mean PVS {:.0} \
+         triangles ({:.2}% of {}), {:.0} bytes per cell in memory, wrote {}",
+        summary.cells,
+        summary.method,
+        summary.seconds,
+        summary.resumed_cells,
+        summary.total_rays,
+        summary.mean_pvs_size,
+        summary.mean_pvs_percent,
+        scene.triangle_count(),
+        summary.memory_bytes_per_cell,
+        summary.output.display()
+    );
+    Ok(())
+}
+
+/// `--since OLD.pvs --old-scene OLD`: loads the old scene (with this bake's loading options)
+/// and file, and plans the rebake in `sightline-region`, which checks that the file fits.
+fn plan_incremental(
+    args: &BakeArgs,
+    old_pvs: &Path,
+    old_scene: &str,
+    scene: &sightline_core::Scene,
+    cells: &[ViewCell],
+    fp: &serde_json::Value,
+) -> Result<IncrementalBake> {
+    let old_scene_args = SceneArgs {
+        scene: old_scene.to_string(),
+        ..args.scene.clone()
+    };
+    let old = old_scene_args.load()?;
+    let old_file =
+        PvsFile::load(old_pvs).with_context(|| format!("reading {}", old_pvs.display()))?;
+    let old_bake = OldBake {
+        path: old_pvs,
+        file: &old_file,
+        scene: &old,
+    };
+    let planned = plan_incremental_bake(&old_bake, scene, fp, cells.len(), args.probe_rays)
+        .map_err(|e| match e {
+            // The library names no flag; the user's own words say which scene was meant.
+            IncrementalBakeError::OldSceneMismatch { source, .. } => anyhow::Error::new(source)
+                .context(format!("{} and --old-scene {old_scene}", old_pvs.display())),
+            e => e.into(),
+        })?;
+    Ok(planned)
+}
+
+#[derive(Serialize)]
+struct MergeSummary {
+    output: PathBuf,
+    files: usize,
+    cells: usize,
+    total_cells: u64,
+}
+
+pub(super) fn run_merge(args: MergeArgs) -> Result<()> {
+    let inputs: Vec<&Path> = args.files.iter().map(PathBuf::as_path).collect();
+    refuse_overwriting_inputs(&[&args.output], &inputs)?;
+    let mut files = Vec::with_capacity(args.files.len());
+    for p in &args.files {
+        let f = EncodedPvsFile::load(p).with_context(|| format!("reading {}", p.display()))?;
+        files.push((p.clone(), f));
+    }
+    let merged = merge(&files, args.allow_partial)?;
+    merged.save(&args.output)?;
+    let summary = MergeSummary {
+        output: args.output.clone(),
+        files: files.len(),
+        cells: merged.cells.len(),
+        total_cells: merged.metadata["total_cells"].as_u64().unwrap_or(0),
+    };
+    if args.json {
+        return print_json(&summary);
+    }
+    outln!(
+        "merged {} files: {} of {} cells, wrote {}",
+        summary.files,
+        summary.cells,
+        summary.total_cells,
+        summary.output.display()
+    );
+    Ok(())
+}
+
+/// `pvs bake --share-rays`: all cells at once with ray sharing (GVS++ only); writes the file
+/// and prints the summary like the independent bake.
+#[allow(clippy::too_many_arguments)]
+fn bake_with_shared_rays(
+    args: &BakeArgs,
+    scene: &sightline_core::Scene,
+    bvh: &Bvh,
+    cells: &[ViewCell],
+    params: &MethodParams,
+    budget: &Budget,
+    free_space: &(dyn Fn(usize, Vec3) -> bool + Sync),
+    extra: serde_json::Value,
+) -> Result<()> {
+    use sightline_region::ray_sharing::{bake_shared, ShareParams};
+    let reachable = extra.get(Q3_ORIGINS_KEY).cloned();
+    if !matches!(args.method.as_str(), "gvs++" | "gvspp") {
+        bail!(
+            "--share-rays works with --method gvs++ only (got '{}')",
+            args.method
+        );
+    }
+    // As measured by `bench share` (docs/BENCHMARKS.md): received triangles are explored too.
+    let share = ShareParams {
+        gvspp: params.gvspp.clone(),
+        explore_shared: true,
+        ..ShareParams::default()
+    };
+    let bar = ProgressBar::new_spinner();
+    let result = bake_shared(
+        scene,
+        bvh,
+        cells,
+        &share,
+        budget,
+        args.seed,
+        free_space,
+        &|p| {
+            bar.set_message(format!(
+                "round {}: {} rays, {} cells sampling, mean PVS {:.0}",
+                p.round,
+                p.rays,
+                p.sampling_cells,
+                p.total_pvs as f64 / cells.len().max(1) as f64
+            ));
+            bar.tick();
+        },
+    );
+    bar.finish_and_clear();
+    let file = result.to_pvs_file(scene, cells, &share, budget, args.seed, extra);
+    file.save(&args.output)?;
+    let n = scene.triangle_count().max(1) as f64;
+    let mean = file
+        .cells
+        .iter()
+        .map(|c| c.visible.count_ones(..))
+        .sum::<usize>() as f64
+        / file.cells.len().max(1) as f64;
+    // Sets are held decoded while the shared bake runs (all cells advance together).
+    let set_bytes: usize = file
+        .cells
+        .iter()
+        .map(|c| {
+            sightline_region::EncodedSet::encode(&c.visible, scene.triangle_count()).payload_bytes()
+        })
+        .sum();
+    let per_cell = |bytes: f64| bytes / file.cells.len().max(1) as f64;
+    let file_bytes = std::fs::metadata(&args.output).map_or(0, |m| m.len());
+    let summary = BakeSummary {
+        output: args.output.clone(),
+        method: "gvs++ shared".into(),
+        cells: cells.len(),
+        resumed_cells: 0,
+        baked_cells: cells.len(),
+        kept_cells: 0,
+        total_rays: result.total_rays,
+        seconds: result.seconds,
+        mean_pvs_size: mean,
+        mean_pvs_percent: 100.0 * mean / n,
+        memory_bytes_per_cell: scene.triangle_count().div_ceil(8) as f64,
+        set_bytes_per_cell: per_cell(set_bytes as f64),
+        file_bytes_per_cell: per_cell(file_bytes as f64),
+        reachable,
+    };
+    if args.json {
+        return print_json(&summary);
+    }
+    outln!(
+        "baked {} cells with GVS++ and ray sharing in {:.2} s ({} rays, {} triangles handed from cell to cell): mean PVS {:.0} triangles ({:.2}% of {}), wrote {}",
+        summary.cells,
+        summary.seconds,
+        summary.total_rays,
+        result.shared_insertions,
+        summary.mean_pvs_size,
+        summary.mean_pvs_percent,
+        scene.triangle_count(),
+        summary.output.display()
+    );
+    Ok(())
+}

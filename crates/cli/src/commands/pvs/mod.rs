@@ -1,0 +1,35 @@
+//! `sightline pvs`: bake, show, diff and compare potentially visible sets.
+//!
+//! The face: `run` dispatches to one file per subcommand (`bake.rs` with merge, `show.rs`,
+//! `diff.rs`, `compare_q3.rs`); the arguments are in `args.rs`.
+
+mod args;
+mod bake;
+mod compare_q3;
+mod diff;
+mod show;
+
+use anyhow::Result;
+
+pub(crate) use args::Args;
+use args::What;
+use bake::{run_bake, run_merge};
+use compare_q3::run_compare_q3;
+use diff::run_diff;
+use show::run_show;
+
+use crate::errors::ExitStatus;
+
+pub(crate) fn run(args: Args) -> Result<()> {
+    match args.what {
+        What::Bake(a) => run_bake(*a),
+        What::Show(a) => run_show(a),
+        What::Merge(a) => run_merge(a),
+        // As `diff`: 0 same sets, 1 different, 2 trouble (unreadable or unrelated files).
+        What::Diff(a) => run_diff(a).map_err(|e| match e.downcast_ref::<ExitStatus>() {
+            Some(_) => e,
+            None => e.context(ExitStatus(2)),
+        }),
+        What::CompareQ3(a) => run_compare_q3(a),
+    }
+}
