@@ -8,6 +8,7 @@ use sightline_core::{Aabb, Camera};
 use crate::backend::OcclusionBackend;
 use crate::diagnose::Diagnosis;
 use crate::front_to_back::sort_front_to_back;
+use crate::grid::GridShape;
 use crate::hzb::Hzb;
 use crate::masked_occlusion::OcclusionBuffer;
 use crate::scheduler::Scheduler;
@@ -40,6 +41,59 @@ pub(crate) struct MethodState {
     /// Grid method, per object: its object queries ([`SimConfig::object_queries`]).
     pub(crate) objects: ObjectQueries,
     pub(crate) report: SimReport,
+}
+
+impl MethodState {
+    /// The state of `method` before the first frame: empty queues and sets, a report with
+    /// the run's sizes, object queries only where the tag bit leaves room for the indices.
+    pub(crate) fn new(method: Method, shape: GridShape, n_obj: usize, config: &SimConfig) -> Self {
+        MethodState {
+            method,
+            scheduler: Scheduler::new(shape.cell_count(), config.scheduler),
+            traversal: Traversal::new(),
+            cells: Vec::new(),
+            collected: Vec::new(),
+            pending: Vec::new(),
+            drawn: Vec::new(),
+            prepassed: Vec::new(),
+            retest_corners: Vec::new(),
+            diagnosis: (config.diagnose
+                && config.measure_popping
+                && matches!(
+                    method,
+                    Method::Grid | Method::StopAndWait | Method::StopAndWaitTriangles
+                ))
+            .then(|| Diagnosis::new(config.width, config.height)),
+            // Object tags need cell and object indices below the tag bit.
+            objects: if method == Method::Grid
+                && config.object_queries
+                && shape.cell_count() < OBJECT_TAG as usize
+                && n_obj < OBJECT_TAG as usize
+            {
+                ObjectQueries::new(n_obj)
+            } else {
+                ObjectQueries::default()
+            },
+            drawn_flag: vec![false; n_obj],
+            streak: vec![0; n_obj],
+            last_visible: Vec::new(),
+            buffer: OcclusionBuffer::new(config.width, config.height),
+            hzb: Hzb::new(),
+            report: SimReport {
+                method,
+                pixels: config.width * config.height,
+                objects: n_obj as u32,
+                streaks: vec![0; 2],
+                // Methods that wait for no earlier frame have nothing to warm up.
+                warmup: if method == Method::Grid {
+                    config.latency
+                } else {
+                    0
+                },
+                ..SimReport::default()
+            },
+        }
+    }
 }
 
 /// The tag bit of object queries in the grid method; cell queries are tagged by cell index.

@@ -26,13 +26,10 @@ use sightline_core::raster::{Frame, Rasterizer};
 use sightline_core::{Aabb, Camera, Hit, Scene};
 
 use crate::backend::OcclusionBackend;
-use crate::diagnose::{Diagnosis, Objects};
+use crate::diagnose::Objects;
 use crate::grid::{Grid, GridError, GridShape};
-use crate::hzb::Hzb;
-use crate::masked_occlusion::OcclusionBuffer;
 use crate::scenes::CullScene;
-use crate::scheduler::Scheduler;
-use crate::sim_method::{MethodState, ObjectQueries, OBJECT_TAG};
+use crate::sim_method::MethodState;
 use crate::sim_types::{FrameStats, Method, SimConfig, SimReport};
 use crate::sim_world::World;
 use crate::traversal::Traversal;
@@ -140,52 +137,7 @@ fn simulate_views(
 
     let mut states: Vec<MethodState> = views
         .iter()
-        .map(|&(method, _)| MethodState {
-            method,
-            scheduler: Scheduler::new(shape.cell_count(), config.scheduler),
-            traversal: Traversal::new(),
-            cells: Vec::new(),
-            collected: Vec::new(),
-            pending: Vec::new(),
-            drawn: Vec::new(),
-            prepassed: Vec::new(),
-            retest_corners: Vec::new(),
-            diagnosis: (config.diagnose
-                && config.measure_popping
-                && matches!(
-                    method,
-                    Method::Grid | Method::StopAndWait | Method::StopAndWaitTriangles
-                ))
-            .then(|| Diagnosis::new(config.width, config.height)),
-            // Object tags need cell and object indices below the tag bit.
-            objects: if method == Method::Grid
-                && config.object_queries
-                && shape.cell_count() < OBJECT_TAG as usize
-                && n_obj < OBJECT_TAG as usize
-            {
-                ObjectQueries::new(n_obj)
-            } else {
-                ObjectQueries::default()
-            },
-            drawn_flag: vec![false; n_obj],
-            streak: vec![0; n_obj],
-            last_visible: Vec::new(),
-            buffer: OcclusionBuffer::new(config.width, config.height),
-            hzb: Hzb::new(),
-            report: SimReport {
-                method,
-                pixels: config.width * config.height,
-                objects: n_obj as u32,
-                streaks: vec![0; 2],
-                // Methods that wait for no earlier frame have nothing to warm up.
-                warmup: if method == Method::Grid {
-                    config.latency
-                } else {
-                    0
-                },
-                ..SimReport::default()
-            },
-        })
+        .map(|&(method, _)| MethodState::new(method, shape, n_obj, config))
         .collect();
     let mut frustum_cells = Vec::new();
     let mut frustum_objs = Vec::new();
@@ -265,45 +217,12 @@ fn simulate_views(
             let exact = visible.iter().filter(|&&v| v).count() as u32;
             let of_view = states.iter_mut().zip(&mut frame_stats).zip(views);
             for ((st, stats), _) in of_view.filter(|(_, &(_, v))| v == view) {
-                for &o in &st.drawn {
-                    st.drawn_flag[o as usize] = true;
-                }
-                stats.exact_visible = exact;
-                if let Some(diagnosis) = &mut st.diagnosis {
-                    let objects = Objects {
-                        boxes: &world.boxes,
-                        corners: &world.corners,
-                        ranges: &world.ranges,
-                    };
-                    let triangles = st.method == Method::StopAndWaitTriangles
-                        || (st.method == Method::Grid
-                            && config.object_tests
-                            && config.triangle_tests);
-                    stats.extra = diagnosis.classify(
-                        camera,
-                        &objects,
-                        &st.drawn,
-                        &st.prepassed,
-                        &visible,
-                        triangles,
-                    );
-                }
-                stats.popping_pixels = ids.iter().filter(|&&o| !st.drawn_flag[o]).count() as u32;
-                if f >= st.report.warmup {
-                    let per_object = visible.iter().zip(&st.drawn_flag).zip(&mut st.streak);
-                    for ((&vis, &drawn), streak) in per_object {
-                        if vis && !drawn {
-                            stats.missing += 1;
-                            *streak += 1;
-                        } else if *streak > 0 {
-                            bump(&mut st.report.streaks, *streak);
-                            *streak = 0;
-                        }
-                    }
-                }
-                for &o in &st.drawn {
-                    st.drawn_flag[o as usize] = false;
-                }
+                let ground_truth = GroundTruth {
+                    visible: &visible,
+                    ids: &ids,
+                    exact,
+                };
+                score_view(st, stats, &ground_truth, &world, camera, config, f);
             }
         }
         for (st, stats) in states.iter_mut().zip(frame_stats) {
@@ -319,6 +238,66 @@ fn simulate_views(
             st.report
         })
         .collect())
+}
+
+/// One viewport's ground truth in one frame: which objects show, the object of every covered
+/// pixel, and how many objects show.
+struct GroundTruth<'a> {
+    visible: &'a [bool],
+    ids: &'a [usize],
+    exact: u32,
+}
+
+/// Scores one method's frame against the ground truth of its viewport: exactly visible
+/// objects, the diagnosis of extra objects drawn, popping pixels, missing objects and their
+/// streaks (after the method's warm-up frames).
+fn score_view(
+    st: &mut MethodState,
+    stats: &mut FrameStats,
+    truth: &GroundTruth,
+    world: &World,
+    camera: &Camera,
+    config: &SimConfig,
+    f: u32,
+) {
+    let (visible, ids, exact) = (truth.visible, truth.ids, truth.exact);
+    for &o in &st.drawn {
+        st.drawn_flag[o as usize] = true;
+    }
+    stats.exact_visible = exact;
+    if let Some(diagnosis) = &mut st.diagnosis {
+        let objects = Objects {
+            boxes: &world.boxes,
+            corners: &world.corners,
+            ranges: &world.ranges,
+        };
+        let triangles = st.method == Method::StopAndWaitTriangles
+            || (st.method == Method::Grid && config.object_tests && config.triangle_tests);
+        stats.extra = diagnosis.classify(
+            camera,
+            &objects,
+            &st.drawn,
+            &st.prepassed,
+            visible,
+            triangles,
+        );
+    }
+    stats.popping_pixels = ids.iter().filter(|&&o| !st.drawn_flag[o]).count() as u32;
+    if f >= st.report.warmup {
+        let per_object = visible.iter().zip(&st.drawn_flag).zip(&mut st.streak);
+        for ((&vis, &drawn), streak) in per_object {
+            if vis && !drawn {
+                stats.missing += 1;
+                *streak += 1;
+            } else if *streak > 0 {
+                bump(&mut st.report.streaks, *streak);
+                *streak = 0;
+            }
+        }
+    }
+    for &o in &st.drawn {
+        st.drawn_flag[o as usize] = false;
+    }
 }
 
 fn bump(hist: &mut Vec<u32>, k: u32) {
