@@ -17,6 +17,16 @@ pub(crate) fn not_built(feature: &str, what: &str) -> anyhow::Error {
     .context(crate::errors::ExitStatus(2))
 }
 
+/// `Ok` when this build has the GPU parts; else the [`not_built`] error for `what` (the flag
+/// that asked), so commands refuse it before loading anything.
+pub(crate) fn require_gpu(what: &str) -> anyhow::Result<()> {
+    if cfg!(feature = "gpu") {
+        Ok(())
+    } else {
+        Err(not_built("gpu", what))
+    }
+}
+
 /// The optional features this build has, shown by `sightline --version`.
 pub(crate) fn built_features() -> Vec<&'static str> {
     let mut features = Vec::new();

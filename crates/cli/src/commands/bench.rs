@@ -239,6 +239,16 @@ pub(crate) enum Device {
     Gpu,
 }
 
+impl Device {
+    /// Refuses `--device gpu` in a build without the GPU parts (cargo feature `gpu`).
+    pub(crate) fn check_built(self) -> Result<()> {
+        match self {
+            Device::Cpu => Ok(()),
+            Device::Gpu => crate::features::require_gpu("--device gpu"),
+        }
+    }
+}
+
 /// Arguments of `sightline bench raster`.
 #[derive(clap::Args, Debug)]
 struct RasterArgs {
@@ -333,9 +343,7 @@ fn trace(args: TraceArgs) -> Result<()> {
     } else {
         args.scenes.clone()
     };
-    if args.device == Device::Gpu && !cfg!(feature = "gpu") {
-        return Err(crate::features::not_built("gpu", "--device gpu"));
-    }
+    args.device.check_built()?;
     // One device for every scene (acquiring one takes a while on lavapipe).
     #[cfg(feature = "gpu")]
     let mut gpu = None;

@@ -103,8 +103,8 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if args.backend != "sw" && args.backend != "gpu" {
         bail!("unknown backend {:?}: use `sw` (software occlusion buffer) or `gpu` (Vulkan occlusion queries)", args.backend);
     }
-    if args.backend == "gpu" && !cfg!(feature = "gpu") {
-        return Err(crate::features::not_built("gpu", "--backend gpu"));
+    if args.backend == "gpu" {
+        crate::features::require_gpu("--backend gpu")?;
     }
     if args.frames == 0 {
         bail!("--frames must be at least 1");

@@ -187,9 +187,7 @@ fn gpu_caster(_scene: &sightline_core::Scene) -> Result<Box<dyn RayCaster>> {
 }
 
 fn bake_command(args: &BakeArgs) -> Result<()> {
-    if args.device == Device::Gpu && !cfg!(feature = "gpu") {
-        return Err(crate::features::not_built("gpu", "--device gpu"));
-    }
+    args.device.check_built()?;
     // The --since file may be the output: it is read whole before the output is replaced,
     // so an in-place incremental rebake is safe.
     let mut inputs = vec![Path::new(&args.scene.scene)];
