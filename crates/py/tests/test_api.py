@@ -291,8 +291,8 @@ def test_fixed_rounds_survive_pickling_and_change_a_budgeted_bake(city, city_cel
     fixed = sl.Method("gvs++", fixed_rounds=True)
     again = pickle.loads(pickle.dumps(fixed))
     assert "fixed_rounds: true" in repr(again)
-    # Under a budget below one paper round, fixed rounds are random rays only; adaptive rounds
-    # explore, so the sets differ.
+    # Under a budget below one paper round, fixed rounds are random rays only; the default
+    # schedule by yield explores, so the sets differ.
     a = sl.bake_cell(city, city_cells[0], again, rays=50_000, seed=3)
     b = sl.bake_cell(city, city_cells[0], "gvs++", rays=50_000, seed=3)
     r = sl.bake_cell(city, city_cells[0], "rand", rays=50_000, seed=3)

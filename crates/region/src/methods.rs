@@ -32,13 +32,14 @@ pub struct MethodParams {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "clap", derive(clap::Args))]
 pub struct MethodOverrides {
-    /// GVS++/GVS: random rays per round (paper: 10,000,000). Under --rays or --time, GVS++
-    /// rounds are adaptive: the first has 16,384 random rays, each doubles the next up to this
-    /// size, and a round explores at most 4 times as many rays as its random phase cast.
+    /// GVS++/GVS: random rays per round (paper: 10,000,000). Under --rays or --time GVS++ has
+    /// no rounds: each batch of 16,384 rays goes to random, border or reverse sampling,
+    /// whichever found the most new triangles per ray lately (each keeps at least a tenth).
     #[cfg_attr(feature = "clap", arg(long))]
     pub n_rand: Option<u64>,
-    /// GVS++: every round casts --n-rand random rays, as in the paper (sized for a GPU: on a
-    /// CPU a budget below one round is then spent on random rays alone).
+    /// GVS++: under --rays or --time too, rounds of --n-rand random rays followed by the whole
+    /// exploration queue, as in the paper (sized for a GPU: on a CPU a budget below one round is
+    /// then spent on random rays alone).
     #[cfg_attr(feature = "clap", arg(long))]
     pub fixed_rounds: bool,
     /// GVS++: samples per border-polygon edge (paper: 20).

@@ -211,7 +211,7 @@ fn cell_outside_everything_sees_only_outer_walls() {
 }
 
 /// Under a budget far below the paper's round of 10^7 random rays, GVS++ still explores: its
-/// adaptive rounds start at `FIRST_ROUND` rays, so border and reverse sampling find triangles,
+/// batches go to whichever kind of ray yields best, so border and reverse sampling find triangles,
 /// and it finds more than RAND at the same rays. (With the paper's fixed rounds, which
 /// `fixed_rounds` keeps, the budget goes to random rays alone and the result is RAND's.)
 #[test]

@@ -1,19 +1,21 @@
 //! One view cell's GVS++ state, stepped phase by phase by both drivers: the per-cell sampler
-//! (`sampler.rs`, which casts the cell's rays alone) and the shared-ray bake (`ray_sharing/`,
-//! which casts many cells' rays together). The state holds what a cell carries from phase to
-//! phase and round to round: its random-ray sequence, its reverse-sampling origins, the
-//! exploration queue, the count of triangles each phase found, the size of the next round and
-//! the termination rule. The drivers cast the rays and keep the PVS.
+//! (`sampler.rs` and, under a budget, `by_yield.rs`, which cast the cell's rays alone) and the
+//! shared-ray bake (`ray_sharing/`, which casts many cells' rays together). The state holds what
+//! a cell carries from phase to phase and round to round: its random-ray sequence, its
+//! reverse-sampling origins, the exploration queue, the discontinuities waiting for reverse
+//! sampling (budgeted bakes only), the count of triangles each phase found and the termination
+//! rule. The drivers cast the rays and keep the PVS.
 //!
 //! Based on: Koch, Wimmer. Guided Visibility Sampling++. 2021, sections 4.1 to 4.4; the
-//! adaptive round sizes under a budget are ours (see `gvspp/mod.rs`).
+//! schedule by yield under a budget is ours (see `gvspp/mod.rs`).
+
+use std::collections::VecDeque;
 
 use glam::Vec3;
 use sightline_core::{Hit, Ray};
 
 use super::guided_rays::{abs_rays, find_discontinuities, Discontinuity, ReverseOrigins};
-use super::params::{GvsPlusPlusParams, ABS_CHUNK, EXPLORE_RAYS_PER_TRIANGLE, EXPLORE_SHARE};
-use super::params::{FIRST_ROUND, TERMINATION_WINDOW};
+use super::params::{GvsPlusPlusParams, ABS_CHUNK, EXPLORE_RAYS_PER_TRIANGLE, TERMINATION_WINDOW};
 use crate::guided::{ExploreQueue, Found, Phase, Termination};
 use crate::rays::{Discovery, RandomRays};
 use crate::sampler::CellContext;
@@ -25,9 +27,9 @@ pub(crate) enum Rounds {
     /// the last [`TERMINATION_WINDOW`] rays: the per-cell bake without a budget, or with
     /// `fixed_rounds`.
     Paper,
-    /// Rounds from [`FIRST_ROUND`] random rays up, each exploring at most [`EXPLORE_SHARE`]
-    /// times its random rays: the per-cell bake under a budget.
-    Adaptive,
+    /// No rounds: batches of whichever kind of ray yields best, until the budget is spent (the
+    /// per-cell bake under a budget, `by_yield.rs`).
+    ByYield,
     /// Rounds of `n_rand` random rays that drain the queue, ended when one round alone found
     /// fewer than `T` new triangles: the shared-ray bake.
     PaperPerRound,
@@ -43,12 +45,12 @@ pub(crate) struct GvsppCell {
     rs_groups: u64,
     /// Triangles waiting for ABS and RS (4.4's queue).
     pub queue: ExploreQueue,
+    /// Discontinuities waiting for reverse sampling (scheduled by yield only: the paper's
+    /// rounds reverse-sample them as soon as border sampling finds them).
+    pub pending: VecDeque<Discontinuity>,
     /// Triangles found by each phase.
     pub found: Found,
     termination: Termination,
-    adaptive: bool,
-    /// Random rays of the next round.
-    round_size: u64,
     n_rand: u64,
     n_abs_edge: u32,
     /// Border offset `Δ_ABS` in scene units.
@@ -61,7 +63,6 @@ impl GvsppCell {
     /// The state of `ctx.cell` before its first round.
     pub fn new(ctx: &CellContext<'_>, p: &GvsPlusPlusParams, rounds: Rounds) -> Self {
         let diagonal = ctx.scene.bounds().diagonal().max(f32::MIN_POSITIVE);
-        let adaptive = rounds == Rounds::Adaptive;
         let termination = match rounds {
             Rounds::PaperPerRound => Termination::per_round(p.termination_threshold),
             _ => Termination::over_window(p.termination_threshold, TERMINATION_WINDOW),
@@ -71,14 +72,9 @@ impl GvsppCell {
             reverse: ReverseOrigins::new(ctx, p.n_rs_edge, p.n_rs_area),
             rs_groups: 0,
             queue: ExploreQueue::default(),
+            pending: VecDeque::new(),
             found: Found::default(),
             termination,
-            adaptive,
-            round_size: if adaptive {
-                FIRST_ROUND.min(p.n_rand)
-            } else {
-                p.n_rand
-            },
             n_rand: p.n_rand,
             n_abs_edge: p.n_abs_edge,
             delta_abs: p.delta_abs * diagonal,
@@ -86,9 +82,9 @@ impl GvsppCell {
         }
     }
 
-    /// Random rays this round casts.
+    /// Random rays a round casts (`n_rand`).
     pub fn round_size(&self) -> u64 {
-        self.round_size
+        self.n_rand
     }
 
     /// Credits the triangles `phase` found to it and queues them for exploration.
@@ -97,30 +93,12 @@ impl GvsppCell {
         self.queue.extend(new);
     }
 
-    /// How many queued triangles the next exploration step takes, once this round cast
-    /// `random_rays` random rays and `explored` rays exploring, with `rays_left` rays left in
-    /// the budget (`u64::MAX` without a ray limit); `None` when the round's share of exploration
-    /// is spent (adaptive rounds only: the paper's rounds drain the queue). Never more
-    /// triangles than the rays left can explore, so a small budget is kept to within one
+    /// How many queued triangles the next exploration step of a round takes with `rays_left`
+    /// rays left in the budget (`u64::MAX` without a ray limit): a whole [`ABS_CHUNK`], or no
+    /// more than the rays left can explore, so a small budget is kept to within one
     /// triangle's step.
-    pub fn explore_take(&self, random_rays: u64, explored: u64, rays_left: u64) -> Option<usize> {
-        let within_budget = fitting(rays_left, EXPLORE_RAYS_PER_TRIANGLE as usize);
-        if !self.adaptive {
-            return Some(ABS_CHUNK.min(within_budget));
-        }
-        let share = EXPLORE_SHARE * random_rays as f64;
-        if explored as f64 >= share {
-            return None;
-        }
-        // No more triangles than the rest of the share can explore (about 69 ABS rays each,
-        // plus reverse sampling of their discontinuities): one full chunk could cost 300k
-        // rays in a city and take the whole share.
-        let left = share - explored as f64;
-        Some(
-            ((left / EXPLORE_RAYS_PER_TRIANGLE) as usize)
-                .clamp(1, ABS_CHUNK)
-                .min(within_budget),
-        )
+    pub fn explore_take(&self, rays_left: u64) -> usize {
+        ABS_CHUNK.min(fitting(rays_left, EXPLORE_RAYS_PER_TRIANGLE as usize))
     }
 
     /// Takes up to `n` triangles off the queue and returns their ABS rays (4.2) with, for each
@@ -140,6 +118,16 @@ impl GvsppCell {
         find_discontinuities(rays, hits, targets, self.delta)
     }
 
+    /// ABS rays per explored triangle.
+    pub fn abs_rays_per_triangle(&self) -> usize {
+        9 + 3 * self.n_abs_edge as usize
+    }
+
+    /// RS rays per discontinuity (at most).
+    pub fn rs_rays_per_discontinuity(&self) -> usize {
+        self.reverse.origins_per_discontinuity()
+    }
+
     /// Discontinuities reverse-sampled together: a batch of about [`crate::rays::BATCH`] rays,
     /// and no more than `rays_left` rays allow (at least one).
     pub fn rs_group_size(&self, rays_left: u64) -> usize {
@@ -155,14 +143,9 @@ impl GvsppCell {
         rays
     }
 
-    /// Ends a round that cast `round_rays` rays, `random_rays` of them random: sizes the next
-    /// round (adaptive rounds double, and grow to at least this round's exploration) and
-    /// returns whether the termination rule (4.4) holds.
-    pub fn end_round(&mut self, round_rays: u64, random_rays: u64) -> bool {
-        if self.adaptive {
-            let explore_rays = round_rays - random_rays;
-            self.round_size = (self.round_size * 2).max(explore_rays).min(self.n_rand);
-        }
+    /// Ends a round that cast `round_rays` rays and returns whether the termination rule
+    /// (4.4) holds.
+    pub fn end_round(&mut self, round_rays: u64) -> bool {
         let new = self.found.end_round();
         self.termination.round_done(round_rays, new)
     }
@@ -170,7 +153,7 @@ impl GvsppCell {
 
 /// How many steps costing `cost` rays each fit in `rays_left` (at least one, so a step always
 /// makes progress; with no ray limit, `u64::MAX`, any count fits).
-fn fitting(rays_left: u64, cost: usize) -> usize {
+pub(crate) fn fitting(rays_left: u64, cost: usize) -> usize {
     (rays_left / cost.max(1) as u64)
         .min(usize::MAX as u64)
         .max(1) as usize
@@ -214,46 +197,17 @@ mod tests {
     }
 
     #[test]
-    fn adaptive_rounds_double_up_to_n_rand_and_cover_exploration() {
-        with_box_cell(|ctx| {
-            let mut state = GvsppCell::new(ctx, &params(), Rounds::Adaptive);
-            assert_eq!(state.round_size(), FIRST_ROUND);
-            state.end_round(FIRST_ROUND, FIRST_ROUND);
-            assert_eq!(state.round_size(), 2 * FIRST_ROUND);
-            // An exploration larger than the doubled round sets the next round's size.
-            state.end_round(2 * FIRST_ROUND + 70_000, 2 * FIRST_ROUND);
-            assert_eq!(state.round_size(), 70_000);
-            state.end_round(70_000, 70_000);
-            assert_eq!(state.round_size(), 100_000);
-        });
-    }
-
-    #[test]
-    fn paper_rounds_keep_n_rand_and_take_whole_chunks() {
+    fn paper_rounds_keep_n_rand_and_take_whole_chunks_within_the_budget() {
         with_box_cell(|ctx| {
             let mut state = GvsppCell::new(ctx, &params(), Rounds::Paper);
             assert_eq!(state.round_size(), 100_000);
-            assert_eq!(
-                state.explore_take(0, u64::MAX / 2, u64::MAX),
-                Some(ABS_CHUNK)
-            );
-            state.end_round(150_000, 100_000);
+            assert_eq!(state.explore_take(u64::MAX), ABS_CHUNK);
+            // Ten triangles' worth of rays left: ten triangles; less than one: still one.
+            let ten = 10 * EXPLORE_RAYS_PER_TRIANGLE as u64;
+            assert_eq!(state.explore_take(ten), 10);
+            assert_eq!(state.explore_take(1), 1);
+            state.end_round(150_000);
             assert_eq!(state.round_size(), 100_000);
-        });
-    }
-
-    #[test]
-    fn adaptive_exploration_stops_at_its_share() {
-        with_box_cell(|ctx| {
-            let state = GvsppCell::new(ctx, &params(), Rounds::Adaptive);
-            let share = (EXPLORE_SHARE * 1000.0) as u64;
-            assert_eq!(state.explore_take(1000, share, u64::MAX), None);
-            // Less than one triangle's worth left: still one triangle.
-            assert_eq!(state.explore_take(1000, share - 1, u64::MAX), Some(1));
-            assert_eq!(
-                state.explore_take(1_000_000_000, 0, u64::MAX),
-                Some(ABS_CHUNK)
-            );
         });
     }
 
@@ -277,8 +231,8 @@ mod tests {
                 state.found.credit(Phase::Random, 3);
             }
             // Three new triangles in 100k rays: below T = 10, but the window needs 10^7 rays.
-            assert!(per_round.end_round(100_000, 100_000));
-            assert!(!windowed.end_round(100_000, 100_000));
+            assert!(per_round.end_round(100_000));
+            assert!(!windowed.end_round(100_000));
         });
     }
 }

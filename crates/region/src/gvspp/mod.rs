@@ -20,38 +20,38 @@
 //! at least [`TERMINATION_WINDOW`] rays found fewer than `T` new triangles. With a budget, rounds
 //! continue until it is spent (so comparisons at equal rays are fair).
 //!
-//! # Round sizes (not the paper's)
+//! # Under a budget: batches by yield (not the paper's schedule)
 //! The paper casts `n_rand` = 10^7 random rays per round, sized for a GPU that casts them in
-//! milliseconds. On a CPU (7 M rays/s on two cores) the first round alone spends any budget up to
-//! 1.5 s before border or reverse sampling run once, so a time- or ray-limited bake was RAND.
-//! Under a ray or time budget rounds are therefore adaptive: the first has [`FIRST_ROUND`] random
-//! rays, each doubles the next (and makes it at least as large as its exploration) up to
-//! `n_rand`, and a round explores at most [`EXPLORE_SHARE`] (4) times as many rays as its random
-//! phase cast, the rest of the queue waiting for the next round.
-//! `fixed_rounds` restores the paper's rounds of `n_rand`. A bake without a budget (to
-//! convergence) keeps the paper's rounds: adaptive ones reached the same error with 1.5x the
-//! rays there. The termination rule is the paper's (T = 10 new triangles in a 10^7-ray round)
-//! over a window of at least [`TERMINATION_WINDOW`] rays instead of one round, so that a small
-//! `n_rand` does not stop a bake early; with the default `n_rand` it is the paper's rule.
+//! milliseconds, then drains the whole queue, reverse-sampling every discontinuity as border
+//! sampling finds it. On a CPU (5-7 M rays/s on two cores) the first round alone spends any
+//! budget up to 1.5 s, and even with small rounds reverse sampling took most of a small budget
+//! at a poor yield. Under `--rays` or `--time` a bake therefore has no rounds: every batch of
+//! [`YIELD_BATCH`] rays goes to random, border or reverse sampling, whichever found the most new
+//! triangles per ray in its recent batches, each kind keeping at least a tenth of the rays while
+//! it has work (`by_yield.rs` says why and what it measured). `fixed_rounds` restores the
+//! paper's rounds. A bake without a budget (to convergence) keeps the paper's rounds: its
+//! termination rule needs them. That rule is the paper's (T = 10 new triangles in a 10^7-ray
+//! round) over a window of at least [`TERMINATION_WINDOW`] rays instead of one round, so that a
+//! small `n_rand` does not stop a bake early; with the default `n_rand` it is the paper's rule.
 //!
 //! Distances: the paper gives Δ_ABS = 0.001 in scene units of km-scale scenes; here both
 //! distances are fractions of the scene's bounding-box diagonal (`delta_abs` 1e-6 ≈ 1 mm on a
 //! 1 km scene), so the defaults work on a bunny and on a city alike.
 //!
 //! # Layout
-//! `params.rs` the parameters and the round-schedule constants; `cell.rs` one cell's state
-//! (random sequence, reverse origins, queue, counters, round size, termination), stepped by both
-//! drivers: `sampler.rs`, the per-cell sampler, and the shared-ray bake (`ray_sharing/`);
-//! `guided_rays.rs` the ABS, discontinuity and RS rays. The queue, the counters and the
+//! `params.rs` the parameters and the schedule's constants; `cell.rs` one cell's state (random
+//! sequence, reverse origins, queue, waiting discontinuities, counters, termination), stepped by
+//! the drivers: `sampler.rs`, the per-cell sampler in the paper's rounds, `by_yield.rs`, the
+//! per-cell sampler under a budget, and the shared-ray bake (`ray_sharing/`); `guided_rays.rs`
+//! the ABS, discontinuity and RS rays. The queue, the counters and the
 //! termination rule are the skeleton GVS shares (`guided.rs`).
 
+mod by_yield;
 mod cell;
 mod guided_rays;
 mod params;
 mod sampler;
 
 pub(crate) use cell::{GvsppCell, Rounds};
-pub use params::{
-    GvsPlusPlusParams, GvsPlusPlusParamsError, EXPLORE_SHARE, FIRST_ROUND, TERMINATION_WINDOW,
-};
+pub use params::{GvsPlusPlusParams, GvsPlusPlusParamsError, TERMINATION_WINDOW, YIELD_BATCH};
 pub use sampler::GvsPlusPlus;

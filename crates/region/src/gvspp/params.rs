@@ -1,5 +1,5 @@
-//! GVS++'s parameters and the constants of its round schedule (see the module docs of
-//! `gvspp/mod.rs` for why rounds are adaptive under a budget).
+//! GVS++'s parameters and the constants of its schedule (see the module docs of `gvspp/mod.rs`
+//! for why a budgeted bake schedules its rays by yield).
 //!
 //! Based on: Koch, Wimmer. Guided Visibility Sampling++. 2021, section 6 and table 1 (the
 //! defaults).
@@ -24,14 +24,16 @@ pub struct GvsPlusPlusParams {
     /// Stop when the rounds of the last [`TERMINATION_WINDOW`] rays found fewer new triangles
     /// than this (`T`).
     pub termination_threshold: usize,
-    /// Every round casts `n_rand` random rays (the paper). Off by default: under a budget,
-    /// rounds start at [`FIRST_ROUND`] rays and grow (see the module docs).
+    /// Under a budget too, run the paper's rounds (`n_rand` random rays, then the whole
+    /// exploration queue). Off by default: under a budget each batch of [`YIELD_BATCH`] rays
+    /// goes to the kind of ray with the best recent yield (see the module docs).
     pub fixed_rounds: bool,
 }
 
-/// Random rays in the first round of an adaptive bake: about 2 ms on two cores, so that border
-/// and reverse sampling start at once however small the budget.
-pub const FIRST_ROUND: u64 = 16_384;
+/// Rays per batch of a budgeted bake, each batch of one kind (random, border or reverse): about
+/// 3 ms on two cores, so the schedule follows the yields closely at any budget and a batch's
+/// parallel cast still amortises its set-up.
+pub const YIELD_BATCH: usize = 16_384;
 
 /// The rays over which the termination rule counts new triangles: the paper's round (10^7
 /// random rays, plus their exploration).
@@ -89,15 +91,9 @@ pub enum GvsPlusPlusParamsError {
     TooManySamples,
 }
 
-/// Under a budget, the most exploration rays a round casts, as a multiple of its random rays.
-/// Measured at 1M and 4M rays on free-space cells of etoile, munich and fzk_haus (`bench pvs
-/// --ray-budgets`, docs/BENCHMARKS.md): 0.5 left the queue mostly unexplored (etoile 5.4x
-/// better than RAND at 4M rays, fzk_haus 12x); 2, 4 and 8 were within noise of each other
-/// (etoile 33x, fzk_haus 98-243x), 4 the best on munich (3.8x) and at 1M rays.
-pub const EXPLORE_SHARE: f64 = 4.0;
-
 /// Rays the exploration of one triangle costs on average (69 ABS rays at the defaults, plus
-/// reverse sampling where its border rays find a discontinuity), for sizing chunks to a share.
+/// reverse sampling where its border rays find a discontinuity), for keeping the last chunk of
+/// a budgeted paper-round bake within its budget.
 pub(crate) const EXPLORE_RAYS_PER_TRIANGLE: f64 = 300.0;
 
 /// Triangles processed per ABS batch (each gives 9 + 3 n_ABSEdge rays).

@@ -1,12 +1,14 @@
-//! The per-cell GVS++ sampler: one cell's rounds, its rays cast alone.
+//! The per-cell GVS++ sampler: one cell's rays cast alone, in the paper's rounds (without a
+//! budget, or with `fixed_rounds`) or scheduled by yield under a budget (`by_yield.rs`).
 //!
 //! Based on: Koch, Wimmer. Guided Visibility Sampling++. 2021, sections 4.1 to 4.4 (the state
-//! it steps is `cell.rs`; the algorithm and its round sizes are described in `gvspp/mod.rs`).
+//! it steps is `cell.rs`; the algorithm and its schedules are described in `gvspp/mod.rs`).
 
 use crate::guided::Phase;
 use crate::rays::{cast, discover};
 use crate::sampler::{Budget, CellContext, CellResult, ConvergencePoint, Sampler, Tally};
 
+use super::by_yield::sample_by_yield;
 use super::cell::{GvsppCell, Rounds};
 use super::params::GvsPlusPlusParams;
 
@@ -29,14 +31,14 @@ impl Sampler for GvsPlusPlus {
         progress: &(dyn Fn(&ConvergencePoint) + Sync),
     ) -> CellResult {
         let mut tally = Tally::new(ctx.scene.triangle_count(), *budget);
-        // Adaptive rounds only under a budget: a bake to convergence keeps the paper's rounds
-        // (measured: adaptive rounds cast 1.5x the rays for the same error on etoile's cells).
-        let rounds = if !self.params.fixed_rounds && !budget.is_unlimited() {
-            Rounds::Adaptive
-        } else {
-            Rounds::Paper
-        };
-        let mut cell = GvsppCell::new(ctx, &self.params, rounds);
+        // The schedule by yield only under a budget: a bake to convergence keeps the paper's
+        // rounds, whose termination rule (4.4) decides when it has converged.
+        if !self.params.fixed_rounds && !budget.is_unlimited() {
+            let mut cell = GvsppCell::new(ctx, &self.params, Rounds::ByYield);
+            sample_by_yield(ctx, &mut cell, &mut tally, progress);
+            return tally.finish(cell.found.found_by());
+        }
+        let mut cell = GvsppCell::new(ctx, &self.params, Rounds::Paper);
         loop {
             let round_start = tally.rays;
             // Random sampling (4.1).
@@ -46,22 +48,14 @@ impl Sampler for GvsPlusPlus {
             else {
                 break;
             };
-            let random_rays = tally.rays - round_start;
             cell.found_new(Phase::Random, new);
-            // Exploration (4.2, 4.3): drain the queue, FIFO. Under a budget a round explores
-            // at most EXPLORE_SHARE times the rays its random phase cast and the rest waits for
-            // the next round, so that random rays keep finding whole streets while the queue
-            // of the first 16k random rays explores their neighbours.
-            let explore_start = tally.rays;
+            // Exploration (4.2, 4.3): drain the queue, FIFO, within the budget.
             while !cell.queue.is_empty() && !tally.exhausted() {
-                let explored = tally.rays - explore_start;
-                let Some(take) = cell.explore_take(random_rays, explored, tally.rays_left()) else {
-                    break;
-                };
+                let take = cell.explore_take(tally.rays_left());
                 explore_step(ctx, &mut cell, &mut tally, take, progress);
             }
             // Termination (4.4).
-            let converged = cell.end_round(tally.rays - round_start, random_rays);
+            let converged = cell.end_round(tally.rays - round_start);
             if tally.exhausted() || (budget.is_unlimited() && converged) {
                 break;
             }

@@ -34,27 +34,16 @@ struct CellState {
     rays: u64,
     /// `rays` when the round began.
     round_start: u64,
-    /// Random rays the cell cast this round.
-    random_rays: u64,
     /// Stopped random sampling (converged, or no free space for origins).
     converged: bool,
     convergence: Vec<ConvergencePoint>,
 }
 
 impl CellState {
-    /// Rays the cell cast exploring this round.
-    fn explored(&self) -> u64 {
-        self.rays - self.round_start - self.random_rays
-    }
-
     /// How many queued triangles the cell explores next with `rays_left` rays left in its
-    /// budget (see [`GvsppCell::explore_take`]); `None` when it explores no more this round.
+    /// budget (see [`GvsppCell::explore_take`]); `None` when its queue is empty.
     fn explore_take(&self, rays_left: u64) -> Option<usize> {
-        if self.gvspp.queue.is_empty() {
-            return None;
-        }
-        self.gvspp
-            .explore_take(self.random_rays, self.explored(), rays_left)
+        (!self.gvspp.queue.is_empty()).then(|| self.gvspp.explore_take(rays_left))
     }
 }
 
@@ -123,7 +112,6 @@ pub fn bake_shared(
             explored: TriangleSet::with_capacity(scene.triangle_count()),
             rays: 0,
             round_start: 0,
-            random_rays: 0,
             converged: false,
             convergence: Vec::new(),
         })
@@ -200,14 +188,11 @@ impl Bake<'_> {
                 s.round_start = s.rays;
             }
             self.random_phase();
-            for s in &mut self.states {
-                s.random_rays = s.rays - s.round_start;
-            }
             self.exploration_phase();
             let mut sampling = 0;
             for s in &mut self.states {
                 // Termination (4.4): here over the cell's last round alone (see the module docs).
-                let done = s.gvspp.end_round(s.rays - s.round_start, s.random_rays);
+                let done = s.gvspp.end_round(s.rays - s.round_start);
                 if unlimited && done {
                     s.converged = true;
                 }

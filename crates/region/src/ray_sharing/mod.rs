@@ -16,7 +16,7 @@
 //! on that side and contributes no triangle.
 //!
 //! Schedule, in the paper's rounds of GVS++ (`n_rand` random rays each, as GVS++ with
-//! `fixed_rounds`; the adaptive rounds of a budgeted single-cell bake are not shared yet): (1)
+//! `fixed_rounds`; the schedule by yield of a budgeted single-cell bake is not shared yet): (1)
 //! random sampling, `n_rand` rays from each cell that has not converged, each also cast backward (a
 //! second random-like ray through the cell for one more cast); (2) exploration: every cell takes
 //! the next `ABS_CHUNK` triangles of its queue, casts their ABS rays from the discovery's origin
