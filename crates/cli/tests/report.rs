@@ -195,7 +195,20 @@ fn report_loads_in_chromium_with_the_pvs_numbers() {
     let pvs: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let o = sightline(
         &[
-            "report", SCENE, "a.pvs", "-o", "out", "--views", "4", "--size", "128", "--json",
+            "report",
+            SCENE,
+            "a.pvs",
+            "-o",
+            "out",
+            "--views",
+            "4",
+            "--size",
+            "128",
+            "--budgets",
+            "20000,80000",
+            "--budget-cells",
+            "2",
+            "--json",
         ],
         dir.path(),
     );
@@ -263,7 +276,83 @@ fn report_loads_in_chromium_with_the_pvs_numbers() {
         assert!(dom.contains("id=\"no-convergence\""));
     }
 
+    assert_equal_budget_section(&dom, &summary);
+
     assert_screenshot_not_blank(&page);
+}
+
+/// The equal-budget section shows GVS++ and RAND at `--budgets 20000,80000` on two cells: a
+/// plot with both lines, and a table whose ratios are the JSON summary's errors divided.
+fn assert_equal_budget_section(dom: &str, summary: &serde_json::Value) {
+    let b = &summary["budgets"];
+    assert_eq!(b["cells"], serde_json::json!([0, 3]), "{b}");
+    let points = b["points"].as_array().unwrap();
+    let methods: Vec<&str> = points
+        .iter()
+        .map(|p| p["method"].as_str().unwrap())
+        .collect();
+    assert_eq!(methods, ["GVS++", "RAND", "GVS++", "RAND"]);
+    for p in points {
+        let budget = p["budget"].as_f64().unwrap();
+        let rays = p["rays"].as_f64().unwrap();
+        // Within one batch of the budget (GVS++ may finish a batch a few rays past it).
+        assert!(rays > 0.0 && (rays - budget).abs() <= 0.05 * budget, "{p}");
+        assert!(p["seconds"].as_f64().unwrap() > 0.0, "{p}");
+        assert!(p["avg_error_pixels"].as_f64().unwrap() >= 0.0, "{p}");
+    }
+    let plot = &dom[dom.find("id=\"budget-plot\"").expect("no #budget-plot")..];
+    assert!(plot.matches("<polyline").count() >= 2);
+    assert!(plot.contains("GVS++") && plot.contains("RAND"));
+    let table = &dom[dom.find("id=\"budget-table\"").expect("no #budget-table")..];
+    for (k, budget) in [20000u64, 80000].iter().enumerate() {
+        let (g, r) = (&points[2 * k], &points[2 * k + 1]);
+        let (ge, re) = (
+            g["avg_error_pixels"].as_f64().unwrap(),
+            r["avg_error_pixels"].as_f64().unwrap(),
+        );
+        let start = table
+            .find(&format!("<tr data-budget=\"{budget}\" data-ratio=\""))
+            .unwrap_or_else(|| panic!("no row for {budget} rays"));
+        let rest = &table[start..];
+        let ratio = &rest[rest.find("data-ratio=\"").unwrap() + 12..];
+        let ratio = &ratio[..ratio.find('"').unwrap()];
+        let expected = if ge > 0.0 {
+            re / ge
+        } else if re > 0.0 {
+            f64::INFINITY
+        } else {
+            1.0
+        };
+        let shown: f64 = ratio.parse().unwrap();
+        assert!(
+            shown == expected || (shown - expected).abs() <= 1e-9 * expected,
+            "{budget} rays: {shown} vs {expected}"
+        );
+    }
+}
+
+#[test]
+fn report_rejects_bad_budgets_before_writing_anything() {
+    let dir = tempfile::tempdir().unwrap();
+    bake(dir.path());
+    let report = |budgets: &str| {
+        sightline(
+            &["report", SCENE, "a.pvs", "-o", "out", "--budgets", budgets],
+            dir.path(),
+        )
+    };
+    for (budgets, why) in [("80000,20000", "increase"), ("0", "outside")] {
+        assert_fails_with(&report(budgets), why);
+    }
+    // Not a number: the argument parser's usage error (exit 2), naming the value.
+    let o = report("20000,lots");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("`lots` is not a ray count"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!dir.path().join("out").exists());
 }
 
 #[test]

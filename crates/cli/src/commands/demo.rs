@@ -473,6 +473,7 @@ fn evaluate_pvs(
         &baked.path.display().to_string(),
         &options,
         &baked.rand_sets,
+        None,
         &|_, _, _| {},
     )?;
     let k = pvs.outcomes.len().max(1) as f64;

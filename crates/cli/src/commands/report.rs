@@ -1,6 +1,7 @@
 //! `sightline report`: a self-contained HTML report of a `.pvs` file for its scene: summary,
 //! per-cell PVS size and pixel error (the GVS++ paper's metric), the worst views with their
-//! error pixels highlighted, convergence plots and a map of the cells coloured by PVS size.
+//! error pixels highlighted, convergence plots, GVS++ against RAND at equal small budgets and a
+//! map of the cells coloured by PVS size.
 
 use std::path::PathBuf;
 
@@ -14,8 +15,11 @@ use sightline_eval::EvalParams;
 use crate::args::SceneArgs;
 use crate::commands::eval::{load_pvs_of, view_mode};
 use crate::output::print_json;
+use sightline_eval::report::budgets::{bake_budget_sets, ratio_text};
 use sightline_eval::report::html::page;
-use sightline_eval::report::{pvs_report, PvsReportOptions};
+use sightline_eval::report::{
+    pvs_report, BudgetBakes, BudgetOptions, BudgetSummary, PvsReportOptions,
+};
 
 /// Arguments of `sightline report`.
 #[derive(clap::Args, Debug)]
@@ -47,9 +51,36 @@ pub(crate) struct Args {
     /// Quake 3 maps: bezier patch tessellation (as when baking).
     #[arg(long, value_name = "N", default_value_t = LoadOptions::default().patch_subdivisions)]
     patch_subdivisions: u32,
+    /// GVS++ against RAND at these ray budgets per cell (comma-separated, increasing), on
+    /// `--budget-cells` of the file's cells, judged on the same views, with the time each bake
+    /// took: the GVS++ paper's equal-time comparison, showing whether GVS++ beats random rays on
+    /// this scene at small budgets. `none` leaves the section out.
+    #[arg(long, value_name = "RAYS,..|none", default_value = "250000,1000000", value_parser = parse_budgets)]
+    budgets: Budgets,
+    /// Cells of the equal-budget comparison (spread evenly over the file's cells).
+    #[arg(long, value_name = "N", default_value_t = 4)]
+    budget_cells: usize,
     /// Print a JSON summary instead of text.
     #[arg(long)]
     json: bool,
+}
+
+/// The ray budgets of `--budgets`; empty for `none`.
+#[derive(Clone, Debug)]
+struct Budgets(Vec<u64>);
+
+fn parse_budgets(s: &str) -> std::result::Result<Budgets, String> {
+    if s.trim() == "none" {
+        return Ok(Budgets(Vec::new()));
+    }
+    s.split(',')
+        .map(|t| {
+            t.trim()
+                .parse::<u64>()
+                .map_err(|_| format!("`{t}` is not a ray count (a whole number, or `none`)"))
+        })
+        .collect::<std::result::Result<Vec<u64>, String>>()
+        .map(Budgets)
 }
 
 #[derive(Serialize)]
@@ -69,6 +100,8 @@ struct Summary {
     report: PathBuf,
     scene: String,
     cells: Vec<CellSummary>,
+    /// GVS++ and RAND at each budget (absent with `--budgets none`).
+    budgets: Option<BudgetSummary>,
 }
 
 pub(crate) fn run(args: Args) -> Result<()> {
@@ -90,8 +123,19 @@ pub(crate) fn run(args: Args) -> Result<()> {
         },
         worst_views: args.worst,
     };
+    let budget_options = (!args.budgets.0.is_empty()).then(|| BudgetOptions {
+        budgets: args.budgets.0.clone(),
+        cells: args.budget_cells,
+        seed: args.seed,
+    });
+    if let Some(o) = &budget_options {
+        o.validate()?;
+    }
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("creating {}", args.output.display()))?;
+    let budget_bakes = budget_options
+        .map(|o| bake_comparison(&scene, &file, &o))
+        .transpose()?;
     let bar = ProgressBar::new(file.cells.len() as u64).with_style(
         ProgressStyle::with_template("cell {pos}/{len} {bar:30} {msg} [{elapsed_precise} < {eta}]")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
@@ -103,6 +147,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         &label,
         &options,
         &[],
+        budget_bakes.as_ref(),
         &|cell, done, total| {
             bar.set_position(cell as u64);
             bar.set_message(format!("view {done}/{total}"));
@@ -142,6 +187,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
             report: index,
             scene: scene.source.clone(),
             cells,
+            budgets: report.budgets,
         });
     }
     let k = cells.len().max(1) as f64;
@@ -162,5 +208,35 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if unreachable > 0 {
         outln!("{unreachable} viewpoints were unreachable from the map's spawn points and not evaluated");
     }
+    if let Some(b) = &report.budgets {
+        let ratios: Vec<String> = b
+            .ratios()
+            .iter()
+            .map(|(rays, r)| format!("{rays} rays {}", ratio_text(*r)))
+            .collect();
+        outln!(
+            "GVS++ against RAND on {} cells (RAND's error / GVS++'s): {}",
+            b.cells.len(),
+            ratios.join(", ")
+        );
+    }
     Ok(())
+}
+
+/// Bakes the equal-budget comparison's sets, with a progress bar.
+fn bake_comparison(
+    scene: &sightline_core::Scene,
+    file: &sightline_region::PvsFile,
+    options: &BudgetOptions,
+) -> Result<BudgetBakes> {
+    let bar = ProgressBar::new(0).with_style(
+        ProgressStyle::with_template("equal-budget bakes {pos}/{len} {bar:30} [{elapsed_precise}]")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let bakes = bake_budget_sets(scene, file, options, &|done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    })?;
+    bar.finish_and_clear();
+    Ok(bakes)
 }

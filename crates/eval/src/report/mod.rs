@@ -5,9 +5,11 @@
 //! Files: `html` (escaping, tables, page shell), `base64`, `colour` (the map's scale),
 //! `plan` (the projection from above and its pixel frame), `footprint` (top-down height map),
 //! `map` (cells from above), `plot` (line plots), `metadata` (the bake's records), `evaluate`
-//! (pixel error and worst views), `sections` (the parts of a PVS report), `shading` (id colours and the shaded image).
+//! (pixel error and worst views), `sections` (the parts of a PVS report), `shading` (id colours and the shaded image),
+//! `budgets` (GVS++ against RAND at small equal budgets on a few cells).
 
 pub(crate) mod base64;
+pub mod budgets;
 pub mod colour;
 pub mod evaluate;
 pub(crate) mod footprint;
@@ -24,6 +26,7 @@ use anyhow::Result;
 use sightline_core::{Scene, TriangleSet};
 use sightline_region::PvsFile;
 
+pub use budgets::{BudgetBakes, BudgetOptions, BudgetSummary};
 pub use evaluate::CellOutcome;
 pub use html::Section;
 
@@ -38,24 +41,46 @@ pub struct PvsReportOptions {
 
 /// A PVS report: its sections and the numbers behind them.
 pub struct PvsReport {
-    /// Summary, cells, worst views, convergence, map.
+    /// Summary, cells, worst views, convergence, equal budgets (when baked), map.
     pub sections: Vec<Section>,
     /// Per-cell evaluation, in the file's cell order.
     pub outcomes: Vec<CellOutcome>,
+    /// GVS++ against RAND at equal budgets, when `budgets` were given.
+    pub budgets: Option<BudgetSummary>,
 }
 
 /// Evaluates `file` (made for `scene`; the caller checks) and builds its sections.
 /// `extra[i]` are further sets for cell `i` judged on the same views (their evaluations come
-/// back in `outcomes[i].extra`); `progress(cell, view, views)` reports the evaluation.
+/// back in `outcomes[i].extra`, before those of `budgets`); `budgets` are the sets of the
+/// equal-budget comparison ([`budgets::bake_budget_sets`]), judged the same way and shown in
+/// their own section; `progress(cell, view, views)` reports the evaluation.
 pub fn pvs_report(
     scene: &Scene,
     file: &PvsFile,
     pvs_label: &str,
     options: &PvsReportOptions,
     extra: &[Vec<TriangleSet>],
+    budgets: Option<&BudgetBakes>,
     progress: &dyn Fn(usize, usize, usize),
 ) -> Result<PvsReport> {
-    let outcomes = evaluate::evaluate_cells(scene, file, &options.params, extra, progress)?;
+    // Every cell's extra sets: the caller's, then the comparison's (same offset in every cell).
+    let offset = extra.iter().map(Vec::len).max().unwrap_or(0);
+    let mut all: Vec<Vec<TriangleSet>> = (0..file.cells.len())
+        .map(|i| {
+            let mut sets = extra.get(i).cloned().unwrap_or_default();
+            if budgets.is_some() {
+                sets.resize_with(offset, TriangleSet::default);
+            }
+            sets
+        })
+        .collect();
+    if let Some(b) = budgets {
+        for (cell, runs) in &b.cells {
+            all[*cell].extend(runs.iter().map(|(_, set)| set.clone()));
+        }
+    }
+    let outcomes = evaluate::evaluate_cells(scene, file, &options.params, &all, progress)?;
+    let summary = budgets.map(|b| BudgetSummary::new(b, &outcomes, offset));
     let worst = evaluate::worst_views(
         scene,
         file,
@@ -63,12 +88,19 @@ pub fn pvs_report(
         options.params.resolution,
         options.worst_views,
     );
-    let sections = vec![
+    let mut sections = vec![
         sections::summary(scene, file, pvs_label, &options.params, &outcomes),
         sections::cell_table(scene, file, &outcomes),
         sections::worst_views(&worst, options.worst_views)?,
         sections::convergence(file)?,
-        sections::cell_map(scene, file)?,
     ];
-    Ok(PvsReport { sections, outcomes })
+    if let Some(s) = &summary {
+        sections.push(budgets::budget_section(s, options.params.resolution)?);
+    }
+    sections.push(sections::cell_map(scene, file)?);
+    Ok(PvsReport {
+        sections,
+        outcomes,
+        budgets: summary,
+    })
 }

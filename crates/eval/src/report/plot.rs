@@ -1,5 +1,6 @@
 //! Line plots as inline SVG (plotters' SVG backend writing into a string): PVS size against
-//! rays per cell (convergence), and per-frame culling numbers.
+//! rays per cell (convergence), per-frame culling numbers, and log-log error curves (GVS++
+//! against RAND at equal budgets, `bench pvs --plot`).
 
 use anyhow::{anyhow, Result};
 use plotters::prelude::*;
@@ -90,6 +91,81 @@ pub fn line_plot(
     Ok(svg)
 }
 
+/// A log-log plot of `series` (each drawn as a line with a marker at every point, in the
+/// colours of [`series_colour`], with a legend), `width x height` pixels. Points must be
+/// positive; the axes span the points with some room.
+pub fn log_log_plot(
+    series: &[Series],
+    x_desc: &str,
+    y_desc: &str,
+    (width, height): (u32, u32),
+) -> Result<String> {
+    let series = &series[..series.len().min(MAX_LINES)];
+    let points = || {
+        series
+            .iter()
+            .flat_map(|s| s.points.iter().copied())
+            .filter(|p| p.0.is_finite() && p.1.is_finite() && p.0 > 0.0 && p.1 > 0.0)
+    };
+    let (x0, x1) = points().fold((f64::MAX, f64::MIN_POSITIVE), |(a, b), p| {
+        (a.min(p.0), b.max(p.0))
+    });
+    let (y0, y1) = points().fold((f64::MAX, f64::MIN_POSITIVE), |(a, b), p| {
+        (a.min(p.1), b.max(p.1))
+    });
+    let (x0, y0) = (x0.min(x1), y0.min(y1));
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area();
+        let draw = || -> std::result::Result<(), Box<dyn std::error::Error>> {
+            root.fill(&WHITE)?;
+            let mut chart = ChartBuilder::on(&root)
+                .margin(10)
+                .x_label_area_size(36)
+                .y_label_area_size(64)
+                .build_cartesian_2d(
+                    (x0 * 0.8..x1 * 1.25).log_scale(),
+                    (y0 * 0.5..y1 * 2.0).log_scale(),
+                )?;
+            chart
+                .configure_mesh()
+                .x_desc(x_desc)
+                .y_desc(y_desc)
+                .x_label_formatter(&|v| short_number(*v))
+                .y_label_formatter(&|v| short_number(*v))
+                .draw()?;
+            for (i, s) in series.iter().enumerate() {
+                let colour = Palette99::pick(i).to_rgba();
+                let pts: Vec<(f64, f64)> = s
+                    .points
+                    .iter()
+                    .copied()
+                    .filter(|p| p.0.is_finite() && p.1.is_finite() && p.0 > 0.0 && p.1 > 0.0)
+                    .collect();
+                chart
+                    .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))?
+                    .label(s.label.clone())
+                    .legend(move |(x, y)| {
+                        PathElement::new([(x, y), (x + 16, y)], colour.stroke_width(2))
+                    });
+                chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 3, colour.filled())))?;
+            }
+            if !series.is_empty() {
+                chart
+                    .configure_series_labels()
+                    .position(SeriesLabelPosition::UpperRight)
+                    .background_style(WHITE.mix(0.85))
+                    .border_style(BLACK)
+                    .draw()?;
+            }
+            root.present()?;
+            Ok(())
+        };
+        draw().map_err(|e| anyhow!("drawing plot: {e}"))?;
+    }
+    Ok(svg)
+}
+
 /// `1234567` as `1.2M`, `25000` as `25k`, small numbers as they are.
 pub(crate) fn short_number(v: f64) -> String {
     let a = v.abs();
@@ -138,6 +214,27 @@ mod tests {
         assert!(!svg.contains("cell <1>"), "legend text must be escaped");
         let bare = line_plot(&series, "rays", "PVS", (400, 300), false).unwrap();
         assert!(!bare.contains("cell 0"));
+    }
+
+    #[test]
+    fn log_log_plot_draws_each_series_with_markers_and_skips_non_positive_points() {
+        let series = [
+            Series {
+                label: "GVS++".into(),
+                points: vec![(0.1, 5.0), (0.4, 0.01), (1.6, 0.0)],
+            },
+            Series {
+                label: "RAND".into(),
+                points: vec![(0.1, 50.0), (0.4, 12.0), (1.6, 3.0)],
+            },
+        ];
+        let svg = log_log_plot(&series, "seconds", "error", (400, 300)).unwrap();
+        assert!(svg.matches("<polyline").count() >= 2, "{svg}");
+        assert!(svg.contains("GVS++") && svg.contains("RAND"));
+        // Five positive points, a marker each (the zero error is left out).
+        assert_eq!(svg.matches("<circle").count(), 5, "{svg}");
+        let empty = log_log_plot(&[], "s", "e", (300, 200)).unwrap();
+        assert!(empty.trim_end().ends_with("</svg>"));
     }
 
     #[test]
