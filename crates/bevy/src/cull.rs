@@ -63,7 +63,7 @@ pub struct SightlineStats {
 #[derive(Resource, Default)]
 pub(crate) struct CullState {
     /// Per camera: (camera, file, cell) of the last frame.
-    key: Vec<(Entity, AssetId<PvsAsset>, Option<u32>)>,
+    key: Vec<CameraKey>,
     /// One bit per object: visible from some camera's cell.
     bits: Vec<u64>,
     /// Objects the bitset covers.
@@ -85,7 +85,14 @@ impl CullState {
     }
 }
 
-/// The culling system: see the crate documentation for the policy.
+/// A taking-part camera, its file and its cell (`None`: outside every cell, or the file is
+/// not loaded).
+type CameraKey = (Entity, AssetId<PvsAsset>, Option<u32>);
+
+/// The culling system: see the crate documentation for the policy. One frame in four steps:
+/// the cameras' cells ([`camera_cells`]), the union of their sets when it may have changed
+/// ([`CullState::rebuild`]), visibility given back to entities that stopped being objects
+/// ([`restore_released`]), then hiding and showing ([`apply_visibility`]) and the stats.
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 pub(crate) fn cull(
     mut state: ResMut<CullState>,
@@ -109,8 +116,33 @@ pub(crate) fn cull(
     });
 
     // 1. Where the cameras are.
+    let key = camera_cells(&cameras, &levels, &assets);
+
+    // 2. The union of their sets, only when a camera changed cell or a file changed.
+    let sets_changed = files_changed || key != state.key;
+    if sets_changed {
+        state.rebuild(key, &assets, &mut stats);
+    }
+
+    // 3. Entities that stopped being objects get their visibility back.
+    restore_released(&mut removed, &mut released);
+
+    // 4. Hide and show. Only flips write, so Bevy's visibility propagation sees changes only.
+    let (drawn, total) = apply_visibility(&mut objects, &state, sets_changed);
+
+    stats.record(&state, drawn, total, unmatched.iter().count() as u32);
+}
+
+/// Step 1 of [`cull`]: every taking-part camera (enabled, and active if it is a Bevy
+/// [`Camera`]) with its file and cell, sorted by entity so that the key compares equal from
+/// frame to frame when nothing moved between cells.
+fn camera_cells(
+    cameras: &Query<(Entity, &SightlineCamera, &GlobalTransform, Option<&Camera>)>,
+    levels: &Query<(&SightlineLevel, &GlobalTransform)>,
+    assets: &Assets<PvsAsset>,
+) -> Vec<CameraKey> {
     let mut key = Vec::with_capacity(cameras.iter().len());
-    for (entity, camera, transform, bevy_camera) in &cameras {
+    for (entity, camera, transform, bevy_camera) in cameras {
         if !camera.enabled || bevy_camera.is_some_and(|c| !c.is_active) {
             continue;
         }
@@ -126,54 +158,69 @@ pub(crate) fn cull(
         key.push((entity, camera.pvs.id(), cell));
     }
     key.sort_unstable_by_key(|&(e, _, _)| e);
+    key
+}
 
-    // 2. The union of their sets, only when a camera changed cell or a file changed.
-    let sets_changed = files_changed || key != state.key;
-    if sets_changed {
-        let state = &mut *state;
-        state.key = key;
-        state.draw_all = state.key.is_empty();
-        state.object_count = 0;
+impl CullState {
+    /// Step 2 of [`cull`]: takes `key` as the current cameras and recomputes the union of
+    /// their cells' object sets from `assets`. A camera outside every cell, or whose file is
+    /// not loaded or has a corrupt set, makes everything drawn; a corrupt set is also reported
+    /// in `stats.last_error` (and logged once per file).
+    fn rebuild(
+        &mut self,
+        key: Vec<CameraKey>,
+        assets: &Assets<PvsAsset>,
+        stats: &mut SightlineStats,
+    ) {
+        self.key = key;
+        self.draw_all = self.key.is_empty();
+        self.object_count = 0;
         let mut len = 0;
-        for &(_, id, _) in &state.key {
+        for &(_, id, _) in &self.key {
             if let Some(pvs) = assets.get(id) {
                 len = len.max(pvs.object_count());
             }
         }
-        state.len = len;
-        state.object_count = len;
-        state.bits.clear();
-        state.bits.resize(len.div_ceil(64) as usize, 0);
-        for &(_, id, cell) in &state.key {
+        self.len = len;
+        self.object_count = len;
+        self.bits.clear();
+        self.bits.resize(len.div_ceil(64) as usize, 0);
+        for &(_, id, cell) in &self.key {
             let (Some(pvs), Some(cell)) = (assets.get(id), cell) else {
                 // Outside every cell, or the file is not loaded: this camera sees everything.
-                state.draw_all = true;
+                self.draw_all = true;
                 continue;
             };
-            if let Err(e) = pvs.visible_objects_into(cell, &mut state.scratch) {
+            if let Err(e) = pvs.visible_objects_into(cell, &mut self.scratch) {
                 let message = format!("sightline: cell {cell}: {e}; drawing everything");
-                if !state.warned.contains(&id) {
-                    state.warned.push(id);
+                if !self.warned.contains(&id) {
+                    self.warned.push(id);
                     tracing::warn!("{message}");
                 }
                 stats.last_error = Some(message);
-                state.draw_all = true;
+                self.draw_all = true;
                 continue;
             }
-            for &o in &state.scratch {
+            for &o in &self.scratch {
                 if o < len {
-                    state.bits[(o / 64) as usize] |= 1 << (o % 64);
+                    self.bits[(o / 64) as usize] |= 1 << (o % 64);
                 }
             }
         }
-        state.visible_objects = if state.draw_all {
+        self.visible_objects = if self.draw_all {
             len
         } else {
-            state.bits.iter().map(|w| w.count_ones()).sum()
+            self.bits.iter().map(|w| w.count_ones()).sum()
         };
     }
+}
 
-    // 3. Entities that stopped being objects get their visibility back.
+/// Step 3 of [`cull`]: entities that lost their [`SightlineObject`] while hidden get the
+/// visibility they had back.
+fn restore_released(
+    removed: &mut RemovedComponents<SightlineObject>,
+    released: &mut Query<(&mut Visibility, &mut SightlineCulled), Without<SightlineObject>>,
+) {
     for entity in removed.read() {
         if let Ok((mut visibility, mut culled)) = released.get_mut(entity) {
             if culled.hidden {
@@ -182,10 +229,19 @@ pub(crate) fn cull(
             }
         }
     }
+}
 
-    // 4. Hide and show. Only flips write, so Bevy's visibility propagation sees changes only.
+/// Step 4 of [`cull`]: hides the objects `state` does not see and shows the others again,
+/// writing only flips (and only when the sets changed or the entity's object did); returns
+/// `(drawn, total)` entity counts. A visibility someone else wrote while the plugin hid the
+/// entity becomes its saved value.
+fn apply_visibility(
+    objects: &mut Query<(Ref<SightlineObject>, &mut Visibility, &mut SightlineCulled)>,
+    state: &CullState,
+    sets_changed: bool,
+) -> (u32, u32) {
     let (mut drawn, mut total) = (0, 0);
-    for (object, mut visibility, mut culled) in &mut objects {
+    for (object, mut visibility, mut culled) in objects {
         total += 1;
         let hide = !state.visible(object.0);
         if culled.hidden && visibility.is_changed() && !visibility.is_added() {
@@ -217,16 +273,21 @@ pub(crate) fn cull(
         }
         drawn += u32::from(!culled.hidden);
     }
+    (drawn, total)
+}
 
-    let stats = &mut *stats;
-    stats.drawn = drawn;
-    stats.total = total;
-    stats.unmatched = unmatched.iter().count() as u32;
-    stats.visible_objects = state.visible_objects;
-    stats.object_count = state.object_count;
-    stats.draw_all = state.draw_all;
-    stats.cameras.clear();
-    stats
-        .cameras
-        .extend(state.key.iter().map(|&(e, _, cell)| (e, cell)));
+impl SightlineStats {
+    /// The end of [`cull`]: this frame's counts (`drawn` and `total` entities, `unmatched` mesh
+    /// entities) and what `state` holds.
+    fn record(&mut self, state: &CullState, drawn: u32, total: u32, unmatched: u32) {
+        self.drawn = drawn;
+        self.total = total;
+        self.unmatched = unmatched;
+        self.visible_objects = state.visible_objects;
+        self.object_count = state.object_count;
+        self.draw_all = state.draw_all;
+        self.cameras.clear();
+        self.cameras
+            .extend(state.key.iter().map(|&(e, _, cell)| (e, cell)));
+    }
 }

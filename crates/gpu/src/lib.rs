@@ -11,8 +11,9 @@
 //! Modules, one concern each:
 //! - `device.rs`: [`vulkan_device`] acquires a Vulkan device and checks the backend
 //!   ([`check_vulkan`]); errors are [`GpuError`].
-//! - `occlusion_query.rs` (+ `occlusion_query.wgsl`): [`GpuBackend`], working on any device
-//!   passed to [`GpuBackend::with_device`] (tests pass their own).
+//! - `occlusion_query/` (+ `occlusion_query.wgsl`): [`GpuBackend`], working on any device
+//!   passed to [`GpuBackend::with_device`] (tests pass their own); one file per step (its
+//!   pipelines, its growing buffers, the passes of a submission, the readback).
 //! - `ray_cast.rs` (+ `ray_cast.wgsl`): [`GpuRayCaster`], closest-hit and any-hit casting of
 //!   ray batches streamed in double-buffered chunks, on any device passed to
 //!   [`GpuRayCaster::with_device`]; its exactness against the CPU caster, the node width

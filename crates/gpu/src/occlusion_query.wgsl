@@ -1,5 +1,5 @@
 // Depth pre-pass and occlusion-query boxes of the hardware-occlusion-query backend
-// (occlusion_query.rs). One camera, the conventions of sightline_core::camera:
+// (occlusion_query/). One camera, the conventions of sightline_core::camera:
 // view = (dot(p - eye, right), dot(p - eye, up), dot(p - eye, forward)),
 // NDC x = view.x / (view.z tan_half_x), NDC y = view.y / (view.z tan_half_y) (wgpu's NDC +y is
 // up and its framebuffer +y is down, so the screen mapping is exactly Camera::view_to_screen),

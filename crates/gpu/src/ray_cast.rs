@@ -154,6 +154,76 @@ struct Uploaded {
     triangles: wgpu::Buffer,
 }
 
+/// The caster's bind group layout and its two compute pipelines, one per kind of query; made
+/// once per caster, apart from [`GpuRayCaster::with_device`]'s checks and uploads.
+struct CastPipelines {
+    /// Group 0: the parameters (uniform), BVH nodes, triangles and rays (read-only storage),
+    /// and the hits (written).
+    bind_layout: wgpu::BindGroupLayout,
+    /// `cast_closest`: the nearest hit per ray.
+    closest: wgpu::ComputePipeline,
+    /// `cast_any`: whether anything is hit, stopping at the first hit.
+    any_hit: wgpu::ComputePipeline,
+}
+
+impl CastPipelines {
+    /// Makes the layout and both pipelines from the compiled `module` (inside the caller's
+    /// validation error scope, which reports a shader that does not compile).
+    fn new(device: &Device, module: &wgpu::ShaderModule) -> Self {
+        let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let bind_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("sightline ray cast"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                storage(1, true),
+                storage(2, true),
+                storage(3, true),
+                storage(4, false),
+            ],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("sightline ray cast"),
+            bind_group_layouts: &[Some(&bind_layout)],
+            immediate_size: 0,
+        });
+        let pipeline = |entry: &str| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("sightline ray cast"),
+                layout: Some(&layout),
+                module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let closest = pipeline("cast_closest");
+        let any_hit = pipeline("cast_any");
+        Self {
+            bind_layout,
+            closest,
+            any_hit,
+        }
+    }
+}
+
 /// A [`RayCaster`] on the GPU (see the module documentation).
 ///
 /// ```no_run
@@ -243,52 +313,11 @@ impl GpuRayCaster {
             label: Some("sightline ray cast"),
             source: wgpu::ShaderSource::Wgsl(source.into()),
         });
-        let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let bind_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("sightline ray cast"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-                storage(1, true),
-                storage(2, true),
-                storage(3, true),
-                storage(4, false),
-            ],
-        });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("sightline ray cast"),
-            bind_group_layouts: &[Some(&bind_layout)],
-            immediate_size: 0,
-        });
-        let pipeline = |entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("sightline ray cast"),
-                layout: Some(&layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
-        let closest = pipeline("cast_closest");
-        let any_hit = pipeline("cast_any");
+        let CastPipelines {
+            bind_layout,
+            closest,
+            any_hit,
+        } = CastPipelines::new(device, &module);
         let upload = |label: &str, bytes: &[u8]| {
             use wgpu::util::DeviceExt;
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {

@@ -5,8 +5,9 @@
 //! frame on the GPU: the pixels that differ between the culled and the full image.
 //!
 //! Modules, one concern each:
-//! - `renderer.rs` (+ `renderer.wgsl`): [`Renderer`], working on any device and queue passed to
-//!   [`Renderer::new`]: id images, popping count, shading, cell wireframe.
+//! - `renderer/` (+ `renderer.wgsl`): [`Renderer`], working on any device and queue passed to
+//!   [`Renderer::new`]: id images, popping count, shading, cell wireframe; one file per job
+//!   (buffers, pipelines, size-dependent targets, the passes of a frame, readback).
 //! - `viewer.rs`: [`Viewer`], the methods ([`Method`]) and the per-frame numbers.
 //! - `occlusion.rs`: [`OcclusionCuller`], per-frame occlusion culling of scene chunks with
 //!   `sightline_cull::OcclusionBuffer`.

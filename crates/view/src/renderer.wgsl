@@ -1,4 +1,4 @@
-// The viewer's passes (renderer.rs). Camera conventions of sightline_core::camera, as in
+// The viewer's passes (renderer/). Camera conventions of sightline_core::camera, as in
 // sightline-gpu's occlusion_query.wgsl: view = (dot(d, right), dot(d, up), dot(d, forward)),
 // NDC = (view.x / (view.z tan_half_x), view.y / (view.z tan_half_y)), reversed-Z with an
 // infinite far plane (depth = near / view.z; Vulkan clips view.z < near).
