@@ -357,6 +357,77 @@ fn demo_writes_report_with_every_step() {
     assert!(dir.path().join("sightline-report/demo.pvs").exists());
 }
 
+/// `bench pvs` at small ray budgets: one GVS++ and one RAND row per budget, each within its
+/// budget, and `--plot` draws both methods' error against seconds.
+#[test]
+fn bench_pvs_compares_gvspp_and_rand_at_small_budgets_and_plots_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(
+        &[
+            "bench",
+            "pvs",
+            "procedural:rooms?size=2000",
+            "--cells",
+            "1",
+            "--viewpoints",
+            "2",
+            "--resolution",
+            "64",
+            "--equal-time-only",
+            "--time-budgets",
+            "none",
+            "--ray-budgets",
+            "5000,20000",
+            "--plot",
+            "plots",
+            "--json",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let rows = rows.as_array().unwrap();
+    let got: Vec<(&str, &str)> = rows
+        .iter()
+        .map(|r| (r["method"].as_str().unwrap(), r["budget"].as_str().unwrap()))
+        .collect();
+    assert_eq!(
+        got,
+        [
+            ("GVS++", "5000 rays"),
+            ("RAND", "5000 rays"),
+            ("GVS++", "20000 rays"),
+            ("RAND", "20000 rays")
+        ]
+    );
+    for r in rows {
+        let budget: f64 = r["budget"]
+            .as_str()
+            .unwrap()
+            .split(' ')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        let rays = r["mean_rays"].as_f64().unwrap();
+        assert!(rays > 0.0 && rays <= budget * 1.05, "{r}");
+    }
+    let svg = std::fs::read_to_string(
+        dir.path()
+            .join("plots/budgets_procedural_rooms_size_2000.svg"),
+    )
+    .unwrap();
+    assert!(
+        svg.matches("<polyline").count() >= 2 && svg.contains("RAND"),
+        "{svg}"
+    );
+    // --equal-time-only skips the converged bake, and with it the convergence curves.
+    assert!(!dir
+        .path()
+        .join("plots/convergence_procedural_rooms_size_2000.svg")
+        .exists());
+}
+
 #[test]
 fn bench_rv_reports_both_views_and_passes_consistently() {
     let dir = tempfile::tempdir().unwrap();

@@ -196,8 +196,10 @@ struct PvsArgs {
     /// large scenes.
     #[arg(long)]
     equal_time_only: bool,
-    /// Write a convergence plot per scene (average error against rays for every method, on
-    /// the scene's first cell) as SVG files into DIR.
+    /// Write plots per scene as SVG files into DIR: the convergence curves (average error
+    /// against rays for every method, on the scene's first cell; not with --equal-time-only)
+    /// and, with small budgets, GVS++ and RAND's error against seconds at those budgets
+    /// (`budgets_<scene>.svg`).
     #[arg(long, value_name = "DIR")]
     plot: Option<std::path::PathBuf>,
 }
@@ -421,7 +423,8 @@ fn pvs(args: PvsArgs) -> Result<()> {
         time_budgets_ms: args.time_budgets.0.clone(),
         ray_budgets: args.ray_budgets.0.clone(),
         equal_time_only: args.equal_time_only,
-        convergence: args.plot.is_some(),
+        // The curves start from a converged GVS++ bake, which --equal-time-only skips.
+        convergence: args.plot.is_some() && !args.equal_time_only,
     };
     options.validate().map_err(|e| match e {
         eval_bench::BenchError::TimeBudget(_) => anyhow::anyhow!("--time-budgets: {e}"),
@@ -443,6 +446,11 @@ fn pvs(args: PvsArgs) -> Result<()> {
         if let (Some(dir), Some(convergence)) = (&args.plot, &report.convergence) {
             let path = plot::write_convergence_plot(dir, spec, convergence, args.resolution)?;
             eprintln!("wrote {}", path.display());
+        }
+        if let Some(dir) = &args.plot {
+            if let Some(path) = plot::write_budget_plot(dir, spec, &report.rows, args.resolution)? {
+                eprintln!("wrote {}", path.display());
+            }
         }
         all_rows.extend(report.rows);
     }

@@ -1,69 +1,91 @@
-//! The convergence plot of `sightline bench pvs --plot`: the curves
-//! `sightline_eval::bench` computes, drawn log-log as an SVG file with plotters.
+//! The plots of `sightline bench pvs --plot`, drawn log-log as SVG files with the report's
+//! plotter (`sightline_eval::report::plot::log_log_plot`): the convergence curves of every
+//! method on a scene's first cell, and GVS++ against RAND at the small budgets (error against
+//! seconds, the GVS++ paper's equal-time comparison).
 
-use anyhow::Result;
-use sightline_eval::bench::{Convergence, ERROR_FLOOR};
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, Result};
+use sightline_eval::bench::{Convergence, PvsRow, ERROR_FLOOR};
+use sightline_eval::report::plot::{log_log_plot, Series};
 
 /// Draws `convergence` (average error against rays, log-log) as `convergence_<scene>.svg` in
 /// `dir`; returns the file's path.
 pub(super) fn write_convergence_plot(
-    dir: &std::path::Path,
+    dir: &Path,
     spec: &str,
     convergence: &Convergence,
     resolution: u32,
-) -> Result<std::path::PathBuf> {
-    use plotters::prelude::*;
-    std::fs::create_dir_all(dir)?;
-    let name: String = (spec.rsplit('/').next().unwrap_or(spec).chars())
+) -> Result<PathBuf> {
+    let series: Vec<Series> = convergence
+        .series
+        .iter()
+        .map(|s| Series {
+            label: s.method.to_string(),
+            points: s.points.clone(),
+        })
+        .collect();
+    let y = format!("{spec}: avg error px per {resolution}² view");
+    let svg = log_log_plot(&series, "rays (RASTER: pixels)", &y, (900, 600))?;
+    write_svg(dir, &format!("convergence_{}", file_stem(spec)), &svg)
+}
+
+/// Draws the GVS++ and RAND rows of `rows` at the small budgets (every row but the converged
+/// comparison's) as `budgets_<scene>.svg`, average error against mean seconds per cell;
+/// `None` when there are no such rows.
+pub(super) fn write_budget_plot(
+    dir: &Path,
+    spec: &str,
+    rows: &[PvsRow],
+    resolution: u32,
+) -> Result<Option<PathBuf>> {
+    let small = |r: &&PvsRow| r.budget.ends_with(" rays") || r.budget.ends_with(" ms");
+    let series: Vec<Series> = ["GVS++", "RAND"]
+        .iter()
+        .map(|method| {
+            let mut points: Vec<(f64, f64)> = rows
+                .iter()
+                .filter(small)
+                .filter(|r| r.method == *method)
+                .map(|r| {
+                    (
+                        r.mean_seconds.max(1e-6),
+                        r.avg_error_pixels.max(ERROR_FLOOR),
+                    )
+                })
+                .collect();
+            points.sort_by(|a, b| a.0.total_cmp(&b.0));
+            Series {
+                label: method.to_string(),
+                points,
+            }
+        })
+        .collect();
+    if series.iter().all(|s| s.points.is_empty()) {
+        return Ok(None);
+    }
+    let y = format!("{spec}: avg error px per {resolution}² view");
+    let svg = log_log_plot(&series, "seconds per cell", &y, (900, 600))?;
+    write_svg(dir, &format!("budgets_{}", file_stem(spec)), &svg).map(Some)
+}
+
+/// The last path component of a scene spec with anything but letters, digits and dots as `_`.
+fn file_stem(spec: &str) -> String {
+    (spec.rsplit('/').next().unwrap_or(spec).chars())
         .map(|c| match c.is_ascii_alphanumeric() || c == '.' {
             true => c,
             false => '_',
         })
-        .collect();
-    let path = dir.join(format!("convergence_{name}.svg"));
-    let (x0, x1) = convergence.ray_range();
-    let y1 = convergence.max_error();
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (900, 600)).into_drawing_area();
-        let draw = || -> std::result::Result<(), Box<dyn std::error::Error>> {
-            root.fill(&WHITE)?;
-            let caption = format!("{spec}: average erroneous pixels per {resolution}² view");
-            let mut chart = ChartBuilder::on(&root)
-                .caption(caption, ("sans-serif", 18))
-                .margin(12)
-                .x_label_area_size(40)
-                .y_label_area_size(60)
-                .build_cartesian_2d(
-                    (x0 * 0.8..x1 * 1.25).log_scale(),
-                    (ERROR_FLOOR..y1 * 2.0).log_scale(),
-                )?;
-            chart
-                .configure_mesh()
-                .x_desc("rays (RASTER: pixels)")
-                .y_desc("avg error px")
-                .draw()?;
-            const COLOURS: [RGBColor; 4] = [RED, BLUE, GREEN, MAGENTA];
-            for (s, colour) in convergence.series.iter().zip(COLOURS.iter().cycle()) {
-                chart
-                    .draw_series(LineSeries::new(s.points.clone(), colour))?
-                    .label(s.method)
-                    .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], colour));
-                chart.draw_series(s.points.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
-            }
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK)
-                .draw()?;
-            root.present()?;
-            Ok(())
-        };
-        draw().map_err(|e| anyhow::anyhow!("drawing {}: {e}", path.display()))?;
-    }
+        .collect()
+}
+
+/// Writes `svg` as `dir/<name>.svg` (atomically; `dir` is created).
+fn write_svg(dir: &Path, name: &str, svg: &str) -> Result<PathBuf> {
+    std::fs::create_dir_all(dir).map_err(|e| anyhow!("creating {}: {e}", dir.display()))?;
+    let path = dir.join(format!("{name}.svg"));
     sightline_core::atomic_file::write_atomic(&path, |w| {
         std::io::Write::write_all(w, svg.as_bytes())
     })
-    .map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
+    .map_err(|e| anyhow!("writing {}: {e}", path.display()))?;
     Ok(path)
 }
