@@ -78,24 +78,60 @@ pub fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
 
 /// [`load`] with the limits of `options`.
 pub fn load_with(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene, LoadError> {
-    let mut builder = SceneBuilder::new(path.display().to_string());
-    // About 30 bytes per `v` or `f` line in typical files; a hint, never a limit.
-    builder.reserve(bytes.len() / 64, bytes.len() / 64);
-
-    let mut group: Option<String> = None;
-    let mut material: Option<String> = None;
-    // The `# sightline-object` tag of the last `o`/`g` line, if it had one.
-    let mut tag: Option<Tag> = None;
-    let mut pending: Option<Tag> = None;
-    let mut new_object = true;
-    // Object id of each `o`/`g` name and of each tag number seen so far.
-    let mut by_name: HashMap<String, u32> = HashMap::new();
-    let mut by_tag: HashMap<u32, u32> = HashMap::new();
-    let mut corners: Vec<u32> = Vec::with_capacity(8);
-
+    let mut reader = Reader::new(path, bytes.len());
     for (line_index, raw_line) in text::lines(bytes).enumerate() {
         let line_no = line_index + 1;
-        let err = |message: String| LoadError::parse(path, Location::Line(line_no), message);
+        reader
+            .line(raw_line)
+            .map_err(|message| LoadError::parse(path, Location::Line(line_no), message))?;
+        reader.check_limit(path, line_no, options)?;
+    }
+    Ok(reader.finish())
+}
+
+/// One pass over an OBJ file: the scene so far, and what decides which object the next face
+/// joins (module docs, "Objects").
+struct Reader {
+    builder: SceneBuilder,
+    /// The name of the last `o`/`g` line, if any.
+    group: Option<String>,
+    /// The material of the last `usemtl` line, if any.
+    material: Option<String>,
+    /// The `# sightline-object` tag of the last `o`/`g` line, if it had one.
+    tag: Option<Tag>,
+    /// The last tag comment read, waiting for its `o`/`g` line.
+    pending: Option<Tag>,
+    /// Whether the next face starts (or resumes) an object.
+    new_object: bool,
+    /// Object id of each `o`/`g` name and of each tag number seen so far.
+    by_name: HashMap<String, u32>,
+    by_tag: HashMap<u32, u32>,
+    /// The corners of the face being read (a buffer reused across faces).
+    corners: Vec<u32>,
+}
+
+impl Reader {
+    /// A reader for a file of `len` bytes at `path` (named in the scene).
+    fn new(path: &Path, len: usize) -> Self {
+        let mut builder = SceneBuilder::new(path.display().to_string());
+        // About 30 bytes per `v` or `f` line in typical files; a hint, never a limit.
+        builder.reserve(len / 64, len / 64);
+        Reader {
+            builder,
+            group: None,
+            material: None,
+            tag: None,
+            pending: None,
+            new_object: true,
+            by_name: HashMap::new(),
+            by_tag: HashMap::new(),
+            corners: Vec::with_capacity(8),
+        }
+    }
+
+    /// Reads one line (without its line end). The error is the message; the caller names the
+    /// line.
+    fn line(&mut self, raw_line: &[u8]) -> Result<(), String> {
         let line = String::from_utf8_lossy(raw_line);
         let line = line.trim();
         let (keyword, rest) = match line.split_once(|c: char| c.is_ascii_whitespace()) {
@@ -103,124 +139,162 @@ pub fn load_with(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Sce
             None => (line, ""),
         };
         match keyword {
-            "v" => {
-                let mut words = rest.split_ascii_whitespace();
-                let mut xyz = [0.0f32; 3];
-                for (axis, value) in xyz.iter_mut().enumerate() {
-                    let word = words
-                        .next()
-                        .ok_or_else(|| err(format!("vertex needs 3 coordinates, found {axis}")))?;
-                    *value = word
-                        .parse()
-                        .map_err(|_| err(format!("vertex coordinate '{word}' is not a number")))?;
-                }
-                // A 4th value (w) or vertex colours (r g b) may follow; neither changes the
-                // position for polygonal geometry, so they are checked and not kept.
-                let mut extra = 0usize;
-                for word in words {
-                    word.parse::<f32>()
-                        .map_err(|_| err(format!("vertex value '{word}' is not a number")))?;
-                    extra += 1;
-                }
-                if !matches!(extra, 0 | 1 | 3) {
-                    return Err(err(format!(
-                        "vertex has {} values, expected 3 (x y z), 4 (x y z w) or 6 \
-                         (x y z r g b): are line ends missing?",
-                        3 + extra
-                    )));
-                }
-                builder.add_vertex(Vec3::from_array(xyz));
-            }
-            "f" => {
-                let count = builder.vertex_count();
-                corners.clear();
-                for word in rest.split_ascii_whitespace() {
-                    corners.push(resolve_index(word, count).map_err(&err)?);
-                }
-                if corners.len() < 3 {
-                    return Err(err(format!(
-                        "face needs at least 3 vertices, found {}",
-                        corners.len()
-                    )));
-                }
-                if new_object {
-                    match (&tag, &group) {
-                        (Some(t), _) => match by_tag.get(&t.object) {
-                            Some(&id) => builder.resume_object(id),
-                            None => {
-                                let id = builder.push_object(Object {
-                                    name: group.clone().unwrap_or_else(|| "unnamed".into()),
-                                    index: t.index,
-                                    part: t.part,
-                                });
-                                by_tag.insert(t.object, id);
-                            }
-                        },
-                        (None, Some(name)) => match by_name.get(name) {
-                            Some(&id) => builder.resume_object(id),
-                            None => {
-                                let id = builder.begin_object(name.clone());
-                                by_name.insert(name.clone(), id);
-                            }
-                        },
-                        (None, None) => {
-                            builder.begin_object(material.as_deref().unwrap_or("default"));
-                        }
-                    }
-                    new_object = false;
-                }
-                for k in 1..corners.len() - 1 {
-                    builder.add_triangle([corners[0], corners[k], corners[k + 1]]);
-                }
-            }
+            "v" => self.vertex(rest)?,
+            "f" => self.face(rest)?,
             "o" | "g" => {
-                group = Some(if rest.is_empty() {
+                self.group = Some(if rest.is_empty() {
                     "unnamed".to_string()
                 } else {
                     rest.to_string()
                 });
-                tag = pending.take();
-                new_object = true;
+                self.tag = self.pending.take();
+                self.new_object = true;
             }
             "usemtl" => {
-                material = Some(rest.to_string());
+                self.material = Some(rest.to_string());
                 // Inside an `o`/`g` the material does not change the object.
-                new_object |= group.is_none();
+                self.new_object |= self.group.is_none();
             }
             "#" => {
                 if let Some((TAG, words)) = rest.split_once(|c: char| c.is_ascii_whitespace()) {
-                    pending = Tag::parse(words);
+                    self.pending = Tag::parse(words);
                 }
             }
             _ => {}
         }
-        if builder.geometry_bytes() > options.max_scene_bytes {
+        Ok(())
+    }
+
+    /// A `v` line (`rest` follows the keyword): 3 coordinates, then nothing, a `w` or an
+    /// `r g b` colour, which are checked and not kept.
+    fn vertex(&mut self, rest: &str) -> Result<(), String> {
+        let mut words = rest.split_ascii_whitespace();
+        let mut xyz = [0.0f32; 3];
+        for (axis, value) in xyz.iter_mut().enumerate() {
+            let word = words
+                .next()
+                .ok_or_else(|| format!("vertex needs 3 coordinates, found {axis}"))?;
+            *value = word
+                .parse()
+                .map_err(|_| format!("vertex coordinate '{word}' is not a number"))?;
+        }
+        // A 4th value (w) or vertex colours (r g b) may follow; neither changes the
+        // position for polygonal geometry, so they are checked and not kept.
+        let mut extra = 0usize;
+        for word in words {
+            word.parse::<f32>()
+                .map_err(|_| format!("vertex value '{word}' is not a number"))?;
+            extra += 1;
+        }
+        if !matches!(extra, 0 | 1 | 3) {
+            return Err(format!(
+                "vertex has {} values, expected 3 (x y z), 4 (x y z w) or 6 \
+                 (x y z r g b): are line ends missing?",
+                3 + extra
+            ));
+        }
+        self.builder.add_vertex(Vec3::from_array(xyz));
+        Ok(())
+    }
+
+    /// An `f` line (`rest` follows the keyword): its corners resolved, its object started if
+    /// it is the first face since the object changed, and its fan of triangles added.
+    fn face(&mut self, rest: &str) -> Result<(), String> {
+        let count = self.builder.vertex_count();
+        self.corners.clear();
+        for word in rest.split_ascii_whitespace() {
+            self.corners.push(resolve_index(word, count)?);
+        }
+        let corners = &self.corners;
+        if corners.len() < 3 {
+            return Err(format!(
+                "face needs at least 3 vertices, found {}",
+                corners.len()
+            ));
+        }
+        if self.new_object {
+            self.start_object();
+            self.new_object = false;
+        }
+        let corners = &self.corners;
+        for k in 1..corners.len() - 1 {
+            self.builder
+                .add_triangle([corners[0], corners[k], corners[k + 1]]);
+        }
+        Ok(())
+    }
+
+    /// Makes the object of the next faces current: the object of the tag of the last
+    /// `o`/`g` line, else of its name, else a new object named after the material.
+    fn start_object(&mut self) {
+        match (&self.tag, &self.group) {
+            (Some(t), _) => match self.by_tag.get(&t.object) {
+                Some(&id) => self.builder.resume_object(id),
+                None => {
+                    let id = self.builder.push_object(Object {
+                        name: self.group.clone().unwrap_or_else(|| "unnamed".into()),
+                        index: t.index,
+                        part: t.part,
+                    });
+                    self.by_tag.insert(t.object, id);
+                }
+            },
+            (None, Some(name)) => match self.by_name.get(name) {
+                Some(&id) => self.builder.resume_object(id),
+                None => {
+                    let id = self.builder.begin_object(name.clone());
+                    self.by_name.insert(name.clone(), id);
+                }
+            },
+            (None, None) => {
+                self.builder
+                    .begin_object(self.material.as_deref().unwrap_or("default"));
+            }
+        }
+    }
+
+    /// The scene memory so far must stay within [`LoadOptions::max_scene_bytes`]; checked
+    /// after every line, so the error names the line where it grew past.
+    fn check_limit(
+        &self,
+        path: &Path,
+        line_no: usize,
+        options: &LoadOptions,
+    ) -> Result<(), LoadError> {
+        if self.builder.geometry_bytes() > options.max_scene_bytes {
             return Err(LoadError::limit(
                 path,
                 Location::Line(line_no),
                 format!(
                     "{} vertices and {} triangles so far, above the limit of {}; {RAISE}",
-                    builder.vertex_count(),
-                    builder.triangle_count(),
+                    self.builder.vertex_count(),
+                    self.builder.triangle_count(),
                     show_bytes(options.max_scene_bytes)
                 ),
             ));
         }
+        Ok(())
     }
-    if builder.triangle_count() == 0 {
-        let n = builder.vertex_count();
-        builder.warn(format!("{n} vertices and no 'f' lines: no triangles"));
-    }
-    if !by_tag.is_empty() {
-        // Tagged objects take their tag order (the ids they had when written), the others
-        // follow in file order.
-        let mut keys = vec![(1u8, u32::MAX); builder.objects().len()];
-        for (&object, &id) in &by_tag {
-            keys[id as usize] = (0, object);
+
+    /// The scene: a warning when it has no triangles, and objects with a tag numbered by
+    /// their tag.
+    fn finish(mut self) -> Scene {
+        let builder = &mut self.builder;
+        if builder.triangle_count() == 0 {
+            let n = builder.vertex_count();
+            builder.warn(format!("{n} vertices and no 'f' lines: no triangles"));
         }
-        builder.sort_objects_by_key(&keys);
+        if !self.by_tag.is_empty() {
+            // Tagged objects take their tag order (the ids they had when written), the others
+            // follow in file order.
+            let mut keys = vec![(1u8, u32::MAX); builder.objects().len()];
+            for (&object, &id) in &self.by_tag {
+                keys[id as usize] = (0, object);
+            }
+            builder.sort_objects_by_key(&keys);
+        }
+        self.builder.finish()
     }
-    Ok(builder.finish())
 }
 
 /// The comment word that [`write()`] puts before each `o` line.

@@ -86,6 +86,35 @@ pub(super) fn f32x3_at(record: &[u8], at: usize) -> [f32; 3] {
     ]
 }
 
+/// A surface record of lump 13, the fields the loader uses.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct RawSurface {
+    pub(super) shader: i32,
+    pub(super) kind: i32,
+    pub(super) first_vert: i32,
+    pub(super) num_verts: i32,
+    pub(super) first_index: i32,
+    pub(super) num_indexes: i32,
+    pub(super) patch_width: i32,
+    pub(super) patch_height: i32,
+}
+
+impl RawSurface {
+    /// Decodes one 104-byte record of lump 13.
+    pub(super) fn read(record: &[u8]) -> Self {
+        RawSurface {
+            shader: i32_at(record, 0),
+            kind: i32_at(record, 8),
+            first_vert: i32_at(record, 12),
+            num_verts: i32_at(record, 16),
+            first_index: i32_at(record, 20),
+            num_indexes: i32_at(record, 24),
+            patch_width: i32_at(record, 96),
+            patch_height: i32_at(record, 100),
+        }
+    }
+}
+
 /// The file's bytes with a checked lump directory.
 pub(super) struct Lumps<'a> {
     bytes: &'a [u8],

@@ -54,6 +54,7 @@
 
 pub(super) mod data;
 mod entities;
+mod geometry;
 mod lumps;
 mod patch;
 
@@ -61,30 +62,14 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use super::builder::SceneBuilder;
 use super::error::{LoadError, Location};
 use super::options::LoadOptions;
-use super::types::{Scene, UpAxis};
+use super::types::Scene;
 use crate::geometry::Aabb;
 pub use data::{BspData, Leaf, Model, Node, Plane, Shader, Surface, SurfaceFlags, SurfaceKind};
 pub use entities::Entity;
-use lumps::{f32_at, f32x3_at, i32_at, i32x3_at, record_location, Lumps};
-
-/// Most triangles a map may produce (see `emit_geometry`).
-const MAX_TRIANGLES: u64 = 1 << 30;
-
-/// A surface record of lump 13, the fields the loader uses.
-#[derive(Clone, Copy, Debug)]
-struct RawSurface {
-    shader: i32,
-    kind: i32,
-    first_vert: i32,
-    num_verts: i32,
-    first_index: i32,
-    num_indexes: i32,
-    patch_width: i32,
-    patch_height: i32,
-}
+use geometry::{assign_objects, emit_geometry, DrawData};
+use lumps::{f32_at, f32x3_at, i32_at, i32x3_at, record_location, Lumps, RawSurface};
 
 /// Error helper carrying the path.
 struct Ctx<'a> {
@@ -111,18 +96,7 @@ pub fn load(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene, L
     let ctx = Ctx { path };
     let lumps = Lumps::parse(path, bytes)?;
 
-    let shaders: Vec<Shader> = lumps
-        .records(lumps::SHADERS)
-        .map(|r| {
-            let name = &r[..64];
-            let end = name.iter().position(|&b| b == 0).unwrap_or(64);
-            Shader {
-                name: String::from_utf8_lossy(&name[..end]).into_owned(),
-                surface_flags: i32_at(r, 64),
-                content_flags: i32_at(r, 68),
-            }
-        })
-        .collect();
+    let shaders = read_shaders(&lumps);
     let planes: Vec<Plane> = lumps
         .records(lumps::PLANES)
         .map(|r| Plane {
@@ -140,21 +114,76 @@ pub fn load(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene, L
         .collect();
     let raw_surfaces: Vec<RawSurface> = lumps
         .records(lumps::SURFACES)
-        .map(|r| RawSurface {
-            shader: i32_at(r, 0),
-            kind: i32_at(r, 8),
-            first_vert: i32_at(r, 12),
-            num_verts: i32_at(r, 16),
-            first_index: i32_at(r, 20),
-            num_indexes: i32_at(r, 24),
-            patch_width: i32_at(r, 96),
-            patch_height: i32_at(r, 100),
-        })
+        .map(RawSurface::read)
+        .collect();
+    let draw = DrawData {
+        raw_surfaces: &raw_surfaces,
+        drawverts: &drawverts,
+        drawindexes: &drawindexes,
+    };
+
+    let mut surfaces = read_surfaces(&ctx, &draw, &shaders)?;
+    let models = read_models(&ctx, &lumps, &mut surfaces)?;
+    let leaf_count = lumps.count(lumps::LEAFS);
+    let nodes = read_nodes(&ctx, &lumps, planes.len(), leaf_count)?;
+    let leaf_surfaces = read_leaf_surfaces(&ctx, &lumps, surfaces.len())?;
+    let leaves = read_leaves(&ctx, &lumps, leaf_surfaces.len())?;
+    let (clusters, bytes_per_cluster, vis) = read_visdata(&ctx, &lumps, &leaves)?;
+    check_leaf_clusters(&ctx, &leaves, clusters)?;
+
+    let entities = entities::parse(lumps.raw(lumps::ENTITIES));
+    let spawn_points = entities
+        .iter()
+        .filter(|e| e.is_spawn_point())
+        .filter_map(Entity::origin)
         .collect();
 
-    // Surfaces: shader, type, vertex and index ranges, every index.
-    let mut surfaces = Vec::with_capacity(raw_surfaces.len());
-    for (i, s) in raw_surfaces.iter().enumerate() {
+    let mut bsp = BspData {
+        clusters,
+        bytes_per_cluster,
+        vis,
+        planes,
+        nodes,
+        leaves,
+        leaf_surfaces,
+        models,
+        shaders,
+        surfaces,
+        surface_of_triangle: Vec::new(),
+        spawn_points,
+        entities,
+    };
+    let mut scene = emit_geometry(path, &mut bsp, &draw, options)?;
+    assign_objects(&mut scene, &bsp);
+    scene.bsp = Some(Box::new(bsp));
+    Ok(scene)
+}
+
+/// Reads lump 1: each shader's name (up to its first NUL) and flags.
+fn read_shaders(lumps: &Lumps<'_>) -> Vec<Shader> {
+    lumps
+        .records(lumps::SHADERS)
+        .map(|r| {
+            let name = &r[..64];
+            let end = name.iter().position(|&b| b == 0).unwrap_or(64);
+            Shader {
+                name: String::from_utf8_lossy(&name[..end]).into_owned(),
+                surface_flags: i32_at(r, 64),
+                content_flags: i32_at(r, 68),
+            }
+        })
+        .collect()
+}
+
+/// Checks every surface record of lump 13 (shader, type, vertex and index ranges, every
+/// index) and makes its [`Surface`], not yet in a model and without triangles.
+fn read_surfaces(
+    ctx: &Ctx<'_>,
+    draw: &DrawData,
+    shaders: &[Shader],
+) -> Result<Vec<Surface>, LoadError> {
+    let mut surfaces = Vec::with_capacity(draw.raw_surfaces.len());
+    for (i, s) in draw.raw_surfaces.iter().enumerate() {
         let err = |m: String| ctx.at(lumps::SURFACES, i, m);
         let shader = usize::try_from(s.shader)
             .ok()
@@ -173,70 +202,7 @@ pub fn load(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene, L
             4 => SurfaceKind::Billboard,
             k => return Err(err(format!("unknown surface type {k} (expected 1 to 4)"))),
         };
-        let mut patch_size = (0, 0);
-        match kind {
-            SurfaceKind::Polygon | SurfaceKind::Mesh => {
-                let verts =
-                    checked_range(s.first_vert, s.num_verts, drawverts.len()).ok_or_else(|| {
-                        err(format!(
-                            "vertices {} + {} outside lump 10 (drawverts, {} records)",
-                            s.first_vert,
-                            s.num_verts,
-                            drawverts.len()
-                        ))
-                    })?;
-                let indexes = checked_range(s.first_index, s.num_indexes, drawindexes.len())
-                    .ok_or_else(|| {
-                        err(format!(
-                            "indexes {} + {} outside lump 11 (drawindexes, {} records)",
-                            s.first_index,
-                            s.num_indexes,
-                            drawindexes.len()
-                        ))
-                    })?;
-                if s.num_indexes % 3 != 0 {
-                    return Err(err(format!(
-                        "{} indexes, not a multiple of 3",
-                        s.num_indexes
-                    )));
-                }
-                if let Some(k) = drawindexes[indexes.clone()]
-                    .iter()
-                    .position(|&v| usize::try_from(v).map_or(true, |v| v >= verts.len()))
-                {
-                    return Err(err(format!(
-                        "index {} (drawindexes record {}) is outside the surface's {} vertices",
-                        drawindexes[indexes.start + k],
-                        indexes.start + k,
-                        verts.len()
-                    )));
-                }
-            }
-            SurfaceKind::Patch => {
-                let (w, h) = (s.patch_width, s.patch_height);
-                if w < 3 || h < 3 || w % 2 == 0 || h % 2 == 0 {
-                    return Err(err(format!(
-                        "patch size {w} x {h}: both must be odd and at least 3"
-                    )));
-                }
-                if i64::from(w) * i64::from(h) != i64::from(s.num_verts) {
-                    return Err(err(format!(
-                        "patch size {w} x {h} does not match its {} vertices",
-                        s.num_verts
-                    )));
-                }
-                checked_range(s.first_vert, s.num_verts, drawverts.len()).ok_or_else(|| {
-                    err(format!(
-                        "vertices {} + {} outside lump 10 (drawverts, {} records)",
-                        s.first_vert,
-                        s.num_verts,
-                        drawverts.len()
-                    ))
-                })?;
-                patch_size = (w as u32, h as u32);
-            }
-            SurfaceKind::Billboard => {}
-        }
+        let patch_size = check_surface_data(s, kind, draw).map_err(err)?;
         surfaces.push(Surface {
             kind,
             shader: s.shader as u32,
@@ -246,8 +212,83 @@ pub fn load(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene, L
             patch_size,
         });
     }
+    Ok(surfaces)
+}
 
-    // Models: surface ranges, each surface in at most one model.
+/// Checks what surface `s` of type `kind` takes from the drawverts and drawindexes: polygons
+/// and meshes, their ranges and that every index names one of their vertices; patches, their
+/// size and vertex range. Returns the patch size (`(0, 0)` for the other types).
+fn check_surface_data(
+    s: &RawSurface,
+    kind: SurfaceKind,
+    draw: &DrawData,
+) -> Result<(u32, u32), String> {
+    let (drawverts, drawindexes) = (draw.drawverts, draw.drawindexes);
+    let vertices_outside = || {
+        format!(
+            "vertices {} + {} outside lump 10 (drawverts, {} records)",
+            s.first_vert,
+            s.num_verts,
+            drawverts.len()
+        )
+    };
+    match kind {
+        SurfaceKind::Polygon | SurfaceKind::Mesh => {
+            let verts = checked_range(s.first_vert, s.num_verts, drawverts.len())
+                .ok_or_else(vertices_outside)?;
+            let indexes = checked_range(s.first_index, s.num_indexes, drawindexes.len())
+                .ok_or_else(|| {
+                    format!(
+                        "indexes {} + {} outside lump 11 (drawindexes, {} records)",
+                        s.first_index,
+                        s.num_indexes,
+                        drawindexes.len()
+                    )
+                })?;
+            if s.num_indexes % 3 != 0 {
+                return Err(format!("{} indexes, not a multiple of 3", s.num_indexes));
+            }
+            if let Some(k) = drawindexes[indexes.clone()]
+                .iter()
+                .position(|&v| usize::try_from(v).map_or(true, |v| v >= verts.len()))
+            {
+                return Err(format!(
+                    "index {} (drawindexes record {}) is outside the surface's {} vertices",
+                    drawindexes[indexes.start + k],
+                    indexes.start + k,
+                    verts.len()
+                ));
+            }
+            Ok((0, 0))
+        }
+        SurfaceKind::Patch => {
+            let (w, h) = (s.patch_width, s.patch_height);
+            if w < 3 || h < 3 || w % 2 == 0 || h % 2 == 0 {
+                return Err(format!(
+                    "patch size {w} x {h}: both must be odd and at least 3"
+                ));
+            }
+            if i64::from(w) * i64::from(h) != i64::from(s.num_verts) {
+                return Err(format!(
+                    "patch size {w} x {h} does not match its {} vertices",
+                    s.num_verts
+                ));
+            }
+            checked_range(s.first_vert, s.num_verts, drawverts.len())
+                .ok_or_else(vertices_outside)?;
+            Ok((w as u32, h as u32))
+        }
+        SurfaceKind::Billboard => Ok((0, 0)),
+    }
+}
+
+/// Reads lump 7: each model's bounds and surface range, recording the model of each of its
+/// surfaces (a surface in two models is an error).
+fn read_models(
+    ctx: &Ctx<'_>,
+    lumps: &Lumps<'_>,
+    surfaces: &mut [Surface],
+) -> Result<Vec<Model>, LoadError> {
     let mut models = Vec::with_capacity(lumps.count(lumps::MODELS));
     for (m, r) in lumps.records(lumps::MODELS).enumerate() {
         let (first, count) = (i32_at(r, 24), i32_at(r, 28));
@@ -279,42 +320,53 @@ pub fn load(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene, L
             surfaces: range.start as u32..range.end as u32,
         });
     }
+    Ok(models)
+}
 
-    let leaf_count = lumps.count(lumps::LEAFS);
-    let nodes = read_nodes(&ctx, &lumps, planes.len(), leaf_count)?;
-
-    let leaf_surfaces: Vec<u32> = lumps
+/// Reads lump 5: the surface index of each leaf-surface record, checked against the
+/// `surface_count` surfaces of lump 13.
+fn read_leaf_surfaces(
+    ctx: &Ctx<'_>,
+    lumps: &Lumps<'_>,
+    surface_count: usize,
+) -> Result<Vec<u32>, LoadError> {
+    lumps
         .records(lumps::LEAFSURFACES)
         .enumerate()
         .map(|(k, r)| {
             let s = i32_at(r, 0);
             usize::try_from(s)
                 .ok()
-                .filter(|&s| s < surfaces.len())
+                .filter(|&s| s < surface_count)
                 .map(|s| s as u32)
                 .ok_or_else(|| {
                     ctx.at(
                         lumps::LEAFSURFACES,
                         k,
-                        format!(
-                            "surface {s} out of range (lump 13 has {} surfaces)",
-                            surfaces.len()
-                        ),
+                        format!("surface {s} out of range (lump 13 has {surface_count} surfaces)"),
                     )
                 })
         })
-        .collect::<Result<_, _>>()?;
+        .collect()
+}
 
-    let mut leaves = Vec::with_capacity(leaf_count);
+/// Reads lump 4: each leaf's cluster, area, bounds and range of leaf surfaces (checked
+/// against the `leaf_surface_count` records of lump 5).
+fn read_leaves(
+    ctx: &Ctx<'_>,
+    lumps: &Lumps<'_>,
+    leaf_surface_count: usize,
+) -> Result<Vec<Leaf>, LoadError> {
+    let mut leaves = Vec::with_capacity(lumps.count(lumps::LEAFS));
     for (l, r) in lumps.records(lumps::LEAFS).enumerate() {
         let (first, count) = (i32_at(r, 32), i32_at(r, 36));
-        let range = checked_range(first, count, leaf_surfaces.len()).ok_or_else(|| {
+        let range = checked_range(first, count, leaf_surface_count).ok_or_else(|| {
             ctx.at(
                 lumps::LEAFS,
                 l,
                 format!(
-                    "leaf surfaces {first} + {count} outside lump 5 (leafsurfaces, {} records)",
-                    leaf_surfaces.len()
+                    "leaf surfaces {first} + {count} outside lump 5 (leafsurfaces, \
+                     {leaf_surface_count} records)"
                 ),
             )
         })?;
@@ -326,8 +378,12 @@ pub fn load(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene, L
             surfaces: range.start as u32..range.end as u32,
         });
     }
+    Ok(leaves)
+}
 
-    let (clusters, bytes_per_cluster, vis) = read_visdata(&ctx, &lumps, &leaves)?;
+/// Every leaf's cluster must be below the vis data's cluster count (negative: outside the
+/// map, allowed).
+fn check_leaf_clusters(ctx: &Ctx<'_>, leaves: &[Leaf], clusters: u32) -> Result<(), LoadError> {
     if let Some((l, leaf)) = leaves
         .iter()
         .enumerate()
@@ -342,40 +398,7 @@ pub fn load(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene, L
             ),
         ));
     }
-
-    let entities = entities::parse(lumps.raw(lumps::ENTITIES));
-    let spawn_points = entities
-        .iter()
-        .filter(|e| e.is_spawn_point())
-        .filter_map(Entity::origin)
-        .collect();
-
-    let mut bsp = BspData {
-        clusters,
-        bytes_per_cluster,
-        vis,
-        planes,
-        nodes,
-        leaves,
-        leaf_surfaces,
-        models,
-        shaders,
-        surfaces,
-        surface_of_triangle: Vec::new(),
-        spawn_points,
-        entities,
-    };
-    let mut scene = emit_geometry(
-        &ctx,
-        &mut bsp,
-        &raw_surfaces,
-        &drawverts,
-        &drawindexes,
-        options,
-    )?;
-    assign_objects(&mut scene, &bsp);
-    scene.bsp = Some(Box::new(bsp));
-    Ok(scene)
+    Ok(())
 }
 
 /// Reads lump 3 and checks plane and child indices, and that the nodes reachable from node 0
@@ -502,164 +525,9 @@ fn read_visdata(
     Ok((n as u32, bpc as u32, raw[8..8 + size as usize].to_vec()))
 }
 
-/// Emits positions and triangles in the documented id order and records each surface's
-/// triangle range and each triangle's surface.
-fn emit_geometry(
-    ctx: &Ctx<'_>,
-    bsp: &mut BspData,
-    raw_surfaces: &[RawSurface],
-    drawverts: &[Vec3],
-    drawindexes: &[i32],
-    options: &LoadOptions,
-) -> Result<Scene, LoadError> {
-    // Surfaces in model order (model 0 first); each surface is in at most one model.
-    let order: Vec<usize> = bsp
-        .models
-        .iter()
-        .flat_map(|m| m.surfaces.start as usize..m.surfaces.end as usize)
-        .collect();
-    let n = options.patch_subdivisions as u64;
-    let (mut flat, mut curved) = (0u64, 0u64);
-    for &s in &order {
-        let raw = &raw_surfaces[s];
-        match bsp.surfaces[s].kind {
-            SurfaceKind::Polygon | SurfaceKind::Mesh => flat += raw.num_indexes as u64 / 3,
-            SurfaceKind::Patch => {
-                let (w, h) = bsp.surfaces[s].patch_size;
-                curved += patch::sub_patch_count(w as usize, h as usize) as u64 * 2 * n * n;
-            }
-            SurfaceKind::Billboard => {}
-        }
-    }
-    // Triangle ids and vertex indices are u32; a patch grid has at most twice as many
-    // vertices as triangles, so 2^30 triangles keep both in range.
-    if flat + curved > MAX_TRIANGLES {
-        return Err(LoadError::Invalid {
-            path: ctx.path.to_path_buf(),
-            message: format!(
-                "{} triangles ({flat} flat + {curved} patch at {n} subdivisions) exceed the \
-                 limit of {MAX_TRIANGLES}",
-                flat + curved
-            ),
-        });
-    }
-
-    let mut b = SceneBuilder::new(ctx.path.display().to_string());
-    b.set_up(UpAxis::Z);
-    b.reserve(drawverts.len(), (flat + curved) as usize);
-    for &p in drawverts {
-        b.add_vertex(p);
-    }
-    let mut surface_of_triangle = Vec::with_capacity((flat + curved) as usize);
-    for &s in &order {
-        let raw = &raw_surfaces[s];
-        if !matches!(
-            bsp.surfaces[s].kind,
-            SurfaceKind::Polygon | SurfaceKind::Mesh
-        ) {
-            continue;
-        }
-        // Ranges and indices were checked when the surfaces were read.
-        let base = raw.first_vert as u32;
-        let first = b.triangle_count() as u32;
-        let indexes = &drawindexes[raw.first_index as usize..][..raw.num_indexes as usize];
-        for t in indexes.chunks_exact(3) {
-            b.add_triangle([base + t[0] as u32, base + t[1] as u32, base + t[2] as u32]);
-            surface_of_triangle.push(s as u32);
-        }
-        bsp.surfaces[s].triangles = first..b.triangle_count() as u32;
-    }
-    if n > 0 {
-        for &s in &order {
-            if bsp.surfaces[s].kind != SurfaceKind::Patch {
-                continue;
-            }
-            let raw = &raw_surfaces[s];
-            let (w, h) = bsp.surfaces[s].patch_size;
-            let control = &drawverts[raw.first_vert as usize..][..raw.num_verts as usize];
-            let grid = patch::tessellate(control, w as usize, h as usize, n as usize);
-            let base = b.vertex_count();
-            for p in grid.positions {
-                b.add_vertex(p);
-            }
-            let first = b.triangle_count() as u32;
-            for [x, y, z] in grid.triangles {
-                b.add_triangle([base + x, base + y, base + z]);
-                surface_of_triangle.push(s as u32);
-            }
-            bsp.surfaces[s].triangles = first..b.triangle_count() as u32;
-        }
-    }
-    bsp.surface_of_triangle = surface_of_triangle;
-    Ok(b.finish())
-}
-
-/// Replaces the builder's single object by the documented grouping (module docs, "Objects"):
-/// world surfaces by (cluster, shader), brush-model surfaces by (model, shader).
-fn assign_objects(scene: &mut Scene, bsp: &BspData) {
-    // Lowest cluster of the leaves that list each surface (u32::MAX: none lists it).
-    let mut cluster_of_surface = vec![u32::MAX; bsp.surfaces.len()];
-    for (l, leaf) in bsp.leaves.iter().enumerate() {
-        let Ok(cluster) = u32::try_from(leaf.cluster) else {
-            continue;
-        };
-        for &s in bsp.surfaces_of_leaf(l) {
-            if let Some(slot) = cluster_of_surface.get_mut(s as usize) {
-                *slot = (*slot).min(cluster);
-            }
-        }
-    }
-    // Key per surface: (model, cluster in the world / u32::MAX for brush models, shader);
-    // surfaces of no model emit no triangles.
-    let key = |s: usize| {
-        let surface = &bsp.surfaces[s];
-        let model = surface.model.unwrap_or(u32::MAX);
-        let cluster = if model == 0 {
-            cluster_of_surface[s]
-        } else {
-            u32::MAX
-        };
-        (model, cluster, surface.shader)
-    };
-    let mut keys: Vec<(u32, u32, u32)> = bsp
-        .surface_of_triangle
-        .iter()
-        .map(|&s| key(s as usize))
-        .collect();
-    keys.sort_unstable();
-    keys.dedup();
-    scene.objects = keys
-        .iter()
-        .map(|&(model, cluster, shader)| {
-            let shader_name = bsp
-                .shaders
-                .get(shader as usize)
-                .map_or("", |sh| sh.name.as_str());
-            let name = match (model, cluster) {
-                (0, u32::MAX) => format!("model0/nocluster/{shader_name}"),
-                (0, c) => format!("model0/cluster{c}/{shader_name}"),
-                (m, _) => format!("model{m}/{shader_name}"),
-            };
-            super::types::Object {
-                name,
-                index: Some(model),
-                part: Some(shader),
-            }
-        })
-        .collect();
-    // Object id of each surface, looked up once per surface.
-    let object_of_surface: Vec<u32> = (0..bsp.surfaces.len())
-        .map(|s| keys.binary_search(&key(s)).map_or(u32::MAX, |k| k as u32))
-        .collect();
-    scene.object_of_triangle = bsp
-        .surface_of_triangle
-        .iter()
-        .map(|&s| object_of_surface[s as usize])
-        .collect();
-}
-
 #[cfg(test)]
 mod tests {
+    use super::super::types::UpAxis;
     use super::*;
 
     #[test]
