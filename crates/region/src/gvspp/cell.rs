@@ -14,7 +14,10 @@ use std::collections::VecDeque;
 use glam::Vec3;
 use sightline_core::{Hit, Ray};
 
-use super::guided_rays::{abs_rays, find_discontinuities, Discontinuity, ReverseOrigins};
+use super::guided_rays::{
+    abs_rays, find_discontinuities, Discontinuity, EdgeSamples, ReverseOrigins,
+};
+use super::params::ABS_ANGLE_STEP;
 use super::params::{GvsPlusPlusParams, ABS_CHUNK, EXPLORE_RAYS_PER_TRIANGLE, TERMINATION_WINDOW};
 use crate::guided::{ExploreQueue, Found, Phase, Termination};
 use crate::rays::{Discovery, RandomRays};
@@ -45,6 +48,9 @@ pub(crate) struct GvsppCell {
     rs_groups: u64,
     /// Triangles waiting for ABS and RS (4.4's queue).
     pub queue: ExploreQueue,
+    /// Triangles whose coarse border sampling left out some of the paper's edge samples,
+    /// waiting for the rest (scheduled by yield only).
+    pub refine: ExploreQueue,
     /// Discontinuities waiting for reverse sampling (scheduled by yield only: the paper's
     /// rounds reverse-sample them as soon as border sampling finds them).
     pub pending: VecDeque<Discontinuity>,
@@ -72,6 +78,7 @@ impl GvsppCell {
             reverse: ReverseOrigins::new(ctx, p.n_rs_edge, p.n_rs_area),
             rs_groups: 0,
             queue: ExploreQueue::default(),
+            refine: ExploreQueue::default(),
             pending: VecDeque::new(),
             found: Found::default(),
             termination,
@@ -105,7 +112,46 @@ impl GvsppCell {
     /// ray aimed at a border vertex, its target.
     pub fn abs_rays(&mut self, ctx: &CellContext<'_>, n: usize) -> (Vec<Ray>, Vec<Option<Vec3>>) {
         let chunk = self.queue.take(n);
-        abs_rays(ctx, &chunk, self.delta_abs, self.n_abs_edge)
+        let (rays, targets, _) = abs_rays(
+            ctx,
+            &chunk,
+            self.delta_abs,
+            EdgeSamples::Fixed(self.n_abs_edge),
+        );
+        (rays, targets)
+    }
+
+    /// Takes up to `n` triangles off the queue and returns their coarse ABS rays (the border
+    /// vertices, and edge samples [`ABS_ANGLE_STEP`] apart as seen from the discovery's origin)
+    /// with the vertex rays' targets; triangles that got fewer edge samples than `n_abs_edge`
+    /// join [`GvsppCell::refine`].
+    pub fn coarse_abs_rays(
+        &mut self,
+        ctx: &CellContext<'_>,
+        n: usize,
+    ) -> (Vec<Ray>, Vec<Option<Vec3>>) {
+        let chunk = self.queue.take(n);
+        let samples = EdgeSamples::Coarse {
+            n: self.n_abs_edge,
+            step: ABS_ANGLE_STEP,
+        };
+        let (rays, targets, partial) = abs_rays(ctx, &chunk, self.delta_abs, samples);
+        self.refine.extend(
+            chunk
+                .iter()
+                .zip(partial)
+                .filter(|(_, p)| *p)
+                .map(|(d, _)| *d),
+        );
+        (rays, targets)
+    }
+
+    /// Takes up to `n` triangles off [`GvsppCell::refine`] and returns the paper's edge samples
+    /// of their border (no vertices: the coarse pass cast those).
+    pub fn refine_abs_rays(&mut self, ctx: &CellContext<'_>, n: usize) -> Vec<Ray> {
+        let chunk = self.refine.take(n);
+        let samples = EdgeSamples::EdgesOnly(self.n_abs_edge);
+        abs_rays(ctx, &chunk, self.delta_abs, samples).0
     }
 
     /// The discontinuities (4.3) of ABS rays `rays` aimed at `targets`, which hit `hits`.

@@ -23,35 +23,92 @@ pub(crate) struct Discontinuity {
     occluder: Option<u32>,
 }
 
+/// Which of a triangle's border samples ABS casts.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum EdgeSamples {
+    /// The paper's fixed rate: the 9 border vertices and `n` points on each long edge.
+    Fixed(u32),
+    /// The 9 border vertices and, on each long edge, one point per `step` radians of the angle
+    /// the edge spans from the discovery's origin (at least 1, at most `n`): a first pass that
+    /// costs a few rays on a triangle a few pixels wide (ours, see `by_yield.rs`).
+    Coarse { n: u32, step: f32 },
+    /// Only the `n` points on each long edge, no vertices: the rest of [`EdgeSamples::Fixed`]
+    /// after a coarse pass (its vertex rays and their discontinuities are done).
+    EdgesOnly(u32),
+}
+
+impl EdgeSamples {
+    /// Samples on the border-polygon edge `a -> b` seen from `origin`.
+    fn on_edge(self, origin: Vec3, a: Vec3, b: Vec3) -> u32 {
+        match self {
+            Self::Fixed(n) | Self::EdgesOnly(n) => n,
+            Self::Coarse { n, step } => {
+                let (u, v) = (
+                    (a - origin).normalize_or_zero(),
+                    (b - origin).normalize_or_zero(),
+                );
+                let angle = u.dot(v).clamp(-1.0, 1.0).acos();
+                ((angle / step).ceil() as u32).clamp(1, n.max(1))
+            }
+        }
+    }
+
+    fn with_vertices(self) -> bool {
+        !matches!(self, Self::EdgesOnly(_))
+    }
+}
+
 /// ABS rays for a chunk of discoveries, and for each ray that aims at a border *vertex*, its
-/// target (rays at edge samples get `None`).
+/// target (rays at edge samples get `None`). With [`EdgeSamples::Coarse`], also whether each
+/// discovery had fewer edge samples than `n` somewhere (it then needs an
+/// [`EdgeSamples::EdgesOnly`] pass to complete the paper's samples).
 pub(crate) fn abs_rays(
     ctx: &CellContext<'_>,
     chunk: &[Discovery],
     delta_abs: f32,
-    n_edge: u32,
-) -> (Vec<Ray>, Vec<Option<Vec3>>) {
-    let per_triangle = 9 + 3 * n_edge as usize;
-    let pairs: Vec<(Ray, Option<Vec3>)> = chunk
+    samples: EdgeSamples,
+) -> (Vec<Ray>, Vec<Option<Vec3>>, Vec<bool>) {
+    let full = match samples {
+        EdgeSamples::Fixed(n) | EdgeSamples::EdgesOnly(n) | EdgeSamples::Coarse { n, .. } => n,
+    };
+    // Per discovery: its rays with their vertex targets, and whether an edge got fewer
+    // samples than the paper's.
+    type TriangleRays = (Vec<(Ray, Option<Vec3>)>, bool);
+    let per_triangle: Vec<TriangleRays> = chunk
         .par_iter()
-        .flat_map_iter(|d| {
+        .map(|d| {
             let triangle = ctx.scene.triangle(d.triangle);
             let polygon = border_polygon(triangle, delta_abs);
-            let mut out = Vec::with_capacity(per_triangle);
-            for v in vertex_targets(triangle, delta_abs) {
-                out.push((Ray::new(d.origin, v - d.origin), Some(v)));
+            let mut out = Vec::with_capacity(9 + 3 * full as usize);
+            if samples.with_vertices() {
+                for v in vertex_targets(triangle, delta_abs) {
+                    out.push((Ray::new(d.origin, v - d.origin), Some(v)));
+                }
             }
+            let mut partial = false;
             for (a, b) in LONG_EDGES {
+                let n_edge = samples.on_edge(d.origin, polygon[a], polygon[b]);
+                partial |= n_edge < full;
                 for k in 0..n_edge {
                     let f = (k + 1) as f32 / (n_edge + 1) as f32;
                     let target = polygon[a].lerp(polygon[b], f);
                     out.push((Ray::new(d.origin, target - d.origin), None));
                 }
             }
-            out
+            (out, partial)
         })
         .collect();
-    pairs.into_iter().unzip()
+    let mut rays = Vec::new();
+    let mut targets = Vec::new();
+    let mut partial = Vec::with_capacity(chunk.len());
+    for (pairs, p) in per_triangle {
+        for (r, t) in pairs {
+            rays.push(r);
+            targets.push(t);
+        }
+        partial.push(p);
+    }
+    (rays, targets, partial)
 }
 
 /// Border-vertex rays whose hit is closer than the target by more than `delta` (an occluder in
@@ -156,5 +213,58 @@ impl ReverseOrigins {
                 })
             })
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sightline_core::scene::SceneBuilder;
+    use sightline_core::trace::Bvh;
+
+    use crate::viewcell::ViewCell;
+
+    /// One triangle 1 unit across, seen from `distance` away: its rays at the three sampling
+    /// modes, and whether the coarse pass left samples out.
+    fn rays_at(distance: f32, samples: EdgeSamples) -> (usize, usize, bool) {
+        let mut b = SceneBuilder::new("one");
+        let (p, q, r) = (
+            Vec3::new(-0.5, -0.5, distance),
+            Vec3::new(0.5, -0.5, distance),
+            Vec3::new(0.0, 0.5, distance),
+        );
+        let t = [b.add_vertex(p), b.add_vertex(q), b.add_vertex(r)];
+        b.add_triangle(t);
+        let scene = b.finish();
+        let bvh = Bvh::build(&scene);
+        let cell = ViewCell::aabb(Vec3::splat(-0.1), Vec3::splat(0.1)).unwrap();
+        let ctx = CellContext {
+            scene: &scene,
+            caster: &bvh,
+            cell: &cell,
+            seed: 1,
+            free_space: None,
+        };
+        let d = Discovery {
+            triangle: 0,
+            origin: Vec3::ZERO,
+            hit_point: Vec3::new(0.0, 0.0, distance),
+        };
+        let (rays, targets, partial) = abs_rays(&ctx, &[d], 1e-4, samples);
+        let vertices = targets.iter().filter(|t| t.is_some()).count();
+        (rays.len(), vertices, partial[0])
+    }
+
+    #[test]
+    fn coarse_border_sampling_spaces_edge_samples_by_angle() {
+        let coarse = EdgeSamples::Coarse { n: 20, step: 0.003 };
+        // The paper's rate: 9 vertices and 20 points on each of the three long edges.
+        assert_eq!(rays_at(2.0, EdgeSamples::Fixed(20)), (69, 9, false));
+        // Near (an edge spans about 0.5 rad): every edge gets its 20 samples, nothing to refine.
+        assert_eq!(rays_at(2.0, coarse), (69, 9, false));
+        // Far (about 2.5 mrad per edge at 400 units): one sample per edge, to be refined.
+        assert_eq!(rays_at(400.0, coarse), (12, 9, true));
+        // The refinement casts the 60 edge samples and no vertex rays.
+        assert_eq!(rays_at(400.0, EdgeSamples::EdgesOnly(20)), (60, 0, false));
     }
 }

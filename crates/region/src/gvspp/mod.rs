@@ -28,7 +28,9 @@
 //! at a poor yield. Under `--rays` or `--time` a bake therefore has no rounds: every batch of
 //! [`YIELD_BATCH`] rays goes to random, border or reverse sampling, whichever found the most new
 //! triangles per ray in its recent batches, each kind keeping at least a tenth of the rays while
-//! it has work (`by_yield.rs` says why and what it measured). `fixed_rounds` restores the
+//! it has work; border sampling first spaces its edge samples 3 mrad apart and refines to the
+//! paper's 20 per edge later, as a kind of its own (`by_yield.rs` says why and what it
+//! measured). `fixed_rounds` restores the
 //! paper's rounds. A bake without a budget (to convergence) keeps the paper's rounds: its
 //! termination rule needs them. That rule is the paper's (T = 10 new triangles in a 10^7-ray
 //! round) over a window of at least [`TERMINATION_WINDOW`] rays instead of one round, so that a
