@@ -288,6 +288,9 @@ impl MethodState {
         }
     }
 
+    /// One frame of the grid method: answers of earlier queries recorded, then every cell of
+    /// the traversal in order ([`MethodState::grid_cell`]), then the retest of the drawn
+    /// objects where the backend answered object tests, then the frame's last answers taken.
     pub(crate) fn cull_grid(
         &mut self,
         w: &mut World,
@@ -307,122 +310,207 @@ impl MethodState {
         record_results(&mut self.pending, scheduler, objects, frame_no - 1);
         backend.begin_frame(camera);
         w.grid.begin_pass();
-        for &cell in &self.cells {
-            if w.grid.objects_in(cell).is_empty() {
-                continue;
-            }
-            stats.cells += 1;
-            if scheduler.should_query(cell) {
-                backend.query(cell, &w.query_box(cell, config.tight_query_boxes));
-                stats.queries += 1;
-                if config.latency == 0 {
-                    backend.take_results(&mut self.pending);
-                    record_results(&mut self.pending, scheduler, objects, frame_no);
-                }
-            }
-            if !scheduler.is_drawn(cell) {
-                continue;
-            }
-            self.collected.clear();
-            w.grid.collect(cell, &mut self.collected);
-            if config.sort_cell_objects {
-                sort_front_to_back(&mut self.collected, &w.boxes, camera.eye);
-            }
-            for &o in &self.collected {
-                // Objects of a drawn cell against the depth drawn so far this frame (exact
-                // for this frame, so it never adds popping), where the backend answers now.
-                let mut tested = false;
-                if config.object_tests {
-                    let aabb = &w.boxes[o as usize];
-                    let answer = if config.triangle_tests {
-                        backend.test_object_now(aabb, w.corners_of(o))
-                    } else {
-                        backend.test_now(aabb)
-                    };
-                    if let Some(vis) = answer {
-                        tested = true;
-                        stats.object_tests += 1;
-                        if !vis {
-                            continue;
-                        }
-                    } else if object_queries && config.latency == 0 {
-                        // Results used at once: wait for the object's answer (stop and wait),
-                        // exact for this frame like the software test.
-                        let tag = OBJECT_TAG | o;
-                        backend.query(tag, aabb);
-                        stats.object_queries += 1;
-                        stats.queries += 1;
-                        backend.take_results(&mut self.pending);
-                        let vis = self.pending.iter().rev().find(|r| r.0 == tag);
-                        let vis = vis.is_none_or(|r| r.1);
-                        record_results(&mut self.pending, scheduler, objects, frame_no);
-                        if !vis {
-                            continue;
-                        }
-                    } else if object_queries {
-                        let (draw, query) = objects.decide(
-                            o,
-                            aabb,
-                            frame_no,
-                            scheduler.config().invisible_duration,
-                            config.object_visible_duration,
-                        );
-                        // Within the frame's query cap (cells' queries first); an object
-                        // left unqueried has no fresh answer next frame and is drawn then.
-                        let room = scheduler.queries_this_frame() + (stats.object_queries as usize)
-                            < scheduler.config().query_cap;
-                        if query && room {
-                            let q = objects.query_box(o, aabb, frame_no, camera);
-                            // Before the object's own depth, which would hide its box's back.
-                            backend.query(OBJECT_TAG | o, &q);
-                            stats.object_queries += 1;
-                            stats.queries += 1;
-                        }
-                        objects.seen(o, aabb, frame_no);
-                        if !draw {
-                            continue;
-                        }
-                    }
-                }
-                self.drawn.push(o);
-                let class = w.scene.class[o as usize];
-                let cap = scheduler.config().depth_prepass_cap;
-                let cap = if tested {
-                    cap.max(config.tested_prepass_cap)
-                } else {
-                    cap
-                };
-                if scheduler.enters_prepass_capped(class, cap) {
-                    self.prepassed.push(o);
-                    stats.prepass += 1;
-                    backend.draw_depth(w.corners_of(o));
-                }
-            }
+        let mut frame = GridFrame {
+            w,
+            camera,
+            backend,
+            config,
+            stats,
+            frame_no,
+            object_queries,
+        };
+        for i in 0..self.cells.len() {
+            self.grid_cell(&mut frame, self.cells[i]);
         }
         // Only when the backend answered object tests this frame (it can retest then).
-        if config.object_tests && config.retest && stats.object_tests > 0 {
-            // The frame's occluders in reverse order into the backend's second buffer.
-            self.retest_corners.clear();
-            for &o in self.prepassed.iter().rev() {
-                self.retest_corners.extend_from_slice(w.corners_of(o));
-            }
-            backend.begin_retest(&self.retest_corners);
-            let mut kept = 0;
-            for i in 0..self.drawn.len() {
-                let o = self.drawn[i];
-                let aabb = &w.boxes[o as usize];
-                if backend.retest_now(aabb, w.corners_of(o)) == Some(false) {
-                    stats.retest_culled += 1;
-                } else {
-                    self.drawn[kept] = o;
-                    kept += 1;
-                }
-            }
-            self.drawn.truncate(kept);
+        if config.object_tests && config.retest && frame.stats.object_tests > 0 {
+            self.retest_drawn(&mut frame);
         }
-        backend.take_results(&mut self.pending);
-        scheduler.end_frame();
+        frame.backend.take_results(&mut self.pending);
+        self.scheduler.end_frame();
     }
+
+    /// The grid method on one traversed cell: skipped when empty; queried when the
+    /// scheduler says so (its answer read at once without latency); when the scheduler draws
+    /// it, its objects (front to back if configured) decided on and drawn.
+    fn grid_cell(&mut self, fr: &mut GridFrame<'_, '_>, cell: u32) {
+        if fr.w.grid.objects_in(cell).is_empty() {
+            return;
+        }
+        fr.stats.cells += 1;
+        if self.scheduler.should_query(cell) {
+            fr.backend
+                .query(cell, &fr.w.query_box(cell, fr.config.tight_query_boxes));
+            fr.stats.queries += 1;
+            if fr.config.latency == 0 {
+                fr.backend.take_results(&mut self.pending);
+                record_results(
+                    &mut self.pending,
+                    &mut self.scheduler,
+                    &mut self.objects,
+                    fr.frame_no,
+                );
+            }
+        }
+        if !self.scheduler.is_drawn(cell) {
+            return;
+        }
+        self.collected.clear();
+        fr.w.grid.collect(cell, &mut self.collected);
+        if fr.config.sort_cell_objects {
+            sort_front_to_back(&mut self.collected, &fr.w.boxes, fr.camera.eye);
+        }
+        for i in 0..self.collected.len() {
+            let o = self.collected[i];
+            if let Verdict::Draw { tested } = self.object_verdict(fr, o) {
+                self.draw_object(fr, o, tested);
+            }
+        }
+    }
+
+    /// Whether object `o` of a drawn cell is drawn. Without object tests, always. Otherwise
+    /// against the depth drawn so far this frame where the backend answers now (exact for
+    /// this frame, so it never adds popping); else by an object query of its own, waited for
+    /// without latency, or else read a frame later.
+    fn object_verdict(&mut self, fr: &mut GridFrame<'_, '_>, o: u32) -> Verdict {
+        if !fr.config.object_tests {
+            return Verdict::Draw { tested: false };
+        }
+        let aabb = &fr.w.boxes[o as usize];
+        let answer = if fr.config.triangle_tests {
+            fr.backend.test_object_now(aabb, fr.w.corners_of(o))
+        } else {
+            fr.backend.test_now(aabb)
+        };
+        if let Some(vis) = answer {
+            fr.stats.object_tests += 1;
+            return if vis {
+                Verdict::Draw { tested: true }
+            } else {
+                Verdict::Hidden
+            };
+        }
+        let draw = if fr.object_queries && fr.config.latency == 0 {
+            self.wait_for_object_query(fr, o)
+        } else if fr.object_queries {
+            self.defer_object_query(fr, o)
+        } else {
+            true
+        };
+        if draw {
+            Verdict::Draw { tested: false }
+        } else {
+            Verdict::Hidden
+        }
+    }
+
+    /// Results used at once: queries object `o` and waits for its answer (stop and wait),
+    /// exact for this frame like the software test. Returns whether it is visible (a
+    /// backend that gives no answer draws it).
+    fn wait_for_object_query(&mut self, fr: &mut GridFrame<'_, '_>, o: u32) -> bool {
+        let tag = OBJECT_TAG | o;
+        fr.backend.query(tag, &fr.w.boxes[o as usize]);
+        fr.stats.object_queries += 1;
+        fr.stats.queries += 1;
+        fr.backend.take_results(&mut self.pending);
+        let vis = self.pending.iter().rev().find(|r| r.0 == tag);
+        let vis = vis.is_none_or(|r| r.1);
+        record_results(
+            &mut self.pending,
+            &mut self.scheduler,
+            &mut self.objects,
+            fr.frame_no,
+        );
+        vis
+    }
+
+    /// Results read a frame later: decides object `o` by its last answer and queries it
+    /// again when due and within the frame's query cap. Returns whether it is drawn.
+    fn defer_object_query(&mut self, fr: &mut GridFrame<'_, '_>, o: u32) -> bool {
+        let aabb = &fr.w.boxes[o as usize];
+        let (draw, query) = self.objects.decide(
+            o,
+            aabb,
+            fr.frame_no,
+            self.scheduler.config().invisible_duration,
+            fr.config.object_visible_duration,
+        );
+        // Within the frame's query cap (cells' queries first); an object left unqueried has
+        // no fresh answer next frame and is drawn then.
+        let room = self.scheduler.queries_this_frame() + (fr.stats.object_queries as usize)
+            < self.scheduler.config().query_cap;
+        if query && room {
+            let q = self.objects.query_box(o, aabb, fr.frame_no, fr.camera);
+            // Before the object's own depth, which would hide its box's back.
+            fr.backend.query(OBJECT_TAG | o, &q);
+            fr.stats.object_queries += 1;
+            fr.stats.queries += 1;
+        }
+        self.objects.seen(o, aabb, fr.frame_no);
+        draw
+    }
+
+    /// Draws object `o`, and renders it as an occluder when its depth class is within the
+    /// pre-pass cap (the larger cap for objects the backend tested this frame).
+    fn draw_object(&mut self, fr: &mut GridFrame<'_, '_>, o: u32, tested: bool) {
+        self.drawn.push(o);
+        let class = fr.w.scene.class[o as usize];
+        let cap = self.scheduler.config().depth_prepass_cap;
+        let cap = if tested {
+            cap.max(fr.config.tested_prepass_cap)
+        } else {
+            cap
+        };
+        if self.scheduler.enters_prepass_capped(class, cap) {
+            self.prepassed.push(o);
+            fr.stats.prepass += 1;
+            fr.backend.draw_depth(fr.w.corners_of(o));
+        }
+    }
+
+    /// Retests the drawn objects against the frame's occluders in reverse order (the
+    /// backend's second buffer), dropping those it finds hidden.
+    fn retest_drawn(&mut self, fr: &mut GridFrame<'_, '_>) {
+        self.retest_corners.clear();
+        for &o in self.prepassed.iter().rev() {
+            self.retest_corners.extend_from_slice(fr.w.corners_of(o));
+        }
+        fr.backend.begin_retest(&self.retest_corners);
+        let mut kept = 0;
+        for i in 0..self.drawn.len() {
+            let o = self.drawn[i];
+            let aabb = &fr.w.boxes[o as usize];
+            if fr.backend.retest_now(aabb, fr.w.corners_of(o)) == Some(false) {
+                fr.stats.retest_culled += 1;
+            } else {
+                self.drawn[kept] = o;
+                kept += 1;
+            }
+        }
+        self.drawn.truncate(kept);
+    }
+}
+
+/// One frame of the grid method: what its steps share, so that they take one argument.
+struct GridFrame<'f, 'w> {
+    w: &'f mut World<'w>,
+    camera: &'f Camera,
+    backend: &'f mut dyn OcclusionBackend,
+    config: &'f SimConfig,
+    stats: &'f mut FrameStats,
+    /// The scheduler's number of this frame.
+    frame_no: u64,
+    /// Whether objects of drawn cells get queries of their own
+    /// ([`SimConfig::object_queries`], with their state allocated).
+    object_queries: bool,
+}
+
+/// The grid method's decision on an object of a drawn cell.
+enum Verdict {
+    /// Culled this frame.
+    Hidden,
+    /// Drawn; `tested` when the backend tested it against this frame's depth.
+    Draw { tested: bool },
 }
 
 /// Whether every corner of `aabb` lies inside the camera's view (beyond the near plane,

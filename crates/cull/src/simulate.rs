@@ -21,17 +21,16 @@
 
 use std::time::Instant;
 
-use glam::Vec3;
 use sightline_core::raster::{Frame, Rasterizer};
-use sightline_core::{Aabb, Camera, Hit, Scene};
+use sightline_core::{Camera, Hit};
 
 use crate::backend::OcclusionBackend;
 use crate::diagnose::Objects;
-use crate::grid::{Grid, GridError, GridShape};
+use crate::grid::{GridError, GridShape};
 use crate::scenes::CullScene;
 use crate::sim_method::MethodState;
 use crate::sim_types::{FrameStats, Method, SimConfig, SimReport};
-use crate::sim_world::World;
+use crate::sim_world::{MovingObjects, World};
 use crate::traversal::Traversal;
 
 /// Runs the simulation of `scene` along its camera path with `backend`: the grid method only.
@@ -101,50 +100,7 @@ fn simulate_views(
     config: &SimConfig,
     views: &[(Method, usize)],
 ) -> Result<Vec<SimReport>, GridError> {
-    let base = &scene.scene;
-    let n_obj = base.objects.len();
-    let shape = GridShape::with_cell_size(&scene.bounds, scene.cell_size)?;
-
-    // Per object: its triangles and its box at time 0.
-    let tris_of = base.triangles_by_object();
-    let base_box: Vec<Aabb> = tris_of
-        .iter()
-        .map(|ts| Aabb::from_points(ts.iter().flat_map(|&t| base.triangle(t))))
-        .collect();
-    let mut object_of_vertex = vec![u32::MAX; base.positions.len()];
-    for (t, tri) in base.triangles.iter().enumerate() {
-        for &v in tri {
-            if let Some(o) = object_of_vertex.get_mut(v as usize) {
-                *o = base.object_of_triangle[t];
-            }
-        }
-    }
-    let mut moved: Scene = base.clone();
-    let mut offsets = vec![Vec3::ZERO; n_obj];
-    let mut world = World {
-        scene,
-        shape,
-        grid: Grid::new(shape),
-        boxes: base_box.clone(),
-        corners: Vec::new(),
-        ranges: vec![(0, 0); n_obj],
-    };
-    for (o, b) in base_box.iter().enumerate() {
-        if !b.is_empty() {
-            world.grid.insert(o as u32, *b)?;
-        }
-    }
-
-    let mut states: Vec<MethodState> = views
-        .iter()
-        .map(|&(method, _)| MethodState::new(method, shape, n_obj, config))
-        .collect();
-    let mut frustum_cells = Vec::new();
-    let mut frustum_objs = Vec::new();
-    let mut frustum_traversal = Traversal::new();
-    let mut frame_img = Frame::new(config.width, config.height);
-    let mut visible = vec![false; n_obj];
-
+    let mut sim = Simulation::new(scene, config, views)?;
     for f in 0..config.frames {
         let t = f as f32 / config.fps;
         let Some(frame_cameras) = cameras
@@ -154,90 +110,154 @@ fn simulate_views(
         else {
             continue;
         };
-        // Move objects (vertices, boxes and grid entries), then gather their corners: the
-        // application's data, outside the timed culling.
-        for (o, m) in scene.motion.iter().enumerate() {
-            if let Some(m) = m {
-                offsets[o] = m.offset(t);
-                if !base_box[o].is_empty() {
-                    let b = Aabb::new(base_box[o].min + offsets[o], base_box[o].max + offsets[o]);
-                    world.boxes[o] = b;
-                    world.grid.insert(o as u32, b)?;
-                }
-            }
+        sim.moving.advance(&mut sim.world, t)?;
+        let mut frame_stats = sim.cull_views(&frame_cameras, backend);
+        if config.measure_popping {
+            sim.score_views(&frame_cameras, &mut frame_stats, f);
         }
-        for (v, p) in moved.positions.iter_mut().enumerate() {
-            let o = object_of_vertex[v];
-            if let Some(off) = offsets.get(o as usize) {
-                *p = base.positions[v] + *off;
-            }
+        for (st, stats) in sim.states.iter_mut().zip(frame_stats) {
+            st.report.frames.push(stats);
         }
-        world.corners.clear();
-        for (o, tris) in tris_of.iter().enumerate() {
-            let a = world.corners.len();
-            for &tri in tris {
-                world.corners.extend_from_slice(&moved.triangle(tri));
-            }
-            world.ranges[o] = (a, world.corners.len());
-        }
-        let mut frame_stats = Vec::with_capacity(states.len());
-        for (st, &(_, view)) in states.iter_mut().zip(views) {
+    }
+    Ok(sim.into_reports())
+}
+
+/// The state of [`simulate_views`] across frames: the world and its moving objects, one
+/// method state per view, and the buffers every frame reuses (the frustum baseline's
+/// traversal, the ground truth's image and visible objects).
+struct Simulation<'a> {
+    config: &'a SimConfig,
+    /// `(method, viewport)` of every state.
+    views: &'a [(Method, usize)],
+    world: World<'a>,
+    moving: MovingObjects,
+    /// One per view.
+    states: Vec<MethodState>,
+    /// The frustum baseline's cells, objects and traversal.
+    frustum_cells: Vec<u32>,
+    frustum_objs: Vec<u32>,
+    frustum_traversal: Traversal,
+    /// The ground truth's image.
+    frame_img: Frame,
+    /// Per object: whether it shows in the ground truth.
+    visible: Vec<bool>,
+}
+
+impl<'a> Simulation<'a> {
+    /// The world of `scene` at time 0 and a fresh state for every view.
+    fn new(
+        scene: &'a CullScene,
+        config: &'a SimConfig,
+        views: &'a [(Method, usize)],
+    ) -> Result<Self, GridError> {
+        let n_obj = scene.scene.objects.len();
+        let shape = GridShape::with_cell_size(&scene.bounds, scene.cell_size)?;
+        let (moving, world) = MovingObjects::start(scene, shape)?;
+        let states = views
+            .iter()
+            .map(|&(method, _)| MethodState::new(method, shape, n_obj, config))
+            .collect();
+        Ok(Simulation {
+            config,
+            views,
+            world,
+            moving,
+            states,
+            frustum_cells: Vec::new(),
+            frustum_objs: Vec::new(),
+            frustum_traversal: Traversal::new(),
+            frame_img: Frame::new(config.width, config.height),
+            visible: vec![false; n_obj],
+        })
+    }
+
+    /// Culls the frame with every view's method (timed) and counts its frustum baseline:
+    /// one [`FrameStats`] per view, scored later.
+    fn cull_views(
+        &mut self,
+        frame_cameras: &[Camera],
+        backend: &mut dyn OcclusionBackend,
+    ) -> Vec<FrameStats> {
+        let config = self.config;
+        let mut frame_stats = Vec::with_capacity(self.states.len());
+        for (st, &(_, view)) in self.states.iter_mut().zip(self.views) {
             let camera = &frame_cameras[view];
-            frustum_cells.clear();
-            frustum_traversal.visit(&shape, camera, config.far, &mut frustum_cells);
-            frustum_objs.clear();
-            world.frustum_objects(&frustum_cells, &mut frustum_objs);
+            self.frustum_cells.clear();
+            self.frustum_traversal.visit(
+                &self.world.shape,
+                camera,
+                config.far,
+                &mut self.frustum_cells,
+            );
+            self.frustum_objs.clear();
+            self.world
+                .frustum_objects(&self.frustum_cells, &mut self.frustum_objs);
             st.drawn.clear();
             st.prepassed.clear();
             let mut stats = FrameStats::default();
             let start = Instant::now();
-            st.cull(&mut world, camera, backend, config, &mut stats);
+            st.cull(&mut self.world, camera, backend, config, &mut stats);
             stats.cull_ms = start.elapsed().as_secs_f64() * 1e3;
             stats.drawn = st.drawn.len() as u32;
-            stats.frustum = frustum_objs.len() as u32;
+            stats.frustum = self.frustum_objs.len() as u32;
             frame_stats.push(stats);
         }
+        frame_stats
+    }
 
-        // --- Ground truth and popping, once per viewport for every method ---
+    /// Ground truth and popping, once per viewport for every method: renders each
+    /// viewport's exact image and scores the views that see it.
+    fn score_views(&mut self, frame_cameras: &[Camera], frame_stats: &mut [FrameStats], f: u32) {
         for (view, camera) in frame_cameras.iter().enumerate() {
-            if !config.measure_popping {
-                break;
-            }
-            Rasterizer::new(&moved).render(camera, None, &mut frame_img);
-            visible.fill(false);
-            let ids: Vec<usize> = frame_img
+            Rasterizer::new(&self.moving.moved).render(camera, None, &mut self.frame_img);
+            self.visible.fill(false);
+            let ids: Vec<usize> = self
+                .frame_img
                 .ids
                 .iter()
                 .filter(|&&id| id != Hit::NONE)
-                .map(|&id| moved.object_of_triangle[id as usize] as usize)
+                .map(|&id| self.moving.moved.object_of_triangle[id as usize] as usize)
                 .collect();
             for &o in &ids {
-                visible[o] = true;
+                self.visible[o] = true;
             }
-            let exact = visible.iter().filter(|&&v| v).count() as u32;
-            let of_view = states.iter_mut().zip(&mut frame_stats).zip(views);
+            let exact = self.visible.iter().filter(|&&v| v).count() as u32;
+            let of_view = self
+                .states
+                .iter_mut()
+                .zip(frame_stats.iter_mut())
+                .zip(self.views);
             for ((st, stats), _) in of_view.filter(|(_, &(_, v))| v == view) {
                 let ground_truth = GroundTruth {
-                    visible: &visible,
+                    visible: &self.visible,
                     ids: &ids,
                     exact,
                 };
-                score_view(st, stats, &ground_truth, &world, camera, config, f);
+                score_view(
+                    st,
+                    stats,
+                    &ground_truth,
+                    &self.world,
+                    camera,
+                    self.config,
+                    f,
+                );
             }
-        }
-        for (st, stats) in states.iter_mut().zip(frame_stats) {
-            st.report.frames.push(stats);
         }
     }
-    Ok(states
-        .into_iter()
-        .map(|mut st| {
-            for &s in st.streak.iter().filter(|&&s| s > 0) {
-                bump(&mut st.report.streaks, s);
-            }
-            st.report
-        })
-        .collect())
+
+    /// One report per view, with the missing streaks still open at the end counted.
+    fn into_reports(self) -> Vec<SimReport> {
+        self.states
+            .into_iter()
+            .map(|mut st| {
+                for &s in st.streak.iter().filter(|&&s| s > 0) {
+                    bump(&mut st.report.streaks, s);
+                }
+                st.report
+            })
+            .collect()
+    }
 }
 
 /// One viewport's ground truth in one frame: which objects show, the object of every covered

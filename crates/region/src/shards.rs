@@ -161,71 +161,142 @@ pub fn merge(
         .metadata
         .get("fingerprint")
         .ok_or_else(|| MergeError::NoFingerprint(first_path.clone()))?;
-    #[allow(clippy::type_complexity)]
-    let mut by_index: BTreeMap<usize, (usize, &(ViewCell, EncodedSet), &serde_json::Value)> =
-        BTreeMap::new();
-    // Per-cell lists beside `cells` (Quake 3 leaf bakes' `clusters`), by global index.
-    let mut clusters: BTreeMap<usize, &serde_json::Value> = BTreeMap::new();
-    let mut total = None;
-    for (k, (path, file)) in files.iter().enumerate() {
-        if file.scene_hash != first.scene_hash || file.triangle_count != first.triangle_count {
-            return Err(MergeError::DifferentScenes {
-                a: first_path.clone(),
-                b: path.clone(),
-                ha: first.scene_hash,
-                hb: file.scene_hash,
-            });
-        }
-        if file.objects != first.objects {
-            return Err(MergeError::BadIndices {
-                path: path.clone(),
-                what: format!(
-                    "its object table differs from {}'s (a version-1 file, or another scene's objects)",
-                    first_path.display()
-                ),
-            });
-        }
-        let f = file
-            .metadata
-            .get("fingerprint")
-            .ok_or_else(|| MergeError::NoFingerprint(path.clone()))?;
-        if f != fp {
-            return Err(MergeError::DifferentBakes {
-                a: first_path.clone(),
-                b: path.clone(),
-                differences: fingerprint_differences(fp, f),
-            });
-        }
+    let mut gathered = Gathered::default();
+    for (k, file) in files.iter().enumerate() {
+        check_same_bake(&files[0], fp, file)?;
+        gathered.add(files, k)?;
+    }
+    let total = gathered.total.unwrap_or(0);
+    gathered.check_complete(total, allow_partial)?;
+    let metadata = merged_metadata(files, &gathered, total)?;
+    Ok(EncodedPvsFile {
+        scene_hash: first.scene_hash,
+        triangle_count: first.triangle_count,
+        objects: first.objects.clone(),
+        metadata,
+        cells: gathered.cells.values().map(|c| c.cell.clone()).collect(),
+    })
+}
+
+/// Checks that `file` comes from the same scene (hash, triangle count and object table) and
+/// the same bake (fingerprint, `fp` being the first file's) as `first`: only such files can
+/// be merged into one.
+fn check_same_bake(
+    (first_path, first): &(PathBuf, EncodedPvsFile),
+    fp: &serde_json::Value,
+    (path, file): &(PathBuf, EncodedPvsFile),
+) -> Result<(), MergeError> {
+    if file.scene_hash != first.scene_hash || file.triangle_count != first.triangle_count {
+        return Err(MergeError::DifferentScenes {
+            a: first_path.clone(),
+            b: path.clone(),
+            ha: first.scene_hash,
+            hb: file.scene_hash,
+        });
+    }
+    if file.objects != first.objects {
+        return Err(MergeError::BadIndices {
+            path: path.clone(),
+            what: format!(
+                "its object table differs from {}'s (a version-1 file, or another scene's objects)",
+                first_path.display()
+            ),
+        });
+    }
+    let f = file
+        .metadata
+        .get("fingerprint")
+        .ok_or_else(|| MergeError::NoFingerprint(path.clone()))?;
+    if f != fp {
+        return Err(MergeError::DifferentBakes {
+            a: first_path.clone(),
+            b: path.clone(),
+            differences: fingerprint_differences(fp, f),
+        });
+    }
+    Ok(())
+}
+
+/// One cell of the merge: the file it comes from (its position in the list), the cell with
+/// its set, and its entry in that file's `cells` metadata.
+struct MergedCell<'a> {
+    file: usize,
+    cell: &'a (ViewCell, EncodedSet),
+    meta: &'a serde_json::Value,
+}
+
+/// The cells of the files merged so far, by global index (so in global order), with the
+/// per-cell lists beside `cells` (Quake 3 leaf bakes' `clusters`) and the bake's cell count.
+#[derive(Default)]
+struct Gathered<'a> {
+    cells: BTreeMap<usize, MergedCell<'a>>,
+    clusters: BTreeMap<usize, &'a serde_json::Value>,
+    /// `total_cells` of the files (all must agree); `None` before the first.
+    total: Option<usize>,
+}
+
+impl<'a> Gathered<'a> {
+    /// Adds the cells of `files[k]` by their global indices, refusing a different
+    /// `total_cells` and a cell that an earlier file holds.
+    fn add(&mut self, files: &'a [(PathBuf, EncodedPvsFile)], k: usize) -> Result<(), MergeError> {
+        let (path, file) = &files[k];
         let (indices, t) = cell_indices(path, file)?;
-        if *total.get_or_insert(t) != t {
+        if *self.total.get_or_insert(t) != t {
             return Err(MergeError::BadIndices {
                 path: path.clone(),
-                what: format!("total_cells {t} differs from {}", total.unwrap_or(0)),
+                what: format!("total_cells {t} differs from {}", self.total.unwrap_or(0)),
             });
         }
         for (j, (&g, cell)) in indices.iter().zip(&file.cells).enumerate() {
-            if let Some((other, _, _)) = by_index.get(&g) {
+            if let Some(other) = self.cells.get(&g) {
                 return Err(MergeError::Overlap {
-                    a: files[*other].0.clone(),
+                    a: files[other.file].0.clone(),
                     b: path.clone(),
                     cell: g,
                 });
             }
-            by_index.insert(g, (k, cell, &file.metadata["cells"][j]));
+            let meta = &file.metadata["cells"][j];
+            self.cells.insert(
+                g,
+                MergedCell {
+                    file: k,
+                    cell,
+                    meta,
+                },
+            );
             if let Some(c) = file.metadata["clusters"].as_array().and_then(|c| c.get(j)) {
-                clusters.insert(g, c);
+                self.clusters.insert(g, c);
             }
         }
+        Ok(())
     }
-    let total = total.unwrap_or(0);
-    if by_index.len() != total && !allow_partial {
-        let first_missing = (0..total).find(|i| !by_index.contains_key(i)).unwrap_or(0);
-        return Err(MergeError::Missing {
-            missing: total - by_index.len(),
-            total,
-            first: first_missing,
-        });
+
+    /// Refuses a merge that misses some of the `total` cells, unless `allow_partial`.
+    fn check_complete(&self, total: usize, allow_partial: bool) -> Result<(), MergeError> {
+        if self.cells.len() != total && !allow_partial {
+            let first_missing = (0..total)
+                .find(|i| !self.cells.contains_key(i))
+                .unwrap_or(0);
+            return Err(MergeError::Missing {
+                missing: total - self.cells.len(),
+                total,
+                first: first_missing,
+            });
+        }
+        Ok(())
     }
+}
+
+/// The merged file's metadata: the first file's, without the shard's own keys, with the
+/// totals summed over the files (rays, seconds), the cells' entries and clusters in global
+/// order, the merged files' paths, and `cell_indices` when the merge is partial.
+fn merged_metadata(
+    files: &[(PathBuf, EncodedPvsFile)],
+    gathered: &Gathered<'_>,
+    total: usize,
+) -> Result<serde_json::Value, MergeError> {
+    let (first_path, first) = &files[0];
+    let by_index = &gathered.cells;
     let mut metadata = first.metadata.clone();
     if let Some(m) = metadata.as_object_mut() {
         m.remove("shard");
@@ -241,7 +312,7 @@ pub fn merge(
             "total_rays".into(),
             json!(by_index
                 .values()
-                .map(|(_, _, s)| s["rays"].as_u64().unwrap_or(0))
+                .map(|c| c.meta["rays"].as_u64().unwrap_or(0))
                 .sum::<u64>()),
         );
         m.insert("seconds".into(), sum("seconds"));
@@ -250,7 +321,7 @@ pub fn merge(
             "cells".into(),
             json!(by_index
                 .values()
-                .map(|(_, _, s)| (*s).clone())
+                .map(|c| c.meta.clone())
                 .collect::<Vec<_>>()),
         );
         m.insert(
@@ -261,7 +332,7 @@ pub fn merge(
                 .collect::<Vec<_>>()),
         );
         if !m.get("clusters").is_none_or(serde_json::Value::is_null) {
-            if clusters.len() != by_index.len() {
+            if gathered.clusters.len() != by_index.len() {
                 return Err(MergeError::BadIndices {
                     path: first_path.clone(),
                     what: "some files have no cluster per cell".into(),
@@ -269,7 +340,7 @@ pub fn merge(
             }
             m.insert(
                 "clusters".into(),
-                json!(clusters.into_values().collect::<Vec<_>>()),
+                json!(gathered.clusters.values().collect::<Vec<_>>()),
             );
         }
         if by_index.len() != total {
@@ -279,13 +350,7 @@ pub fn merge(
             );
         }
     }
-    Ok(EncodedPvsFile {
-        scene_hash: first.scene_hash,
-        triangle_count: first.triangle_count,
-        objects: first.objects.clone(),
-        metadata,
-        cells: by_index.values().map(|(_, c, _)| (*c).clone()).collect(),
-    })
+    Ok(metadata)
 }
 
 #[cfg(test)]

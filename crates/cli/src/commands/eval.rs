@@ -9,8 +9,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use sightline_core::raster::render;
 use sightline_core::Hit;
-use sightline_eval::{evaluate_cell_in, CellEvaluation, EvalParams, ViewMode};
-use sightline_region::PvsFile;
+use sightline_eval::{evaluate_cell_in, CellEvaluation, EvalParams, ViewMode, WorstView};
+use sightline_region::{CellPvs, PvsFile};
 
 use crate::args::SceneArgs;
 use crate::output::{print_json, save_png};
@@ -90,6 +90,9 @@ pub(crate) fn view_mode(name: &str) -> ViewMode {
     }
 }
 
+/// Evaluates the `.pvs` file: validates the arguments, loads the scene and the file, checks
+/// the cells asked for, evaluates each cell (with a progress bar), then prints the rows as
+/// JSON or as a table with its mean.
 pub(crate) fn run(args: Args) -> Result<()> {
     if let Some(dir) = &args.images {
         crate::output::refuse_overwriting_inputs(
@@ -99,6 +102,26 @@ pub(crate) fn run(args: Args) -> Result<()> {
     }
     let scene = args.scene.load()?;
     let file = load_pvs_of(&scene, &args.pvs)?;
+    let plan = plan(&args, &file)?;
+    let rows = evaluate_cells(&args, &scene, &file, &plan)?;
+    if args.json {
+        return print_json(&rows);
+    }
+    print_table(&rows)?;
+    print_mean(&rows, args.resolution)
+}
+
+/// What to evaluate, from the checked arguments.
+struct Plan {
+    /// The evaluation's settings.
+    params: EvalParams,
+    /// The cells to evaluate (indices into the file), in order.
+    indices: Vec<usize>,
+}
+
+/// Checks the numeric arguments and the cells asked for against `file` (every cell when none
+/// are), and creates the images' folder: the errors a user can fix, before any work.
+fn plan(args: &Args, file: &PvsFile) -> Result<Plan> {
     if args.viewpoints == 0 || args.resolution == 0 || args.resolution > 8192 {
         bail!("--viewpoints must be >= 1 and --resolution in 1..=8192");
     }
@@ -123,7 +146,19 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if let Some(dir) = &args.images {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
-    let bar = ProgressBar::new(indices.len() as u64).with_style(
+    Ok(Plan { params, indices })
+}
+
+/// Evaluates the planned cells one after the other (the library's per-cell evaluation, from
+/// the viewpoints the bake's cells allow), with a progress bar on stderr, saving each cell's
+/// worst view with `--images`. One row per cell.
+fn evaluate_cells(
+    args: &Args,
+    scene: &sightline_core::Scene,
+    file: &PvsFile,
+    plan: &Plan,
+) -> Result<Vec<Row>> {
+    let bar = ProgressBar::new(plan.indices.len() as u64).with_style(
         ProgressStyle::with_template("cell {pos}/{len} {bar:30} {msg} [{elapsed_precise} < {eta}]")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
@@ -132,41 +167,31 @@ pub(crate) fn run(args: Args) -> Result<()> {
     let origins = args
         .reachable_viewpoints
         .map(|step| Q3Origins::Reachable(ReachParams { step }));
-    let viewpoints = Viewpoints::of(&scene, &file, origins).context("--reachable-viewpoints")?;
+    let viewpoints = Viewpoints::of(scene, file, origins).context("--reachable-viewpoints")?;
     let mut rows = Vec::new();
-    for &i in &indices {
+    for &i in &plan.indices {
         let start = Instant::now();
         let cell = &file.cells[i];
         let filter = viewpoints.cell(i);
         let e = evaluate_cell_in(
-            &scene,
+            scene,
             &cell.cell,
             &|p| filter.allows(p),
             &[&cell.visible],
-            &params,
+            &plan.params,
             &|done, total| {
                 bar.set_message(format!("view {done}/{total}"));
             },
         )
         .remove(0);
         if let (Some(dir), Some(worst)) = (&args.images, e.worst_view) {
-            // The near plane the evaluation rendered the view with.
-            let near = cell.cell.default_near(&scene);
-            if let Some(camera) = worst.camera(args.resolution, near) {
-                let frame = render(&scene, &camera);
-                let img = RgbImage::from_fn(frame.width, frame.height, |x, y| {
-                    let id = frame.ids[(y * frame.width + x) as usize];
-                    image::Rgb(if id == Hit::NONE {
-                        [0, 0, 0]
-                    } else if !cell.visible.contains(id as usize) {
-                        [255, 0, 0]
-                    } else {
-                        id_colour(id).map(|c| c / 2)
-                    })
-                })
-                .clone();
-                save_png(&img, &dir.join(format!("cell{i}_worst.png")))?;
-            }
+            save_worst_view(
+                scene,
+                cell,
+                &worst,
+                args.resolution,
+                &dir.join(format!("cell{i}_worst.png")),
+            )?;
         }
         rows.push(Row {
             cell: i,
@@ -178,14 +203,46 @@ pub(crate) fn run(args: Args) -> Result<()> {
         bar.inc(1);
     }
     bar.finish_and_clear();
-    if args.json {
-        return print_json(&rows);
+    Ok(rows)
+}
+
+/// Saves the image of a cell's worst view to `path`: triangles of the cell's set in their id
+/// colour (dimmed), triangles it misses in red (the error pixels), background black. Nothing
+/// is written when the view gives no camera.
+fn save_worst_view(
+    scene: &sightline_core::Scene,
+    cell: &CellPvs,
+    worst: &WorstView,
+    resolution: u32,
+    path: &std::path::Path,
+) -> Result<()> {
+    // The near plane the evaluation rendered the view with.
+    let near = cell.cell.default_near(scene);
+    if let Some(camera) = worst.camera(resolution, near) {
+        let frame = render(scene, &camera);
+        let img = RgbImage::from_fn(frame.width, frame.height, |x, y| {
+            let id = frame.ids[(y * frame.width + x) as usize];
+            image::Rgb(if id == Hit::NONE {
+                [0, 0, 0]
+            } else if !cell.visible.contains(id as usize) {
+                [255, 0, 0]
+            } else {
+                id_colour(id).map(|c| c / 2)
+            })
+        })
+        .clone();
+        save_png(&img, path)?;
     }
+    Ok(())
+}
+
+/// Prints the rows as a Markdown table, one line per cell.
+fn print_table(rows: &[Row]) -> Result<()> {
     outln!(
         "| cell | avg err px | max err px | avg err regions | max region px | avg snapping px | PVS | PVS % | seen | false neg | images | s |"
     );
     outln!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
-    for r in &rows {
+    for r in rows {
         let e = &r.evaluation;
         outln!(
             "| {} | {:.2} | {} | {:.2} | {} | {:.2} | {} | {:.2} | {} | {} | {} | {:.1} |",
@@ -203,6 +260,12 @@ pub(crate) fn run(args: Args) -> Result<()> {
             r.seconds
         );
     }
+    Ok(())
+}
+
+/// Prints the mean over the cells that had viewpoints (images of `resolution`²), and how
+/// many viewpoints were not evaluated.
+fn print_mean(rows: &[Row], resolution: u32) -> Result<()> {
     // Cells without a viewpoint (a Quake 3 cell judged from reachable viewpoints only) have
     // no error to average.
     let outside: usize = rows
@@ -223,7 +286,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         "mean over {} cells: {:.2} erroneous pixels per {}² image, max {}, {:.2} error regions, PVS {:.2}%",
         rows.len(),
         rows.iter().map(|r| r.evaluation.avg_error_pixels).sum::<f64>() / k,
-        args.resolution,
+        resolution,
         rows.iter().map(|r| r.evaluation.max_error_pixels).max().unwrap_or(0),
         rows.iter().map(|r| r.evaluation.avg_error_regions).sum::<f64>() / k,
         rows.iter().map(|r| r.pvs_percent).sum::<f64>() / k,

@@ -67,13 +67,16 @@ mod window_or_headless {
     use sightline_core::{Camera, NearPlaneRule};
     use sightline_region::PvsFile;
     use sightline_view::{
-        interpolate, orbit, read_camera_path, run_headless, run_window, FlyCamera, Lens, Method,
-        Viewer, ViewerOptions,
+        interpolate, orbit, read_camera_path, run_headless, run_window, FlyCamera, HeadlessReport,
+        Lens, Method, Viewer, ViewerOptions,
     };
 
     use super::Args;
     use crate::output::print_json;
 
+    /// Checks the outputs, loads the scene, the start camera and the viewer (with its
+    /// `.pvs` file and method), then opens the window, or renders the frames headless when
+    /// `--frames` and `--out` are given.
     pub(super) fn run(args: Args) -> Result<()> {
         if let Some(frames) = args.frames {
             crate::limits::check_frames(u64::from(frames), "--frames")?;
@@ -86,9 +89,44 @@ mod window_or_headless {
         }
         let scene = args.scene.load()?;
         // The near plane is checked on the cameras used: the start (window) or the path (headless).
-        let camera = args.camera.camera_unchecked(&scene)?;
-        let look = args.camera.look.unwrap_or(scene.bounds().center());
-        let up = args.camera.up.unwrap_or(scene.up.vector());
+        let start = Start {
+            camera: args.camera.camera_unchecked(&scene)?,
+            look: args.camera.look.unwrap_or(scene.bounds().center()),
+            up: args.camera.up.unwrap_or(scene.up.vector()),
+            diagonal: scene.bounds().diagonal().max(1e-6),
+        };
+        let (mut viewer, method) = open_viewer(&args, scene)?;
+        let (Some(frames), Some(out)) = (args.frames, &args.out) else {
+            return window(&args, viewer, &start);
+        };
+        if frames == 0 {
+            bail!("--frames must be at least 1");
+        }
+        let cameras = path_cameras(&args, &viewer, &start, frames as usize)?;
+        args.camera.warn_if_near_hides(viewer.scene(), &cameras);
+        crate::headless::quiet_vulkan_layers();
+        let (device, queue, info) = sightline_gpu::vulkan_device()?;
+        let report = run_headless(&device, &queue, &info.name, &mut viewer, &cameras, out)?;
+        if args.json {
+            return print_json(&report);
+        }
+        print_summary(&report, method, out, &viewer)
+    }
+
+    /// Where the view starts: the command line's camera (its near plane not yet checked),
+    /// the point it looks at, the up vector, and the scene's diagonal (for the default
+    /// fly speed).
+    struct Start {
+        camera: Camera,
+        look: Vec3,
+        up: Vec3,
+        diagonal: f32,
+    }
+
+    /// The viewer of `scene`: its `.pvs` file (with `--pvs`), its method (`--method`, else
+    /// pvs with a file, else none) and shading. Refuses an unknown method, the pvs method
+    /// without a file, a zero exact divisor and a file of another scene.
+    fn open_viewer(args: &Args, scene: sightline_core::Scene) -> Result<(Viewer, Method)> {
         let pvs = match &args.pvs {
             Some(p) => Some(PvsFile::load(p).with_context(|| format!("reading {}", p.display()))?),
             None => None,
@@ -106,7 +144,6 @@ mod window_or_headless {
         if args.exact_divisor == 0 {
             bail!("--exact-divisor must be at least 1");
         }
-        let diagonal = scene.bounds().diagonal().max(1e-6);
         let options = ViewerOptions {
             exact_divisor: args.exact_divisor,
             ..Default::default()
@@ -123,29 +160,36 @@ mod window_or_headless {
         })?;
         viewer.set_method(method);
         viewer.shading.xray = args.xray;
+        Ok((viewer, method))
+    }
 
-        let (Some(frames), Some(out)) = (args.frames, &args.out) else {
-            args.camera.warn_if_near_hides(viewer.scene(), &[camera]);
-            let speed = args.speed.unwrap_or(diagonal * 0.05);
-            let fly = FlyCamera::new(camera.eye, look, up, speed).context("invalid camera")?;
-            let lens = Lens {
-                fov_y_deg: camera.fov_y_deg,
-                near: camera.near,
-            };
-            return run_window(viewer, fly, lens, camera.width, camera.height)
-                .context("the viewer window (headless: --frames N --out DIR)");
+    /// The interactive window, with a fly camera at the start (speed `--speed`, default 5%
+    /// of the scene's diagonal per second).
+    fn window(args: &Args, viewer: Viewer, start: &Start) -> Result<()> {
+        let camera = start.camera;
+        args.camera.warn_if_near_hides(viewer.scene(), &[camera]);
+        let speed = args.speed.unwrap_or(start.diagonal * 0.05);
+        let fly =
+            FlyCamera::new(camera.eye, start.look, start.up, speed).context("invalid camera")?;
+        let lens = Lens {
+            fov_y_deg: camera.fov_y_deg,
+            near: camera.near,
         };
-        if frames == 0 {
-            bail!("--frames must be at least 1");
-        }
+        run_window(viewer, fly, lens, camera.width, camera.height)
+            .context("the viewer window (headless: --frames N --out DIR)")
+    }
 
-        let n = frames as usize;
+    /// The `n` headless cameras: along `--path` (keyframes spread over the frames) or one
+    /// orbit around the look point, with the start camera's lens and one near plane for the
+    /// whole path.
+    fn path_cameras(args: &Args, viewer: &Viewer, start: &Start, n: usize) -> Result<Vec<Camera>> {
+        let (camera, up) = (start.camera, start.up);
         let poses = match &args.path {
             Some(path) => {
                 let keys = read_camera_path(path)?;
                 (0..n).map(|f| interpolate(&keys, f, n)).collect()
             }
-            None => orbit(camera.eye, look, up, n),
+            None => orbit(camera.eye, start.look, up, n),
         };
         // One near plane for the whole path, by the default rule at every eye on it (the start
         // eye's could clip what a later frame passes close to).
@@ -156,7 +200,7 @@ mod window_or_headless {
                 NearPlaneRule::new(viewer.scene()).along(&eyes)
             }
         };
-        let cameras = poses
+        poses
             .into_iter()
             .enumerate()
             .map(|(f, (eye, look))| {
@@ -176,14 +220,17 @@ mod window_or_headless {
                     )
                 })
             })
-            .collect::<Result<Vec<_>>>()?;
-        args.camera.warn_if_near_hides(viewer.scene(), &cameras);
-        crate::headless::quiet_vulkan_layers();
-        let (device, queue, info) = sightline_gpu::vulkan_device()?;
-        let report = run_headless(&device, &queue, &info.name, &mut viewer, &cameras, out)?;
-        if args.json {
-            return print_json(&report);
-        }
+            .collect::<Result<Vec<_>>>()
+    }
+
+    /// Prints the headless run's one-line summary: frames written, triangles drawn on
+    /// average, popping.
+    fn print_summary(
+        report: &HeadlessReport,
+        method: Method,
+        out: &std::path::Path,
+        viewer: &Viewer,
+    ) -> Result<()> {
         let drawn_mean = report
             .frames
             .iter()

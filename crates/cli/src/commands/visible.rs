@@ -287,8 +287,53 @@ fn reference_set(
     })
 }
 
+/// Finds the visible set by the method the arguments choose: exact, conservative from a view
+/// cell, conservative from a point (streamed or in memory, cross-checked), or the reference
+/// rasterizer; then writes the ids (`-o`) and prints the summary.
 pub(crate) fn run(args: Args) -> Result<()> {
     let start = Instant::now();
+    check_outputs(&args)?;
+    if args.exact {
+        return run_exact(&args, start);
+    }
+    if let Some(spec) = &args.cell {
+        return run_from_region(&args, spec, start);
+    }
+    let (visible, summary) = if args.stream {
+        conservative_streamed(&args, start)?
+    } else {
+        let scene = args.scene.load()?;
+        let camera = args.camera.camera(&scene)?;
+        if args.conservative {
+            conservative_in_memory(&args, &scene, &camera, start)?
+        } else {
+            let visible = render(&scene, &camera).visible_set(scene.triangle_count());
+            let summary = Summary {
+                method: "reference rasterizer (pixel centres)",
+                triangles: scene.triangle_count(),
+                visible: visible.count_ones(..),
+                seconds: start.elapsed().as_secs_f64(),
+                peak_memory_bytes: None,
+                reference: None,
+                reference_visible: None,
+                overestimation: None,
+                missed: None,
+            };
+            (visible, summary)
+        }
+    };
+    if let Some(path) = &args.output {
+        write_ids(path, &visible)?;
+    }
+    if args.json {
+        return print_json(&summary);
+    }
+    print_summary(&args, &summary)
+}
+
+/// Refuses outputs (`--svg`, `--png`, `-o`) that would overwrite the scene, and a `--png`
+/// without the `.png` extension: before any work.
+fn check_outputs(args: &Args) -> Result<()> {
     let outputs: Vec<&Path> = [&args.svg, &args.png, &args.output]
         .into_iter()
         .flatten()
@@ -298,13 +343,13 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if let Some(png) = &args.png {
         crate::output::require_png_extension(png, "--png")?;
     }
-    if args.exact {
-        return run_exact(&args, start);
-    }
-    if let Some(spec) = &args.cell {
-        return run_from_region(&args, spec, start);
-    }
-    let options = RvOptions {
+    Ok(())
+}
+
+/// RV's options from the command line: memory budget, guarantee, initialization phase and
+/// hidden occluders.
+fn rv_options(args: &Args) -> RvOptions {
+    RvOptions {
         memory_budget_bytes: args.memory,
         guarantee: if args.guarantee == "samples" {
             Guarantee::AnySample
@@ -318,100 +363,98 @@ pub(crate) fn run(args: Args) -> Result<()> {
             _ => HiddenOccluders::Never,
         },
         ..RvOptions::default()
+    }
+}
+
+/// `--conservative --stream`: RV over a `procedural:city` streamed from its generator (the
+/// scene is never held), without a cross-check.
+fn conservative_streamed(args: &Args, start: Instant) -> Result<(TriangleSet, Summary)> {
+    let SceneSpec::Procedural(Params { name, seed, size }) = SceneSpec::parse(&args.scene.scene)?
+    else {
+        bail!("--stream works with procedural:city scenes only");
     };
-    let summary;
-    let visible: TriangleSet;
-    if args.stream {
-        let SceneSpec::Procedural(Params { name, seed, size }) =
-            SceneSpec::parse(&args.scene.scene)?
-        else {
-            bail!("--stream works with procedural:city scenes only");
+    if name != "city" {
+        bail!("--stream works with procedural:city scenes only, not procedural:{name}");
+    }
+    let camera = streamed_camera(args, size)?;
+    let mut source = StreamingCity::new(seed, size);
+    let r = conservative_visible(&mut source, &camera, &rv_options(args))?;
+    let visible = r.visible;
+    let summary = Summary {
+        method: "conservative (RV, streamed)",
+        triangles: r.stats.triangles_streamed as usize,
+        visible: visible.count_ones(..),
+        seconds: start.elapsed().as_secs_f64(),
+        peak_memory_bytes: Some(r.peak_memory_bytes),
+        reference: None,
+        reference_visible: None,
+        overestimation: None,
+        missed: None,
+    };
+    Ok((visible, summary))
+}
+
+/// The camera of a streamed city of `size` triangles: explicit --eye and --look need no
+/// scene; otherwise the default view needs the bounds, taken from the generated city when it
+/// is small enough to hold.
+fn streamed_camera(args: &Args, size: usize) -> Result<sightline_core::Camera> {
+    if args.camera.eye.is_some() && args.camera.look.is_some() {
+        let mut c = args.camera.clone();
+        c.near = c.near.or(Some(0.05));
+        let placeholder = sightline_core::Scene {
+            up: sightline_core::UpAxis::Z,
+            ..sightline_core::Scene::default()
         };
-        if name != "city" {
-            bail!("--stream works with procedural:city scenes only, not procedural:{name}");
-        }
-        // The camera: explicit --eye and --look need no scene; otherwise the default view
-        // needs the bounds, taken from the generated city when it is small enough to hold.
-        let camera = if args.camera.eye.is_some() && args.camera.look.is_some() {
-            let mut c = args.camera.clone();
-            c.near = c.near.or(Some(0.05));
-            let placeholder = sightline_core::Scene {
-                up: sightline_core::UpAxis::Z,
-                ..sightline_core::Scene::default()
-            };
-            c.camera(&placeholder)?
-        } else if size <= 2_000_000 {
-            args.camera.camera(&args.scene.load()?)?
-        } else {
-            bail!("--stream with more than 2M triangles: give --eye and --look explicitly");
-        };
-        let mut source = StreamingCity::new(seed, size);
-        let r = conservative_visible(&mut source, &camera, &options)?;
-        visible = r.visible;
-        summary = Summary {
-            method: "conservative (RV, streamed)",
-            triangles: r.stats.triangles_streamed as usize,
-            visible: visible.count_ones(..),
-            seconds: start.elapsed().as_secs_f64(),
-            peak_memory_bytes: Some(r.peak_memory_bytes),
-            reference: None,
-            reference_visible: None,
-            overestimation: None,
-            missed: None,
-        };
+        Ok(c.camera(&placeholder)?)
+    } else if size <= 2_000_000 {
+        Ok(args.camera.camera(&args.scene.load()?)?)
     } else {
-        let scene = args.scene.load()?;
-        let camera = args.camera.camera(&scene)?;
-        if args.conservative {
-            let r = conservative_visible(&mut SceneSource::new(&scene), &camera, &options)?;
-            let seconds = start.elapsed().as_secs_f64();
-            // Cross-check with the reference of the guarantee: RV must contain it.
-            let reference = if args.no_check {
-                None
-            } else {
-                Some(reference_set(&scene, &camera, options.guarantee)?)
-            };
-            let missed = reference
-                .as_ref()
-                .map(|set| set.difference(&r.visible).count());
-            let n_ref = reference.as_ref().map(|set| set.count_ones(..));
-            visible = r.visible;
-            summary = Summary {
-                method: "conservative (RV)",
-                triangles: scene.triangle_count(),
-                visible: visible.count_ones(..),
-                seconds,
-                peak_memory_bytes: Some(r.peak_memory_bytes),
-                reference: reference.as_ref().map(|_| match options.guarantee {
-                    Guarantee::PositiveArea => "exact analytic set",
-                    Guarantee::AnySample => "reference rasterizer at 8x",
-                }),
-                reference_visible: n_ref,
-                overestimation: n_ref
-                    .map(|n| visible.count_ones(..) as f64 / n.max(1) as f64 - 1.0),
-                missed,
-            };
-        } else {
-            visible = render(&scene, &camera).visible_set(scene.triangle_count());
-            summary = Summary {
-                method: "reference rasterizer (pixel centres)",
-                triangles: scene.triangle_count(),
-                visible: visible.count_ones(..),
-                seconds: start.elapsed().as_secs_f64(),
-                peak_memory_bytes: None,
-                reference: None,
-                reference_visible: None,
-                overestimation: None,
-                missed: None,
-            };
-        }
+        bail!("--stream with more than 2M triangles: give --eye and --look explicitly");
     }
-    if let Some(path) = &args.output {
-        write_ids(path, &visible)?;
-    }
-    if args.json {
-        return print_json(&summary);
-    }
+}
+
+/// `--conservative` on a loaded scene: RV, then (unless `--no-check`) the cross-check with
+/// the reference of the guarantee, which RV's set must contain. The time excludes the check.
+fn conservative_in_memory(
+    args: &Args,
+    scene: &sightline_core::Scene,
+    camera: &sightline_core::Camera,
+    start: Instant,
+) -> Result<(TriangleSet, Summary)> {
+    let options = rv_options(args);
+    let r = conservative_visible(&mut SceneSource::new(scene), camera, &options)?;
+    let seconds = start.elapsed().as_secs_f64();
+    // Cross-check with the reference of the guarantee: RV must contain it.
+    let reference = if args.no_check {
+        None
+    } else {
+        Some(reference_set(scene, camera, options.guarantee)?)
+    };
+    let missed = reference
+        .as_ref()
+        .map(|set| set.difference(&r.visible).count());
+    let n_ref = reference.as_ref().map(|set| set.count_ones(..));
+    let visible = r.visible;
+    let summary = Summary {
+        method: "conservative (RV)",
+        triangles: scene.triangle_count(),
+        visible: visible.count_ones(..),
+        seconds,
+        peak_memory_bytes: Some(r.peak_memory_bytes),
+        reference: reference.as_ref().map(|_| match options.guarantee {
+            Guarantee::PositiveArea => "exact analytic set",
+            Guarantee::AnySample => "reference rasterizer at 8x",
+        }),
+        reference_visible: n_ref,
+        overestimation: n_ref.map(|n| visible.count_ones(..) as f64 / n.max(1) as f64 - 1.0),
+        missed,
+    };
+    Ok((visible, summary))
+}
+
+/// Prints the summary of a from-point run: the set's size and time, RV's peak memory, the
+/// cross-check, the file written.
+fn print_summary(args: &Args, summary: &Summary) -> Result<()> {
     outln!(
         "{}: {} of {} triangles visible ({:.2}%) in {:.3} s",
         summary.method,

@@ -12,9 +12,10 @@ use serde::Serialize;
 use sightline_core::trace::{Bvh, RayCaster};
 use sightline_region::bake::BakeSetup;
 use sightline_region::cell_sources::{
-    inside_solid, q3_cells, read_cells_file, Q3CellKind, Q3Cells, Q3Origins, Q3_ORIGINS_KEY,
+    inside_solid, q3_cells, read_cells_file, Q3CellKind, Q3Cells, Q3Origins, Q3OriginsSummary,
+    Q3_ORIGINS_KEY,
 };
-use sightline_region::checkpoint::{checkpoint_path, fingerprint, ResumableBake};
+use sightline_region::checkpoint::{checkpoint_path, fingerprint, BakeProgress, ResumableBake};
 use sightline_region::methods::{sampler, MethodParams};
 use sightline_region::pvs_file::EncodedPvsFile;
 use sightline_region::reachable::{ReachParams, DEFAULT_STEP};
@@ -23,7 +24,7 @@ use sightline_region::rebake::{
 };
 use sightline_region::shards::{merge, Shard};
 use sightline_region::RasterSampler;
-use sightline_region::{Budget, PvsFile, ViewCell};
+use sightline_region::{Budget, PvsFile, Sampler, ViewCell};
 
 use crate::args::{thread_count, SceneArgs};
 use crate::commands::bench::Device;
@@ -186,8 +187,53 @@ fn gpu_caster(_scene: &sightline_core::Scene) -> Result<Box<dyn RayCaster>> {
     Err(crate::features::not_built("gpu", "--device gpu"))
 }
 
+/// `pvs bake`: resolves the cells, checks the arguments, then bakes them all at once with
+/// shared rays or cell by cell ([`bake_cells`]: resumable, sharded, incremental), writing the
+/// file atomically and printing the summary.
 fn bake_command(args: &BakeArgs) -> Result<()> {
     args.device.check_built()?;
+    let _lock = lock_output(args)?;
+    let scene = args.scene.load()?;
+    let bvh = Bvh::build(&scene);
+    let (cells, q3) = collect_cells(&args.cells, &scene, &bvh)?;
+    if cells.is_empty() {
+        bail!("no view cells to bake (all filtered out?)");
+    }
+    let record = CellRecord::of(q3.as_ref());
+    let params = args.method_overrides.params();
+    let sampler = sampler(&args.method, &params)?;
+    let (shard, budget) = check_bake_args(args, &params)?;
+    // Quake 3 leaf boxes are bounding boxes of convex leaves and reach into solid space: only
+    // points whose BSP cluster is the leaf's own serve as origins, and by default only those a
+    // player can reach.
+    let free_space = |cell: usize, p: Vec3| q3.as_ref().is_none_or(|q| q.rule.allows(cell, p));
+    let inputs = BakeInputs {
+        scene: &scene,
+        bvh: &bvh,
+        cells: &cells,
+        params: &params,
+        budget,
+        free_space: &free_space,
+        record: &record,
+    };
+    if args.share_rays {
+        // All cells are baked together, so the per-cell machinery (shards, checkpoints,
+        // incremental rebakes) does not apply.
+        if args.shard.is_some() || args.since.is_some() || args.restart {
+            bail!("--share-rays bakes all cells at once: it cannot be combined with --shard, --since or --restart");
+        }
+        if args.device == Device::Gpu {
+            bail!("--share-rays casts on the CPU only (--device gpu is not supported with it yet)");
+        }
+        return bake_with_shared_rays(args, &inputs);
+    }
+    bake_cells(args, &inputs, sampler.as_ref(), shard)
+}
+
+/// Refuses an output (or its checkpoint) that would overwrite an input, then takes the
+/// output's lock (held while the returned guard lives), so that two bakes never write one
+/// file.
+fn lock_output(args: &BakeArgs) -> Result<OutputLock> {
     // The --since file may be the output: it is read whole before the output is replaced,
     // so an in-place incremental rebake is safe.
     let mut inputs = vec![Path::new(&args.scene.scene)];
@@ -195,27 +241,12 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
     inputs.extend(args.old_scene.as_deref().map(Path::new));
     let checkpoint = checkpoint_path(&args.output);
     refuse_overwriting_inputs(&[&args.output, &checkpoint], &inputs)?;
-    let _lock = OutputLock::acquire(&args.output)?;
-    let scene = args.scene.load()?;
-    let bvh = Bvh::build(&scene);
-    let (cells, q3) = collect_cells(&args.cells, &scene, &bvh)?;
-    if cells.is_empty() {
-        bail!("no view cells to bake (all filtered out?)");
-    }
-    let clusters = q3.as_ref().map(|q| q.rule.clusters.clone());
-    // What the bake's cells depend on beyond their boxes: the cluster of each Quake 3 cell and
-    // the origin rule (the reachable space's parameters). Plain cells keep `{"clusters": null}`,
-    // the value the Python bindings' fingerprint uses for them.
-    let cells_key = match &q3 {
-        None => serde_json::json!({ "clusters": null }),
-        Some(q) => serde_json::json!({
-            "clusters": clusters,
-            "origins": q.origins().fingerprint(),
-        }),
-    };
-    let origins_record = q3.as_ref().map(|q| q.summary.clone());
-    let params = args.method_overrides.params();
-    let sampler = sampler(&args.method, &params)?;
+    OutputLock::acquire(&args.output)
+}
+
+/// Checks the budget and checkpoint arguments (warning when a RASTER budget is below one cube
+/// map) and parses `--shard`: the shard, and the budget per cell.
+fn check_bake_args(args: &BakeArgs, params: &MethodParams) -> Result<(Option<Shard>, Budget)> {
     if args.rays == Some(0) || args.time == Some(0) {
         bail!("--rays and --time must be positive");
     }
@@ -248,191 +279,308 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
         max_rays: args.rays,
         max_time: args.time.map(Duration::from_millis),
     };
-    // Quake 3 leaf boxes are bounding boxes of convex leaves and reach into solid space: only
-    // points whose BSP cluster is the leaf's own serve as origins, and by default only those a
-    // player can reach.
-    let free_space = |cell: usize, p: Vec3| q3.as_ref().is_none_or(|q| q.rule.allows(cell, p));
-    if args.share_rays {
-        // All cells are baked together, so the per-cell machinery (shards, checkpoints,
-        // incremental rebakes) does not apply.
-        if args.shard.is_some() || args.since.is_some() || args.restart {
-            bail!("--share-rays bakes all cells at once: it cannot be combined with --shard, --since or --restart");
+    Ok((shard, budget))
+}
+
+/// What the bake's cells depend on beyond their boxes, for its fingerprint and its file: the
+/// cluster of each Quake 3 cell and the origin rule (the reachable space's parameters, and
+/// what choosing the origins found). Plain cells have neither.
+struct CellRecord {
+    /// The cluster of each cell (Quake 3 cells).
+    clusters: Option<Vec<u32>>,
+    /// The fingerprint's part about the cells.
+    key: serde_json::Value,
+    /// What choosing the origins found (Quake 3 cells).
+    origins: Option<Q3OriginsSummary>,
+}
+
+impl CellRecord {
+    /// The record of the cells `collect_cells` found (`q3` for Quake 3 leaves and clusters).
+    fn of(q3: Option<&Q3Cells<'_>>) -> Self {
+        let clusters = q3.map(|q| q.rule.clusters.clone());
+        // Plain cells keep `{"clusters": null}`, the value the Python bindings' fingerprint
+        // uses for them.
+        let key = match q3 {
+            None => serde_json::json!({ "clusters": null }),
+            Some(q) => serde_json::json!({
+                "clusters": clusters,
+                "origins": q.origins().fingerprint(),
+            }),
+        };
+        CellRecord {
+            clusters,
+            key,
+            origins: q3.map(|q| q.summary.clone()),
         }
-        if args.device == Device::Gpu {
-            bail!("--share-rays casts on the CPU only (--device gpu is not supported with it yet)");
-        }
+    }
+
+    /// The file's extra metadata that both bakes write: the method's `parameters`, the
+    /// clusters and the origin rule's summary.
+    fn extra(&self, parameters: String) -> serde_json::Value {
         let mut extra = serde_json::json!({
-            "parameters": format!("{params:?}"),
-            "clusters": clusters,
+            "parameters": parameters,
+            "clusters": self.clusters,
         });
-        if let Some(r) = &origins_record {
+        if let Some(r) = &self.origins {
             extra[Q3_ORIGINS_KEY] = serde_json::json!(r);
         }
-        return bake_with_shared_rays(
-            args,
-            &scene,
-            &bvh,
-            &cells,
-            &params,
-            &budget,
-            &free_space,
-            extra,
-        );
+        extra
     }
+}
+
+/// What both kinds of bake work on: the scene and its BVH, the cells, the method's
+/// parameters, the budget per cell, where ray origins may be, and the cells' record.
+struct BakeInputs<'a> {
+    scene: &'a sightline_core::Scene,
+    bvh: &'a Bvh,
+    cells: &'a [ViewCell],
+    params: &'a MethodParams,
+    budget: Budget,
+    free_space: &'a (dyn Fn(usize, Vec3) -> bool + Sync),
+    record: &'a CellRecord,
+}
+
+/// The cell-by-cell bake: plans it ([`CellBake::prepare`]), runs it with progress bars,
+/// writes the file atomically (the library's `write_output`) and prints the summary.
+fn bake_cells(
+    args: &BakeArgs,
+    inputs: &BakeInputs<'_>,
+    sampler: &dyn Sampler,
+    shard: Option<Shard>,
+) -> Result<()> {
     let gpu = match args.device {
         Device::Cpu => None,
-        Device::Gpu => Some(gpu_caster(&scene)?),
+        Device::Gpu => Some(gpu_caster(inputs.scene)?),
     };
     let caster: &dyn RayCaster = match &gpu {
         Some(g) => g.as_ref(),
-        None => &bvh,
+        None => inputs.bvh,
     };
-    let setup = BakeSetup {
-        scene: &scene,
-        caster,
-        cells: &cells,
-        sampler: sampler.as_ref(),
-        free_space: &free_space,
-        budget,
-        seed: args.seed,
-    };
-    let parameters = format!("{params:?}");
-    let fp = fingerprint(&setup, &parameters, cells_key);
-    let indices = match shard {
-        Some(s) => s.indices(cells.len()),
-        None => (0..cells.len()).collect(),
-    };
-    if indices.is_empty() {
-        bail!(
-            "shard {} has no cells (the bake has only {} cells)",
-            args.shard.as_deref().unwrap_or(""),
-            cells.len()
-        );
-    }
-    let (kept, run_key, incremental) = match (&args.since, &args.old_scene) {
-        (Some(old_pvs), Some(old_scene)) => {
-            let mut planned = plan_incremental(args, old_pvs, old_scene, &scene, &cells, &fp)?;
-            let key = serde_json::json!({
-                "since": old_pvs.display().to_string(),
-                "since_scene_hash": format!("{:016x}", planned.old_scene_hash),
-            });
-            let kept = std::mem::take(&mut planned.kept);
-            (kept, key, Some((old_pvs, old_scene, planned)))
-        }
-        _ => (BTreeMap::new(), serde_json::Value::Null, None),
-    };
-    let kept_count = indices.iter().filter(|i| kept.contains_key(i)).count();
-    let job = ResumableBake {
-        setup,
-        indices,
-        kept,
-        fingerprint: fp,
-        run_key,
-        checkpoint: Some(checkpoint_path(&args.output)),
-        restart: args.restart,
-        checkpoint_interval: Duration::from_secs_f64(args.checkpoint_every),
-        max_new_cells: None,
-    };
-
-    let multi = MultiProgress::new();
-    let cells_bar = multi.add(
-        ProgressBar::new(job.indices.len() as u64).with_style(
-            ProgressStyle::with_template("cells {bar:30} {pos}/{len} [{elapsed_precise} < {eta}]")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        ),
-    );
-    let cell_bar = multi.add(ProgressBar::new_spinner());
-    let n = scene.triangle_count().max(1) as f64;
-    let progress = job.run_with(
-        &mut |done| cells_bar.set_position(done as u64),
-        &|cell, p| {
-            cell_bar.set_message(format!(
-                "cell {cell}: {} rays, PVS {} ({:.2}%)",
-                p.rays,
-                p.pvs_size,
-                100.0 * p.pvs_size as f64 / n
-            ));
-            cell_bar.tick();
-        },
-        &mut |_, _| cells_bar.inc(1),
-    )?;
-    cell_bar.finish_and_clear();
-    cells_bar.finish_and_clear();
-    let mut extra = serde_json::json!({
-        "parameters": parameters,
-        "clusters": clusters,
-    });
-    if let Some(r) = &origins_record {
-        extra[Q3_ORIGINS_KEY] = serde_json::json!(r);
-    }
-    if let Some(s) = shard {
-        extra["shard"] = serde_json::json!({"index": s.index, "count": s.count});
-        // Each shard file carries only its cells' clusters.
-        if let Some(c) = &clusters {
-            extra["clusters"] =
-                serde_json::json!(job.indices.iter().map(|&i| c[i]).collect::<Vec<_>>());
-        }
-    }
-    if let Some((since, old_scene, r)) = &incremental {
-        extra["incremental"] = serde_json::json!({
-            "since": since.display().to_string(),
-            "old_scene": old_scene,
-            "removed_triangles": r.removed,
-            "added_triangles": r.added,
-            "added_boxes": r.boxes,
-            "kept_cells": kept_count,
-            "rebaked_cells": job.indices.len() - kept_count,
-        });
-    }
-    job.write_output(&args.output, &progress, extra)?;
-    let sizes: Vec<usize> = progress.done.values().map(|c| c.set.len()).collect();
-    let mean = sizes.iter().sum::<usize>() as f64 / sizes.len().max(1) as f64;
-    let summary = BakeSummary {
-        output: args.output.clone(),
-        method: sampler.name().to_string(),
-        cells: job.indices.len(),
-        resumed_cells: progress.resumed,
-        baked_cells: progress.baked,
-        kept_cells: kept_count,
-        total_rays: progress.done.values().map(|c| c.rays).sum(),
-        seconds: progress.seconds,
-        mean_pvs_size: mean,
-        mean_pvs_percent: 100.0 * mean / n,
-        memory_bytes_per_cell: progress.memory_bytes() as f64 / sizes.len().max(1) as f64,
-        set_bytes_per_cell: progress.set_bytes() as f64 / sizes.len().max(1) as f64,
-        file_bytes_per_cell: std::fs::metadata(&args.output).map_or(0.0, |m| m.len() as f64)
-            / sizes.len().max(1) as f64,
-        reachable: origins_record.as_ref().map(|r| serde_json::json!(r)),
-    };
+    let bake = CellBake::prepare(args, inputs, caster, sampler, shard)?;
+    let n = inputs.scene.triangle_count().max(1) as f64;
+    let progress = bake.run_with_progress(n)?;
+    bake.job
+        .write_output(&args.output, &progress, bake.extra(inputs.record))?;
+    let summary = bake.summary(args, inputs, &progress);
     if args.json {
         return print_json(&summary);
     }
-    if let Some((_, _, r)) = &incremental {
-        outln!(
-            "incremental: {} triangles removed, {} added in {} groups; rebaked {} of {} cells, kept {}",
-            r.removed,
-            r.added,
-            r.boxes,
-            job.indices.len() - kept_count,
-            job.indices.len(),
-            kept_count
-        );
+    bake.print_summary(&summary, inputs.scene.triangle_count())
+}
+
+/// An incremental rebake (`--since OLD.pvs --old-scene OLD`): the old file and scene as the
+/// user named them, and the library's plan.
+struct Incremental<'a> {
+    since: &'a Path,
+    old_scene: &'a str,
+    plan: IncrementalBake,
+}
+
+/// A cell-by-cell bake, ready to run: the resumable job (this run's cells, those kept from
+/// an earlier file, the checkpoint), with what its file and summary record about it.
+struct CellBake<'a> {
+    job: ResumableBake<'a>,
+    /// The method's parameters, as the file records them.
+    parameters: String,
+    shard: Option<Shard>,
+    incremental: Option<Incremental<'a>>,
+    /// Cells of this run kept from the earlier file.
+    kept_count: usize,
+}
+
+impl<'a> CellBake<'a> {
+    /// The job: the bake's fingerprint, this run's cells (all, or the shard's: refused when
+    /// it has none), the cells an incremental rebake keeps, the checkpoint next to the
+    /// output.
+    fn prepare(
+        args: &'a BakeArgs,
+        inputs: &BakeInputs<'a>,
+        caster: &'a dyn RayCaster,
+        sampler: &'a dyn Sampler,
+        shard: Option<Shard>,
+    ) -> Result<Self> {
+        let setup = BakeSetup {
+            scene: inputs.scene,
+            caster,
+            cells: inputs.cells,
+            sampler,
+            free_space: inputs.free_space,
+            budget: inputs.budget,
+            seed: args.seed,
+        };
+        let parameters = format!("{:?}", inputs.params);
+        let fp = fingerprint(&setup, &parameters, inputs.record.key.clone());
+        let cells = inputs.cells;
+        let indices = match shard {
+            Some(s) => s.indices(cells.len()),
+            None => (0..cells.len()).collect(),
+        };
+        if indices.is_empty() {
+            bail!(
+                "shard {} has no cells (the bake has only {} cells)",
+                args.shard.as_deref().unwrap_or(""),
+                cells.len()
+            );
+        }
+        let (kept, run_key, incremental) = match (&args.since, &args.old_scene) {
+            (Some(old_pvs), Some(old_scene)) => {
+                let mut planned =
+                    plan_incremental(args, old_pvs, old_scene, inputs.scene, cells, &fp)?;
+                let key = serde_json::json!({
+                    "since": old_pvs.display().to_string(),
+                    "since_scene_hash": format!("{:016x}", planned.old_scene_hash),
+                });
+                let kept = std::mem::take(&mut planned.kept);
+                let incremental = Incremental {
+                    since: old_pvs,
+                    old_scene,
+                    plan: planned,
+                };
+                (kept, key, Some(incremental))
+            }
+            _ => (BTreeMap::new(), serde_json::Value::Null, None),
+        };
+        let kept_count = indices.iter().filter(|i| kept.contains_key(i)).count();
+        let job = ResumableBake {
+            setup,
+            indices,
+            kept,
+            fingerprint: fp,
+            run_key,
+            checkpoint: Some(checkpoint_path(&args.output)),
+            restart: args.restart,
+            checkpoint_interval: Duration::from_secs_f64(args.checkpoint_every),
+            max_new_cells: None,
+        };
+        Ok(CellBake {
+            job,
+            parameters,
+            shard,
+            incremental,
+            kept_count,
+        })
     }
-    outln!(
-        "baked {} cells with {} in {:.2} s ({} resumed from the checkpoint, {} rays): mean PVS {:.0} \
-         triangles ({:.2}% of {}), {:.0} bytes per cell in memory, wrote {}",
-        summary.cells,
-        summary.method,
-        summary.seconds,
-        summary.resumed_cells,
-        summary.total_rays,
-        summary.mean_pvs_size,
-        summary.mean_pvs_percent,
-        scene.triangle_count(),
-        summary.memory_bytes_per_cell,
-        summary.output.display()
-    );
-    Ok(())
+
+    /// Runs the job with two progress bars on stderr: cells done, and the current cell's rays
+    /// and set size (`n` triangles in the scene, for its percentage).
+    fn run_with_progress(&self, n: f64) -> Result<BakeProgress> {
+        let multi = MultiProgress::new();
+        let cells_bar = multi.add(
+            ProgressBar::new(self.job.indices.len() as u64).with_style(
+                ProgressStyle::with_template(
+                    "cells {bar:30} {pos}/{len} [{elapsed_precise} < {eta}]",
+                )
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            ),
+        );
+        let cell_bar = multi.add(ProgressBar::new_spinner());
+        let progress = self.job.run_with(
+            &mut |done| cells_bar.set_position(done as u64),
+            &|cell, p| {
+                cell_bar.set_message(format!(
+                    "cell {cell}: {} rays, PVS {} ({:.2}%)",
+                    p.rays,
+                    p.pvs_size,
+                    100.0 * p.pvs_size as f64 / n
+                ));
+                cell_bar.tick();
+            },
+            &mut |_, _| cells_bar.inc(1),
+        )?;
+        cell_bar.finish_and_clear();
+        cells_bar.finish_and_clear();
+        Ok(progress)
+    }
+
+    /// The file's extra metadata: the common part ([`CellRecord::extra`]), a shard's index
+    /// and its own cells' clusters, and what an incremental rebake removed, added and kept.
+    fn extra(&self, record: &CellRecord) -> serde_json::Value {
+        let mut extra = record.extra(self.parameters.clone());
+        if let Some(s) = self.shard {
+            extra["shard"] = serde_json::json!({"index": s.index, "count": s.count});
+            // Each shard file carries only its cells' clusters.
+            if let Some(c) = &record.clusters {
+                extra["clusters"] =
+                    serde_json::json!(self.job.indices.iter().map(|&i| c[i]).collect::<Vec<_>>());
+            }
+        }
+        if let Some(inc) = &self.incremental {
+            let r = &inc.plan;
+            extra["incremental"] = serde_json::json!({
+                "since": inc.since.display().to_string(),
+                "old_scene": inc.old_scene,
+                "removed_triangles": r.removed,
+                "added_triangles": r.added,
+                "added_boxes": r.boxes,
+                "kept_cells": self.kept_count,
+                "rebaked_cells": self.job.indices.len() - self.kept_count,
+            });
+        }
+        extra
+    }
+
+    /// The summary of the finished bake (after the file is written: it reports the file's
+    /// size).
+    fn summary(
+        &self,
+        args: &BakeArgs,
+        inputs: &BakeInputs<'_>,
+        progress: &BakeProgress,
+    ) -> BakeSummary {
+        let n = inputs.scene.triangle_count().max(1) as f64;
+        let sizes: Vec<usize> = progress.done.values().map(|c| c.set.len()).collect();
+        let mean = sizes.iter().sum::<usize>() as f64 / sizes.len().max(1) as f64;
+        BakeSummary {
+            output: args.output.clone(),
+            method: self.job.setup.sampler.name().to_string(),
+            cells: self.job.indices.len(),
+            resumed_cells: progress.resumed,
+            baked_cells: progress.baked,
+            kept_cells: self.kept_count,
+            total_rays: progress.done.values().map(|c| c.rays).sum(),
+            seconds: progress.seconds,
+            mean_pvs_size: mean,
+            mean_pvs_percent: 100.0 * mean / n,
+            memory_bytes_per_cell: progress.memory_bytes() as f64 / sizes.len().max(1) as f64,
+            set_bytes_per_cell: progress.set_bytes() as f64 / sizes.len().max(1) as f64,
+            file_bytes_per_cell: std::fs::metadata(&args.output).map_or(0.0, |m| m.len() as f64)
+                / sizes.len().max(1) as f64,
+            reachable: inputs.record.origins.as_ref().map(|r| serde_json::json!(r)),
+        }
+    }
+
+    /// Prints the summary: the incremental rebake's line, then the bake's (`triangles` in
+    /// the scene).
+    fn print_summary(&self, summary: &BakeSummary, triangles: usize) -> Result<()> {
+        let cells = self.job.indices.len();
+        if let Some(inc) = &self.incremental {
+            let r = &inc.plan;
+            outln!(
+                "incremental: {} triangles removed, {} added in {} groups; rebaked {} of {} cells, kept {}",
+                r.removed,
+                r.added,
+                r.boxes,
+                cells - self.kept_count,
+                cells,
+                self.kept_count
+            );
+        }
+        outln!(
+            "baked {} cells with {} in {:.2} s ({} resumed from the checkpoint, {} rays): mean PVS {:.0} \
+             triangles ({:.2}% of {}), {:.0} bytes per cell in memory, wrote {}",
+            summary.cells,
+            summary.method,
+            summary.seconds,
+            summary.resumed_cells,
+            summary.total_rays,
+            summary.mean_pvs_size,
+            summary.mean_pvs_percent,
+            triangles,
+            summary.memory_bytes_per_cell,
+            summary.output.display()
+        );
+        Ok(())
+    }
 }
 
 /// `--since OLD.pvs --old-scene OLD`: loads the old scene (with this bake's loading options)
@@ -506,18 +654,10 @@ pub(super) fn run_merge(args: MergeArgs) -> Result<()> {
 
 /// `pvs bake --share-rays`: all cells at once with ray sharing (GVS++ only); writes the file
 /// and prints the summary like the independent bake.
-#[allow(clippy::too_many_arguments)]
-fn bake_with_shared_rays(
-    args: &BakeArgs,
-    scene: &sightline_core::Scene,
-    bvh: &Bvh,
-    cells: &[ViewCell],
-    params: &MethodParams,
-    budget: &Budget,
-    free_space: &(dyn Fn(usize, Vec3) -> bool + Sync),
-    extra: serde_json::Value,
-) -> Result<()> {
+fn bake_with_shared_rays(args: &BakeArgs, inputs: &BakeInputs<'_>) -> Result<()> {
     use sightline_region::ray_sharing::{bake_shared, ShareParams};
+    let (scene, cells, budget) = (inputs.scene, inputs.cells, &inputs.budget);
+    let extra = inputs.record.extra(format!("{:?}", inputs.params));
     let reachable = extra.get(Q3_ORIGINS_KEY).cloned();
     if !matches!(args.method.as_str(), "gvs++" | "gvspp") {
         bail!(
@@ -527,19 +667,19 @@ fn bake_with_shared_rays(
     }
     // As measured by `bench share` (docs/BENCHMARKS.md): received triangles are explored too.
     let share = ShareParams {
-        gvspp: params.gvspp.clone(),
+        gvspp: inputs.params.gvspp.clone(),
         explore_shared: true,
         ..ShareParams::default()
     };
     let bar = ProgressBar::new_spinner();
     let result = bake_shared(
         scene,
-        bvh,
+        inputs.bvh,
         cells,
         &share,
         budget,
         args.seed,
-        free_space,
+        inputs.free_space,
         &|p| {
             bar.set_message(format!(
                 "round {}: {} rays, {} cells sampling, mean PVS {:.0}",
