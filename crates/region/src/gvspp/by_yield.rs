@@ -160,19 +160,12 @@ fn border_batch(
     tally: &mut Tally,
     progress: &(dyn Fn(&ConvergencePoint) + Sync),
 ) -> usize {
-    let per_triangle = cell.abs_rays_per_triangle();
-    let take = (YIELD_BATCH / per_triangle)
-        .max(1)
-        .min(fitting(tally.rays_left(), per_triangle));
+    let take = batch_items(cell.abs_rays_per_triangle(), tally.rays_left());
     let (rays, targets) = cell.coarse_abs_rays(ctx, take);
-    let hits = cast(ctx.caster, &rays);
-    let new = discover(&tally.pvs, &rays, &hits);
-    let n = new.len();
-    cell.found_new(Phase::Abs, new);
-    tally.batch_done(rays.len(), progress);
+    let (hits, new) = cast_and_credit(ctx, cell, tally, &rays, Phase::Abs, progress);
     let discontinuities = cell.discontinuities(&rays, &hits, &targets);
     cell.pending.extend(discontinuities);
-    n
+    new
 }
 
 /// The rest of the paper's border edge samples (4.2) of the next coarsely sampled triangles,
@@ -183,16 +176,9 @@ fn refine_batch(
     tally: &mut Tally,
     progress: &(dyn Fn(&ConvergencePoint) + Sync),
 ) -> usize {
-    let per_triangle = cell.abs_rays_per_triangle();
-    let take = (YIELD_BATCH / per_triangle)
-        .max(1)
-        .min(fitting(tally.rays_left(), per_triangle));
+    let take = batch_items(cell.abs_rays_per_triangle(), tally.rays_left());
     let rays = cell.refine_abs_rays(ctx, take);
-    let new = discover(&tally.pvs, &rays, &cast(ctx.caster, &rays));
-    let n = new.len();
-    cell.found_new(Phase::Abs, new);
-    tally.batch_done(rays.len(), progress);
-    n
+    cast_and_credit(ctx, cell, tally, &rays, Phase::Abs, progress).1
 }
 
 /// Reverse sampling (4.3) of the oldest waiting discontinuities, about one batch of rays and no
@@ -203,18 +189,37 @@ fn reverse_batch(
     tally: &mut Tally,
     progress: &(dyn Fn(&ConvergencePoint) + Sync),
 ) -> usize {
-    let per_discontinuity = cell.rs_rays_per_discontinuity().max(1);
-    let size = (YIELD_BATCH / per_discontinuity)
-        .max(1)
-        .min(fitting(tally.rays_left(), per_discontinuity))
-        .min(cell.pending.len());
-    let group: Vec<_> = cell.pending.drain(..size).collect();
+    let size = batch_items(cell.rs_rays_per_discontinuity(), tally.rays_left());
+    let group: Vec<_> = cell.pending.drain(..size.min(cell.pending.len())).collect();
     let rays = cell.rs_rays(ctx, &group);
-    let new = discover(&tally.pvs, &rays, &cast(ctx.caster, &rays));
+    cast_and_credit(ctx, cell, tally, &rays, Phase::Rs, progress).1
+}
+
+/// How many items costing up to `per_item` rays each make about one batch, and no more than
+/// `rays_left` allow (at least one, so a batch always makes progress).
+fn batch_items(per_item: usize, rays_left: u64) -> usize {
+    let per_item = per_item.max(1);
+    (YIELD_BATCH / per_item)
+        .max(1)
+        .min(fitting(rays_left, per_item))
+}
+
+/// Casts `rays`, adds what they hit to the PVS, queues and credits the new triangles to
+/// `phase`, and counts the batch; returns the hits and the number of new triangles.
+fn cast_and_credit(
+    ctx: &CellContext<'_>,
+    cell: &mut GvsppCell,
+    tally: &mut Tally,
+    rays: &[sightline_core::Ray],
+    phase: Phase,
+    progress: &(dyn Fn(&ConvergencePoint) + Sync),
+) -> (Vec<sightline_core::Hit>, usize) {
+    let hits = cast(ctx.caster, rays);
+    let new = discover(&tally.pvs, rays, &hits);
     let n = new.len();
-    cell.found_new(Phase::Rs, new);
+    cell.found_new(phase, new);
     tally.batch_done(rays.len(), progress);
-    n
+    (hits, n)
 }
 
 #[cfg(test)]
