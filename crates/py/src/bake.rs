@@ -439,7 +439,7 @@ pub(crate) fn bake<'py>(
     let file = file
         .map_err(value_error)?
         .map_err(|Stopped| value_error("internal: the bake stopped without a reason"))?;
-    Ok(PyPvs { file })
+    Ok(PyPvs { file, path: None })
 }
 
 /// Bakes a Quake 3 map's leaf (`cells="leaves"`, the CLI's `--q3-leaves`) or cluster cells
@@ -555,7 +555,7 @@ pub(crate) fn bake_q3<'py>(
     let file = file.map_err(value_error)?;
     let file =
         file.map_err(|Stopped| value_error("internal: the bake stopped without a reason"))?;
-    Ok(PyPvs { file })
+    Ok(PyPvs { file, path: None })
 }
 
 /// The fingerprint of a bake and the key its checkpoint carries, as JSON text

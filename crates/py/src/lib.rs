@@ -1,8 +1,9 @@
 //! Python bindings of sightline (the `sightline` package, native part `sightline._sightline`).
 //!
-//! Scenes, view cells, single-cell and batch PVS bakes, `.pvs` files, and exact / conservative
-//! from-point visibility, with numpy arrays in and out. Every long computation releases the
-//! GIL (`Python::detach`), so Python threads and Ray actors keep running beside it; bakes run
+//! Scenes, view cells, single-cell and batch PVS bakes, `.pvs` files, exact / conservative
+//! from-point visibility, and the HTML report of a `.pvs` file (`report`), with numpy arrays
+//! in and out. Every long computation releases the GIL (`Python::detach`), so Python threads
+//! and Ray actors keep running beside it; bakes run
 //! on a thread of their own while the caller's thread watches for Ctrl-C and reports progress
 //! (`run`). Paths are `str` or `os.PathLike`; thread counts are capped by the CLI's rule
 //! (`sightline_core::threads`), with a `RuntimeWarning`. Errors
@@ -17,6 +18,7 @@ mod cells;
 mod convert;
 mod point;
 mod pvs;
+mod report;
 mod run;
 mod scene;
 
@@ -38,6 +40,7 @@ fn _sightline(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bake::bake_fingerprint, m)?)?;
     m.add_function(wrap_pyfunction!(point::visible_exact, m)?)?;
     m.add_function(wrap_pyfunction!(point::visible_conservative, m)?)?;
+    m.add_function(wrap_pyfunction!(report::report, m)?)?;
     m.add("METHODS", sightline_region::methods::METHODS.to_vec())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

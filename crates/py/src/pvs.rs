@@ -18,6 +18,8 @@ use crate::scene::PyScene;
 #[pyclass(module = "sightline", name = "Pvs", frozen)]
 pub(crate) struct PyPvs {
     pub file: PvsFile,
+    /// The file it was read from (`Pvs.load`), which `report` must not overwrite.
+    pub path: Option<PathBuf>,
 }
 
 fn pvs_error(e: PvsError) -> PyErr {
@@ -106,21 +108,24 @@ impl PyPvs {
                 visible,
             });
         }
-        Ok(Self { file })
+        Ok(Self { file, path: None })
     }
 
     /// Reads a `.pvs` file (errors name the file and the byte offset of a problem).
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
         let file = py.detach(|| PvsFile::load(&path)).map_err(pvs_error)?;
-        Ok(Self { file })
+        Ok(Self {
+            file,
+            path: Some(path),
+        })
     }
 
     /// Parses `.pvs` bytes.
     #[staticmethod]
     fn from_bytes(data: &[u8]) -> PyResult<Self> {
         let file = PvsFile::read(data).map_err(pvs_error)?;
-        Ok(Self { file })
+        Ok(Self { file, path: None })
     }
 
     /// Writes the file atomically (a temporary file renamed into place).

@@ -254,6 +254,73 @@ def test_bad_pvs_input_is_rejected(tmp_path, city, city_cells):
         sl.Pvs.from_bytes(bytes(data))
 
 
+# --- HTML report --------------------------------------------------------------------------
+
+
+def test_report_writes_the_page_and_returns_the_cli_summary(tmp_path, city, city_cells):
+    pvs = sl.bake(city, city_cells[:2], "rand", rays=5_000, seed=1)
+    out = tmp_path / "report"
+    summary = sl.report(
+        city, pvs, out, views=2, size=64, budgets=[5_000, 20_000], budget_cells=1
+    )
+    page = (out / "index.html").read_text()
+    assert summary["report"] == str(out / "index.html")
+    assert summary["scene"] == city.source
+    assert 'id="budget-table"' in page
+    assert page.count("<tr data-cell=") == len(pvs)
+    assert [c["pvs_size"] for c in summary["cells"]] == [len(s) for s in pvs.sets()]
+    for c in summary["cells"]:
+        assert c["avg_error_pixels"] >= 0 and c["max_error_pixels"] >= 0
+        assert c["false_negatives"] >= 0
+    budgets = summary["budgets"]
+    assert budgets["cells"] == [0]
+    assert [(p["method"], p["budget"]) for p in budgets["points"]] == [
+        ("GVS++", 5_000),
+        ("RAND", 5_000),
+        ("GVS++", 20_000),
+        ("RAND", 20_000),
+    ]
+    assert all(p["rays"] > 0 and p["seconds"] >= 0 for p in budgets["points"])
+    assert not list(out.glob("*.tmp")), "no temporary file left behind"
+
+
+def test_report_without_budgets_leaves_the_comparison_out(tmp_path, city, city_cells):
+    pvs = sl.bake(city, city_cells[:1], "rand", rays=2_000, seed=1)
+    for budgets in (None, []):
+        out = tmp_path / f"report-{budgets}"
+        summary = sl.report(city, pvs, str(out), views=2, size=64, budgets=budgets)
+        assert summary["budgets"] is None
+        assert 'id="budget-table"' not in (out / "index.html").read_text()
+
+
+def test_bad_report_arguments_are_value_errors(tmp_path, city, city_cells, two_boxes):
+    pvs = sl.bake(city, city_cells[:1], "rand", rays=2_000, seed=1)
+    out = tmp_path / "report"
+    with pytest.raises(ValueError, match="increase"):
+        sl.report(city, pvs, out, views=2, size=64, budgets=[5_000, 1_000], budget_cells=1)
+    with pytest.raises(ValueError, match="outside"):
+        sl.report(city, pvs, out, views=2, size=64, budgets=[0], budget_cells=1)
+    with pytest.raises(ValueError, match="cell"):
+        sl.report(city, pvs, out, views=2, size=64, budgets=[5_000], budget_cells=0)
+    with pytest.raises(ValueError, match="size"):
+        sl.report(city, pvs, out, views=2, size=0)
+    with pytest.raises(ValueError, match="view_mode"):
+        sl.report(city, pvs, out, views=2, size=64, view_mode="sphere")
+    boxes = sl.Scene.from_arrays(*two_boxes)
+    with pytest.raises(ValueError, match="computed for another scene"):
+        sl.report(boxes, pvs, out, views=2, size=64, budgets=None)
+    assert not out.exists(), "nothing is written before the arguments are checked"
+
+
+def test_report_refuses_to_overwrite_the_pvs_file(tmp_path, city, city_cells):
+    path = tmp_path / "index.html"
+    sl.bake(city, city_cells[:1], "rand", rays=2_000, seed=1).save(path)
+    pvs = sl.Pvs.load(path)
+    with pytest.raises(ValueError, match="refusing to overwrite"):
+        sl.report(city, pvs, tmp_path, views=2, size=64, budgets=None)
+    assert sl.Pvs.load(path) == pvs
+
+
 # --- from-point visibility ----------------------------------------------------------------
 
 

@@ -13,7 +13,6 @@
 
 use std::fmt::Write as _;
 
-use anyhow::{bail, Result};
 use serde::Serialize;
 use sightline_core::trace::Bvh;
 use sightline_core::{Scene, TriangleSet};
@@ -21,6 +20,7 @@ use sightline_region::bake::cell_seed;
 use sightline_region::cell_sources::Q3OriginRule;
 use sightline_region::{Budget, CellContext, GvsPlusPlus, PvsFile, RandomSampler, Sampler};
 
+use super::error::ReportError;
 use super::evaluate::CellOutcome;
 use super::html::{Cell, Section, Table};
 use super::plot::{log_log_plot, Series};
@@ -49,28 +49,28 @@ pub struct BudgetOptions {
 impl BudgetOptions {
     /// Checks the options: 1 to [`MAX_BUDGETS`] budgets, each 1 to [`MAX_BUDGET_RAYS`] rays,
     /// increasing, and at least one cell.
-    pub fn validate(&self) -> Result<()> {
+    pub fn validate(&self) -> Result<(), ReportError> {
         if self.budgets.is_empty() || self.budgets.len() > MAX_BUDGETS {
-            bail!(
-                "equal-budget comparison: {} budgets given, 1 to {MAX_BUDGETS} allowed",
-                self.budgets.len()
-            );
+            return Err(ReportError::BudgetCount {
+                given: self.budgets.len(),
+                max: MAX_BUDGETS,
+            });
         }
-        if let Some(b) = self
+        if let Some(&b) = self
             .budgets
             .iter()
             .find(|&&b| b == 0 || b > MAX_BUDGET_RAYS)
         {
-            bail!("equal-budget comparison: budget {b} rays is outside 1..={MAX_BUDGET_RAYS}");
+            return Err(ReportError::BudgetOutOfRange {
+                rays: b,
+                max: MAX_BUDGET_RAYS,
+            });
         }
         if self.budgets.windows(2).any(|w| w[0] >= w[1]) {
-            bail!(
-                "equal-budget comparison: budgets must increase ({:?})",
-                self.budgets
-            );
+            return Err(ReportError::BudgetsNotIncreasing(self.budgets.clone()));
         }
         if self.cells == 0 {
-            bail!("equal-budget comparison: at least one cell is needed");
+            return Err(ReportError::NoBudgetCells);
         }
         Ok(())
     }
@@ -114,7 +114,7 @@ pub fn bake_budget_sets(
     file: &PvsFile,
     options: &BudgetOptions,
     progress: &dyn Fn(usize, usize),
-) -> Result<BudgetBakes> {
+) -> Result<BudgetBakes, ReportError> {
     options.validate()?;
     let bvh = Bvh::build(scene);
     let rule = Q3OriginRule::from_metadata(scene, &file.metadata, None)?;
@@ -256,7 +256,10 @@ pub fn ratio_text(ratio: f64) -> String {
 }
 
 /// The report section: error against time, log-log, and the table behind it.
-pub(crate) fn budget_section(summary: &BudgetSummary, resolution: u32) -> Result<Section> {
+pub(crate) fn budget_section(
+    summary: &BudgetSummary,
+    resolution: u32,
+) -> Result<Section, ReportError> {
     let series: Vec<Series> = METHODS
         .iter()
         .enumerate()
@@ -378,5 +381,13 @@ mod tests {
         assert!(bad(vec![0], 1).unwrap_err().to_string().contains("outside"));
         assert!(bad(vec![MAX_BUDGET_RAYS + 1], 1).is_err());
         assert!(bad(vec![1000], 0).unwrap_err().to_string().contains("cell"));
+        assert!(matches!(
+            bad(vec![4000, 1000], 1),
+            Err(ReportError::BudgetsNotIncreasing(b)) if b == [4000, 1000]
+        ));
+        assert!(matches!(
+            bad(vec![1; MAX_BUDGETS + 1], 1),
+            Err(ReportError::BudgetCount { given, .. }) if given == MAX_BUDGETS + 1
+        ));
     }
 }

@@ -16,6 +16,7 @@ use sightline_core::{Scene, TriangleSet};
 use sightline_region::cell_sources::{Q3OriginRule, Q3Origins};
 use sightline_region::PvsFile;
 
+use super::error::ReportError;
 use super::shading::shaded_image;
 
 /// One cell's evaluation.
@@ -54,7 +55,7 @@ impl<'a> Viewpoints<'a> {
         scene: &'a Scene,
         file: &PvsFile,
         origins: Option<Q3Origins>,
-    ) -> anyhow::Result<Self> {
+    ) -> Result<Self, ReportError> {
         let rule = Q3OriginRule::from_metadata(scene, &file.metadata, origins)?;
         Ok(Self { rule })
     }
@@ -134,7 +135,7 @@ pub(crate) fn evaluate_cells(
     params: &EvalParams,
     extra: &[Vec<TriangleSet>],
     progress: &dyn Fn(usize, usize, usize),
-) -> anyhow::Result<Vec<CellOutcome>> {
+) -> Result<Vec<CellOutcome>, ReportError> {
     let viewpoints = Viewpoints::of(scene, file, None)?;
     Ok(file
         .cells

@@ -3,10 +3,10 @@
 
 use std::fmt::Write as _;
 
-use anyhow::Result;
 use image::RgbImage;
 
 use super::base64;
+use super::error::ReportError;
 
 /// `s` with the five HTML-special characters escaped (safe in text and in quoted attributes).
 pub fn escape(s: &str) -> String {
@@ -25,7 +25,7 @@ pub fn escape(s: &str) -> String {
 }
 
 /// `image` as a `data:image/png;base64,...` URI.
-pub(crate) fn png_data_uri(image: &RgbImage) -> Result<String> {
+pub(crate) fn png_data_uri(image: &RgbImage) -> Result<String, ReportError> {
     let mut bytes = std::io::Cursor::new(Vec::new());
     image.write_to(&mut bytes, image::ImageFormat::Png)?;
     Ok(format!(
@@ -35,7 +35,7 @@ pub(crate) fn png_data_uri(image: &RgbImage) -> Result<String> {
 }
 
 /// An `<img>` element showing `image` inline.
-pub fn img(image: &RgbImage, alt: &str, width: u32) -> Result<String> {
+pub fn img(image: &RgbImage, alt: &str, width: u32) -> Result<String, ReportError> {
     Ok(format!(
         "<img src=\"{}\" alt=\"{}\" width=\"{width}\">",
         png_data_uri(image)?,

@@ -5,11 +5,11 @@
 
 use std::fmt::Write as _;
 
-use anyhow::Result;
 use sightline_core::Scene;
 use sightline_region::ViewCell;
 
 use super::colour::{hex, ColourScale};
+use super::error::ReportError;
 use super::footprint::footprint_image;
 use super::html::{escape, png_data_uri};
 use super::plan::{MapFrame, Plan};
@@ -70,7 +70,7 @@ pub(crate) fn map_svg(
     cells: &[MapCell],
     max_width: u32,
     value_label: &str,
-) -> Result<String> {
+) -> Result<String, ReportError> {
     let plan = Plan::new(scene.up);
     let boxes: Vec<ViewCell> = cells.iter().map(|c| c.cell).collect();
     let frame = MapFrame::around(scene, &boxes, &plan, max_width, max_width);

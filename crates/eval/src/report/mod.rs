@@ -6,11 +6,12 @@
 //! `plan` (the projection from above and its pixel frame), `footprint` (top-down height map),
 //! `map` (cells from above), `plot` (line plots), `metadata` (the bake's records), `evaluate`
 //! (pixel error and worst views), `sections` (the parts of a PVS report), `shading` (id colours and the shaded image),
-//! `budgets` (GVS++ against RAND at small equal budgets on a few cells).
+//! `budgets` (GVS++ against RAND at small equal budgets on a few cells), `error` ([`ReportError`]).
 
 pub(crate) mod base64;
 pub mod budgets;
 pub mod colour;
+pub mod error;
 pub mod evaluate;
 pub(crate) mod footprint;
 pub mod html;
@@ -22,11 +23,11 @@ pub(crate) mod sections;
 pub mod shading;
 
 use crate::EvalParams;
-use anyhow::Result;
 use sightline_core::{Scene, TriangleSet};
 use sightline_region::PvsFile;
 
 pub use budgets::{BudgetBakes, BudgetOptions, BudgetSummary};
+pub use error::ReportError;
 pub use evaluate::CellOutcome;
 pub use html::Section;
 
@@ -62,7 +63,7 @@ pub fn pvs_report(
     extra: &[Vec<TriangleSet>],
     budgets: Option<&BudgetBakes>,
     progress: &dyn Fn(usize, usize, usize),
-) -> Result<PvsReport> {
+) -> Result<PvsReport, ReportError> {
     // Every cell's extra sets: the caller's, then the comparison's (same offset in every cell).
     let offset = extra.iter().map(Vec::len).max().unwrap_or(0);
     let mut all: Vec<Vec<TriangleSet>> = (0..file.cells.len())

@@ -2,7 +2,7 @@
 //! rays per cell (convergence), per-frame culling numbers, and log-log error curves (GVS++
 //! against RAND at equal budgets, `bench pvs --plot`).
 
-use anyhow::{anyhow, Result};
+use super::error::ReportError;
 use plotters::prelude::*;
 
 /// One line of a plot.
@@ -31,7 +31,7 @@ pub fn line_plot(
     y_desc: &str,
     (width, height): (u32, u32),
     legend: bool,
-) -> Result<String> {
+) -> Result<String, ReportError> {
     let series = &series[..series.len().min(MAX_LINES)];
     let xmax = series
         .iter()
@@ -86,7 +86,7 @@ pub fn line_plot(
             root.present()?;
             Ok(())
         };
-        draw().map_err(|e| anyhow!("drawing plot: {e}"))?;
+        draw().map_err(|e| ReportError::Plot(e.to_string()))?;
     }
     Ok(svg)
 }
@@ -99,7 +99,7 @@ pub fn log_log_plot(
     x_desc: &str,
     y_desc: &str,
     (width, height): (u32, u32),
-) -> Result<String> {
+) -> Result<String, ReportError> {
     let series = &series[..series.len().min(MAX_LINES)];
     let points = || {
         series
@@ -161,7 +161,7 @@ pub fn log_log_plot(
             root.present()?;
             Ok(())
         };
-        draw().map_err(|e| anyhow!("drawing plot: {e}"))?;
+        draw().map_err(|e| ReportError::Plot(e.to_string()))?;
     }
     Ok(svg)
 }

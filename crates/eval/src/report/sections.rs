@@ -4,10 +4,10 @@
 use std::fmt::Write as _;
 
 use crate::{EvalParams, ViewMode};
-use anyhow::Result;
 use sightline_core::Scene;
 use sightline_region::PvsFile;
 
+use super::error::ReportError;
 use super::evaluate::{CellOutcome, WorstImage};
 use super::html::{escape, img, key_value_table, Cell, Section, Table};
 use super::map::{map_svg, MapCell};
@@ -197,7 +197,7 @@ pub(crate) fn cell_table(scene: &Scene, file: &PvsFile, outcomes: &[CellOutcome]
 }
 
 /// The worst views as images.
-pub(crate) fn worst_views(images: &[WorstImage], shown: usize) -> Result<Section> {
+pub(crate) fn worst_views(images: &[WorstImage], shown: usize) -> Result<Section, ReportError> {
     let mut body = String::new();
     if shown == 0 {
         body.push_str("<p class=\"note\">No worst views requested.</p>\n");
@@ -242,7 +242,7 @@ pub(crate) fn worst_views(images: &[WorstImage], shown: usize) -> Result<Section
 }
 
 /// PVS size against rays for every cell, from `metadata["cells"][i]["convergence"]`.
-pub(crate) fn convergence(file: &PvsFile) -> Result<Section> {
+pub(crate) fn convergence(file: &PvsFile) -> Result<Section, ReportError> {
     let series: Vec<Series> = (0..file.cells.len())
         .filter_map(|i| {
             let points = cell_bake(&file.metadata, i).convergence?;
@@ -291,7 +291,7 @@ pub(crate) fn convergence(file: &PvsFile) -> Result<Section> {
 }
 
 /// The map of the cells coloured by PVS size.
-pub(crate) fn cell_map(scene: &Scene, file: &PvsFile) -> Result<Section> {
+pub(crate) fn cell_map(scene: &Scene, file: &PvsFile) -> Result<Section, ReportError> {
     let n = scene.triangle_count().max(1) as f64;
     let cells: Vec<MapCell> = file
         .cells

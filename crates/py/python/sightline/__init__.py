@@ -1,8 +1,9 @@
 """sightline: which triangles of a 3D scene can be seen?
 
 Scenes (loaded from a file or procedural spec, or built from numpy arrays), view cells, PVS
-bakes of one cell or many (GVS++, GVS, RAND, RASTER), ``.pvs`` files, and exact / conservative
-from-point visibility. Triangle ids go in and out as numpy ``uint32`` arrays.
+bakes of one cell or many (GVS++, GVS, RAND, RASTER), ``.pvs`` files, exact / conservative
+from-point visibility, and the HTML report of a ``.pvs`` file (``report``, as ``sightline
+report``). Triangle ids go in and out as numpy ``uint32`` arrays.
 
 Results equal the ``sightline`` CLI's: ``bake(scene, cells, method, rays=R, seed=S)`` gives the
 same cells and sets as ``sightline pvs bake SCENE ... --rays R --seed S``, because every cell's
@@ -36,6 +37,7 @@ from ._sightline import (
     bake_q3,
     cell_seed,
     grid,
+    report,
     visible_conservative,
     visible_exact,
 )
@@ -54,6 +56,7 @@ __all__ = [
     "cell_seed",
     "grid",
     "load",
+    "report",
     "visible_conservative",
     "visible_exact",
 ]

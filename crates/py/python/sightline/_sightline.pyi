@@ -204,3 +204,35 @@ def visible_conservative(
     memory: int = 268435456,
     guarantee: str = "area",
 ) -> _Ids: ...
+def report(
+    scene: Scene,
+    pvs: Pvs,
+    out_dir: Union[str, PathLike],
+    views: int = 16,
+    size: int = 256,
+    view_mode: Literal["cube", "random"] = "cube",
+    worst: int = 6,
+    seed: int = 1,
+    budgets: Optional[Sequence[int]] = [250000, 1000000],
+    budget_cells: int = 4,
+) -> Dict[str, Any]:
+    """Writes the HTML report of ``pvs`` (baked for ``scene``) to ``out_dir/index.html``, as
+    ``sightline report SCENE PVS -o OUT_DIR`` does: summary, per-cell PVS size and pixel error,
+    the worst views, convergence plots, GVS++ against RAND at equal budgets, a map of the cells.
+
+    ``views`` viewpoints per cell, ``size`` x ``size`` pixel images (1 to 4096), ``view_mode``
+    ``"cube"`` (six faces per viewpoint) or ``"random"`` (one 90-degree view), ``worst`` worst
+    views shown, ``seed`` of the viewpoints and of the comparison's bakes. ``budgets``: ray
+    budgets per cell (1 to 8, increasing) of the GVS++ / RAND comparison on ``budget_cells``
+    cells; ``None`` or ``[]`` leaves it out.
+
+    Returns the CLI's ``--json`` summary: ``{"report": path, "scene": source, "cells": [{"cell",
+    "pvs_size", "avg_error_pixels", "max_error_pixels", "avg_unconfirmed_pixels",
+    "false_negatives", "rejected_viewpoints"}, ...], "budgets": {"cells": [...], "points":
+    [{"method", "budget", "rays", "seconds", "avg_error_pixels"}, ...]} or None}``.
+
+    Raises ``ValueError`` for bad arguments, a ``pvs`` of another scene, or an output that is
+    the scene or ``.pvs`` file; ``OSError`` when the report cannot be written. The GIL is
+    released while it works.
+    """
+    ...
