@@ -5,16 +5,22 @@
 //! `sightline_region::bake::bake` and so of `sightline pvs bake`: a cell's set does not depend
 //! on which batch or machine bakes it.
 
-use std::time::Duration;
+use std::path::Path;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use glam::Vec3;
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use sightline_core::TriangleSet;
-use sightline_region::bake::cell_stats;
+use sightline_region::bake::{cell_stats, BakeSetup};
+use sightline_region::checkpoint::{fingerprint, BakeProgress, ResumableBake};
 use sightline_region::methods::{sampler, MethodOverrides, MethodParams};
-use sightline_region::{Budget, CellContext, Sampler, ViewCell};
+use sightline_region::rebake::{
+    plan_incremental_bake, IncrementalBakeError, OldBake, DEFAULT_PROBE_RAYS,
+};
+use sightline_region::{Budget, CellContext, PvsFile, Sampler, ViewCell};
 
 use crate::cells::PyViewCell;
 use crate::convert::{ids_array, value_error};
@@ -384,9 +390,17 @@ fn bake_batch_py<'py>(
 /// more than the cores are capped, with a warning). `progress`: see `sightline._progress`
 /// (default: a line on stderr when it is a terminal). Ctrl-C stops the bake (cells under way
 /// finish first) and raises `KeyboardInterrupt`.
+///
+/// Incremental rebake (`pvs bake --since OLD.pvs --old-scene OLD --probe-rays N`): with
+/// `since` (an earlier bake of the same cells, method, parameters, seed and budget, by the CLI
+/// or the Ray driver) and `old_scene` (the scene it was baked for), the cells the edit from
+/// `old_scene` to `scene` cannot change keep their sets from `since` and only the others are
+/// baked; `probe_rays` as `--probe-rays` (0 skips the probe). The result equals the CLI's and
+/// its `metadata["incremental"]` counts the kept and rebaked cells.
 #[pyfunction]
 #[pyo3(signature = (scene, cells, method = MethodArg::Name("gvs++".into()), rays = None,
-    seed = 1, time_ms = None, threads = None, progress = None))]
+    seed = 1, time_ms = None, threads = None, progress = None, *, since = None,
+    old_scene = None, probe_rays = DEFAULT_PROBE_RAYS))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn bake<'py>(
     py: Python<'py>,
@@ -398,48 +412,171 @@ pub(crate) fn bake<'py>(
     time_ms: Option<u64>,
     threads: Option<usize>,
     progress: Option<&Bound<'py, PyAny>>,
+    since: Option<&Bound<'py, PyPvs>>,
+    old_scene: Option<&Bound<'py, PyScene>>,
+    probe_rays: usize,
 ) -> PyResult<PyPvs> {
+    let since = match (since, old_scene) {
+        (Some(pvs), Some(old)) => Some(Since {
+            pvs: pvs.get(),
+            scene: old.get().data.clone(),
+            probe_rays,
+        }),
+        (None, None) => None,
+        _ => {
+            return Err(value_error(
+                "since and old_scene go together: pass both (the earlier Pvs and the scene \
+                 it was baked for) or neither",
+            ))
+        }
+    };
     let threads = thread_count(py, threads)?;
     let method = method.resolve()?;
     let sampler = method.sampler()?;
-    let budget = budget(rays, time_ms)?;
+    let job = BakeJob {
+        data: scene.get().data.clone(),
+        cells: cells.into_iter().map(|c| c.cell).collect(),
+        parameters: format!("{:?}", method.params),
+        sampler: sampler.as_ref(),
+        budget: budget(rays, time_ms)?,
+        seed,
+    };
     let progress = progress_callback(py, progress)?;
-    let cells: Vec<ViewCell> = cells.into_iter().map(|c| c.cell).collect();
-    let data = scene.get().data.clone();
-    let sampler = sampler.as_ref();
-    let extra = serde_json::json!({
-        "parameters": format!("{:?}", method.params),
-        "via": "python",
-    });
-    let file = run_interruptible(py, cells.len(), progress.as_ref(), |control| {
-        with_threads(threads, || {
-            sightline_region::bake::try_bake(
-                &data.scene,
-                data.bvh(),
-                &cells,
-                sampler,
-                &|_, _| true,
-                &budget,
-                seed,
-                extra,
-                &|cell, p| control.batch(cell, p.rays),
-                &mut |cell, result| {
-                    control.cell_done(cell, result.rays);
-                    // Checked as cells finish: a stop request ends the bake there (the cells
-                    // under way on other threads finish and are dropped).
-                    if control.stopped() {
-                        Err(Stopped)
-                    } else {
-                        Ok(())
-                    }
-                },
-            )
+    let file = run_interruptible(py, job.cells.len(), progress.as_ref(), |control| {
+        with_threads(threads, || match &since {
+            None => job.bake_all(control).map(Ok),
+            Some(since) => job.rebake(since, control),
         })
     })?;
     let file = file
         .map_err(value_error)?
-        .map_err(|Stopped| value_error("internal: the bake stopped without a reason"))?;
+        .map_err(|Stopped| value_error("internal: the bake stopped without a reason"))?
+        .map_err(value_error)?;
     Ok(PyPvs { file, path: None })
+}
+
+/// What `bake` bakes: the scene, its plain cells, the method and its budget and seed.
+struct BakeJob<'a> {
+    data: Arc<SceneData>,
+    cells: Vec<ViewCell>,
+    /// The method's parameters, as the file records them.
+    parameters: String,
+    sampler: &'a dyn Sampler,
+    budget: Budget,
+    seed: u64,
+}
+
+/// An incremental rebake's old bake (`since`, `old_scene`, `probe_rays` of `bake`).
+struct Since<'a> {
+    pvs: &'a PyPvs,
+    scene: Arc<SceneData>,
+    probe_rays: usize,
+}
+
+/// The fingerprint's part about plain cells (not Quake 3 leaves): the CLI's for them.
+fn plain_cells_key() -> serde_json::Value {
+    serde_json::json!({ "clusters": null })
+}
+
+impl BakeJob<'_> {
+    /// Every cell, with `sightline_region::bake::try_bake`.
+    fn bake_all(&self, control: &Control) -> Result<PvsFile, Stopped> {
+        let extra = serde_json::json!({ "parameters": self.parameters, "via": "python" });
+        sightline_region::bake::try_bake(
+            &self.data.scene,
+            self.data.bvh(),
+            &self.cells,
+            self.sampler,
+            &|_, _| true,
+            &self.budget,
+            self.seed,
+            extra,
+            &|cell, p| control.batch(cell, p.rays),
+            &mut |cell, result| {
+                control.cell_done(cell, result.rays);
+                // Checked as cells finish: a stop request ends the bake there (the cells
+                // under way on other threads finish and are dropped).
+                if control.stopped() {
+                    Err(Stopped)
+                } else {
+                    Ok(())
+                }
+            },
+        )
+    }
+
+    /// The incremental rebake of `pvs bake --since`: plans it with the CLI's fingerprint for
+    /// this bake (`sightline_region::rebake`, whose refusals are the `Err` text), bakes the
+    /// cells it does not keep and assembles the file as the CLI writes it.
+    fn rebake(
+        &self,
+        since: &Since<'_>,
+        control: &Control,
+    ) -> Result<Result<PvsFile, String>, Stopped> {
+        let setup = BakeSetup {
+            scene: &self.data.scene,
+            caster: self.data.bvh(),
+            cells: &self.cells,
+            sampler: self.sampler,
+            free_space: &|_, _| true,
+            budget: self.budget,
+            seed: self.seed,
+        };
+        let fp = fingerprint(&setup, &self.parameters, plain_cells_key());
+        let path = since.pvs.path.as_deref();
+        let old = OldBake {
+            path: path.unwrap_or(Path::new("since")),
+            file: &since.pvs.file,
+            scene: &since.scene.scene,
+        };
+        let planned =
+            plan_incremental_bake(&old, setup.scene, &fp, self.cells.len(), since.probe_rays);
+        let mut plan = match planned {
+            Ok(plan) => plan,
+            Err(IncrementalBakeError::OldSceneMismatch { path, source }) => {
+                return Ok(Err(format!("{} and old_scene: {source}", path.display())))
+            }
+            Err(e) => return Ok(Err(e.to_string())),
+        };
+        let start = Instant::now();
+        let kept = plan.kept.len();
+        let mut done = std::mem::take(&mut plan.kept);
+        for i in done.keys() {
+            control.cell_done(*i, 0);
+        }
+        let todo: Vec<usize> = (0..self.cells.len())
+            .filter(|i| !done.contains_key(i))
+            .collect();
+        sightline_region::bake::bake_cells::<Stopped>(
+            &setup,
+            &todo,
+            None,
+            &|cell, p| control.batch(cell, p.rays),
+            &mut |cell, result| {
+                control.cell_done(cell.index, result.rays);
+                done.insert(cell.index, cell);
+                if control.stopped() {
+                    Err(Stopped)
+                } else {
+                    Ok(())
+                }
+            },
+        )?;
+        let extra = serde_json::json!({
+            "parameters": self.parameters,
+            "via": "python",
+            "incremental": plan.metadata(path, &since.scene.scene.source, kept, todo.len()),
+        });
+        let progress = BakeProgress {
+            done,
+            resumed: 0,
+            baked: todo.len(),
+            complete: true,
+            seconds: start.elapsed().as_secs_f64(),
+        };
+        let file = ResumableBake::new(setup, fp).to_pvs_file(&progress, extra);
+        Ok(file.map_err(|e| e.to_string()))
+    }
 }
 
 /// Bakes a Quake 3 map's leaf (`cells="leaves"`, the CLI's `--q3-leaves`) or cluster cells
@@ -585,7 +722,7 @@ pub(crate) fn bake_fingerprint(
         &parameters,
         seed,
         &budget,
-        serde_json::json!({ "clusters": null }),
+        plain_cells_key(),
     );
     let indices: Vec<usize> = (0..cells.len()).collect();
     let key = sightline_region::checkpoint::checkpoint_key(

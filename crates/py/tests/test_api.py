@@ -9,6 +9,8 @@ import pytest
 
 import sightline as sl
 
+from conftest import CITY
+
 REPO = Path(__file__).resolve().parents[3]
 
 
@@ -176,6 +178,81 @@ def test_local_bake_equals_cli_bake(tmp_path, cli, city, method, options, python
     assert len(local) == 6
     assert local == from_cli
     assert from_cli.metadata["method"] == method and from_cli.metadata["seed"] == 11
+
+
+# --- incremental rebakes ------------------------------------------------------------------
+
+# Street-level cells over the city, as CLI flags and as a Python grid (the same cells).
+SINCE_GRID = ["--grid", "4,4,1", "--bounds=-190,-190,1,178,178,3"]
+SINCE_CELLS = ((-190, -190, 1), (178, 178, 3), (4, 4, 1))
+
+
+def _edited_city(tmp_path, cli):
+    """old.obj (the city) and new.obj (the city plus a small box in its south-west corner)."""
+    old, new = tmp_path / "old.obj", tmp_path / "new.obj"
+    subprocess.run([cli, "convert", CITY, "-o", str(old)], check=True, capture_output=True)
+    obj = old.read_text()
+    n = sum(1 for line in obj.splitlines() if line.startswith("v "))
+    obj += "o added\n"
+    x0, y0, x1, y1, h = -188, -188, -184, -184, 4
+    for x, y, z in [(x0, y0, 0), (x1, y0, 0), (x1, y1, 0), (x0, y1, 0)]:
+        obj += f"v {x} {y} {z}\n"
+    for x, y, z in [(x0, y0, h), (x1, y0, h), (x1, y1, h), (x0, y1, h)]:
+        obj += f"v {x} {y} {z}\n"
+    faces = [(1, 2, 6), (1, 6, 5), (2, 3, 7), (2, 7, 6), (3, 4, 8)]
+    faces += [(3, 8, 7), (4, 1, 5), (4, 5, 8), (5, 6, 7), (5, 7, 8)]
+    for f in faces:
+        obj += "f %d %d %d\n" % tuple(i + n for i in f)
+    new.write_text(obj)
+    return old, new
+
+
+def _cli_bake(cli, scene, out, *extra, method="rand"):
+    cmd = [cli, "pvs", "bake", str(scene), *SINCE_GRID, "--method", method, "--rays", "5000"]
+    subprocess.run(cmd + ["-o", str(out), *extra], check=True, capture_output=True)
+    return sl.Pvs.load(str(out))
+
+
+def test_incremental_bake_equals_cli_since_bake(tmp_path, cli):
+    old_obj, new_obj = _edited_city(tmp_path, cli)
+    old_pvs = _cli_bake(cli, old_obj, tmp_path / "old.pvs")
+    since = ["--since", str(tmp_path / "old.pvs"), "--old-scene", str(old_obj)]
+    from_cli = _cli_bake(cli, new_obj, tmp_path / "new.pvs", *since)
+    old_scene, new_scene = sl.load(str(old_obj)), sl.load(str(new_obj))
+    cells = sl.grid(*SINCE_CELLS)
+    local = sl.bake(new_scene, cells, "rand", rays=5_000, since=old_pvs, old_scene=old_scene)
+    assert local == from_cli
+    assert all(np.array_equal(a, b) for a, b in zip(local.sets(), from_cli.sets()))
+    mine, theirs = local.metadata["incremental"], from_cli.metadata["incremental"]
+    for key in ["kept_cells", "rebaked_cells", "added_triangles", "removed_triangles"]:
+        assert mine[key] == theirs[key], key
+    assert mine["kept_cells"] > 0 and mine["rebaked_cells"] > 0
+    assert mine["kept_cells"] + mine["rebaked_cells"] == len(cells)
+    assert mine["since"] == str(tmp_path / "old.pvs") and mine["old_scene"] == str(old_obj)
+    assert local.metadata["fingerprint"] == from_cli.metadata["fingerprint"]
+    # Kept cells carry their statistics from the old bake, as in the CLI's file.
+    stats = lambda p: [(c["rays"], c["pvs_size"]) for c in p.metadata["cells"]]
+    assert stats(local) == stats(from_cli)
+
+
+def test_bad_incremental_bakes_are_value_errors(tmp_path, cli):
+    old_obj, new_obj = _edited_city(tmp_path, cli)
+    old_scene, new_scene = sl.load(str(old_obj)), sl.load(str(new_obj))
+    cells = sl.grid(*SINCE_CELLS)
+    old_pvs = _cli_bake(cli, old_obj, tmp_path / "old.pvs")
+    with pytest.raises(ValueError, match="since and old_scene go together"):
+        sl.bake(new_scene, cells, "rand", rays=5_000, since=old_pvs)
+    with pytest.raises(ValueError, match="since and old_scene go together"):
+        sl.bake(new_scene, cells, "rand", rays=5_000, old_scene=old_scene)
+    other = _cli_bake(cli, old_obj, tmp_path / "gvs.pvs", method="gvs")
+    with pytest.raises(ValueError, match="baked differently.*method"):
+        sl.bake(new_scene, cells, "rand", rays=5_000, since=other, old_scene=old_scene)
+    with pytest.raises(ValueError, match="old_scene"):
+        sl.bake(new_scene, cells, "rand", rays=5_000, since=old_pvs, old_scene=new_scene)
+    # A local bake records no fingerprint: nothing says how it was baked.
+    plain = sl.bake(old_scene, cells, "rand", rays=5_000)
+    with pytest.raises(ValueError, match="no bake fingerprint"):
+        sl.bake(new_scene, cells, "rand", rays=5_000, since=plain, old_scene=old_scene)
 
 
 # --- .pvs files ---------------------------------------------------------------------------

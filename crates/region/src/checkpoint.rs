@@ -17,7 +17,7 @@ use serde_json::json;
 use sightline_core::Scene;
 
 use crate::bake::{bake_cells, bake_metadata, BakeSetup, BakedCell};
-use crate::pvs_file::{save_encoded, EncodedPvsFile, ObjectTable, PvsError};
+use crate::pvs_file::{save_encoded, CellPvs, EncodedPvsFile, ObjectTable, PvsError, PvsFile};
 use crate::sampler::{Budget, CellResult, ConvergencePoint};
 use crate::viewcell::ViewCell;
 
@@ -410,20 +410,21 @@ impl ResumableBake<'_> {
         })
     }
 
-    /// Writes the finished bake to `output` atomically, then removes the checkpoint. The
-    /// file holds the cells of `indices` in order; `extra` is merged into its metadata, beside
-    /// `fingerprint` and, for a partial cell list (a shard), `cell_indices` and `total_cells`.
-    pub fn write_output(
-        &self,
-        output: &Path,
-        progress: &BakeProgress,
-        extra: serde_json::Value,
-    ) -> Result<(), BakeError> {
-        let cells: Vec<&BakedCell> = self
-            .indices
+    /// The finished cells of `indices`, in order.
+    fn output_cells<'p>(&self, progress: &'p BakeProgress) -> Vec<&'p BakedCell> {
+        self.indices
             .iter()
             .filter_map(|i| progress.done.get(i))
-            .collect();
+            .collect()
+    }
+
+    /// The metadata of the output holding `cells` (see [`ResumableBake::write_output`]).
+    fn output_metadata(
+        &self,
+        cells: &[&BakedCell],
+        progress: &BakeProgress,
+        extra: serde_json::Value,
+    ) -> serde_json::Value {
         let total_rays = cells.iter().map(|c| c.rays).sum();
         let seconds: f64 = cells.iter().map(|c| c.seconds).sum();
         let mut extra_all = json!({
@@ -437,7 +438,7 @@ impl ResumableBake<'_> {
         if let (Some(m), serde_json::Value::Object(e)) = (extra_all.as_object_mut(), extra) {
             m.extend(e);
         }
-        let metadata = bake_metadata(
+        bake_metadata(
             self.setup.scene,
             self.setup.sampler.name(),
             self.setup.seed,
@@ -446,7 +447,43 @@ impl ResumableBake<'_> {
             progress.seconds,
             cells.iter().map(|c| c.stats()).collect(),
             extra_all,
+        )
+    }
+
+    /// The finished bake as a file in memory: the cells, sets and metadata
+    /// [`ResumableBake::write_output`] writes (for front ends that return the file rather than
+    /// write it, e.g. the Python bindings).
+    pub fn to_pvs_file(
+        &self,
+        progress: &BakeProgress,
+        extra: serde_json::Value,
+    ) -> Result<PvsFile, BakeError> {
+        let cells = self.output_cells(progress);
+        let n = self.setup.scene.triangle_count();
+        let mut file = PvsFile::for_scene(
+            self.setup.scene,
+            self.output_metadata(&cells, progress, extra),
         );
+        for c in &cells {
+            file.cells.push(CellPvs {
+                cell: self.setup.cells[c.index],
+                visible: c.set.decode(n).map_err(PvsError::from)?,
+            });
+        }
+        Ok(file)
+    }
+
+    /// Writes the finished bake to `output` atomically, then removes the checkpoint. The
+    /// file holds the cells of `indices` in order; `extra` is merged into its metadata, beside
+    /// `fingerprint` and, for a partial cell list (a shard), `cell_indices` and `total_cells`.
+    pub fn write_output(
+        &self,
+        output: &Path,
+        progress: &BakeProgress,
+        extra: serde_json::Value,
+    ) -> Result<(), BakeError> {
+        let cells = self.output_cells(progress);
+        let metadata = self.output_metadata(&cells, progress, extra);
         save_encoded(
             output,
             self.setup.scene.geometry_hash(),

@@ -26,6 +26,10 @@ pub const SHARED_FINGERPRINT_KEYS: [&str; 7] = [
     "extra",
 ];
 
+/// Rays per cell and added box of the probe (rule (c) of [`crate::incremental`]) unless the
+/// caller says otherwise: the default of `pvs bake --probe-rays` and of Python's `bake`.
+pub const DEFAULT_PROBE_RAYS: usize = 16384;
+
 /// The old bake an incremental rebake starts from.
 #[derive(Clone, Copy)]
 pub struct OldBake<'a> {
@@ -93,6 +97,30 @@ pub struct IncrementalBake {
     pub added: usize,
     /// Boxes the added triangles are grouped into.
     pub boxes: usize,
+}
+
+impl IncrementalBake {
+    /// The `incremental` entry of the rebaked file's metadata: the old file (`since`: its
+    /// path, `null` when it has none) and scene as the caller named them, the triangles
+    /// removed and added, the boxes they form, and how many of the file's cells were kept and
+    /// rebaked.
+    pub fn metadata(
+        &self,
+        since: Option<&Path>,
+        old_scene: &str,
+        kept_cells: usize,
+        rebaked_cells: usize,
+    ) -> serde_json::Value {
+        serde_json::json!({
+            "since": since.map(|p| p.display().to_string()),
+            "old_scene": old_scene,
+            "removed_triangles": self.removed,
+            "added_triangles": self.added,
+            "added_boxes": self.boxes,
+            "kept_cells": kept_cells,
+            "rebaked_cells": rebaked_cells,
+        })
+    }
 }
 
 /// Checks that `old` may seed a bake of `new` with fingerprint `fingerprint` and `cell_count`
@@ -233,6 +261,22 @@ mod tests {
         assert_eq!((p.removed, p.added, p.boxes), (0, 0, 0));
         assert_eq!(p.kept.len(), 2);
         assert_eq!(p.old_scene_hash, old.geometry_hash());
+    }
+
+    #[test]
+    fn the_metadata_names_the_old_bake_and_the_counts() {
+        let (old, cells) = (boxes(2), cells(2));
+        let file = old_file(&old, &cells, json!({"fingerprint": fp(&old, &cells, 1)}));
+        let p = plan(&file, &old, &old, &fp(&old, &cells, 1), 2).unwrap();
+        let m = p.metadata(Some(Path::new("old.pvs")), "old.obj", 2, 0);
+        assert_eq!(m["since"], "old.pvs");
+        assert_eq!(m["old_scene"], "old.obj");
+        assert_eq!(
+            (m["kept_cells"].as_u64(), m["rebaked_cells"].as_u64()),
+            (Some(2), Some(0))
+        );
+        assert_eq!(m["added_boxes"], 0);
+        assert!(p.metadata(None, "x", 0, 2)["since"].is_null());
     }
 
     #[test]

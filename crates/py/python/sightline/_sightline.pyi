@@ -165,7 +165,26 @@ def bake(
     time_ms: Optional[int] = None,
     threads: Optional[int] = None,
     progress: _Progress = None,
-) -> Pvs: ...
+    *,
+    since: Optional[Pvs] = None,
+    old_scene: Optional[Scene] = None,
+    probe_rays: int = 16384,
+) -> Pvs:
+    """Bakes ``cells`` on this machine as ``sightline pvs bake`` does (same cells, sets and
+    per-cell statistics).
+
+    Incremental rebake (``pvs bake --since OLD.pvs --old-scene OLD --probe-rays N``): with
+    ``since`` (an earlier bake of the same cells, method, parameters, seed and budget, by the
+    CLI or the Ray driver) and ``old_scene`` (the scene it was baked for), the cells the edit
+    from ``old_scene`` to ``scene`` cannot change keep their sets from ``since`` and only the
+    others are baked; ``probe_rays`` as ``--probe-rays`` (its default; 0 skips the probe).
+    Pass both or neither. The result equals the CLI's, and ``metadata["incremental"]`` counts
+    the ``kept_cells`` and ``rebaked_cells``. A ``since`` that cannot serve (baked
+    differently, a shard, without a fingerprint, or for another scene than ``old_scene``)
+    raises ``ValueError`` with the reason.
+    """
+    ...
+
 def bake_q3(
     scene: Scene,
     cells: Literal["leaves", "clusters"] = "leaves",

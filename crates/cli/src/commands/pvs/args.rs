@@ -143,7 +143,7 @@ pub(crate) struct BakeArgs {
     /// through the added geometry's box; one that gets there unblocked rebakes the cell
     /// (catches geometry seen only against the sky, with no old triangle behind it). 0 skips
     /// the probe.
-    #[arg(long, default_value_t = 16384, value_name = "N")]
+    #[arg(long, default_value_t = sightline_region::rebake::DEFAULT_PROBE_RAYS, value_name = "N")]
     pub(crate) probe_rays: usize,
     /// Worker threads (default: all cores; at most 4 per core, more are capped with a
     /// warning). Results do not depend on it.

@@ -505,16 +505,12 @@ impl<'a> CellBake<'a> {
             }
         }
         if let Some(inc) = &self.incremental {
-            let r = &inc.plan;
-            extra["incremental"] = serde_json::json!({
-                "since": inc.since.display().to_string(),
-                "old_scene": inc.old_scene,
-                "removed_triangles": r.removed,
-                "added_triangles": r.added,
-                "added_boxes": r.boxes,
-                "kept_cells": self.kept_count,
-                "rebaked_cells": self.job.indices.len() - self.kept_count,
-            });
+            extra["incremental"] = inc.plan.metadata(
+                Some(inc.since),
+                inc.old_scene,
+                self.kept_count,
+                self.job.indices.len() - self.kept_count,
+            );
         }
         extra
     }
