@@ -392,8 +392,8 @@ fn bake_batch_py<'py>(
 /// finish first) and raises `KeyboardInterrupt`.
 ///
 /// Incremental rebake (`pvs bake --since OLD.pvs --old-scene OLD --probe-rays N`): with
-/// `since` (an earlier bake of the same cells, method, parameters, seed and budget, by the CLI
-/// or the Ray driver) and `old_scene` (the scene it was baked for), the cells the edit from
+/// `since` (an earlier bake of the same cells, method, parameters, seed and budget, by the CLI,
+/// the Ray driver or this function) and `old_scene` (the scene it was baked for), the cells the edit from
 /// `old_scene` to `scene` cannot change keep their sets from `since` and only the others are
 /// baked; `probe_rays` as `--probe-rays` (0 skips the probe). The result equals the CLI's and
 /// its `metadata["incremental"]` counts the kept and rebaked cells.
@@ -479,9 +479,34 @@ fn plain_cells_key() -> serde_json::Value {
 }
 
 impl BakeJob<'_> {
-    /// Every cell, with `sightline_region::bake::try_bake`.
+    /// Every cell, with `sightline_region::bake::try_bake`; the file records the CLI's
+    /// fingerprint of the bake, so it can be the `since` of a later incremental rebake.
     fn bake_all(&self, control: &Control) -> Result<PvsFile, Stopped> {
         let extra = serde_json::json!({ "parameters": self.parameters, "via": "python" });
+        let mut file = self.try_bake_all(extra, control)?;
+        let setup = BakeSetup {
+            scene: &self.data.scene,
+            caster: self.data.bvh(),
+            cells: &self.cells,
+            sampler: self.sampler,
+            free_space: &|_, _| true,
+            budget: self.budget,
+            seed: self.seed,
+        };
+        if let Some(m) = file.metadata.as_object_mut() {
+            m.insert(
+                "fingerprint".into(),
+                fingerprint(&setup, &self.parameters, plain_cells_key()),
+            );
+        }
+        Ok(file)
+    }
+
+    fn try_bake_all(
+        &self,
+        extra: serde_json::Value,
+        control: &Control,
+    ) -> Result<PvsFile, Stopped> {
         sightline_region::bake::try_bake(
             &self.data.scene,
             self.data.bvh(),

@@ -249,10 +249,18 @@ def test_bad_incremental_bakes_are_value_errors(tmp_path, cli):
         sl.bake(new_scene, cells, "rand", rays=5_000, since=other, old_scene=old_scene)
     with pytest.raises(ValueError, match="old_scene"):
         sl.bake(new_scene, cells, "rand", rays=5_000, since=old_pvs, old_scene=new_scene)
-    # A local bake records no fingerprint: nothing says how it was baked.
+    # A local bake records the CLI's fingerprint, so it seeds a rebake as the CLI's file does.
     plain = sl.bake(old_scene, cells, "rand", rays=5_000)
-    with pytest.raises(ValueError, match="no bake fingerprint"):
-        sl.bake(new_scene, cells, "rand", rays=5_000, since=plain, old_scene=old_scene)
+    assert plain.metadata["fingerprint"] == old_pvs.metadata["fingerprint"]
+    chained = sl.bake(new_scene, cells, "rand", rays=5_000, since=plain, old_scene=old_scene)
+    seeded = sl.bake(new_scene, cells, "rand", rays=5_000, since=old_pvs, old_scene=old_scene)
+    assert chained.metadata["incremental"]["kept_cells"] > 0
+    assert (
+        chained.metadata["incremental"]["kept_cells"]
+        == seeded.metadata["incremental"]["kept_cells"]
+    )
+    for a, b in zip(chained.sets(), seeded.sets()):
+        np.testing.assert_array_equal(a, b)
 
 
 # --- .pvs files ---------------------------------------------------------------------------

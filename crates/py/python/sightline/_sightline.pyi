@@ -175,7 +175,7 @@ def bake(
 
     Incremental rebake (``pvs bake --since OLD.pvs --old-scene OLD --probe-rays N``): with
     ``since`` (an earlier bake of the same cells, method, parameters, seed and budget, by the
-    CLI or the Ray driver) and ``old_scene`` (the scene it was baked for), the cells the edit
+    CLI, the Ray driver or this function) and ``old_scene`` (the scene it was baked for), the cells the edit
     from ``old_scene`` to ``scene`` cannot change keep their sets from ``since`` and only the
     others are baked; ``probe_rays`` as ``--probe-rays`` (its default; 0 skips the probe).
     Pass both or neither. The result equals the CLI's, and ``metadata["incremental"]`` counts
