@@ -16,8 +16,11 @@ import sightline as sl
 from conftest import CITY, REPO
 
 # A bake that takes many seconds (thousands of cells), for interrupting it.
+# The child restores Python's own Ctrl-C handler: started from a background job (a CI
+# runner's `cmd &`), it would inherit an ignored SIGINT, which a user's interpreter does not have.
 LONG_BAKE = f"""
-import sys, sightline as sl
+import signal, sys, sightline as sl
+signal.signal(signal.SIGINT, signal.default_int_handler)
 scene = sl.load({CITY!r})
 lo, hi = scene.bounds
 cells = sl.grid(lo, hi, (40, 40, 2))
