@@ -315,6 +315,8 @@ fn share_rays_bake_writes_a_file_and_rejects_other_methods() {
     };
     let o = sightline(&args("gvs++"), dir.path());
     assert!(o.status.success(), "{}", stderr(&o));
+    // 30,000 rays cover several rounds of 5,000: no warning about the paper's rounds.
+    assert!(!stderr(&o).contains("paper's rounds"), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["cells"], 4);
     assert!(v["mean_pvs_size"].as_f64().unwrap() > 10.0);
@@ -323,6 +325,18 @@ fn share_rays_bake_writes_a_file_and_rejects_other_methods() {
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["metadata"]["method"], "gvs++ shared");
     assert_eq!(v["cells"].as_array().unwrap().len(), 4);
+    // A budget below one round is spent on random rays first: the user is told.
+    let mut short = args("gvs++");
+    short[7] = "50000";
+    short[14] = "short.pvs";
+    let o = sightline(&short, dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o)
+            .contains("warning: --share-rays runs GVS++ in the paper's rounds of --n-rand 50000"),
+        "{}",
+        stderr(&o)
+    );
     let before = std::fs::read(dir.path().join("s.pvs")).unwrap();
     assert_fails_with(&sightline(&args("rand"), dir.path()), "gvs++ only");
     assert_eq!(std::fs::read(dir.path().join("s.pvs")).unwrap(), before);

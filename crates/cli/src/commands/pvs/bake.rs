@@ -650,6 +650,20 @@ pub(super) fn run_merge(args: MergeArgs) -> Result<()> {
 
 /// `pvs bake --share-rays`: all cells at once with ray sharing (GVS++ only); writes the file
 /// and prints the summary like the independent bake.
+/// The shared-ray bake runs GVS++ in the paper's rounds even under a budget (the per-cell
+/// bake's schedule by yield is not shared yet): a ray budget below one round, or a time budget,
+/// may go to random rays before border and reverse sampling run. The user should hear it.
+fn warn_shared_rounds_under_budget(args: &BakeArgs, n_rand: u64) {
+    let short = args.rays.is_some_and(|rays| rays < n_rand) || args.time.is_some();
+    if short {
+        eprintln!(
+            "warning: --share-rays runs GVS++ in the paper's rounds of --n-rand {n_rand} random \
+             rays; under this budget a cell may spend it on random rays before border and reverse \
+             sampling run (without --share-rays, a budgeted bake schedules its rays by yield)"
+        );
+    }
+}
+
 fn bake_with_shared_rays(args: &BakeArgs, inputs: &BakeInputs<'_>) -> Result<()> {
     use sightline_region::ray_sharing::{bake_shared, ShareParams};
     let (scene, cells, budget) = (inputs.scene, inputs.cells, &inputs.budget);
@@ -661,6 +675,7 @@ fn bake_with_shared_rays(args: &BakeArgs, inputs: &BakeInputs<'_>) -> Result<()>
             args.method
         );
     }
+    warn_shared_rounds_under_budget(args, inputs.params.gvspp.n_rand);
     // As measured by `bench share` (docs/BENCHMARKS.md): received triangles are explored too.
     let share = ShareParams {
         gvspp: inputs.params.gvspp.clone(),
