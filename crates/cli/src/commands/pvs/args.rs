@@ -93,10 +93,12 @@ pub(crate) struct BakeArgs {
     /// Sampling method.
     #[arg(long, default_value = "gvs++", value_parser = clap::builder::PossibleValuesParser::new(METHODS))]
     pub(crate) method: String,
-    /// Ray budget per cell (RASTER counts 6 R² per cube map). GVS++ keeps it to within one
+    /// Ray budget per cell (RASTER counts 6 R² per cube map). Under --rays or --time, GVS++
+    /// casts batches of 16,384 rays, each of the kind (random, border or reverse sampling)
+    /// that lately found the most new triangles per ray, and keeps the budget to within one
     /// exploration step (about 340 rays at the defaults). Without --rays and --time, GVS++
-    /// and GVS run until their own termination rule, RAND casts 10M rays, RASTER renders 64
-    /// cube maps.
+    /// and GVS run the paper's rounds until their own termination rule, RAND casts 10M rays,
+    /// RASTER renders 64 cube maps.
     #[arg(long)]
     pub(crate) rays: Option<u64>,
     /// Time budget per cell in milliseconds (wall clock: cells bake in parallel and share the
