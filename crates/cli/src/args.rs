@@ -342,3 +342,31 @@ mod tests {
         assert!(parse_size("640").unwrap_err().contains("WxH"));
     }
 }
+
+/// A comma-separated list of budgets (rays or milliseconds), or `none` (empty).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct BudgetList(pub Vec<u64>);
+
+/// Parses a `--...-budgets` list of ray counts (`none` or nothing: empty).
+pub(crate) fn parse_ray_budgets(s: &str) -> Result<BudgetList, String> {
+    parse_budget_list(s, "a ray count")
+}
+
+/// Parses a `--time-budgets` list of milliseconds (`none` or nothing: empty).
+pub(crate) fn parse_ms_budgets(s: &str) -> Result<BudgetList, String> {
+    parse_budget_list(s, "a number of milliseconds")
+}
+
+fn parse_budget_list(s: &str, what: &str) -> Result<BudgetList, String> {
+    if s.trim() == "none" || s.trim().is_empty() {
+        return Ok(BudgetList::default());
+    }
+    s.split(',')
+        .map(|t| {
+            t.trim()
+                .parse::<u64>()
+                .map_err(|_| format!("`{}` is not {what} (a whole number, or `none`)", t.trim()))
+        })
+        .collect::<Result<_, _>>()
+        .map(BudgetList)
+}

@@ -478,26 +478,37 @@ fn plain_cells_key() -> serde_json::Value {
     serde_json::json!({ "clusters": null })
 }
 
+/// Every point of a plain cell may be a ray origin.
+fn anywhere(_: usize, _: Vec3) -> bool {
+    true
+}
+
 impl BakeJob<'_> {
+    /// The bake driver's view of this job (plain cells: origins anywhere in them).
+    fn setup(&self) -> BakeSetup<'_> {
+        BakeSetup {
+            scene: &self.data.scene,
+            caster: self.data.bvh(),
+            cells: &self.cells,
+            sampler: self.sampler,
+            free_space: &anywhere,
+            budget: self.budget,
+            seed: self.seed,
+        }
+    }
+
+    /// The CLI's fingerprint of this bake (what an incremental rebake compares).
+    fn fingerprint(&self) -> serde_json::Value {
+        fingerprint(&self.setup(), &self.parameters, plain_cells_key())
+    }
+
     /// Every cell, with `sightline_region::bake::try_bake`; the file records the CLI's
     /// fingerprint of the bake, so it can be the `since` of a later incremental rebake.
     fn bake_all(&self, control: &Control) -> Result<PvsFile, Stopped> {
         let extra = serde_json::json!({ "parameters": self.parameters, "via": "python" });
         let mut file = self.try_bake_all(extra, control)?;
-        let setup = BakeSetup {
-            scene: &self.data.scene,
-            caster: self.data.bvh(),
-            cells: &self.cells,
-            sampler: self.sampler,
-            free_space: &|_, _| true,
-            budget: self.budget,
-            seed: self.seed,
-        };
         if let Some(m) = file.metadata.as_object_mut() {
-            m.insert(
-                "fingerprint".into(),
-                fingerprint(&setup, &self.parameters, plain_cells_key()),
-            );
+            m.insert("fingerprint".into(), self.fingerprint());
         }
         Ok(file)
     }
@@ -517,16 +528,7 @@ impl BakeJob<'_> {
             self.seed,
             extra,
             &|cell, p| control.batch(cell, p.rays),
-            &mut |cell, result| {
-                control.cell_done(cell, result.rays);
-                // Checked as cells finish: a stop request ends the bake there (the cells
-                // under way on other threads finish and are dropped).
-                if control.stopped() {
-                    Err(Stopped)
-                } else {
-                    Ok(())
-                }
-            },
+            &mut |cell, result| control.finish_cell(cell, result.rays),
         )
     }
 
@@ -538,16 +540,8 @@ impl BakeJob<'_> {
         since: &Since<'_>,
         control: &Control,
     ) -> Result<Result<PvsFile, String>, Stopped> {
-        let setup = BakeSetup {
-            scene: &self.data.scene,
-            caster: self.data.bvh(),
-            cells: &self.cells,
-            sampler: self.sampler,
-            free_space: &|_, _| true,
-            budget: self.budget,
-            seed: self.seed,
-        };
-        let fp = fingerprint(&setup, &self.parameters, plain_cells_key());
+        let setup = self.setup();
+        let fp = self.fingerprint();
         let path = since.pvs.path.as_deref();
         let old = OldBake {
             path: path.unwrap_or(Path::new("since")),
@@ -578,13 +572,9 @@ impl BakeJob<'_> {
             None,
             &|cell, p| control.batch(cell, p.rays),
             &mut |cell, result| {
-                control.cell_done(cell.index, result.rays);
-                done.insert(cell.index, cell);
-                if control.stopped() {
-                    Err(Stopped)
-                } else {
-                    Ok(())
-                }
+                let index = cell.index;
+                done.insert(index, cell);
+                control.finish_cell(index, result.rays)
             },
         )?;
         let extra = serde_json::json!({
@@ -703,14 +693,7 @@ pub(crate) fn bake_q3<'py>(
                 seed,
                 extra,
                 &|cell, p| control.batch(cell, p.rays),
-                &mut |cell, result| {
-                    control.cell_done(cell, result.rays);
-                    if control.stopped() {
-                        Err(Stopped)
-                    } else {
-                        Ok(())
-                    }
-                },
+                &mut |cell, result| control.finish_cell(cell, result.rays),
             )
         })
     })?;

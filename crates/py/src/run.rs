@@ -66,6 +66,18 @@ impl Control {
         self.cells_done.fetch_add(1, Ordering::Relaxed);
     }
 
+    /// [`Control::cell_done`], then `Err(Stopped)` when a stop was requested: the bake
+    /// drivers' per-cell callback. Checked as cells finish, so a stop request ends the bake
+    /// there (the cells under way on other threads finish and are dropped).
+    pub fn finish_cell(&self, cell: usize, rays: u64) -> Result<(), Stopped> {
+        self.cell_done(cell, rays);
+        if self.stopped() {
+            Err(Stopped)
+        } else {
+            Ok(())
+        }
+    }
+
     /// Cells finished and rays cast so far (finished cells and those under way).
     fn snapshot(&self) -> (usize, u64) {
         let running: u64 = self

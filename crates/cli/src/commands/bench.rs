@@ -11,7 +11,7 @@ use sightline_core::trace::{Bvh, RayCaster};
 use sightline_core::{Camera, Scene};
 use sightline_eval::bench::{self as eval_bench, Progress, TraceBackend};
 
-use crate::args::default_eye;
+use crate::args::{default_eye, parse_ms_budgets, parse_ray_budgets, BudgetList};
 use crate::output::print_json;
 
 mod plot;
@@ -130,24 +130,6 @@ struct ShareArgs {
     json: bool,
 }
 
-/// A comma-separated list of budgets, or `none`.
-#[derive(Clone, Debug, Default)]
-struct BudgetList(Vec<u64>);
-
-fn parse_budget_list(s: &str) -> Result<BudgetList, String> {
-    if s.trim() == "none" || s.trim().is_empty() {
-        return Ok(BudgetList::default());
-    }
-    s.split(',')
-        .map(|v| {
-            v.trim()
-                .parse::<u64>()
-                .map_err(|_| format!("'{v}' is not a whole number (or give 'none')"))
-        })
-        .collect::<Result<_, _>>()
-        .map(BudgetList)
-}
-
 /// Arguments of `sightline bench pvs`.
 #[derive(clap::Args, Debug)]
 struct PvsArgs {
@@ -182,14 +164,14 @@ struct PvsArgs {
         long,
         value_name = "MS,..|none",
         default_value = "250,1000",
-        value_parser = parse_budget_list
+        value_parser = parse_ms_budgets
     )]
     time_budgets: BudgetList,
     /// Small ray budgets (comma-separated) at which GVS++ and RAND are also compared at equal
     /// rays: the equal-time comparison without the machine's load in it (both cast rays at the
     /// same rate, about 5 M rays per second on two cores, so 1 M rays is about 250 ms there).
     /// Empty (the default): none.
-    #[arg(long, value_name = "RAYS,..", default_value = "none", value_parser = parse_budget_list)]
+    #[arg(long, value_name = "RAYS,..", default_value = "none", value_parser = parse_ray_budgets)]
     ray_budgets: BudgetList,
     /// Only the equal-time rows of `--time-budgets` (GVS++ and RAND at each budget): skips the
     /// converged GVS++ bake and the baselines at its ray count, which take minutes per cell on

@@ -12,7 +12,7 @@ use sightline_core::atomic_file::write_atomic;
 use sightline_core::scene::LoadOptions;
 use sightline_eval::EvalParams;
 
-use crate::args::SceneArgs;
+use crate::args::{parse_ray_budgets, BudgetList, SceneArgs};
 use crate::commands::eval::{load_pvs_of, view_mode};
 use crate::output::print_json;
 use sightline_eval::report::budgets::{bake_budget_sets, ratio_text};
@@ -55,32 +55,14 @@ pub(crate) struct Args {
     /// `--budget-cells` of the file's cells, judged on the same views, with the time each bake
     /// took: the GVS++ paper's equal-time comparison, showing whether GVS++ beats random rays on
     /// this scene at small budgets. `none` leaves the section out.
-    #[arg(long, value_name = "RAYS,..|none", default_value = "250000,1000000", value_parser = parse_budgets)]
-    budgets: Budgets,
+    #[arg(long, value_name = "RAYS,..|none", default_value = "250000,1000000", value_parser = parse_ray_budgets)]
+    budgets: BudgetList,
     /// Cells of the equal-budget comparison (spread evenly over the file's cells).
     #[arg(long, value_name = "N", default_value_t = 4)]
     budget_cells: usize,
     /// Print a JSON summary instead of text.
     #[arg(long)]
     json: bool,
-}
-
-/// The ray budgets of `--budgets`; empty for `none`.
-#[derive(Clone, Debug)]
-struct Budgets(Vec<u64>);
-
-fn parse_budgets(s: &str) -> std::result::Result<Budgets, String> {
-    if s.trim() == "none" {
-        return Ok(Budgets(Vec::new()));
-    }
-    s.split(',')
-        .map(|t| {
-            t.trim()
-                .parse::<u64>()
-                .map_err(|_| format!("`{t}` is not a ray count (a whole number, or `none`)"))
-        })
-        .collect::<std::result::Result<Vec<u64>, String>>()
-        .map(Budgets)
 }
 
 #[derive(Serialize)]

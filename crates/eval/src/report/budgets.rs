@@ -184,8 +184,13 @@ pub struct BudgetSummary {
 }
 
 impl BudgetSummary {
-    /// Means over the compared cells of `bakes`, whose sets are `outcomes[cell].extra[offset..]`.
-    pub fn new(bakes: &BudgetBakes, outcomes: &[CellOutcome], offset: usize) -> Self {
+    /// Means over the compared cells of `bakes`, whose sets are
+    /// `outcomes[cell].extra[offset(cell)..]` (after the extra sets the caller had for it).
+    pub fn new(
+        bakes: &BudgetBakes,
+        outcomes: &[CellOutcome],
+        offset: &dyn Fn(usize) -> usize,
+    ) -> Self {
         let k = bakes.cells.len().max(1) as f64;
         let mut points: Vec<BudgetPoint> = bakes
             .options
@@ -208,7 +213,7 @@ impl BudgetSummary {
                 p.seconds += run.seconds;
                 p.avg_error_pixels += outcomes
                     .get(*cell)
-                    .and_then(|o| o.extra.get(offset + k_set))
+                    .and_then(|o| o.extra.get(offset(*cell) + k_set))
                     .map_or(0.0, |e| e.avg_error_pixels);
             }
         }

@@ -133,7 +133,7 @@ pub(crate) fn evaluate_cells(
     scene: &Scene,
     file: &PvsFile,
     params: &EvalParams,
-    extra: &[Vec<TriangleSet>],
+    extra: &[Vec<&TriangleSet>],
     progress: &dyn Fn(usize, usize, usize),
 ) -> Result<Vec<CellOutcome>, ReportError> {
     let viewpoints = Viewpoints::of(scene, file, None)?;
@@ -145,7 +145,7 @@ pub(crate) fn evaluate_cells(
             let start = Instant::now();
             let filter = viewpoints.cell(i);
             let mut sets: Vec<&TriangleSet> = vec![&cell.visible];
-            sets.extend(extra.get(i).into_iter().flatten());
+            sets.extend(extra.get(i).into_iter().flatten().copied());
             let mut evals = evaluate_cell_in(
                 scene,
                 &cell.cell,

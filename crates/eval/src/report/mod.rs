@@ -64,24 +64,18 @@ pub fn pvs_report(
     budgets: Option<&BudgetBakes>,
     progress: &dyn Fn(usize, usize, usize),
 ) -> Result<PvsReport, ReportError> {
-    // Every cell's extra sets: the caller's, then the comparison's (same offset in every cell).
-    let offset = extra.iter().map(Vec::len).max().unwrap_or(0);
-    let mut all: Vec<Vec<TriangleSet>> = (0..file.cells.len())
-        .map(|i| {
-            let mut sets = extra.get(i).cloned().unwrap_or_default();
-            if budgets.is_some() {
-                sets.resize_with(offset, TriangleSet::default);
-            }
-            sets
-        })
+    // Every cell's extra sets, borrowed: the caller's, then the comparison's.
+    let callers = |i: usize| extra.get(i).map_or(&[][..], Vec::as_slice);
+    let mut all: Vec<Vec<&TriangleSet>> = (0..file.cells.len())
+        .map(|i| callers(i).iter().collect())
         .collect();
     if let Some(b) = budgets {
         for (cell, runs) in &b.cells {
-            all[*cell].extend(runs.iter().map(|(_, set)| set.clone()));
+            all[*cell].extend(runs.iter().map(|(_, set)| set));
         }
     }
     let outcomes = evaluate::evaluate_cells(scene, file, &options.params, &all, progress)?;
-    let summary = budgets.map(|b| BudgetSummary::new(b, &outcomes, offset));
+    let summary = budgets.map(|b| BudgetSummary::new(b, &outcomes, &|i| callers(i).len()));
     let worst = evaluate::worst_views(
         scene,
         file,

@@ -3,6 +3,7 @@
 //! against RAND at equal budgets, `bench pvs --plot`).
 
 use super::error::ReportError;
+use plotters::coord::ranged1d::ValueFormatter;
 use plotters::prelude::*;
 
 /// One line of a plot.
@@ -53,36 +54,14 @@ pub fn line_plot(
                 .x_label_area_size(36)
                 .y_label_area_size(64)
                 .build_cartesian_2d(0.0..xmax * 1.02, 0.0..ymax * 1.05)?;
-            chart
-                .configure_mesh()
-                .x_desc(x_desc)
-                .y_desc(y_desc)
-                .x_label_formatter(&|v| short_number(*v))
-                .y_label_formatter(&|v| short_number(*v))
-                .draw()?;
-            for (i, s) in series.iter().enumerate() {
-                let colour = Palette99::pick(i).to_rgba();
-                chart
-                    .draw_series(LineSeries::new(
-                        s.points
-                            .iter()
-                            .copied()
-                            .filter(|p| p.0.is_finite() && p.1.is_finite()),
-                        colour.stroke_width(2),
-                    ))?
-                    .label(s.label.clone())
-                    .legend(move |(x, y)| {
-                        PathElement::new([(x, y), (x + 16, y)], colour.stroke_width(2))
-                    });
-            }
-            if legend && series.len() <= 12 && !series.is_empty() {
-                chart
-                    .configure_series_labels()
-                    .position(SeriesLabelPosition::LowerRight)
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(BLACK)
-                    .draw()?;
-            }
+            draw_series(
+                &mut chart,
+                series,
+                (x_desc, y_desc),
+                &|p| p.0.is_finite() && p.1.is_finite(),
+                false,
+                (legend && series.len() <= 12).then_some(SeriesLabelPosition::LowerRight),
+            )?;
             root.present()?;
             Ok(())
         };
@@ -127,43 +106,64 @@ pub fn log_log_plot(
                     (x0 * 0.8..x1 * 1.25).log_scale(),
                     (y0 * 0.5..y1 * 2.0).log_scale(),
                 )?;
-            chart
-                .configure_mesh()
-                .x_desc(x_desc)
-                .y_desc(y_desc)
-                .x_label_formatter(&|v| short_number(*v))
-                .y_label_formatter(&|v| short_number(*v))
-                .draw()?;
-            for (i, s) in series.iter().enumerate() {
-                let colour = Palette99::pick(i).to_rgba();
-                let pts: Vec<(f64, f64)> = s
-                    .points
-                    .iter()
-                    .copied()
-                    .filter(|p| p.0.is_finite() && p.1.is_finite() && p.0 > 0.0 && p.1 > 0.0)
-                    .collect();
-                chart
-                    .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))?
-                    .label(s.label.clone())
-                    .legend(move |(x, y)| {
-                        PathElement::new([(x, y), (x + 16, y)], colour.stroke_width(2))
-                    });
-                chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 3, colour.filled())))?;
-            }
-            if !series.is_empty() {
-                chart
-                    .configure_series_labels()
-                    .position(SeriesLabelPosition::UpperRight)
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(BLACK)
-                    .draw()?;
-            }
+            draw_series(
+                &mut chart,
+                series,
+                (x_desc, y_desc),
+                &|p| p.0.is_finite() && p.1.is_finite() && p.0 > 0.0 && p.1 > 0.0,
+                true,
+                Some(SeriesLabelPosition::UpperRight),
+            )?;
             root.present()?;
             Ok(())
         };
         draw().map_err(|e| ReportError::Plot(e.to_string()))?;
     }
     Ok(svg)
+}
+
+/// Draws the mesh with its axis descriptions, `series` as lines of points for which `keep`
+/// holds (with a marker at each point when `markers`), and the legend at `legend` when there
+/// is one and any series: what the linear and the log-log plot share.
+fn draw_series<'a, 'b: 'a, X, Y>(
+    chart: &mut ChartContext<'a, SVGBackend<'b>, Cartesian2d<X, Y>>,
+    series: &[Series],
+    (x_desc, y_desc): (&str, &str),
+    keep: &dyn Fn(&(f64, f64)) -> bool,
+    markers: bool,
+    legend: Option<SeriesLabelPosition>,
+) -> std::result::Result<(), Box<dyn std::error::Error>>
+where
+    X: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .x_label_formatter(&|v| short_number(*v))
+        .y_label_formatter(&|v| short_number(*v))
+        .draw()?;
+    for (i, s) in series.iter().enumerate() {
+        let colour = Palette99::pick(i).to_rgba();
+        let pts: Vec<(f64, f64)> = s.points.iter().copied().filter(|p| keep(p)).collect();
+        chart
+            .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))?
+            .label(s.label.clone())
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], colour.stroke_width(2)));
+        if markers {
+            chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 3, colour.filled())))?;
+        }
+    }
+    if let (Some(position), false) = (legend, series.is_empty()) {
+        chart
+            .configure_series_labels()
+            .position(position)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()?;
+    }
+    Ok(())
 }
 
 /// `1234567` as `1.2M`, `25000` as `25k`, small numbers as they are.
