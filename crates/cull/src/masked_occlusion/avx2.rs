@@ -2,11 +2,15 @@
 //! through the view transform, culling and clipping choice, projection and setup
 //! ([`transform_batch`], [`setup8`]); then each triangle drawn a block of 4x2 tiles at a time,
 //! the spans of a block row's 8 scanlines in one register and the masks, depths and merges of
-//! a block's 8 tiles in one register each ([`raster_blocks`]), without branches per tile.
+//! a block's 8 tiles in one register each ([`raster_blocks`]), without branches per tile. A
+//! scanline's coverage of a block is two shifts of all ones, and one byte shuffle turns the
+//! block's 8 scanlines into its 8 tile masks ([`block_masks`]); a block whose tiles all lie
+//! behind the triangle's upper depth bound is skipped before its masks are computed (the early
+//! out that makes the kernel's cost grow slowly with overdraw).
 //!
 //! Based on: Hasselgren, Andersson, Akenine-Möller. Masked Software Occlusion Culling. 2016,
 //! section 4 (the AVX2 form: triangle setup in SIMD lanes, the tiles of a block in the lanes
-//! of a register); Andersson, Hasselgren, Akenine-Möller. Masked Depth Culling for Graphics
+//! of a register, coverage by shifts and a byte transpose, the coarse depth cull of tiles); Andersson, Hasselgren, Akenine-Möller. Masked Depth Culling for Graphics
 //! Hardware. 2015, section 3 (the tile merge, here with selects for 8 tiles at once in
 //! [`merge_block`]).
 //!
@@ -538,22 +542,21 @@ fn raster_blocks(blocks: &mut [Block], g: &BlockGrid, t: &Setup8, l: usize) {
         if lo_all > hi_all {
             continue;
         }
-        // Lane `4 j + i` (tile row j of the block) takes scanline `4 j + k` for row k.
-        let pick = |k: i32| _mm256_setr_epi32(k, k, k, k, 4 + k, 4 + k, 4 + k, 4 + k);
-        let span_a = [0, 1, 2, 3].map(|k| _mm256_permutevar8x32_epi32(a, pick(k)));
-        let span_b = [0, 1, 2, 3].map(|k| _mm256_permutevar8x32_epi32(b, pick(k)));
         let tyv = _mm256_add_epi32(_mm256_set1_epi32((2 * by) as i32), lane_ty);
-        // The plane's minimum over each tile row's scanlines, as the per-tile path.
-        let r_rows = {
+        // The plane's minimum over each tile row's scanlines, as the per-tile path, and its
+        // maximum (for the early out below).
+        let (r_rows, r_rows_max) = {
             let ya = _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_slli_epi32::<2>(tyv)), half);
             let yb = _mm256_add_ps(ya, _mm256_set1_ps((TILE_H - 1) as f32));
             let (rb, y0) = (_mm256_set1_ps(t.rb[l]), _mm256_set1_ps(t.y0[l]));
-            _mm256_add_ps(
-                _mm256_set1_ps(t.r0[l]),
-                min_like_f32(
-                    _mm256_mul_ps(rb, _mm256_sub_ps(ya, y0)),
-                    _mm256_mul_ps(rb, _mm256_sub_ps(yb, y0)),
-                ),
+            let (da, db) = (
+                _mm256_mul_ps(rb, _mm256_sub_ps(ya, y0)),
+                _mm256_mul_ps(rb, _mm256_sub_ps(yb, y0)),
+            );
+            let r0 = _mm256_set1_ps(t.r0[l]);
+            (
+                _mm256_add_ps(r0, min_like_f32(da, db)),
+                _mm256_add_ps(r0, _mm256_max_ps(da, db)),
             )
         };
         let outside_y = _mm256_and_si256(
@@ -561,28 +564,58 @@ fn raster_blocks(blocks: &mut [Block], g: &BlockGrid, t: &Setup8, l: usize) {
             _mm256_set1_epi32(g.outside_y as i32),
         );
         let block_row = (by * g.blocks_x) as usize;
-        for bx in lo_all as u32 / 32..=hi_all as u32 / 32 {
+        let (bx0, bx1) = (lo_all as u32 / 32, hi_all as u32 / 32);
+        // Span ends relative to the block's first column (`b` exclusive), one scanline per
+        // lane; stepped by a block width per block.
+        let block0 = _mm256_set1_epi32((32 * bx0) as i32);
+        let mut rel_a = _mm256_sub_epi32(a, block0);
+        let mut rel_b = _mm256_sub_epi32(_mm256_add_epi32(b, _mm256_set1_epi32(1)), block0);
+        for bx in bx0..=bx1 {
+            let block = &mut blocks[block_row + bx as usize];
             let txv = _mm256_add_epi32(_mm256_set1_epi32((4 * bx) as i32), lane_tx);
-            let base = _mm256_slli_epi32::<3>(txv);
-            let (mask, cmin, cmax) = block_masks(&span_a, &span_b, base);
-            let untouched = _mm256_cmpeq_epi32(mask, zero);
-            let outside_x = _mm256_and_si256(
-                _mm256_cmpeq_epi32(txv, _mm256_set1_epi32(g.last_tx as i32)),
-                _mm256_set1_epi32(g.outside_x as i32),
-            );
-            let cov = _mm256_or_si256(
-                mask,
-                _mm256_andnot_si256(untouched, _mm256_or_si256(outside_x, outside_y)),
-            );
-            let r = if plane_ok {
-                let xa = _mm256_sub_ps(_mm256_add_ps(_mm256_cvtepi32_ps(cmin), half), x0);
-                let xb = _mm256_sub_ps(_mm256_add_ps(_mm256_cvtepi32_ps(cmax), half), x0);
-                let m = min_like_f32(_mm256_mul_ps(ra, xa), _mm256_mul_ps(ra, xb));
-                max_like_f32(_mm256_add_ps(r_rows, m), r_far)
+            let base = _mm256_cvtepi32_ps(_mm256_slli_epi32::<3>(txv));
+            // Early out (as Hasselgren et al. 2016, section 4, cull occluder tiles that lie
+            // behind the reference layer): an upper bound of the depth the merge below would
+            // compute for each tile, from the tile's first and last column instead of the
+            // covered ones (f32 rounding is monotonic, so it bounds them exactly). When no tile
+            // of the block would pass the merge's `r > z0`, the block is left as it is, which
+            // is what the merge would do.
+            // SAFETY: an aligned load of the 32-byte `z0` array of a `#[repr(align(32))]` block.
+            let z0 = unsafe { _mm256_load_ps(block.z0.as_ptr()) };
+            let behind_far = _mm256_cmp_ps::<_CMP_LE_OQ>(r_far, z0);
+            let behind = if plane_ok {
+                let xa = _mm256_sub_ps(_mm256_add_ps(base, half), x0);
+                let xb = _mm256_sub_ps(_mm256_add_ps(base, _mm256_set1_ps(7.5)), x0);
+                let m = _mm256_max_ps(_mm256_mul_ps(ra, xa), _mm256_mul_ps(ra, xb));
+                let bound = _mm256_add_ps(r_rows_max, m);
+                _mm256_and_ps(behind_far, _mm256_cmp_ps::<_CMP_LE_OQ>(bound, z0))
             } else {
-                r_far
+                behind_far
             };
-            merge_block(&mut blocks[block_row + bx as usize], cov, r, all);
+            let skip = _mm256_movemask_ps(behind) == 0xFF;
+            if !skip {
+                let (mask, cmin, cmax) = block_masks(rel_a, rel_b, base);
+                let untouched = _mm256_cmpeq_epi32(mask, zero);
+                let outside_x = _mm256_and_si256(
+                    _mm256_cmpeq_epi32(txv, _mm256_set1_epi32(g.last_tx as i32)),
+                    _mm256_set1_epi32(g.outside_x as i32),
+                );
+                let cov = _mm256_or_si256(
+                    mask,
+                    _mm256_andnot_si256(untouched, _mm256_or_si256(outside_x, outside_y)),
+                );
+                let r = if plane_ok {
+                    let xa = _mm256_sub_ps(_mm256_add_ps(cmin, half), x0);
+                    let xb = _mm256_sub_ps(_mm256_add_ps(cmax, half), x0);
+                    let m = min_like_f32(_mm256_mul_ps(ra, xa), _mm256_mul_ps(ra, xb));
+                    max_like_f32(_mm256_add_ps(r_rows, m), r_far)
+                } else {
+                    r_far
+                };
+                merge_block(block, z0, cov, r, all);
+            }
+            rel_a = _mm256_sub_epi32(rel_a, _mm256_set1_epi32(32));
+            rel_b = _mm256_sub_epi32(rel_b, _mm256_set1_epi32(32));
         }
     }
 }
@@ -604,55 +637,55 @@ fn edges8(t: &Setup8, l: usize) -> [Edge8; 3] {
     [edge(0), edge(1), edge(2)]
 }
 
-/// The coverage masks of the 8 tiles of a block (one per lane, tile columns starting at
-/// `base`) from the spans of their 4 scanlines, with the lowest and highest covered column of
-/// each (meaningless for a tile with nothing covered: its zero mask leaves it unchanged).
+/// The coverage masks of the 8 tiles of a block (one per lane) from the spans of the block
+/// row's 8 scanlines (one per lane, columns `rel_a..rel_b` relative to the block, `rel_b`
+/// exclusive; empty when `rel_a >= rel_b`), with the lowest and highest covered column of each
+/// tile as `f32` (meaningless for a tile with nothing covered: its zero mask leaves it
+/// unchanged); `base` is each tile's first column.
+///
+/// Hasselgren et al. 2016, section 4: a scanline's 32 pixels of coverage are two shifts of all
+/// ones; a byte transpose then turns 8 scanlines of 4 tiles' bytes into 8 tile masks.
 #[inline]
 #[target_feature(enable = "avx2")]
-fn block_masks(
-    span_a: &[__m256i; 4],
-    span_b: &[__m256i; 4],
-    base: __m256i,
-) -> (__m256i, __m256i, __m256i) {
+fn block_masks(rel_a: __m256i, rel_b: __m256i, base: __m256) -> (__m256i, __m256, __m256) {
     let zero = _mm256_setzero_si256();
-    let base7 = _mm256_add_epi32(base, _mm256_set1_epi32(7));
-    let mut mask = zero;
-    let mut cmin = _mm256_set1_epi32(i32::MAX);
-    let mut cmax = _mm256_set1_epi32(i32::MIN);
-    macro_rules! row {
-        ($k:literal) => {{
-            // The span clipped to the tile's columns; empty when it ends first.
-            let lo = _mm256_max_epi32(span_a[$k], base);
-            let hi = _mm256_min_epi32(span_b[$k], base7);
-            let empty = _mm256_cmpgt_epi32(lo, hi);
-            // Bits lo..=hi: (2 << hi) - (1 << lo), relative to the tile; shift counts
-            // outside 0..32 (empty rows only) give 0, and empty rows are masked off.
-            let bits = _mm256_sub_epi32(
-                _mm256_sllv_epi32(_mm256_set1_epi32(2), _mm256_sub_epi32(hi, base)),
-                _mm256_sllv_epi32(_mm256_set1_epi32(1), _mm256_sub_epi32(lo, base)),
-            );
-            let bits = _mm256_andnot_si256(empty, bits);
-            mask = _mm256_or_si256(mask, _mm256_slli_epi32::<{ 8 * $k }>(bits));
-            cmin = _mm256_min_epi32(cmin, _mm256_or_si256(lo, _mm256_srli_epi32::<1>(empty)));
-            cmax = _mm256_max_epi32(cmax, _mm256_andnot_si256(empty, hi));
-        }};
-    }
-    row!(0);
-    row!(1);
-    row!(2);
-    row!(3);
+    let ones = _mm256_set1_epi32(-1);
+    // `sllv` gives 0 for counts of 32 and more: spans past the block cover nothing, spans
+    // before it (negative counts, clamped to 0) everything.
+    let from_a = _mm256_sllv_epi32(ones, _mm256_max_epi32(rel_a, zero));
+    let from_b = _mm256_sllv_epi32(ones, _mm256_max_epi32(rel_b, zero));
+    let rows = _mm256_andnot_si256(from_b, from_a);
+    // Lane `j` holds scanline `j`, byte `i` its pixels of tile column `i`; tile `(i, j / 4)`
+    // wants byte `i` of scanlines `4 (j / 4) + k` as its byte `k`: a 4x4 byte transpose in each
+    // 128-bit half (tile row 0 in the low half, row 1 in the high half).
+    let transpose = _mm256_setr_epi8(
+        0, 4, 8, 12, 1, 5, 9, 13, 2, 6, 10, 14, 3, 7, 11, 15, //
+        0, 4, 8, 12, 1, 5, 9, 13, 2, 6, 10, 14, 3, 7, 11, 15,
+    );
+    let mask = _mm256_shuffle_epi8(rows, transpose);
+    // The covered columns of each tile, a bit each, and the lowest and highest of them from
+    // the exponent of their value as f32 (exact below 2^24).
+    let cols = _mm256_or_si256(mask, _mm256_srli_epi32::<16>(mask));
+    let cols = _mm256_or_si256(cols, _mm256_srli_epi32::<8>(cols));
+    let cols = _mm256_and_si256(cols, _mm256_set1_epi32(0xFF));
+    let lowest = _mm256_and_si256(cols, _mm256_sub_epi32(zero, cols));
+    let log2 = |v: __m256i| {
+        let e = _mm256_srli_epi32::<23>(_mm256_castps_si256(_mm256_cvtepi32_ps(v)));
+        _mm256_cvtepi32_ps(_mm256_sub_epi32(e, _mm256_set1_epi32(127)))
+    };
+    let cmin = _mm256_add_ps(base, log2(lowest));
+    let cmax = _mm256_add_ps(base, log2(cols));
     (mask, cmin, cmax)
 }
 
 /// `update_tile` for the 8 tiles of a block at once, with selects; lanes with a zero `cov`
-/// are left unchanged.
+/// are left unchanged. `z0` is the block's reference layer, already loaded.
 #[inline]
 #[target_feature(enable = "avx2")]
-fn merge_block(block: &mut Block, cov: __m256i, r: __m256, all: __m256i) {
-    // SAFETY: aligned loads of the three 32-byte arrays of a `#[repr(align(32))]` block.
-    let (z0, z1, m) = unsafe {
+fn merge_block(block: &mut Block, z0: __m256, cov: __m256i, r: __m256, all: __m256i) {
+    // SAFETY: aligned loads of two 32-byte arrays of a `#[repr(align(32))]` block.
+    let (z1, m) = unsafe {
         (
-            _mm256_load_ps(block.z0.as_ptr()),
             _mm256_load_ps(block.z1.as_ptr()),
             _mm256_load_si256(block.mask.as_ptr().cast()),
         )
@@ -765,7 +798,8 @@ mod tests {
             unsafe {
                 let c = _mm256_loadu_si256(cov.as_ptr().cast());
                 let z = _mm256_loadu_ps(r.as_ptr());
-                merge_block(&mut block, c, z, _mm256_set1_epi32(-1));
+                let z0 = _mm256_load_ps(block.z0.as_ptr());
+                merge_block(&mut block, z0, c, z, _mm256_set1_epi32(-1));
             }
             let bits = |b: &Block| (b.z0.map(f32::to_bits), b.z1.map(f32::to_bits), b.mask);
             assert_eq!(bits(&block), bits(&want), "{before:?} + {cov:x?}, {r:?}");
