@@ -51,7 +51,9 @@
 //!   a new file plus its arms there).
 //! - `per_tile.rs`: the tile-at-a-time rasterizer of the scalar, SSE2 and per-tile AVX2 kernels;
 //!   `scalar.rs`, `sse2.rs`, `baseline.rs` (per-tile AVX2): their span and mask steps.
-//! - `avx2.rs`: the batched AVX2 block kernel.
+//! - `avx2/`: the batched AVX2 block kernel: `mod.rs` (batches, view transform, clipping
+//!   choice), `setup.rs` (8 triangles set up at once), `blocks.rs` (a triangle drawn a block of
+//!   4x2 tiles at a time, with the coarse depth cull of blocks and rows).
 //! - `query.rs`: the box, rectangle and triangle tests and the per-pixel depth.
 
 use glam::Vec3;

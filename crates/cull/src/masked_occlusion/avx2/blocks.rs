@@ -1,0 +1,490 @@
+//! The AVX2 kernel's per-triangle step: one set-up triangle drawn a block of 4x2 tiles at a
+//! time ([`raster_blocks`]): the spans of a block row's 8 scanlines in one register, the masks,
+//! depths and merges of a block's 8 tiles in one register each, without branches per tile. A
+//! scanline's coverage of a block is two shifts of all ones, and one byte shuffle turns the
+//! block's 8 scanlines into its 8 tile masks ([`block_masks`]); blocks (and whole block rows)
+//! whose tiles all lie behind the triangle's upper depth bound are skipped before their masks
+//! are computed ([`BlockRowDepth::behind`]), which keeps the cost from growing with overdraw.
+//!
+//! Based on: Hasselgren, Andersson, Akenine-Möller. Masked Software Occlusion Culling. 2016,
+//! section 4 (the tiles of a block in the lanes of a register, coverage by shifts and a byte
+//! transpose, the coarse depth cull of occluder tiles); Andersson, Hasselgren, Akenine-Möller.
+//! Masked Depth Culling for Graphics Hardware. 2015, section 3 (the tile merge, here with
+//! selects for 8 tiles at once in [`merge_block`]).
+
+use std::arch::x86_64::*;
+
+use super::super::constants::TILE_H;
+use super::super::per_tile::{EMPTY_HI, EMPTY_LO};
+use super::super::tiles::{Block, Tiles};
+use super::setup::Setup8;
+
+/// The block grid of a buffer, apart from its blocks (which the kernel borrows mutably).
+pub(super) struct BlockGrid {
+    blocks_x: u32,
+    /// Last tile column and row of the image.
+    last_tx: u32,
+    last_ty: u32,
+    /// Mask bits beyond the image of the last tile column / row (see [`Tiles`]).
+    outside_x: u32,
+    outside_y: u32,
+}
+
+impl BlockGrid {
+    pub(super) fn new(tiles: &Tiles) -> Self {
+        BlockGrid {
+            blocks_x: tiles.blocks_x,
+            last_tx: tiles.tiles_x - 1,
+            last_ty: tiles.tiles_y - 1,
+            outside_x: tiles.outside_x,
+            outside_y: tiles.outside_y,
+        }
+    }
+}
+
+/// One edge of lane `l` broadcast: `(x0, y0, slope, bounds left, bounds right)`.
+type Edge8 = (__m256, __m256, __m256, __m256, __m256);
+
+/// The setup of one triangle (lane `l` of a [`Setup8`]) broadcast to the 8 lanes, as the
+/// block loop reads it.
+struct Triangle {
+    edges: [Edge8; 3],
+    x0: __m256,
+    y0: __m256,
+    r0: __m256,
+    ra: __m256,
+    rb: __m256,
+    r_far: __m256,
+    plane_ok: bool,
+    /// Span clamps.
+    a_lo: __m256,
+    a_hi: __m256,
+    b_lo: __m256,
+    b_hi: __m256,
+    row0: i32,
+    row1: i32,
+    col0: i32,
+    col1: i32,
+}
+
+impl Triangle {
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn new(t: &Setup8, l: usize) -> Self {
+        let set1 = _mm256_set1_ps;
+        Triangle {
+            edges: edges8(t, l),
+            x0: set1(t.x0[l]),
+            y0: set1(t.y0[l]),
+            r0: set1(t.r0[l]),
+            ra: set1(t.ra[l]),
+            rb: set1(t.rb[l]),
+            r_far: set1(t.r_far[l]),
+            plane_ok: t.plane_ok[l] != 0,
+            a_lo: set1(t.a_lo[l]),
+            a_hi: set1(t.a_hi[l]),
+            b_lo: set1(t.b_lo[l]),
+            b_hi: set1(t.b_hi[l]),
+            row0: t.row0[l],
+            row1: t.row1[l],
+            col0: t.col0[l],
+            col1: t.col1[l],
+        }
+    }
+}
+
+/// Rasterizes one triangle (already set up: edges, bounding box, depth plane) into the blocks
+/// of 4x2 tiles, a block row (8 scanlines) at a time. A block row whose blocks in the bounding
+/// box all lie behind the triangle ([`BlockRowDepth::behind`]) is skipped before its spans are
+/// computed; otherwise the spans of its 8 scanlines ([`row_spans`]) give each block's 8 tile
+/// masks ([`block_masks`]), and the tiles' conservative depths are merged ([`merge_block`]).
+///
+/// Every value is the one the per-tile path computes, with the same `f32` operations: spans
+/// as in the SSE2 kernel, a tile's depth from the lowest and highest covered column, the tile
+/// merge of `update_tile`; tiles the triangle does not cover get a zero mask and are left
+/// unchanged, and skipped blocks are ones the merge would leave unchanged. So the buffers are
+/// identical bit for bit (checked by the tests).
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(super) fn raster_blocks(blocks: &mut [Block], g: &BlockGrid, t: &Setup8, l: usize) {
+    let tri = Triangle::new(t, l);
+    let all = _mm256_set1_epi32(-1);
+    let zero = _mm256_setzero_si256();
+    let half = _mm256_set1_ps(0.5);
+    let lane_tx = _mm256_setr_epi32(0, 1, 2, 3, 0, 1, 2, 3);
+    let (bbox_bx0, bbox_bx1) = (tri.col0 as u32 / 32, tri.col1 as u32 / 32);
+    let last_bx = g.last_tx / 4;
+    for by in tri.row0 as u32 / (2 * TILE_H)..=tri.row1 as u32 / (2 * TILE_H) {
+        let depth = BlockRowDepth::new(&tri, by, g);
+        let block_row = &mut blocks[(by * g.blocks_x) as usize..][..g.blocks_x as usize];
+        // The first block of the bounding box that does not lie behind the triangle; the
+        // row is done when there is none.
+        let first_open = (bbox_bx0..=bbox_bx1).find(|&bx| {
+            // SAFETY: an aligned load of the 32-byte `z0` array of a `#[repr(align(32))]` block.
+            !depth.behind(&tri, bx, unsafe { load_z0(&block_row[bx as usize]) })
+        });
+        let Some(first_open) = first_open else {
+            continue;
+        };
+        let Some((rel_a, rel_b, bx0, bx1)) = row_spans(&tri, by) else {
+            continue;
+        };
+        let (mut rel_a, mut rel_b) = (rel_a, rel_b);
+        for bx in bx0..=bx1 {
+            let block = &mut block_row[bx as usize];
+            // SAFETY: as above.
+            let z0 = unsafe { load_z0(block) };
+            let skip = bx < first_open || (bx > first_open && depth.behind(&tri, bx, z0));
+            if !skip {
+                let txv = _mm256_add_epi32(_mm256_set1_epi32((4 * bx) as i32), lane_tx);
+                let base = _mm256_cvtepi32_ps(_mm256_slli_epi32::<3>(txv));
+                let (mask, cmin, cmax) = block_masks(rel_a, rel_b, base);
+                // Mask bits beyond the image count as covered in a touched tile of the last
+                // tile column or row.
+                let cov = if bx == last_bx || depth.last_row {
+                    let outside_x = _mm256_and_si256(
+                        _mm256_cmpeq_epi32(txv, _mm256_set1_epi32(g.last_tx as i32)),
+                        _mm256_set1_epi32(g.outside_x as i32),
+                    );
+                    let outside = _mm256_or_si256(outside_x, depth.outside_y);
+                    let untouched = _mm256_cmpeq_epi32(mask, zero);
+                    _mm256_or_si256(mask, _mm256_andnot_si256(untouched, outside))
+                } else {
+                    mask
+                };
+                let r = if tri.plane_ok {
+                    let xa = _mm256_sub_ps(_mm256_add_ps(cmin, half), tri.x0);
+                    let xb = _mm256_sub_ps(_mm256_add_ps(cmax, half), tri.x0);
+                    let m = min_like_f32(_mm256_mul_ps(tri.ra, xa), _mm256_mul_ps(tri.ra, xb));
+                    // `f32::max` without a NaN select: `r_far` is never NaN (corners are
+                    // finite and in front of the near plane).
+                    _mm256_max_ps(_mm256_add_ps(depth.r_rows, m), tri.r_far)
+                } else {
+                    tri.r_far
+                };
+                merge_block(block, z0, cov, r, all);
+            }
+            rel_a = _mm256_sub_epi32(rel_a, _mm256_set1_epi32(32));
+            rel_b = _mm256_sub_epi32(rel_b, _mm256_set1_epi32(32));
+        }
+    }
+}
+
+/// The reference layer of a block's 8 tiles.
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn load_z0(block: &Block) -> __m256 {
+    // SAFETY: an aligned load of the 32-byte `z0` array of a `#[repr(align(32))]` block.
+    unsafe { _mm256_load_ps(block.z0.as_ptr()) }
+}
+
+/// What a block row's tiles need of the triangle's depth plane: per lane (tile row `lane / 4`
+/// of the block row) the plane's minimum over the tile row's scanlines, as the per-tile path
+/// computes it, and its maximum; and the mask bits beyond the image of the last tile row.
+struct BlockRowDepth {
+    r_rows: __m256,
+    r_rows_max: __m256,
+    outside_y: __m256i,
+    /// Whether the block row holds the image's last tile row.
+    last_row: bool,
+}
+
+impl BlockRowDepth {
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn new(tri: &Triangle, by: u32, g: &BlockGrid) -> Self {
+        let lane_ty = _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1);
+        let tyv = _mm256_add_epi32(_mm256_set1_epi32((2 * by) as i32), lane_ty);
+        let ya = _mm256_add_ps(
+            _mm256_cvtepi32_ps(_mm256_slli_epi32::<2>(tyv)),
+            _mm256_set1_ps(0.5),
+        );
+        let yb = _mm256_add_ps(ya, _mm256_set1_ps((TILE_H - 1) as f32));
+        let da = _mm256_mul_ps(tri.rb, _mm256_sub_ps(ya, tri.y0));
+        let db = _mm256_mul_ps(tri.rb, _mm256_sub_ps(yb, tri.y0));
+        BlockRowDepth {
+            r_rows: _mm256_add_ps(tri.r0, min_like_f32(da, db)),
+            r_rows_max: _mm256_add_ps(tri.r0, _mm256_max_ps(da, db)),
+            outside_y: _mm256_and_si256(
+                _mm256_cmpeq_epi32(tyv, _mm256_set1_epi32(g.last_ty as i32)),
+                _mm256_set1_epi32(g.outside_y as i32),
+            ),
+            last_row: g.last_ty / 2 == by,
+        }
+    }
+
+    /// Whether every tile of block column `bx` (reference layers `z0`) lies behind the
+    /// triangle: an upper bound of the depth the merge would compute for each tile, from the
+    /// tile's first and last column instead of the covered ones (f32 rounding is monotonic, so
+    /// it bounds them exactly), is not nearer than the tile's reference layer. The merge leaves
+    /// such tiles unchanged (its `r > z0` fails), so skipping them changes nothing; this is
+    /// the coarse cull of occluder tiles of Hasselgren et al. 2016, section 4, with a tighter
+    /// bound than the triangle's nearest corner.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn behind(&self, tri: &Triangle, bx: u32, z0: __m256) -> bool {
+        let behind_far = _mm256_cmp_ps::<_CMP_LE_OQ>(tri.r_far, z0);
+        let behind = if tri.plane_ok {
+            let lane_x = _mm256_setr_ps(0.5, 8.5, 16.5, 24.5, 0.5, 8.5, 16.5, 24.5);
+            let xa = _mm256_sub_ps(
+                _mm256_add_ps(_mm256_set1_ps((32 * bx) as f32), lane_x),
+                tri.x0,
+            );
+            let xb = _mm256_sub_ps(
+                _mm256_add_ps(_mm256_set1_ps((32 * bx + 7) as f32), lane_x),
+                tri.x0,
+            );
+            let m = _mm256_max_ps(_mm256_mul_ps(tri.ra, xa), _mm256_mul_ps(tri.ra, xb));
+            let bound = _mm256_add_ps(self.r_rows_max, m);
+            _mm256_and_ps(behind_far, _mm256_cmp_ps::<_CMP_LE_OQ>(bound, z0))
+        } else {
+            behind_far
+        };
+        _mm256_movemask_ps(behind) == 0xFF
+    }
+}
+
+/// The spans of block row `by`'s 8 scanlines (one per lane), as the SSE2 kernel computes them,
+/// relative to the first block they touch: `(rel_a, rel_b, bx0, bx1)` with columns
+/// `rel_a..rel_b` (`rel_b` exclusive, empty for scanlines outside the triangle) counted from
+/// column `32 bx0`, and the block columns `bx0..=bx1` the spans touch; `None` when none does.
+/// Scanline centres are exact in f32 (small integers plus a half).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn row_spans(tri: &Triangle, by: u32) -> Option<(__m256i, __m256i, u32, u32)> {
+    let half = _mm256_set1_ps(0.5);
+    let neg_inf = _mm256_set1_ps(f32::NEG_INFINITY);
+    let pos_inf = _mm256_set1_ps(f32::INFINITY);
+    let row_base = (by * 2 * TILE_H) as i32;
+    let yc = _mm256_add_ps(
+        _mm256_set1_ps(row_base as f32 + 0.5),
+        _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0),
+    );
+    let mut xl = neg_inf;
+    let mut xr = pos_inf;
+    for &(ex0, ey0, slope, bound_l, bound_r) in &tri.edges {
+        let x = _mm256_add_ps(ex0, _mm256_mul_ps(_mm256_sub_ps(yc, ey0), slope));
+        // `maxps(x, acc)` returns `acc` when `x` is NaN, as `f32::max` does.
+        xl = _mm256_max_ps(_mm256_blendv_ps(neg_inf, x, bound_l), xl);
+        xr = _mm256_min_ps(_mm256_blendv_ps(pos_inf, x, bound_r), xr);
+    }
+    let xa = _mm256_min_ps(_mm256_max_ps(_mm256_sub_ps(xl, half), tri.a_lo), tri.a_hi);
+    let xb = _mm256_min_ps(_mm256_max_ps(_mm256_sub_ps(xr, half), tri.b_lo), tri.b_hi);
+    let ta = _mm256_cvttps_epi32(xa);
+    let a = _mm256_sub_epi32(
+        ta,
+        _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(xa, _mm256_cvtepi32_ps(ta))),
+    );
+    let tb = _mm256_cvttps_epi32(xb);
+    let b = _mm256_add_epi32(
+        tb,
+        _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LT_OQ>(xb, _mm256_cvtepi32_ps(tb))),
+    );
+    let rows = _mm256_add_epi32(
+        _mm256_set1_epi32(row_base),
+        _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
+    );
+    let invalid = _mm256_or_si256(
+        _mm256_or_si256(
+            _mm256_cmpgt_epi32(_mm256_set1_epi32(tri.row0), rows),
+            _mm256_cmpgt_epi32(rows, _mm256_set1_epi32(tri.row1)),
+        ),
+        _mm256_cmpgt_epi32(a, b),
+    );
+    let a = _mm256_blendv_epi8(a, _mm256_set1_epi32(EMPTY_LO), invalid);
+    let b = _mm256_blendv_epi8(b, _mm256_set1_epi32(EMPTY_HI), invalid);
+    let (lo_all, hi_all) = (hmin_epi32(a), hmax_epi32(b));
+    if lo_all > hi_all {
+        return None;
+    }
+    let (bx0, bx1) = (lo_all as u32 / 32, hi_all as u32 / 32);
+    let block0 = _mm256_set1_epi32((32 * bx0) as i32);
+    let rel_a = _mm256_sub_epi32(a, block0);
+    let rel_b = _mm256_sub_epi32(_mm256_add_epi32(b, _mm256_set1_epi32(1)), block0);
+    Some((rel_a, rel_b, bx0, bx1))
+}
+
+/// The edges of lane `l` broadcast, without branches: an edge that does not bound a side
+/// contributes -inf to the left bound (+inf to the right one), which `max` / `min` ignore.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn edges8(t: &Setup8, l: usize) -> [Edge8; 3] {
+    let edge = |i: usize| {
+        (
+            _mm256_set1_ps(t.ex0[i][l]),
+            _mm256_set1_ps(t.ey0[i][l]),
+            _mm256_set1_ps(t.slope[i][l]),
+            _mm256_castsi256_ps(_mm256_set1_epi32(t.bound_l[i][l])),
+            _mm256_castsi256_ps(_mm256_set1_epi32(t.bound_r[i][l])),
+        )
+    };
+    [edge(0), edge(1), edge(2)]
+}
+
+/// The coverage masks of the 8 tiles of a block (one per lane) from the spans of the block
+/// row's 8 scanlines (one per lane, columns `rel_a..rel_b` relative to the block, `rel_b`
+/// exclusive; empty when `rel_a >= rel_b`), with the lowest and highest covered column of each
+/// tile as `f32` (meaningless for a tile with nothing covered: its zero mask leaves it
+/// unchanged); `base` is each tile's first column.
+///
+/// Hasselgren et al. 2016, section 4: a scanline's 32 pixels of coverage are two shifts of all
+/// ones; a byte transpose then turns 8 scanlines of 4 tiles' bytes into 8 tile masks.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn block_masks(rel_a: __m256i, rel_b: __m256i, base: __m256) -> (__m256i, __m256, __m256) {
+    let zero = _mm256_setzero_si256();
+    let ones = _mm256_set1_epi32(-1);
+    // `sllv` gives 0 for counts of 32 and more: spans past the block cover nothing, spans
+    // before it (negative counts, clamped to 0) everything.
+    let from_a = _mm256_sllv_epi32(ones, _mm256_max_epi32(rel_a, zero));
+    let from_b = _mm256_sllv_epi32(ones, _mm256_max_epi32(rel_b, zero));
+    let rows = _mm256_andnot_si256(from_b, from_a);
+    // Lane `j` holds scanline `j`, byte `i` its pixels of tile column `i`; tile `(i, j / 4)`
+    // wants byte `i` of scanlines `4 (j / 4) + k` as its byte `k`: a 4x4 byte transpose in each
+    // 128-bit half (tile row 0 in the low half, row 1 in the high half).
+    let transpose = _mm256_setr_epi8(
+        0, 4, 8, 12, 1, 5, 9, 13, 2, 6, 10, 14, 3, 7, 11, 15, //
+        0, 4, 8, 12, 1, 5, 9, 13, 2, 6, 10, 14, 3, 7, 11, 15,
+    );
+    let mask = _mm256_shuffle_epi8(rows, transpose);
+    // The covered columns of each tile, a bit each, and the lowest and highest of them from
+    // the exponent of their value as f32 (exact below 2^24).
+    let cols = _mm256_or_si256(mask, _mm256_srli_epi32::<16>(mask));
+    let cols = _mm256_or_si256(cols, _mm256_srli_epi32::<8>(cols));
+    let cols = _mm256_and_si256(cols, _mm256_set1_epi32(0xFF));
+    let lowest = _mm256_and_si256(cols, _mm256_sub_epi32(zero, cols));
+    let log2 = |v: __m256i| {
+        let e = _mm256_srli_epi32::<23>(_mm256_castps_si256(_mm256_cvtepi32_ps(v)));
+        _mm256_cvtepi32_ps(_mm256_sub_epi32(e, _mm256_set1_epi32(127)))
+    };
+    let cmin = _mm256_add_ps(base, log2(lowest));
+    let cmax = _mm256_add_ps(base, log2(cols));
+    (mask, cmin, cmax)
+}
+
+/// `update_tile` for the 8 tiles of a block at once, with selects; lanes with a zero `cov`
+/// are left unchanged. `z0` is the block's reference layer, already loaded.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn merge_block(block: &mut Block, z0: __m256, cov: __m256i, r: __m256, all: __m256i) {
+    // SAFETY: aligned loads of two 32-byte arrays of a `#[repr(align(32))]` block.
+    let (z1, m) = unsafe {
+        (
+            _mm256_load_ps(block.z1.as_ptr()),
+            _mm256_load_si256(block.mask.as_ptr().cast()),
+        )
+    };
+    let zero = _mm256_setzero_si256();
+    // Unchanged: nothing covered, or not nearer than the reference layer (or NaN).
+    let nearer = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(r, z0));
+    let keep = _mm256_or_si256(_mm256_cmpeq_epi32(cov, zero), _mm256_xor_si256(nearer, all));
+    let discard = _mm256_or_si256(
+        _mm256_cmpeq_epi32(m, zero),
+        _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(
+            _mm256_sub_ps(r, z1),
+            _mm256_sub_ps(z1, z0),
+        )),
+    );
+    let z1n = _mm256_blendv_ps(min_like_f32(z1, r), r, _mm256_castsi256_ps(discard));
+    let mn = _mm256_blendv_epi8(_mm256_or_si256(m, cov), cov, discard);
+    let full = _mm256_cmpeq_epi32(mn, all);
+    let z0n = _mm256_blendv_ps(z0, z1n, _mm256_castsi256_ps(full));
+    let z1n = _mm256_andnot_ps(_mm256_castsi256_ps(full), z1n);
+    let mn = _mm256_andnot_si256(full, mn);
+    // Byte blends with the old values: with `blendv_ps` LLVM turns blend-and-store into a
+    // masked store (`vmaskmovps`), which is slow on AMD CPUs.
+    let z0n = _mm256_blendv_epi8(_mm256_castps_si256(z0n), _mm256_castps_si256(z0), keep);
+    let z1n = _mm256_blendv_epi8(_mm256_castps_si256(z1n), _mm256_castps_si256(z1), keep);
+    // SAFETY: aligned stores into the same three arrays.
+    unsafe {
+        _mm256_store_si256(block.z0.as_mut_ptr().cast(), z0n);
+        _mm256_store_si256(block.z1.as_mut_ptr().cast(), z1n);
+        _mm256_store_si256(
+            block.mask.as_mut_ptr().cast(),
+            _mm256_blendv_epi8(mn, m, keep),
+        );
+    }
+}
+
+/// Smallest lane.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn hmin_epi32(v: __m256i) -> i32 {
+    let m = _mm_min_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
+    let m = _mm_min_epi32(m, _mm_shuffle_epi32::<0b01_00_11_10>(m));
+    let m = _mm_min_epi32(m, _mm_shuffle_epi32::<0b10_11_00_01>(m));
+    _mm_cvtsi128_si32(m)
+}
+
+/// Largest lane.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn hmax_epi32(v: __m256i) -> i32 {
+    let m = _mm_max_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
+    let m = _mm_max_epi32(m, _mm_shuffle_epi32::<0b01_00_11_10>(m));
+    let m = _mm_max_epi32(m, _mm_shuffle_epi32::<0b10_11_00_01>(m));
+    _mm_cvtsi128_si32(m)
+}
+
+/// `a.min(b)` of `f32` lane by lane (the non-NaN operand when one is NaN), as the scalar code.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn min_like_f32(a: __m256, b: __m256) -> __m256 {
+    // `minps(a, b)` returns `b` when either is NaN: take `a` where `b` is NaN.
+    _mm256_blendv_ps(_mm256_min_ps(a, b), a, _mm256_cmp_ps::<_CMP_UNORD_Q>(b, b))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::super::tiles::{update_tile, CLEAR_BLOCK, CLEAR_TILE, FULL};
+    use super::*;
+
+    #[test]
+    fn block_merge_equals_tile_update() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            eprintln!("no AVX2 on this CPU: the block merge cannot run");
+            return;
+        }
+        let mut rng = sightline_core::random::SplitMix64::new(5);
+        // Depths from a small set so that ties, equal layers and NaN all occur.
+        let depths = [0.0, 0.1, 0.25, 0.5, 0.75, 1.0, f32::NAN];
+        let masks = [0, 1, 0x0000_FFFF, 0xFFFF_0000, 0xF0F0_F0F0, FULL >> 1, FULL];
+        let pick =
+            |rng: &mut sightline_core::random::SplitMix64, n: usize| rng.below(n as u64) as usize;
+        let mut changed = 0;
+        for _ in 0..5_000 {
+            let mut block = CLEAR_BLOCK;
+            let mut want = CLEAR_BLOCK;
+            let (mut cov, mut r) = ([0u32; 8], [0f32; 8]);
+            for l in 0..8 {
+                let mut tile = CLEAR_TILE;
+                // A random history of merges gives reachable tile states.
+                for _ in 0..pick(&mut rng, 4) {
+                    let (m, z) = (masks[pick(&mut rng, 6) + 1], depths[pick(&mut rng, 6) + 1]);
+                    update_tile(&mut tile, m, z);
+                }
+                (block.z0[l], block.z1[l], block.mask[l]) = (tile.z0, tile.z1, tile.mask);
+                (cov[l], r[l]) = (masks[pick(&mut rng, 7)], depths[pick(&mut rng, 7)]);
+                if cov[l] != 0 {
+                    update_tile(&mut tile, cov[l], r[l]);
+                }
+                (want.z0[l], want.z1[l], want.mask[l]) = (tile.z0, tile.z1, tile.mask);
+            }
+            let before = block;
+            // SAFETY: AVX2 support was checked above; unaligned loads of local arrays.
+            unsafe {
+                let c = _mm256_loadu_si256(cov.as_ptr().cast());
+                let z = _mm256_loadu_ps(r.as_ptr());
+                let z0 = _mm256_load_ps(block.z0.as_ptr());
+                merge_block(&mut block, z0, c, z, _mm256_set1_epi32(-1));
+            }
+            let bits = |b: &Block| (b.z0.map(f32::to_bits), b.z1.map(f32::to_bits), b.mask);
+            assert_eq!(bits(&block), bits(&want), "{before:?} + {cov:x?}, {r:?}");
+            changed += usize::from(want != before);
+        }
+        assert!(changed > 2_500, "{changed}");
+    }
+}

@@ -1,0 +1,237 @@
+//! The AVX2 kernel of the masked occlusion buffer: triangles in batches of 8, one per lane,
+//! through the view transform, culling and clipping choice, projection and setup
+//! ([`transform_batch`], [`setup8`]); then each triangle drawn a block of 4x2 tiles at a time
+//! by `blocks.rs` ([`raster_blocks`]).
+//!
+//! Based on: Hasselgren, Andersson, Akenine-Möller. Masked Software Occlusion Culling. 2016,
+//! section 4 (the AVX2 form: triangle setup in SIMD lanes; the per-triangle part is in
+//! `blocks.rs`).
+//!
+//! Bit-exactness: every value is the one the tile-at-a-time kernels (`per_tile.rs`) compute,
+//! with the same `f32` operations in the same order, so the buffers are identical bit for bit
+//! (checked by the tests).
+
+use std::arch::x86_64::*;
+
+use glam::Vec3;
+
+use super::constants::{TILE_H, TILE_W};
+use super::project::{Projector, GUARD};
+use super::raster_kernel::RasterKernel;
+use super::tiles::Tiles;
+
+mod blocks;
+mod setup;
+
+use blocks::{raster_blocks, BlockGrid};
+use setup::{setup8, Screen8, Setup8};
+
+/// The AVX2 block kernel.
+pub(super) struct Avx2;
+
+impl RasterKernel for Avx2 {
+    unsafe fn render(tiles: &mut Tiles, triangles: &[Vec3], proj: &Projector) {
+        // SAFETY: the CPU supports AVX2 (this function's contract).
+        unsafe { render_batches(tiles, triangles, proj) }
+    }
+}
+
+/// View-space corners of up to 8 triangles, `x[corner][lane]`, for those that need clipping.
+#[derive(Default)]
+struct View8 {
+    x: [[f32; 8]; 3],
+    y: [[f32; 8]; 3],
+    z: [[f32; 8]; 3],
+}
+
+impl View8 {
+    /// The view-space corners of lane `l`.
+    fn triangle(&self, l: usize) -> [Vec3; 3] {
+        [0, 1, 2].map(|j| Vec3::new(self.x[j][l], self.y[j][l], self.z[j][l]))
+    }
+}
+
+/// The rasterizer: triangles in batches of 8, one per lane, through [`transform_batch`] and
+/// [`setup8`]; then the batch's triangles are drawn in their order (clipped ones through
+/// [`raster_clipped`]) after prefetching their first blocks. Same arithmetic as the
+/// per-triangle path.
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[target_feature(enable = "avx2")]
+unsafe fn render_batches(tiles: &mut Tiles, triangles: &[Vec3], proj: &Projector) {
+    let grid = BlockGrid::new(tiles);
+    let camera = Camera8::new(proj);
+    let mut setup = Setup8::default();
+    let mut s = Screen8::default();
+    let mut views = View8::default();
+    for batch in triangles.chunks(24) {
+        let n = batch.len() / 3;
+        if n == 0 {
+            break;
+        }
+        let (skip, fast) = transform_batch(&camera, batch, &mut s, &mut views);
+        let draw = setup8(&s, tiles.width, tiles.height, &mut setup) & fast;
+        for l in 0..n {
+            if draw & (1 << l) != 0 {
+                prefetch_blocks(tiles, &setup, l);
+            }
+        }
+        for l in 0..n {
+            let bit = 1 << l;
+            if draw & bit != 0 {
+                raster_blocks(&mut tiles.blocks, &grid, &setup, l);
+            } else if (fast | skip) & bit == 0 {
+                raster_clipped(tiles, views.triangle(l), proj);
+            }
+        }
+    }
+}
+
+/// A [`Projector`] broadcast to the 8 lanes.
+struct Camera8 {
+    eye: [__m256; 3],
+    /// `right`, `up`, `forward`, each `(x, y, z)`.
+    axes: [(__m256, __m256, __m256); 3],
+    near: __m256,
+    /// The guard band's half-widths per unit of depth.
+    gx: __m256,
+    gy: __m256,
+    kx: __m256,
+    /// `-ky`.
+    nky: __m256,
+    cx: __m256,
+    cy: __m256,
+}
+
+impl Camera8 {
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn new(proj: &Projector) -> Self {
+        let set1 = _mm256_set1_ps;
+        Camera8 {
+            eye: [set1(proj.eye.x), set1(proj.eye.y), set1(proj.eye.z)],
+            axes: [proj.right, proj.up, proj.forward].map(|a| (set1(a.x), set1(a.y), set1(a.z))),
+            near: set1(proj.near),
+            gx: set1(GUARD * proj.tan_x),
+            gy: set1(GUARD * proj.tan_y),
+            kx: set1(proj.kx),
+            nky: set1(-proj.ky),
+            cx: set1(proj.cx),
+            cy: set1(proj.cy),
+        }
+    }
+}
+
+/// The view transform, the choice between culling, clipping and the fast path (every corner
+/// in front of the near plane and inside the guard band) and the projection of a batch of up
+/// to 8 triangles (24 corners; lanes past the end repeat the last triangle and are never
+/// drawn): the screen corners into `s`, the view corners into `views`; returns the lanes to
+/// skip (behind the near plane or not finite) and the lanes of the fast path, a bit each.
+/// The arithmetic of `Projector::view`, `inside_guard` and `screen`, lane by lane.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn transform_batch(c: &Camera8, batch: &[Vec3], s: &mut Screen8, views: &mut View8) -> (u32, u32) {
+    let n = batch.len() / 3;
+    let set1 = _mm256_set1_ps;
+    let abs = |v: __m256| _mm256_andnot_ps(set1(-0.0), v);
+    let inf = set1(f32::INFINITY);
+    let mut wx = [_mm256_setzero_ps(); 3];
+    let mut wy = [_mm256_setzero_ps(); 3];
+    let mut wz = [_mm256_setzero_ps(); 3];
+    for j in 0..3 {
+        let corner = |l: usize| batch[3 * l.min(n - 1) + j];
+        let c: [Vec3; 8] = std::array::from_fn(corner);
+        wx[j] = _mm256_setr_ps(
+            c[0].x, c[1].x, c[2].x, c[3].x, c[4].x, c[5].x, c[6].x, c[7].x,
+        );
+        wy[j] = _mm256_setr_ps(
+            c[0].y, c[1].y, c[2].y, c[3].y, c[4].y, c[5].y, c[6].y, c[7].y,
+        );
+        wz[j] = _mm256_setr_ps(
+            c[0].z, c[1].z, c[2].z, c[3].z, c[4].z, c[5].z, c[6].z, c[7].z,
+        );
+    }
+    let mut behind = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+    let mut finite = behind;
+    let mut guard = behind;
+    let [ex, ey, ez] = c.eye;
+    for j in 0..3 {
+        let (dx, dy, dz) = (
+            _mm256_sub_ps(wx[j], ex),
+            _mm256_sub_ps(wy[j], ey),
+            _mm256_sub_ps(wz[j], ez),
+        );
+        // `Vec3::dot`: (x * x') + (y * y') + (z * z').
+        let [v_x, v_y, v_z] = c.axes.map(|(ax, ay, az)| {
+            _mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(dx, ax), _mm256_mul_ps(dy, ay)),
+                _mm256_mul_ps(dz, az),
+            )
+        });
+        behind = _mm256_and_ps(behind, _mm256_cmp_ps::<_CMP_LT_OQ>(v_z, c.near));
+        for v in [v_x, v_y, v_z] {
+            finite = _mm256_and_ps(finite, _mm256_cmp_ps::<_CMP_LT_OQ>(abs(v), inf));
+        }
+        // `Projector::inside_guard`.
+        let inside = _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_GE_OQ>(v_z, c.near),
+            _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_LE_OQ>(abs(v_x), _mm256_mul_ps(c.gx, v_z)),
+                _mm256_cmp_ps::<_CMP_LE_OQ>(abs(v_y), _mm256_mul_ps(c.gy, v_z)),
+            ),
+        );
+        guard = _mm256_and_ps(guard, inside);
+        // `Projector::screen` (garbage in lanes that are not drawn this way).
+        let r = _mm256_div_ps(set1(1.0), v_z);
+        // SAFETY: stores of 8 lanes into `[f32; 8]` arrays (those of `s` aligned).
+        unsafe {
+            _mm256_store_ps(
+                s.x[j].as_mut_ptr(),
+                _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(c.kx, v_x), r), c.cx),
+            );
+            _mm256_store_ps(
+                s.y[j].as_mut_ptr(),
+                _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(c.nky, v_y), r), c.cy),
+            );
+            _mm256_store_ps(s.r[j].as_mut_ptr(), r);
+            _mm256_storeu_ps(views.x[j].as_mut_ptr(), v_x);
+            _mm256_storeu_ps(views.y[j].as_mut_ptr(), v_y);
+            _mm256_storeu_ps(views.z[j].as_mut_ptr(), v_z);
+        }
+    }
+    let skip = _mm256_movemask_ps(_mm256_or_ps(
+        behind,
+        _mm256_xor_ps(finite, _mm256_castsi256_ps(_mm256_set1_epi32(-1))),
+    )) as u32;
+    let fast = _mm256_movemask_ps(guard) as u32 & !skip;
+    (skip, fast)
+}
+
+/// Prefetches the blocks of the first block column of lane `l`'s bounding box (up to two
+/// block rows: 16 scanlines).
+#[inline(always)]
+fn prefetch_blocks(tiles: &Tiles, setup: &Setup8, l: usize) {
+    let (row0, row1, col0) = (setup.row0[l], setup.row1[l], setup.col0[l]);
+    let ty0 = row0 as u32 / TILE_H;
+    tiles.prefetch_block_rows(col0 as u32 / TILE_W, ty0, row1 as u32 / TILE_H);
+}
+
+/// Clips a view-space triangle to the near plane and the guard band, then draws its fan, each
+/// triangle through the batched setup alone in lane 0 (the same results as a batch).
+#[target_feature(enable = "avx2")]
+fn raster_clipped(tiles: &mut Tiles, v: [Vec3; 3], proj: &Projector) {
+    let grid = BlockGrid::new(tiles);
+    proj.clipped_fan(v, |p| {
+        let mut s = Screen8::default();
+        for (j, c) in p.iter().enumerate() {
+            (s.x[j][0], s.y[j][0], s.r[j][0]) = (c[0], c[1], c[2]);
+        }
+        let mut setup = Setup8::default();
+        // The closure inherits AVX2 from `raster_clipped`.
+        if setup8(&s, tiles.width, tiles.height, &mut setup) & 1 != 0 {
+            raster_blocks(&mut tiles.blocks, &grid, &setup, 0);
+        }
+        false
+    });
+}
