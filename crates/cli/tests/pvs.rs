@@ -30,6 +30,9 @@ fn baked(dir: &Path) -> PathBuf {
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["cells"], 2);
     assert!(v["mean_pvs_size"].as_f64().unwrap() > 10.0);
+    // No budget: each cell ran until GVS++'s termination rule held.
+    assert_eq!(v["unconverged_cells"], 0);
+    assert!(!stderr(&o).contains("not converged"), "{}", stderr(&o));
     dir.join("a.pvs")
 }
 
@@ -101,6 +104,9 @@ fn bake_show_diff_eval_round_trip() {
         cells[0]["triangles"].as_array().unwrap().len()
     );
     assert_eq!(v["metadata"]["method"], "gvs++");
+    for cell in v["metadata"]["cells"].as_array().unwrap() {
+        assert_eq!(cell["converged"], true, "{cell}");
+    }
 
     let o = sightline(&["pvs", "diff", "a.pvs", "a.pvs", "--json"], dir.path());
     let rows: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
@@ -131,6 +137,36 @@ fn bake_show_diff_eval_round_trip() {
         assert!(r["ground_truth_size"].as_u64().unwrap() > 0);
         assert!(r["avg_error_pixels"].as_f64().unwrap() < 64.0 * 64.0 * 0.01);
     }
+}
+
+#[test]
+fn a_bake_stopped_by_its_budget_says_its_cells_did_not_converge() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = bake_two_cells(dir.path(), &["--rays", "20000", "-o", "b.pvs", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["unconverged_cells"], 2);
+    let err = stderr(&o);
+    assert!(
+        err.contains("warning: 2 of 2 cells stopped on the budget") && err.contains("--rays"),
+        "{err}"
+    );
+    let o = sightline(&["pvs", "show", "b.pvs", "--json"], dir.path());
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for cell in v["metadata"]["cells"].as_array().unwrap() {
+        assert_eq!(cell["converged"], false, "{cell}");
+    }
+    // RAND has no termination rule: no flag, no warning.
+    let o = bake_two_cells(
+        dir.path(),
+        &[
+            "--method", "rand", "--rays", "20000", "-o", "c.pvs", "--json",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["unconverged_cells"].is_null(), "{v}");
+    assert!(!stderr(&o).contains("not converged"));
 }
 
 #[test]

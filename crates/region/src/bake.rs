@@ -109,13 +109,17 @@ pub fn subsample_convergence(points: &[ConvergencePoint], max: usize) -> Vec<[u6
 
 /// The statistics of one cell as stored in the metadata.
 pub fn cell_stats(result: &CellResult) -> serde_json::Value {
-    json!({
+    let mut stats = json!({
         "rays": result.rays,
         "seconds": result.seconds,
         "pvs_size": result.visible.count_ones(..),
         "found_by": result.found_by.iter().map(|(k, v)| json!([k, v])).collect::<Vec<_>>(),
         "convergence": subsample_convergence(&result.convergence, MAX_CONVERGENCE_POINTS),
-    })
+    });
+    if let Some(converged) = result.converged {
+        stats["converged"] = json!(converged);
+    }
+    stats
 }
 
 /// Samples cell `index` of `setup`.

@@ -96,6 +96,7 @@ impl Sampler for Gvs {
         let mut queue = ExploreQueue::default();
         let mut found = Found::default();
         let mut termination = Termination::per_round(p.termination_threshold);
+        let mut rule_held = false;
         loop {
             let round_start = tally.rays;
             let Some(new) = random.sample_round(ctx, &mut tally, p.n_rand, progress) else {
@@ -108,11 +109,12 @@ impl Sampler for Gvs {
                 explorer.explore(&chunk, &mut tally, &mut queue, &mut found, progress);
             }
             let converged = termination.round_done(tally.rays - round_start, found.end_round());
+            rule_held |= converged;
             if tally.exhausted() || (budget.is_unlimited() && converged) {
                 break;
             }
         }
-        tally.finish(found.found_by())
+        tally.finish_guided(found.found_by(), rule_held)
     }
 }
 

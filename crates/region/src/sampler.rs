@@ -84,6 +84,11 @@ pub struct CellResult {
     pub convergence: Vec<ConvergencePoint>,
     /// Triangles first found by each strategy (e.g. "random", "abs", "rs").
     pub found_by: Vec<(&'static str, usize)>,
+    /// For samplers with a termination rule (GVS, GVS++): whether the cell converged, i.e. the
+    /// rule held (or the cell had nothing left to sample) before the budget ran out. `false`
+    /// means the budget stopped it first, so its PVS may still miss triangles. `None` for
+    /// samplers without such a rule (RAND, RASTER).
+    pub converged: Option<bool>,
 }
 
 /// A from-region visibility sampler.
@@ -150,6 +155,7 @@ impl Tally {
                 .is_some_and(|t| self.start.elapsed() >= t)
     }
 
+    /// The result of a sampler without a termination rule.
     pub fn finish(self, found_by: Vec<(&'static str, usize)>) -> CellResult {
         CellResult {
             visible: self.pvs.to_set(),
@@ -157,6 +163,22 @@ impl Tally {
             seconds: self.start.elapsed().as_secs_f64(),
             convergence: self.convergence,
             found_by,
+            converged: None,
+        }
+    }
+
+    /// The result of a sampler with a termination rule that held at some point (`rule_held`):
+    /// the cell converged when the rule held or when it stopped for another reason than the
+    /// budget (no free space for origins).
+    pub fn finish_guided(
+        self,
+        found_by: Vec<(&'static str, usize)>,
+        rule_held: bool,
+    ) -> CellResult {
+        let converged = rule_held || !self.exhausted();
+        CellResult {
+            converged: Some(converged),
+            ..self.finish(found_by)
         }
     }
 }

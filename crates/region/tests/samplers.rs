@@ -165,6 +165,7 @@ fn gvs_baseline_finds_most_of_what_gvspp_finds() {
         a.found_by
     );
     assert!(a.visible.count_ones(..) * 10 >= b.visible.count_ones(..) * 8);
+    assert_eq!((a.converged, b.converged), (Some(true), Some(true)));
 }
 
 #[test]
@@ -192,7 +193,32 @@ fn ray_budget_is_respected() {
         );
         let last = r.convergence.last().unwrap();
         assert_eq!(last.pvs_size, r.visible.count_ones(..));
+        // 30k rays cannot fill GVS++'s 10M-ray termination window: the budget stopped it
+        // before it converged. RAND has no termination rule.
+        let want = (sampler.name() == "gvs++").then_some(false);
+        assert_eq!(r.converged, want, "{}", sampler.name());
     }
+}
+
+#[test]
+fn a_budget_beyond_convergence_reports_a_converged_cell() {
+    // A closed box around the cell: everything is found by the first batches, so the
+    // termination rule holds once a window of rays has found nothing new, well within the
+    // budget (which the schedule by yield still spends).
+    let mut b = sightline_core::scene::SceneBuilder::new("closed box");
+    b.add_box(Vec3::splat(-5.0), Vec3::splat(5.0));
+    let scene = b.finish();
+    let cell = ViewCell::aabb(Vec3::splat(-1.0), Vec3::splat(1.0)).unwrap();
+    let window = sightline_region::gvspp::TERMINATION_WINDOW;
+    let r = run(
+        &small_gvspp(),
+        &scene,
+        &cell,
+        Budget::rays(window + window / 4),
+    );
+    assert!(r.rays >= window, "{} rays", r.rays);
+    assert_eq!(r.visible.count_ones(..), 12);
+    assert_eq!(r.converged, Some(true));
 }
 
 #[test]
@@ -260,6 +286,8 @@ fn small_rounds_do_not_stop_an_unbounded_bake_early() {
         "{} rays",
         r.rays
     );
+    // Without a budget only the termination rule ends a bake.
+    assert_eq!(r.converged, Some(true));
 }
 
 /// A closed room, rotated off the axes so its f32 vertices are rounded, whose walls are split

@@ -13,6 +13,8 @@ pub(crate) struct CellBake {
     pub seconds: Option<f64>,
     /// `(rays, PVS size)` after each batch.
     pub convergence: Option<Vec<(u64, u64)>>,
+    /// Whether the sampler's termination rule held before the budget ran out (GVS, GVS++).
+    pub converged: Option<bool>,
 }
 
 /// The bake record of cell `i` (`metadata["cells"][i]`).
@@ -22,7 +24,30 @@ pub(crate) fn cell_bake(metadata: &Value, i: usize) -> CellBake {
         rays: c["rays"].as_u64(),
         seconds: c["seconds"].as_f64(),
         convergence: convergence(&c["convergence"]),
+        converged: c["converged"].as_bool(),
     }
+}
+
+/// `"k of n cells"` converged, naming what stopped the others; `None` when no cell records
+/// the flag (methods without a termination rule, older files).
+pub(crate) fn converged_cells(metadata: &Value, cells: usize) -> Option<String> {
+    let flags: Vec<bool> = (0..cells)
+        .filter_map(|i| metadata["cells"][i]["converged"].as_bool())
+        .collect();
+    if flags.is_empty() {
+        return None;
+    }
+    let k = flags.iter().filter(|&&c| c).count();
+    Some(if k == flags.len() {
+        format!("all {k}")
+    } else {
+        format!(
+            "{k} of {}: the budget stopped the other {} before the termination rule held (their \
+             PVS may miss triangles)",
+            flags.len(),
+            flags.len() - k
+        )
+    })
 }
 
 /// `[[rays, pvs_size], ...]` as pairs; `None` when absent or malformed.
@@ -64,6 +89,23 @@ pub(crate) fn budget(metadata: &Value) -> Option<String> {
 mod tests {
     use super::*;
     use serde_json::json;
+
+    #[test]
+    fn converged_cells_are_counted() {
+        let m = json!({"cells": [{"converged": true}, {"converged": false}, {}]});
+        assert_eq!(cell_bake(&m, 1).converged, Some(false));
+        assert_eq!(cell_bake(&m, 2).converged, None);
+        let line = converged_cells(&m, 3).unwrap();
+        assert!(
+            line.starts_with("1 of 2: the budget stopped the other 1"),
+            "{line}"
+        );
+        assert_eq!(
+            converged_cells(&json!({"cells": [{"converged": true}]}), 1).unwrap(),
+            "all 1"
+        );
+        assert_eq!(converged_cells(&json!({"cells": [{}]}), 1), None);
+    }
 
     #[test]
     fn empty_metadata_gives_nothing() {

@@ -11,7 +11,7 @@ use super::error::ReportError;
 use super::evaluate::{CellOutcome, WorstImage};
 use super::html::{escape, img, key_value_table, Cell, Section, Table};
 use super::map::{map_svg, MapCell};
-use super::metadata::{budget, cell_bake, text};
+use super::metadata::{budget, cell_bake, converged_cells, text};
 use super::plot::{line_plot, Series, MAX_LINES};
 
 /// "—" for a missing value.
@@ -55,6 +55,10 @@ pub(crate) fn summary(
         ("method", or_missing(text(m, "method"))),
         ("seed", or_missing(text(m, "seed"))),
         ("budget per cell", or_missing(budget(m))),
+        (
+            "converged cells",
+            or_missing(converged_cells(m, file.cells.len())),
+        ),
         ("cells", file.cells.len().to_string()),
         ("objects", object_count(file)),
         (
@@ -142,6 +146,7 @@ pub(crate) fn cell_table(scene: &Scene, file: &PvsFile, outcomes: &[CellOutcome]
             "PVS objects",
             "rays",
             "bake s",
+            "converged",
             "avg error px",
             "max error px",
             "avg unconfirmed px",
@@ -169,6 +174,10 @@ pub(crate) fn cell_table(scene: &Scene, file: &PvsFile, outcomes: &[CellOutcome]
                 Cell::Num(or_missing(objects.map(|k| k.to_string()))),
                 Cell::Num(or_missing(bake.rays.map(|r| r.to_string()))),
                 Cell::Num(or_missing(bake.seconds.map(|s| format!("{s:.3}")))),
+                Cell::Text(or_missing(
+                    bake.converged
+                        .map(|c| if c { "yes" } else { "no: budget" }.to_string()),
+                )),
                 Cell::Num(format!("{:.3}", e.avg_error_pixels)),
                 Cell::Num(e.max_error_pixels.to_string()),
                 Cell::Num(format!("{:.3}", e.avg_unconfirmed_pixels)),

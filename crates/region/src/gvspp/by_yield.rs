@@ -104,13 +104,19 @@ impl YieldScheduler {
 
 /// Samples `cell` batch by batch until `tally`'s budget is spent (or the cell has no free
 /// space for random origins). Deterministic for a seed: the choice depends only on counts.
+/// Returns whether the termination rule (over [`TERMINATION_WINDOW`] rays of batches) held at
+/// some point while no exploration work was waiting: the cell had converged then, although a
+/// budgeted bake goes on until its budget is spent.
+///
+/// [`TERMINATION_WINDOW`]: super::TERMINATION_WINDOW
 pub(crate) fn sample_by_yield(
     ctx: &CellContext<'_>,
     cell: &mut GvsppCell,
     tally: &mut Tally,
     progress: &(dyn Fn(&ConvergencePoint) + Sync),
-) {
+) -> bool {
     let mut scheduler = YieldScheduler::default();
+    let mut rule_held = false;
     while !tally.exhausted() {
         let has_work = [
             true,
@@ -132,7 +138,10 @@ pub(crate) fn sample_by_yield(
             Kind::Refine => refine_batch(ctx, cell, tally, progress),
         };
         scheduler.record(kind, (tally.rays - before) as usize, new);
+        let idle = cell.queue.is_empty() && cell.pending.is_empty() && cell.refine.is_empty();
+        rule_held |= cell.batch_done(tally.rays - before, new) && idle;
     }
+    rule_held
 }
 
 /// One batch of random rays (4.1); the number of new triangles, `None` when the cell has no

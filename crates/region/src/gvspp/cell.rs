@@ -195,6 +195,12 @@ impl GvsppCell {
         let new = self.found.end_round();
         self.termination.round_done(round_rays, new)
     }
+
+    /// Records a batch of the schedule by yield that cast `rays` rays and found `new`
+    /// triangles; whether the termination rule holds over the recent batches.
+    pub fn batch_done(&mut self, rays: u64, new: usize) -> bool {
+        self.termination.round_done(rays, new)
+    }
 }
 
 /// How many steps costing `cost` rays each fit in `rays_left` (at least one, so a step always

@@ -35,10 +35,11 @@ impl Sampler for GvsPlusPlus {
         // rounds, whose termination rule (4.4) decides when it has converged.
         if !self.params.fixed_rounds && !budget.is_unlimited() {
             let mut cell = GvsppCell::new(ctx, &self.params, Rounds::ByYield);
-            sample_by_yield(ctx, &mut cell, &mut tally, progress);
-            return tally.finish(cell.found.found_by());
+            let rule_held = sample_by_yield(ctx, &mut cell, &mut tally, progress);
+            return tally.finish_guided(cell.found.found_by(), rule_held);
         }
         let mut cell = GvsppCell::new(ctx, &self.params, Rounds::Paper);
+        let mut rule_held = false;
         loop {
             let round_start = tally.rays;
             // Random sampling (4.1).
@@ -56,11 +57,12 @@ impl Sampler for GvsPlusPlus {
             }
             // Termination (4.4).
             let converged = cell.end_round(tally.rays - round_start);
+            rule_held |= converged;
             if tally.exhausted() || (budget.is_unlimited() && converged) {
                 break;
             }
         }
-        tally.finish(cell.found.found_by())
+        tally.finish_guided(cell.found.found_by(), rule_held)
     }
 }
 

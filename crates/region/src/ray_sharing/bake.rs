@@ -145,6 +145,7 @@ pub fn bake_shared(
             seconds: per_cell,
             convergence: s.convergence,
             found_by: s.gvspp.found.found_by_with_shared(),
+            converged: Some(s.converged),
         })
         .collect();
     SharedBake {

@@ -94,6 +94,7 @@ impl SharedBake {
                     "rays": r.rays,
                     "pvs_size": r.visible.count_ones(..),
                     "found_by": r.found_by.iter().map(|(k, v)| json!([k, v])).collect::<Vec<_>>(),
+                    "converged": r.converged,
                 })
             })
             .collect();

@@ -98,7 +98,12 @@ pub(crate) struct BakeArgs {
     /// that lately found the most new triangles per ray, and keeps the budget to within one
     /// exploration step (about 340 rays at the defaults). Without --rays and --time, GVS++
     /// and GVS run the paper's rounds until their own termination rule, RAND casts 10M rays,
-    /// RASTER renders 64 cube maps.
+    /// RASTER renders 64 cube maps. A GVS/GVS++ cell whose budget runs out before its
+    /// termination rule held is not converged: the bake warns and the file records
+    /// `converged: false` for it. How much is enough depends on the cell: a room-sized cell of
+    /// an indoor level converges after tens of millions of rays (55M for one of the house
+    /// scene's), a street cell of a city after a few million; bake a few cells without a
+    /// budget first to see.
     #[arg(long)]
     pub(crate) rays: Option<u64>,
     /// Time budget per cell in milliseconds (wall clock: cells bake in parallel and share the

@@ -153,6 +153,30 @@ struct BakeSummary {
     /// Quake 3 cells: the origin rule and what it found (unreachable leaves and clusters,
     /// dropped cells, the reachable space's parameters and cost), as in the file's metadata.
     reachable: Option<serde_json::Value>,
+    /// Methods with a termination rule (GVS, GVS++): cells the budget stopped before the rule
+    /// held (`converged: false` in their statistics). `None` for RAND and RASTER.
+    unconverged_cells: Option<usize>,
+}
+
+/// Of cells' `converged` flags (`None` where a cell has none): how many are `false`, `None`
+/// when no cell has a flag.
+fn count_unconverged(flags: impl IntoIterator<Item = Option<bool>>) -> Option<usize> {
+    flags.into_iter().flatten().fold(None, |n, converged| {
+        Some(n.unwrap_or(0) + usize::from(!converged))
+    })
+}
+
+/// Warns on stderr when cells stopped on the budget before converging.
+fn warn_unconverged(summary: &BakeSummary) {
+    if let Some(n @ 1..) = summary.unconverged_cells {
+        eprintln!(
+            "warning: {n} of {} cells stopped on the budget before {}'s termination rule held \
+             (not converged: their PVS may miss triangles; `converged: false` in the file's cell \
+             statistics). Raise --rays / --time, or bake without a budget to run each cell to \
+             convergence.",
+            summary.cells, summary.method
+        );
+    }
 }
 
 pub(super) fn run_bake(args: BakeArgs) -> Result<()> {
@@ -362,6 +386,7 @@ fn bake_cells(
     bake.job
         .write_output(&args.output, &progress, bake.extra(inputs.record))?;
     let summary = bake.summary(args, inputs, &progress);
+    warn_unconverged(&summary);
     if args.json {
         return print_json(&summary);
     }
@@ -542,6 +567,12 @@ impl<'a> CellBake<'a> {
             file_bytes_per_cell: std::fs::metadata(&args.output).map_or(0.0, |m| m.len() as f64)
                 / sizes.len().max(1) as f64,
             reachable: inputs.record.origins.as_ref().map(|r| serde_json::json!(r)),
+            unconverged_cells: count_unconverged(
+                progress
+                    .done
+                    .values()
+                    .map(|c| c.stats()["converged"].as_bool()),
+            ),
         }
     }
 
@@ -737,7 +768,9 @@ fn bake_with_shared_rays(args: &BakeArgs, inputs: &BakeInputs<'_>) -> Result<()>
         set_bytes_per_cell: per_cell(set_bytes as f64),
         file_bytes_per_cell: per_cell(file_bytes as f64),
         reachable,
+        unconverged_cells: count_unconverged(result.cells.iter().map(|c| c.converged)),
     };
+    warn_unconverged(&summary);
     if args.json {
         return print_json(&summary);
     }
