@@ -227,6 +227,11 @@ impl BlockRowDepth {
     #[target_feature(enable = "avx2")]
     fn behind(&self, tri: &Triangle, bx: u32, z0: __m256) -> bool {
         let behind_far = _mm256_cmp_ps::<_CMP_LE_OQ>(tri.r_far, z0);
+        // Most tiles a triangle reaches are not behind even its farthest corner: decide those
+        // before the plane's bound.
+        if _mm256_movemask_ps(behind_far) != 0xFF {
+            return false;
+        }
         let behind = if tri.plane_ok {
             let lane_x = _mm256_setr_ps(0.5, 8.5, 16.5, 24.5, 0.5, 8.5, 16.5, 24.5);
             let xa = _mm256_sub_ps(
@@ -296,11 +301,19 @@ fn row_spans(tri: &Triangle, by: u32) -> Option<(__m256i, __m256i, u32, u32)> {
     );
     let a = _mm256_blendv_epi8(a, _mm256_set1_epi32(EMPTY_LO), invalid);
     let b = _mm256_blendv_epi8(b, _mm256_set1_epi32(EMPTY_HI), invalid);
-    let (lo_all, hi_all) = (hmin_epi32(a), hmax_epi32(b));
-    if lo_all > hi_all {
-        return None;
-    }
-    let (bx0, bx1) = (lo_all as u32 / 32, hi_all as u32 / 32);
+    let (bx0, bx1) = if tri.col0 / 32 == tri.col1 / 32 {
+        // A bounding box one block wide: that block, unless every scanline is empty.
+        if _mm256_movemask_ps(_mm256_castsi256_ps(invalid)) == 0xFF {
+            return None;
+        }
+        (tri.col0 as u32 / 32, tri.col0 as u32 / 32)
+    } else {
+        let (lo_all, hi_all) = (hmin_epi32(a), hmax_epi32(b));
+        if lo_all > hi_all {
+            return None;
+        }
+        (lo_all as u32 / 32, hi_all as u32 / 32)
+    };
     let block0 = _mm256_set1_epi32((32 * bx0) as i32);
     let rel_a = _mm256_sub_epi32(a, block0);
     let rel_b = _mm256_sub_epi32(_mm256_add_epi32(b, _mm256_set1_epi32(1)), block0);
