@@ -2,7 +2,8 @@
 //! (`benches/occlusion.rs`), `sightline bench peers` and its export for the peer harnesses
 //! (Intel's Masked Occlusion Culling), so that every side rasterizes exactly the same
 //! triangles: random right triangles of a given leg length in pixels at 1920x1080, and the
-//! 20-pixel query boxes of the box-test bench.
+//! 20-pixel query boxes of the box-test bench; and the occluders the culling simulation draws
+//! in one frame of a scene ([`frame_occluders`]), a real occluder set.
 //!
 //! Why right triangles with fixed legs: the cost of a software rasterizer per triangle grows
 //! with its screen size (more tiles to cover), so the leg length is the knob that moves the
@@ -12,6 +13,12 @@
 use glam::Vec3;
 use sightline_core::random::SplitMix64;
 use sightline_core::{Aabb, Camera};
+
+use crate::backend::{OcclusionBackend, SoftwareBackend};
+use crate::grid::GridError;
+use crate::scenes::CullScene;
+use crate::sim_types::{Method, SimConfig};
+use crate::simulate::simulate_methods_with_cameras;
 
 /// Width of the bench image.
 pub const WIDTH: u32 = 1920;
@@ -86,4 +93,71 @@ pub fn query_boxes(cam: &Camera, n: usize) -> Vec<Aabb> {
             Aabb::new(a.min(b), a.max(b))
         })
         .collect()
+}
+
+/// The occluder triangles (three corners each, in drawing order) that the grid method of the
+/// culling simulation ([`crate::simulate_methods_with_cameras`], `config` with popping not
+/// measured) renders into its software buffer in frame `frame`, with frame `f` seen by
+/// `camera_of(f)`: a real occluder set of a scene, for the rasterizer benches. Frames before
+/// it run too (the grid method's choices depend on earlier frames' query results). Empty when
+/// `frame` has no camera.
+pub fn frame_occluders(
+    scene: &CullScene,
+    camera_of: &dyn Fn(u32) -> Option<Camera>,
+    config: &SimConfig,
+    frame: u32,
+) -> Result<Vec<Vec3>, GridError> {
+    let config = SimConfig {
+        frames: frame + 1,
+        measure_popping: false,
+        diagnose: false,
+        ..*config
+    };
+    let mut recorder = Recorder {
+        inner: SoftwareBackend::new(config.width, config.height),
+        frames_begun: 0,
+        frame: frame + 1,
+        triangles: Vec::new(),
+    };
+    simulate_methods_with_cameras(scene, camera_of, &mut recorder, &config, &[Method::Grid])?;
+    Ok(recorder.triangles)
+}
+
+/// The software backend, recording what is drawn in one frame (the `frame`-th begun, from 1).
+struct Recorder {
+    inner: SoftwareBackend,
+    frames_begun: u32,
+    frame: u32,
+    triangles: Vec<Vec3>,
+}
+
+impl OcclusionBackend for Recorder {
+    fn begin_frame(&mut self, camera: &Camera) {
+        self.frames_begun += 1;
+        self.inner.begin_frame(camera);
+    }
+    fn draw_depth(&mut self, triangles: &[Vec3]) {
+        if self.frames_begun == self.frame {
+            self.triangles.extend_from_slice(triangles);
+        }
+        self.inner.draw_depth(triangles);
+    }
+    fn query(&mut self, tag: u32, aabb: &Aabb) {
+        self.inner.query(tag, aabb);
+    }
+    fn test_now(&mut self, aabb: &Aabb) -> Option<bool> {
+        self.inner.test_now(aabb)
+    }
+    fn test_object_now(&mut self, aabb: &Aabb, triangles: &[Vec3]) -> Option<bool> {
+        self.inner.test_object_now(aabb, triangles)
+    }
+    fn begin_retest(&mut self, occluders: &[Vec3]) {
+        self.inner.begin_retest(occluders);
+    }
+    fn retest_now(&mut self, aabb: &Aabb, triangles: &[Vec3]) -> Option<bool> {
+        self.inner.retest_now(aabb, triangles)
+    }
+    fn take_results(&mut self, out: &mut Vec<(u32, bool)>) {
+        self.inner.take_results(out);
+    }
 }

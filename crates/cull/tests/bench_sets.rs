@@ -40,3 +40,29 @@ fn sets_are_deterministic_and_seeds_differ() {
     assert_eq!(set_cam, cam);
     assert_eq!(&set[..30], &a[..]);
 }
+
+#[test]
+fn frame_occluders_records_one_frame_of_the_grid_method() {
+    let scene = sightline_cull::scenes::the_grid(1, 2);
+    let config = sightline_cull::SimConfig {
+        width: 160,
+        height: 96,
+        ..Default::default()
+    };
+    let camera_of = |f: u32| scene.path.camera(f as f32 / config.fps, 160, 96, 60.0);
+    let tris = bench_sets::frame_occluders(&scene, &camera_of, &config, 3).unwrap();
+    assert!(!tris.is_empty());
+    assert_eq!(tris.len() % 3, 0);
+    // Deterministic, and another frame draws another set (the camera moves).
+    assert_eq!(
+        tris,
+        bench_sets::frame_occluders(&scene, &camera_of, &config, 3).unwrap()
+    );
+    let later = bench_sets::frame_occluders(&scene, &camera_of, &config, 40).unwrap();
+    assert_ne!(tris, later);
+    // No camera for the frame: nothing drawn.
+    let none = |_: u32| None;
+    assert!(bench_sets::frame_occluders(&scene, &none, &config, 3)
+        .unwrap()
+        .is_empty());
+}
