@@ -43,7 +43,7 @@ pub(super) struct PeersArgs {
     #[arg(long, value_delimiter = ',', default_value = "10,25,50,100")]
     legs: Vec<f32>,
     /// Scenes whose culling simulation gives a real occluder set (the grid method's occluders
-    /// in one frame of `sightline cull`'s default camera path, at 1920x1080).
+    /// in one frame of `sightline cull`'s default camera path, at 1920x1080); "" for none.
     #[arg(long, value_delimiter = ',', default_value = "procedural:city")]
     cull_scenes: Vec<String>,
     /// Frames of that camera path (as `sightline cull --frames`); the set is its middle frame.
@@ -144,7 +144,7 @@ fn occluders(args: &PeersArgs, options: &PeerBenchOptions, dir: &Path) -> Result
             camera,
         )?);
     }
-    for spec in &args.cull_scenes {
+    for spec in args.cull_scenes.iter().filter(|s| !s.is_empty()) {
         let scene = super::super::cull::load_scene(spec, &LoadOptions::default())?;
         let config = SimConfig {
             frames: args.frames,
@@ -226,7 +226,7 @@ fn rays(args: &PeersArgs, options: &PeerBenchOptions, dir: &Path) -> Result<Vec<
     };
     let casters = in_process();
     let mut rows = Vec::new();
-    for spec in &args.scenes {
+    for spec in args.scenes.iter().filter(|s| !s.is_empty()) {
         let scene = super::load(spec)?;
         let camera = super::overview_camera(&scene, args.size)?;
         let rays = TraceRays::new(&scene, &camera, args.rays);
