@@ -529,6 +529,69 @@ fn bench_rv_rejects_zero_rounds() {
     assert_fails_with(&o, "--rounds");
 }
 
+/// `bench peers` without peer harnesses: ours alone on a random set and one simulated frame's
+/// occluders, with a note that the MOC columns are missing; JSON has a row per set.
+#[test]
+fn bench_peers_without_harnesses_measures_ours_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(
+        &[
+            "bench",
+            "peers",
+            "--no-rays",
+            "--legs",
+            "10",
+            "--cull-scenes",
+            "procedural:grid?seed=2&size=2",
+            "--frames",
+            "4",
+            "--rounds",
+            "1",
+            "--reps",
+            "1",
+            "--json",
+            "peers.json",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("No MOC harness"), "{out}");
+    assert!(
+        out.contains("| random 10 px | 100000 | sightline "),
+        "{out}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("peers.json")).unwrap()).unwrap();
+    let rows = json["occluders"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    assert!(rows[1]["set"].as_str().unwrap().ends_with("frame 2"));
+    assert!(rows[1]["triangles"].as_u64().unwrap() > 0);
+    assert!(json["rays"].as_array().unwrap().is_empty());
+}
+
+#[test]
+fn bench_peers_rejects_zero_rounds_and_a_missing_harness() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(&["bench", "peers", "--rounds", "0"], dir.path());
+    assert_fails_with(&o, "rounds must be at least 1");
+    let o = sightline(
+        &[
+            "bench",
+            "peers",
+            "--no-rays",
+            "--legs",
+            "10",
+            "--cull-scenes",
+            "",
+            "--moc",
+            "/nonexistent/moc",
+        ],
+        dir.path(),
+    );
+    assert_fails_with(&o, "could not start /nonexistent/moc");
+}
+
 #[test]
 fn exact_listing_keeps_triangles_above_the_stated_area() {
     // `visible --exact -o` lists the triangles with at least --min-area px² (1e-6 by default,

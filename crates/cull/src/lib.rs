@@ -14,9 +14,13 @@
 //!   path, the grid method and the baselines (frustum, stop-and-wait with box or triangle
 //!   tests, two-phase HZB), with popping counts.
 //! - [`scenes`] (`scenes.rs`): The Grid and Teapot Graveyard with motion and camera paths.
+//! - [`bench_sets`] (`bench_sets.rs`): the occlusion buffer's benchmark inputs (random right
+//!   triangles of a given leg length at 1920x1080), shared by the bench and `sightline bench
+//!   peers`.
 #![deny(missing_docs)]
 
 mod backend;
+pub mod bench_sets;
 mod diagnose;
 mod front_to_back;
 mod grid;

@@ -1,6 +1,8 @@
 //! Integration tests of sightline-cull, one module per property.
 #![allow(clippy::unwrap_used)]
 
+/// The bench's occluder sets have the asked leg lengths and stay on screen.
+mod bench_sets;
 /// The software occlusion buffer never culls a box (nor, with the triangle test, an object)
 /// that the exact depth test shows visible.
 mod conservative;

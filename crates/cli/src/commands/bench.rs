@@ -14,6 +14,7 @@ use sightline_eval::bench::{self as eval_bench, Progress, TraceBackend};
 use crate::args::{default_eye, parse_ms_budgets, parse_ray_budgets, BudgetList};
 use crate::output::print_json;
 
+mod peers;
 mod plot;
 mod tables;
 
@@ -44,6 +45,12 @@ enum What {
     /// pass (the default) and as the thesis' single pass, alternated round by round; million
     /// triangles per second, set sizes, peak memory.
     Rv(RvArgs),
+    /// Peers side by side, one thread each: our occlusion buffer against Intel's Masked
+    /// Occlusion Culling (AVX2 and AVX-512) on random and real occluder sets, our BVH against
+    /// tinybvh (and Embree with `--features embree`) on `bench trace`'s rays, build time
+    /// included. The peers run as harnesses (`bench/peers/`) that `scripts/peer-bench` builds
+    /// from their own checkouts.
+    Peers(peers::PeersArgs),
 }
 
 /// Arguments of `sightline bench rv`.
@@ -257,6 +264,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         What::Pvs(a) => pvs(a),
         What::Share(a) => share(a),
         What::Rv(a) => rv(a),
+        What::Peers(a) => peers::run(a),
     }
 }
 

@@ -131,7 +131,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         latency: 1,
         ..SimConfig::default()
     };
-    let cameras = cameras(&args, &scene, &config)?;
+    let cameras = cameras(&args.scene, args.path.as_deref(), &scene, &config)?;
     // On the GPU every stop-and-wait query is its own submission (hundreds of ms per frame on
     // a software Vulkan driver), so the GPU run has the grid method and frustum culling only.
     let (mut backend, methods): (Box<dyn sightline_cull::OcclusionBackend>, &[Method]) =
@@ -207,7 +207,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
 
 /// `procedural:grid` / `procedural:graveyard` with `?seed=&size=`, or any scene spec animated
 /// (loaded with `options` and validated as every command does).
-fn load_scene(spec: &str, options: &LoadOptions) -> Result<CullScene> {
+pub(crate) fn load_scene(spec: &str, options: &LoadOptions) -> Result<CullScene> {
     let (name, query) = spec.split_once('?').unwrap_or((spec, ""));
     let ours = match name {
         "procedural:grid" => Some(true),
@@ -271,13 +271,19 @@ fn gpu_backend() -> Result<Box<dyn sightline_cull::OcclusionBackend>> {
     Err(crate::features::not_built("gpu", "--backend gpu"))
 }
 
-fn cameras(args: &Args, scene: &CullScene, config: &SimConfig) -> Result<Vec<Camera>> {
+/// (`sightline bench peers` takes the same cameras for its real occluder sets.)
+pub(crate) fn cameras(
+    spec: &str,
+    path: Option<&Path>,
+    scene: &CullScene,
+    config: &SimConfig,
+) -> Result<Vec<Camera>> {
     let up = scene.scene.up.vector();
     let (w, h, fov) = (config.width, config.height, config.fov_y_deg);
     let bounds = scene.scene.bounds();
     let n = config.frames as usize;
     // (eye, look) per frame.
-    let poses: Vec<(Vec3, Vec3)> = if let Some(path) = &args.path {
+    let poses: Vec<(Vec3, Vec3)> = if let Some(path) = path {
         // The viewer reads the same path files (`sightline view --path`).
         let keys = read_camera_path(path)?;
         (0..n).map(|f| interpolate(&keys, f, n)).collect()
@@ -310,9 +316,7 @@ fn cameras(args: &Args, scene: &CullScene, config: &SimConfig) -> Result<Vec<Cam
             })
             .collect()
     };
-    let near = if args.scene.starts_with("procedural:grid")
-        || args.scene.starts_with("procedural:graveyard")
-    {
+    let near = if spec.starts_with("procedural:grid") || spec.starts_with("procedural:graveyard") {
         // These scenes' own scale (a person-height camera on a street), kept for a --path.
         0.1
     } else {
@@ -324,7 +328,7 @@ fn cameras(args: &Args, scene: &CullScene, config: &SimConfig) -> Result<Vec<Cam
         .into_iter()
         .enumerate()
         .map(|(f, (eye, look))| {
-            Camera::look_at(eye, look, up, fov, w, h, near).with_context(|| match &args.path {
+            Camera::look_at(eye, look, up, fov, w, h, near).with_context(|| match path {
                 Some(path) => format!(
                     "{}: frame {f}: no camera from eye {eye} looking at {look} (eye equal to \
                      look, or looking along the up axis?)",

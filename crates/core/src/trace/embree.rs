@@ -167,13 +167,25 @@ fn usable(corners: [Vec3; 3]) -> bool {
 impl EmbreeCaster {
     /// Builds an Embree scene (high build quality) over `scene`'s triangles.
     pub fn build(scene: &Scene) -> Result<Self, EmbreeError> {
+        Self::build_with_config(scene, c"")
+    }
+
+    /// [`EmbreeCaster::build`] with Embree building on `threads` threads (its device
+    /// configuration `threads=N`; the default is every core), for single-thread benchmarks.
+    pub fn build_with_threads(scene: &Scene, threads: usize) -> Result<Self, EmbreeError> {
+        let config = std::ffi::CString::new(format!("threads={threads}"))
+            .map_err(|_| EmbreeError::NoDevice)?;
+        Self::build_with_config(scene, &config)
+    }
+
+    fn build_with_config(scene: &Scene, config: &std::ffi::CStr) -> Result<Self, EmbreeError> {
         let n_tri = scene.triangles.len();
         let n_vert = scene.positions.len() + 1;
         if n_tri >= u32::MAX as usize || n_vert >= u32::MAX as usize {
             return Err(EmbreeError::TooLarge(n_tri));
         }
-        // SAFETY: a null config string asks for the default configuration.
-        let device = unsafe { rtcNewDevice(ptr::null()) };
+        // SAFETY: `config` is a NUL-terminated string (empty: the default configuration).
+        let device = unsafe { rtcNewDevice(config.as_ptr()) };
         if device.is_null() {
             return Err(EmbreeError::NoDevice);
         }

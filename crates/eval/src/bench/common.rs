@@ -79,6 +79,15 @@ pub enum Progress<'a> {
         /// Rays per cell.
         budget: u64,
     },
+    /// Round `round` (from 1) of `rounds` of a peer comparison on `what` (a set or scene).
+    Peers {
+        /// The occluder set or scene.
+        what: &'a str,
+        /// This round, from 1.
+        round: usize,
+        /// All rounds.
+        rounds: usize,
+    },
     /// The evaluation of grid cell `cell`, the `index`-th (from 1) of `count`, starts.
     Evaluating {
         /// The cell's index in the grid.
@@ -104,6 +113,11 @@ impl fmt::Display for Progress<'_> {
             Self::SharedBake { budget } => {
                 write!(f, "GVS++ with ray sharing, {budget} rays per cell ...")
             }
+            Self::Peers {
+                what,
+                round,
+                rounds,
+            } => write!(f, "{what}: round {round}/{rounds}"),
             Self::Evaluating { cell, index, count } => {
                 write!(f, "evaluating cell {cell} ({index}/{count})")
             }

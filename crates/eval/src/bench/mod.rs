@@ -4,6 +4,8 @@
 
 mod common;
 mod convergence;
+pub mod peer_sets;
+mod peers;
 mod pvs;
 mod raster;
 mod rv;
@@ -12,6 +14,11 @@ mod trace;
 
 pub use common::{BenchError, OnProgress, Progress};
 pub use convergence::{convergence_curves, Convergence, ConvergenceSeries, ERROR_FLOOR, FRACTIONS};
+pub use peers::{
+    bench_occluders, bench_rays, hit_agreement, CoverageCheck, InProcessCaster, OccluderCase,
+    OccluderRow, PeerBenchOptions, PeerError, PeerProcess, RayRow, RaySetCase, Timing,
+    HIT_T_TOLERANCE,
+};
 pub use pvs::{bench_pvs_scene, equal_budget_pairs, PvsBenchOptions, PvsRow, PvsSceneReport};
 pub use raster::{bench_raster, RasterRow};
 pub use rv::{bench_rv, RvBenchOptions, RvRow};
