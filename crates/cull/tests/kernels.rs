@@ -228,4 +228,20 @@ fn batched_avx2_path_equals_previous_kernels_on_small_edge_and_near_triangles() 
         let part = &tris[..3 * n];
         assert!(render(avx2, part).same_contents(&render(avx2_per_tile, part)));
     }
+    // The AVX-512 step (two block rows at once, the last of an odd count half masked) on the
+    // same triangles, at the image's edges and near plane.
+    if Kernel::Avx512.available() {
+        let avx512 = AnyKernel::Public(Kernel::Avx512);
+        assert!(
+            render(avx512, &tris).same_contents(&new),
+            "avx512 differs from avx2"
+        );
+        for n in 1..8 {
+            let part = &tris[..3 * n];
+            assert!(render(avx512, part).same_contents(&render(avx2, part)));
+        }
+    } else {
+        eprintln!("no AVX-512 on this CPU: the AVX-512 kernel is not compared here");
+        assert!(!OcclusionBuffer::new(8, 8).set_kernel(Kernel::Avx512));
+    }
 }

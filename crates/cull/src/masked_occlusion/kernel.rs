@@ -18,7 +18,11 @@ use super::raster_kernel::RasterKernel;
 use super::scalar::Scalar;
 use super::tiles::Tiles;
 #[cfg(target_arch = "x86_64")]
-use super::{avx2::Avx2, baseline::Avx2PerTile, sse2::Sse2};
+use super::{
+    avx2::{Avx2, Avx512},
+    baseline::Avx2PerTile,
+    sse2::Sse2,
+};
 
 /// Which implementation of the rasterizer's inner loops an
 /// [`OcclusionBuffer`](super::OcclusionBuffer) uses.
@@ -32,15 +36,20 @@ pub enum Kernel {
     /// masks, depths and merges of a block of 4x2 tiles at once (one tile per lane), without
     /// branches per tile.
     Avx2,
+    /// AVX-512 (F, BW, DQ, VL): the AVX2 kernel's setup, then per triangle two blocks (16
+    /// tiles, two block rows) at once in 512-bit registers.
+    Avx512,
 }
 
 impl Kernel {
     /// Every kernel, scalar first.
-    pub const ALL: [Kernel; 3] = [Kernel::Scalar, Kernel::Sse2, Kernel::Avx2];
+    pub const ALL: [Kernel; 4] = [Kernel::Scalar, Kernel::Sse2, Kernel::Avx2, Kernel::Avx512];
 
     /// The fastest kernel this CPU supports.
     pub fn detect() -> Self {
-        if Kernel::Avx2.available() {
+        if Kernel::Avx512.available() {
+            Kernel::Avx512
+        } else if Kernel::Avx2.available() {
             Kernel::Avx2
         } else if Kernel::Sse2.available() {
             Kernel::Sse2
@@ -55,6 +64,7 @@ impl Kernel {
             Kernel::Scalar => true,
             Kernel::Sse2 => cpu_has_sse2(),
             Kernel::Avx2 => cpu_has_avx2(),
+            Kernel::Avx512 => cpu_has_avx512(),
         }
     }
 
@@ -64,6 +74,7 @@ impl Kernel {
             Kernel::Scalar => "scalar",
             Kernel::Sse2 => "sse2",
             Kernel::Avx2 => "avx2",
+            Kernel::Avx512 => "avx512",
         }
     }
 }
@@ -119,6 +130,18 @@ fn cpu_has_avx2() -> bool {
     }
 }
 
+fn cpu_has_avx512() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::is_x86_feature_detected as has;
+        has!("avx512f") && has!("avx512bw") && has!("avx512dq") && has!("avx512vl")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
 /// Draws the triangles with `kernel`.
 ///
 /// # Safety
@@ -133,6 +156,9 @@ pub(super) unsafe fn render(
         // SAFETY: the kernel is available (this function's contract), i.e. the CPU has AVX2.
         #[cfg(target_arch = "x86_64")]
         Kernel::Avx2 => unsafe { Avx2::render(tiles, triangles, proj) },
+        // SAFETY: the kernel is available, i.e. the CPU has AVX-512 F, BW, DQ and VL.
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx512 => unsafe { Avx512::render(tiles, triangles, proj) },
         // SAFETY: SSE2 is part of the x86_64 baseline, enabled on this target.
         #[cfg(target_arch = "x86_64")]
         Kernel::Sse2 => unsafe { Sse2::render(tiles, triangles, proj) },

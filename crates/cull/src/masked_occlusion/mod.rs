@@ -53,7 +53,9 @@
 //!   `scalar.rs`, `sse2.rs`, `baseline.rs` (per-tile AVX2): their span and mask steps.
 //! - `avx2/`: the batched AVX2 block kernel: `mod.rs` (batches, view transform, clipping
 //!   choice), `setup.rs` (8 triangles set up at once), `blocks.rs` (a triangle drawn a block of
-//!   4x2 tiles at a time, with the coarse depth cull of blocks and rows).
+//!   4x2 tiles at a time, with the coarse depth cull of blocks and rows); and the AVX-512
+//!   kernel, which shares the batches and the setup: `pairs.rs` (a triangle drawn two block
+//!   rows at a time in 512-bit registers).
 //! - `query.rs`: the box, rectangle and triangle tests and the per-pixel depth.
 
 use glam::Vec3;

@@ -21,13 +21,13 @@ use super::setup::Setup8;
 
 /// The block grid of a buffer, apart from its blocks (which the kernel borrows mutably).
 pub(super) struct BlockGrid {
-    blocks_x: u32,
+    pub(super) blocks_x: u32,
     /// Last tile column and row of the image.
-    last_tx: u32,
-    last_ty: u32,
+    pub(super) last_tx: u32,
+    pub(super) last_ty: u32,
     /// Mask bits beyond the image of the last tile column / row (see [`Tiles`]).
-    outside_x: u32,
-    outside_y: u32,
+    pub(super) outside_x: u32,
+    pub(super) outside_y: u32,
 }
 
 impl BlockGrid {

@@ -1,7 +1,8 @@
-//! The AVX2 kernel of the masked occlusion buffer: triangles in batches of 8, one per lane,
-//! through the view transform, culling and clipping choice, projection and setup
+//! The AVX2 and AVX-512 kernels of the masked occlusion buffer: triangles in batches of 8, one
+//! per lane, through the view transform, culling and clipping choice, projection and setup
 //! ([`transform_batch`], [`setup8`]); then each triangle drawn a block of 4x2 tiles at a time
-//! by `blocks.rs` ([`raster_blocks`]).
+//! by `blocks.rs` ([`raster_blocks`], AVX2) or two block rows at a time by `pairs.rs`
+//! (AVX-512).
 //!
 //! Based on: Hasselgren, Andersson, Akenine-Möller. Masked Software Occlusion Culling. 2016,
 //! section 4 (the AVX2 form: triangle setup in SIMD lanes; the per-triangle part is in
@@ -21,6 +22,7 @@ use super::raster_kernel::RasterKernel;
 use super::tiles::Tiles;
 
 mod blocks;
+mod pairs;
 mod setup;
 
 use blocks::{raster_blocks, BlockGrid};
@@ -32,7 +34,19 @@ pub(super) struct Avx2;
 impl RasterKernel for Avx2 {
     unsafe fn render(tiles: &mut Tiles, triangles: &[Vec3], proj: &Projector) {
         // SAFETY: the CPU supports AVX2 (this function's contract).
-        unsafe { render_batches(tiles, triangles, proj) }
+        unsafe { render_batches::<false>(tiles, triangles, proj) }
+    }
+}
+
+/// The AVX-512 kernel: the AVX2 kernel's batches and setup, each triangle then drawn two block
+/// rows at a time in 512-bit registers (`pairs.rs`).
+pub(super) struct Avx512;
+
+impl RasterKernel for Avx512 {
+    unsafe fn render(tiles: &mut Tiles, triangles: &[Vec3], proj: &Projector) {
+        // SAFETY: the CPU supports AVX-512 F, BW, DQ and VL, and so AVX2 (this function's
+        // contract).
+        unsafe { render_batches::<true>(tiles, triangles, proj) }
     }
 }
 
@@ -56,10 +70,17 @@ impl View8 {
 /// [`raster_clipped`]) after prefetching their first blocks. Same arithmetic as the
 /// per-triangle path.
 ///
+/// With `WIDE`, triangles that need no clipping are drawn by the AVX-512 step
+/// ([`pairs::raster_pairs`]).
+///
 /// # Safety
-/// The CPU must support AVX2.
+/// The CPU must support AVX2, and with `WIDE` AVX-512 F, BW, DQ and VL.
 #[target_feature(enable = "avx2")]
-unsafe fn render_batches(tiles: &mut Tiles, triangles: &[Vec3], proj: &Projector) {
+unsafe fn render_batches<const WIDE: bool>(
+    tiles: &mut Tiles,
+    triangles: &[Vec3],
+    proj: &Projector,
+) {
     let grid = BlockGrid::new(tiles);
     let camera = Camera8::new(proj);
     let mut setup = Setup8::default();
@@ -80,7 +101,12 @@ unsafe fn render_batches(tiles: &mut Tiles, triangles: &[Vec3], proj: &Projector
         for l in 0..n {
             let bit = 1 << l;
             if draw & bit != 0 {
-                raster_blocks(&mut tiles.blocks, &grid, &setup, l);
+                if WIDE {
+                    // SAFETY: with `WIDE` the CPU supports AVX-512 (this function's contract).
+                    unsafe { pairs::raster_pairs(&mut tiles.blocks, &grid, &setup, l) };
+                } else {
+                    raster_blocks(&mut tiles.blocks, &grid, &setup, l);
+                }
             } else if (fast | skip) & bit == 0 {
                 raster_clipped(tiles, views.triangle(l), proj);
             }

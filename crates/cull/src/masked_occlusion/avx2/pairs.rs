@@ -1,0 +1,396 @@
+//! The AVX-512 kernel's per-triangle step: what `blocks.rs` does for one block row (8
+//! scanlines, the 8 tiles of a block), done for two block rows at once in 512-bit registers
+//! ([`raster_pairs`]): the spans of 16 scanlines in one register, the masks, depths and merges
+//! of two vertically adjacent blocks (16 tiles) in one register each. A triangle that covers
+//! an odd number of block rows draws its last one with the upper half of every register
+//! masked off (loads and stores of that half are not made), so no block outside the buffer is
+//! touched. The triangle setup stays the AVX2 kernel's (`setup.rs`, 8 triangles at once).
+//!
+//! Based on: Hasselgren, Andersson, Akenine-Möller. Masked Software Occlusion Culling. 2016,
+//! section 4 (the SIMD layout, scaled to 16 lanes as its AVX-512 form does); Andersson,
+//! Hasselgren, Akenine-Möller. Masked Depth Culling for Graphics Hardware. 2015, section 3
+//! (the tile merge, [`merge_pair`]).
+//!
+//! Bit-exactness: lane by lane the same `f32` and integer operations as `blocks.rs` (and so as
+//! the per-tile kernels), with mask registers where that file selects with blends; the buffers
+//! are identical bit for bit (checked by the tests).
+
+use std::arch::x86_64::*;
+
+use super::super::per_tile::{EMPTY_HI, EMPTY_LO};
+use super::super::tiles::Block;
+use super::blocks::BlockGrid;
+use super::setup::Setup8;
+
+/// The features every function here needs.
+macro_rules! avx512 {
+    ($($item:item)*) => {$(
+        #[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
+        $item
+    )*};
+}
+
+/// One triangle (lane `l` of a [`Setup8`]) broadcast to 16 lanes.
+struct Triangle16 {
+    /// Edges `(x0, y0, slope)`, and whether each bounds spans from the left / right.
+    edges: [(__m512, __m512, __m512); 3],
+    bound_l: [bool; 3],
+    bound_r: [bool; 3],
+    x0: __m512,
+    y0: __m512,
+    r0: __m512,
+    ra: __m512,
+    rb: __m512,
+    r_far: __m512,
+    plane_ok: bool,
+    a_lo: __m512,
+    a_hi: __m512,
+    b_lo: __m512,
+    b_hi: __m512,
+    row0: i32,
+    row1: i32,
+    col0: i32,
+    col1: i32,
+}
+
+impl Triangle16 {
+    avx512! {
+        #[inline]
+        fn new(t: &Setup8, l: usize) -> Self {
+            let set1 = _mm512_set1_ps;
+            Triangle16 {
+                edges: [0, 1, 2].map(|i| (set1(t.ex0[i][l]), set1(t.ey0[i][l]), set1(t.slope[i][l]))),
+                bound_l: [0, 1, 2].map(|i| t.bound_l[i][l] != 0),
+                bound_r: [0, 1, 2].map(|i| t.bound_r[i][l] != 0),
+                x0: set1(t.x0[l]),
+                y0: set1(t.y0[l]),
+                r0: set1(t.r0[l]),
+                ra: set1(t.ra[l]),
+                rb: set1(t.rb[l]),
+                r_far: set1(t.r_far[l]),
+                plane_ok: t.plane_ok[l] != 0,
+                a_lo: set1(t.a_lo[l]),
+                a_hi: set1(t.a_hi[l]),
+                b_lo: set1(t.b_lo[l]),
+                b_hi: set1(t.b_hi[l]),
+                row0: t.row0[l],
+                row1: t.row1[l],
+                col0: t.col0[l],
+                col1: t.col1[l],
+            }
+        }
+    }
+}
+
+avx512! {
+    /// Rasterizes one triangle (lane `l` of `t`) into the blocks, two block rows at a time:
+    /// block rows `by` (lanes 0-7) and `by + 1` (lanes 8-15). As `blocks::raster_blocks`: a
+    /// pair of rows whose bounding-box blocks all lie behind the triangle is skipped before its
+    /// spans, a block pair behind it before its masks.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512 F, BW, DQ and VL.
+    #[inline]
+    pub(super) unsafe fn raster_pairs(blocks: &mut [Block], g: &BlockGrid, t: &Setup8, l: usize) {
+        let tri = Triangle16::new(t, l);
+        let (bbox_bx0, bbox_bx1) = (tri.col0 as u32 / 32, tri.col1 as u32 / 32);
+        let last_bx = g.last_tx / 4;
+        let (by0, by1) = (tri.row0 as u32 / 8, tri.row1 as u32 / 8);
+        for by in (by0..=by1).step_by(2) {
+            // Lanes 8-15 exist when the triangle reaches block row `by + 1`.
+            let lanes: __mmask16 = if by < by1 { 0xFFFF } else { 0x00FF };
+            let depth = PairDepth::new(&tri, by, g);
+            let (lo, hi) = ((by * g.blocks_x) as usize, ((by + 1) * g.blocks_x) as usize);
+            let first_open = (bbox_bx0..=bbox_bx1).find(|&bx| {
+                let z0 = load_z0(blocks, lo + bx as usize, hi + bx as usize, lanes);
+                !depth.behind(&tri, bx, z0, lanes)
+            });
+            let Some(first_open) = first_open else {
+                continue;
+            };
+            let Some((rel_a, rel_b, bx0, bx1)) = pair_spans(&tri, by) else {
+                continue;
+            };
+            let (mut rel_a, mut rel_b) = (rel_a, rel_b);
+            for bx in bx0..=bx1 {
+                let (i, j) = (lo + bx as usize, hi + bx as usize);
+                let z0 = load_z0(blocks, i, j, lanes);
+                let skip = bx < first_open || (bx > first_open && depth.behind(&tri, bx, z0, lanes));
+                if !skip {
+                    let base = tile_columns(bx);
+                    let (mask, cmin, cmax) = pair_masks(rel_a, rel_b, base);
+                    let cov = if bx == last_bx || depth.last_row {
+                        let outside_x = _mm512_maskz_mov_epi32(
+                            _mm512_cmpeq_epi32_mask(
+                                _mm512_add_epi32(
+                                    _mm512_set1_epi32((4 * bx) as i32),
+                                    _mm512_setr_epi32(0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3),
+                                ),
+                                _mm512_set1_epi32(g.last_tx as i32),
+                            ),
+                            _mm512_set1_epi32(g.outside_x as i32),
+                        );
+                        let outside = _mm512_or_si512(outside_x, depth.outside_y);
+                        let touched = _mm512_test_epi32_mask(mask, mask);
+                        _mm512_mask_or_epi32(mask, touched, mask, outside)
+                    } else {
+                        mask
+                    };
+                    let r = if tri.plane_ok {
+                        let half = _mm512_set1_ps(0.5);
+                        let xa = _mm512_sub_ps(_mm512_add_ps(cmin, half), tri.x0);
+                        let xb = _mm512_sub_ps(_mm512_add_ps(cmax, half), tri.x0);
+                        let m = min_like(_mm512_mul_ps(tri.ra, xa), _mm512_mul_ps(tri.ra, xb));
+                        // `f32::max` without a NaN select: `r_far` is never NaN.
+                        _mm512_max_ps(_mm512_add_ps(depth.r_rows, m), tri.r_far)
+                    } else {
+                        tri.r_far
+                    };
+                    merge_pair(blocks, i, j, lanes, z0, cov, r);
+                }
+                rel_a = _mm512_sub_epi32(rel_a, _mm512_set1_epi32(32));
+                rel_b = _mm512_sub_epi32(rel_b, _mm512_set1_epi32(32));
+            }
+        }
+    }
+
+    /// The first column of each lane's tile in block column `bx`, as `f32`.
+    #[inline]
+    fn tile_columns(bx: u32) -> __m512 {
+        let lane_x = _mm512_setr_ps(
+            0.0, 8.0, 16.0, 24.0, 0.0, 8.0, 16.0, 24.0, 0.0, 8.0, 16.0, 24.0, 0.0, 8.0, 16.0, 24.0,
+        );
+        _mm512_add_ps(_mm512_set1_ps((32 * bx) as f32), lane_x)
+    }
+
+    /// The reference layers of blocks `i` (lanes 0-7) and `j` (lanes 8-15, when `lanes` has
+    /// them; else zero and not read).
+    #[inline]
+    fn load_z0(blocks: &[Block], i: usize, j: usize, lanes: __mmask16) -> __m512 {
+        // SAFETY: aligned 32-byte loads of the `z0` arrays of `#[repr(align(32))]` blocks; `j`
+        // is only read when the triangle reaches its block row, which lies in the buffer.
+        unsafe {
+            let lo = _mm256_load_ps(blocks[i].z0.as_ptr());
+            let v = _mm512_castps256_ps512(lo);
+            if lanes == 0xFFFF {
+                _mm512_insertf32x8::<1>(v, _mm256_load_ps(blocks[j].z0.as_ptr()))
+            } else {
+                _mm512_insertf32x8::<1>(v, _mm256_setzero_ps())
+            }
+        }
+    }
+}
+
+/// What a pair of block rows needs of the triangle's depth plane, per lane (tile row
+/// `lane / 4` of the pair): the plane's minimum over the tile row's scanlines, as the per-tile
+/// path computes it, and its maximum; the mask bits beyond the image of the last tile row.
+struct PairDepth {
+    r_rows: __m512,
+    r_rows_max: __m512,
+    outside_y: __m512i,
+    /// Whether the pair holds the image's last tile row.
+    last_row: bool,
+}
+
+impl PairDepth {
+    avx512! {
+        #[inline]
+        fn new(tri: &Triangle16, by: u32, g: &BlockGrid) -> Self {
+            let lane_ty = _mm512_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3);
+            let tyv = _mm512_add_epi32(_mm512_set1_epi32((2 * by) as i32), lane_ty);
+            let ya = _mm512_add_ps(
+                _mm512_cvtepi32_ps(_mm512_slli_epi32::<2>(tyv)),
+                _mm512_set1_ps(0.5),
+            );
+            let yb = _mm512_add_ps(ya, _mm512_set1_ps(3.0));
+            let da = _mm512_mul_ps(tri.rb, _mm512_sub_ps(ya, tri.y0));
+            let db = _mm512_mul_ps(tri.rb, _mm512_sub_ps(yb, tri.y0));
+            PairDepth {
+                r_rows: _mm512_add_ps(tri.r0, min_like(da, db)),
+                r_rows_max: _mm512_add_ps(tri.r0, _mm512_max_ps(da, db)),
+                outside_y: _mm512_maskz_mov_epi32(
+                    _mm512_cmpeq_epi32_mask(tyv, _mm512_set1_epi32(g.last_ty as i32)),
+                    _mm512_set1_epi32(g.outside_y as i32),
+                ),
+                last_row: g.last_ty / 2 == by || g.last_ty / 2 == by + 1,
+            }
+        }
+
+        /// Whether every tile of block column `bx` in the pair's `lanes` (reference layers
+        /// `z0`) lies behind the triangle: `blocks::BlockRowDepth::behind` for 16 tiles.
+        #[inline]
+        fn behind(&self, tri: &Triangle16, bx: u32, z0: __m512, lanes: __mmask16) -> bool {
+            let behind_far = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(tri.r_far, z0) | !lanes;
+            if behind_far != 0xFFFF {
+                return false;
+            }
+            if !tri.plane_ok {
+                return true;
+            }
+            let first = tile_columns(bx);
+            let xa = _mm512_sub_ps(_mm512_add_ps(first, _mm512_set1_ps(0.5)), tri.x0);
+            let xb = _mm512_sub_ps(_mm512_add_ps(first, _mm512_set1_ps(7.5)), tri.x0);
+            let m = _mm512_max_ps(_mm512_mul_ps(tri.ra, xa), _mm512_mul_ps(tri.ra, xb));
+            let bound = _mm512_add_ps(self.r_rows_max, m);
+            (_mm512_cmp_ps_mask::<_CMP_LE_OQ>(bound, z0) | !lanes) == 0xFFFF
+        }
+    }
+}
+
+avx512! {
+    /// The spans of the 16 scanlines of block rows `by` and `by + 1` (one per lane), as
+    /// `blocks::row_spans` computes those of 8: `(rel_a, rel_b, bx0, bx1)`.
+    #[inline]
+    fn pair_spans(tri: &Triangle16, by: u32) -> Option<(__m512i, __m512i, u32, u32)> {
+        let half = _mm512_set1_ps(0.5);
+        let row_base = (by * 8) as i32;
+        let lane_f = _mm512_setr_ps(
+            0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0, 13.0, 14.0, 15.0,
+        );
+        let yc = _mm512_add_ps(_mm512_set1_ps(row_base as f32 + 0.5), lane_f);
+        let mut xl = _mm512_set1_ps(f32::NEG_INFINITY);
+        let mut xr = _mm512_set1_ps(f32::INFINITY);
+        for (i, &(ex0, ey0, slope)) in tri.edges.iter().enumerate() {
+            let x = _mm512_add_ps(ex0, _mm512_mul_ps(_mm512_sub_ps(yc, ey0), slope));
+            // An edge that does not bound a side adds -inf / +inf there, which changes nothing;
+            // `maxps(x, acc)` returns `acc` when `x` is NaN, as `f32::max` does.
+            if tri.bound_l[i] {
+                xl = _mm512_max_ps(x, xl);
+            }
+            if tri.bound_r[i] {
+                xr = _mm512_min_ps(x, xr);
+            }
+        }
+        let xa = _mm512_min_ps(_mm512_max_ps(_mm512_sub_ps(xl, half), tri.a_lo), tri.a_hi);
+        let xb = _mm512_min_ps(_mm512_max_ps(_mm512_sub_ps(xr, half), tri.b_lo), tri.b_hi);
+        // Ceiling of `xa`, floor of `xb`, as `blocks::row_spans` rounds them.
+        let ta = _mm512_cvttps_epi32(xa);
+        let up = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(xa, _mm512_cvtepi32_ps(ta));
+        let a = _mm512_mask_add_epi32(ta, up, ta, _mm512_set1_epi32(1));
+        let tb = _mm512_cvttps_epi32(xb);
+        let down = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(xb, _mm512_cvtepi32_ps(tb));
+        let b = _mm512_mask_sub_epi32(tb, down, tb, _mm512_set1_epi32(1));
+        let rows = _mm512_add_epi32(
+            _mm512_set1_epi32(row_base),
+            _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15),
+        );
+        let invalid = _mm512_cmpgt_epi32_mask(_mm512_set1_epi32(tri.row0), rows)
+            | _mm512_cmpgt_epi32_mask(rows, _mm512_set1_epi32(tri.row1))
+            | _mm512_cmpgt_epi32_mask(a, b);
+        if invalid == 0xFFFF {
+            return None;
+        }
+        let a = _mm512_mask_mov_epi32(a, invalid, _mm512_set1_epi32(EMPTY_LO));
+        let b = _mm512_mask_mov_epi32(b, invalid, _mm512_set1_epi32(EMPTY_HI));
+        let (bx0, bx1) = if tri.col0 / 32 == tri.col1 / 32 {
+            (tri.col0 as u32 / 32, tri.col0 as u32 / 32)
+        } else {
+            (
+                _mm512_reduce_min_epi32(a) as u32 / 32,
+                _mm512_reduce_max_epi32(b) as u32 / 32,
+            )
+        };
+        let block0 = _mm512_set1_epi32((32 * bx0) as i32);
+        let rel_a = _mm512_sub_epi32(a, block0);
+        let rel_b = _mm512_sub_epi32(_mm512_add_epi32(b, _mm512_set1_epi32(1)), block0);
+        Some((rel_a, rel_b, bx0, bx1))
+    }
+
+    /// The coverage masks of the 16 tiles of a block pair (one per lane) from the spans of
+    /// its 16 scanlines, with each tile's lowest and highest covered column as `f32`:
+    /// `blocks::block_masks` for two blocks (the byte transpose works within each 128-bit
+    /// quarter: one tile row of 4 tiles).
+    #[inline]
+    fn pair_masks(rel_a: __m512i, rel_b: __m512i, base: __m512) -> (__m512i, __m512, __m512) {
+        let zero = _mm512_setzero_si512();
+        let ones = _mm512_set1_epi32(-1);
+        let from_a = _mm512_sllv_epi32(ones, _mm512_max_epi32(rel_a, zero));
+        let from_b = _mm512_sllv_epi32(ones, _mm512_max_epi32(rel_b, zero));
+        let rows = _mm512_andnot_si512(from_b, from_a);
+        let transpose = _mm512_broadcast_i32x4(_mm_setr_epi8(
+            0, 4, 8, 12, 1, 5, 9, 13, 2, 6, 10, 14, 3, 7, 11, 15,
+        ));
+        let mask = _mm512_shuffle_epi8(rows, transpose);
+        let cols = _mm512_or_si512(mask, _mm512_srli_epi32::<16>(mask));
+        let cols = _mm512_or_si512(cols, _mm512_srli_epi32::<8>(cols));
+        let cols = _mm512_and_si512(cols, _mm512_set1_epi32(0xFF));
+        let lowest = _mm512_and_si512(cols, _mm512_sub_epi32(zero, cols));
+        let log2 = |v: __m512i| {
+            let e = _mm512_srli_epi32::<23>(_mm512_castps_si512(_mm512_cvtepi32_ps(v)));
+            _mm512_cvtepi32_ps(_mm512_sub_epi32(e, _mm512_set1_epi32(127)))
+        };
+        (mask, _mm512_add_ps(base, log2(lowest)), _mm512_add_ps(base, log2(cols)))
+    }
+
+    /// `blocks::merge_block` for blocks `i` (lanes 0-7) and `j` (lanes 8-15, when `lanes` has
+    /// them), with mask registers for its selects; `z0` is their reference layers, already
+    /// loaded.
+    #[inline]
+    fn merge_pair(
+        blocks: &mut [Block],
+        i: usize,
+        j: usize,
+        lanes: __mmask16,
+        z0: __m512,
+        cov: __m512i,
+        r: __m512,
+    ) {
+        let both = lanes == 0xFFFF;
+        // SAFETY: aligned 32-byte loads of the arrays of `#[repr(align(32))]` blocks (block `j`
+        // only when the pair has it).
+        let (z1, m) = unsafe {
+            let (z1_lo, m_lo) = (
+                _mm256_load_ps(blocks[i].z1.as_ptr()),
+                _mm256_load_si256(blocks[i].mask.as_ptr().cast()),
+            );
+            let (z1_hi, m_hi) = if both {
+                (
+                    _mm256_load_ps(blocks[j].z1.as_ptr()),
+                    _mm256_load_si256(blocks[j].mask.as_ptr().cast()),
+                )
+            } else {
+                (_mm256_setzero_ps(), _mm256_setzero_si256())
+            };
+            (
+                _mm512_insertf32x8::<1>(_mm512_castps256_ps512(z1_lo), z1_hi),
+                _mm512_inserti32x8::<1>(_mm512_castsi256_si512(m_lo), m_hi),
+            )
+        };
+        let zero = _mm512_setzero_si512();
+        let all = _mm512_set1_epi32(-1);
+        // Unchanged: nothing covered, or not nearer than the reference layer (or NaN).
+        let keep = _mm512_cmpeq_epi32_mask(cov, zero) | !_mm512_cmp_ps_mask::<_CMP_GT_OQ>(r, z0);
+        let discard = _mm512_cmpeq_epi32_mask(m, zero)
+            | _mm512_cmp_ps_mask::<_CMP_GT_OQ>(_mm512_sub_ps(r, z1), _mm512_sub_ps(z1, z0));
+        let z1n = _mm512_mask_mov_ps(min_like(z1, r), discard, r);
+        let mn = _mm512_mask_mov_epi32(_mm512_or_si512(m, cov), discard, cov);
+        let full = _mm512_cmpeq_epi32_mask(mn, all);
+        let z0n = _mm512_mask_mov_ps(z0, full, z1n);
+        let z1n = _mm512_maskz_mov_ps(!full, z1n);
+        let mn = _mm512_maskz_mov_epi32(!full, mn);
+        let z0n = _mm512_mask_mov_ps(z0n, keep, z0);
+        let z1n = _mm512_mask_mov_ps(z1n, keep, z1);
+        let mn = _mm512_mask_mov_epi32(mn, keep, m);
+        // SAFETY: aligned 32-byte stores into the same arrays.
+        unsafe {
+            _mm256_store_ps(blocks[i].z0.as_mut_ptr(), _mm512_castps512_ps256(z0n));
+            _mm256_store_ps(blocks[i].z1.as_mut_ptr(), _mm512_castps512_ps256(z1n));
+            _mm256_store_si256(blocks[i].mask.as_mut_ptr().cast(), _mm512_castsi512_si256(mn));
+            if both {
+                _mm256_store_ps(blocks[j].z0.as_mut_ptr(), _mm512_extractf32x8_ps::<1>(z0n));
+                _mm256_store_ps(blocks[j].z1.as_mut_ptr(), _mm512_extractf32x8_ps::<1>(z1n));
+                _mm256_store_si256(
+                    blocks[j].mask.as_mut_ptr().cast(),
+                    _mm512_extracti32x8_epi32::<1>(mn),
+                );
+            }
+        }
+    }
+
+    /// `a.min(b)` of `f32` lane by lane (the non-NaN operand when one is NaN), as
+    /// `blocks::min_like_f32`.
+    #[inline]
+    fn min_like(a: __m512, b: __m512) -> __m512 {
+        _mm512_mask_mov_ps(_mm512_min_ps(a, b), _mm512_cmp_ps_mask::<_CMP_UNORD_Q>(b, b), a)
+    }
+}
