@@ -169,13 +169,20 @@ impl Tiles {
 /// layer (farther from it than the working layer is from the reference layer), the working
 /// layer is dropped and restarted from the triangle, otherwise the triangle joins it at the
 /// farther of the two depths. A full working mask becomes the new reference layer.
+///
+/// While the reference layer is still clear (`z0 = 0`: nothing known), the working layer is
+/// never dropped: dropping it would forget the pixels it covers, with no reference layer to
+/// fall back to, and with `z0 = 0` the distance test drops it whenever the new triangle is
+/// twice as near (in `1/z`), which on scattered small occluders lost a quarter of the covered
+/// pixels. (Masked Software Occlusion Culling, 2016, gets the same effect by clearing its
+/// reference layer to a value beyond infinity.)
 #[inline(always)]
 pub(super) fn update_tile(tile: &mut Tile, cov: u32, r: f32) {
     if r.is_nan() || r <= tile.z0 {
         // Nothing nearer than what every pixel already has.
         return;
     }
-    if tile.mask == 0 || r - tile.z1 > tile.z1 - tile.z0 {
+    if tile.mask == 0 || (tile.z0 > 0.0 && r - tile.z1 > tile.z1 - tile.z0) {
         tile.z1 = r;
         tile.mask = cov;
     } else {
@@ -206,8 +213,20 @@ mod tests {
     #[test]
     fn tile_update_discards_far_working_layer_for_near_triangle() {
         let mut t = CLEAR_TILE;
+        // A reference layer first.
+        update_tile(&mut t, FULL, 0.05);
+        assert_eq!((t.z0, t.mask), (0.05, 0));
         update_tile(&mut t, 0x0000_00FF, 0.1);
         update_tile(&mut t, 0x0000_FF00, 0.9);
         assert_eq!((t.mask, t.z1), (0x0000_FF00, 0.9));
+    }
+
+    #[test]
+    fn tile_update_keeps_working_layer_while_reference_layer_is_clear() {
+        let mut t = CLEAR_TILE;
+        update_tile(&mut t, 0x0000_00FF, 0.1);
+        // Much nearer, but with nothing behind the working layer it is merged, not dropped.
+        update_tile(&mut t, 0x0000_FF00, 0.9);
+        assert_eq!((t.mask, t.z1, t.z0), (0x0000_FFFF, 0.1, 0.0));
     }
 }

@@ -394,12 +394,14 @@ fn merge_block(block: &mut Block, z0: __m256, cov: __m256i, r: __m256, all: __m2
     // Unchanged: nothing covered, or not nearer than the reference layer (or NaN).
     let nearer = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(r, z0));
     let keep = _mm256_or_si256(_mm256_cmpeq_epi32(cov, zero), _mm256_xor_si256(nearer, all));
+    // Dropped: no working layer, or (with a reference layer) much nearer than it.
+    let much_nearer = _mm256_and_ps(
+        _mm256_cmp_ps::<_CMP_GT_OQ>(z0, _mm256_setzero_ps()),
+        _mm256_cmp_ps::<_CMP_GT_OQ>(_mm256_sub_ps(r, z1), _mm256_sub_ps(z1, z0)),
+    );
     let discard = _mm256_or_si256(
         _mm256_cmpeq_epi32(m, zero),
-        _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(
-            _mm256_sub_ps(r, z1),
-            _mm256_sub_ps(z1, z0),
-        )),
+        _mm256_castps_si256(much_nearer),
     );
     let z1n = _mm256_blendv_ps(min_like_f32(z1, r), r, _mm256_castsi256_ps(discard));
     let mn = _mm256_blendv_epi8(_mm256_or_si256(m, cov), cov, discard);

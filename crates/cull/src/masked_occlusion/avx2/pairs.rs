@@ -360,8 +360,10 @@ avx512! {
         let all = _mm512_set1_epi32(-1);
         // Unchanged: nothing covered, or not nearer than the reference layer (or NaN).
         let keep = _mm512_cmpeq_epi32_mask(cov, zero) | !_mm512_cmp_ps_mask::<_CMP_GT_OQ>(r, z0);
-        let discard = _mm512_cmpeq_epi32_mask(m, zero)
-            | _mm512_cmp_ps_mask::<_CMP_GT_OQ>(_mm512_sub_ps(r, z1), _mm512_sub_ps(z1, z0));
+        // Dropped: no working layer, or (with a reference layer) much nearer than it.
+        let much_nearer = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(z0, _mm512_setzero_ps())
+            & _mm512_cmp_ps_mask::<_CMP_GT_OQ>(_mm512_sub_ps(r, z1), _mm512_sub_ps(z1, z0));
+        let discard = _mm512_cmpeq_epi32_mask(m, zero) | much_nearer;
         let z1n = _mm512_mask_mov_ps(min_like(z1, r), discard, r);
         let mn = _mm512_mask_mov_epi32(_mm512_or_si512(m, cov), discard, cov);
         let full = _mm512_cmpeq_epi32_mask(mn, all);
