@@ -108,7 +108,8 @@ unsafe fn render_batches<const WIDE: bool>(
                     raster_blocks(&mut tiles.blocks, &grid, &setup, l);
                 }
             } else if (fast | skip) & bit == 0 {
-                raster_clipped(tiles, views.triangle(l), proj);
+                // SAFETY: as above, with `WIDE` the CPU supports AVX-512.
+                unsafe { raster_clipped::<WIDE>(tiles, views.triangle(l), proj) };
             }
         }
     }
@@ -244,9 +245,13 @@ fn prefetch_blocks(tiles: &Tiles, setup: &Setup8, l: usize) {
 }
 
 /// Clips a view-space triangle to the near plane and the guard band, then draws its fan, each
-/// triangle through the batched setup alone in lane 0 (the same results as a batch).
+/// triangle through the batched setup alone in lane 0 (the same results as a batch), and with
+/// `WIDE` through the AVX-512 step: clipped triangles are the large ones, near the camera.
+///
+/// # Safety
+/// With `WIDE` the CPU must support AVX-512 F, BW, DQ and VL.
 #[target_feature(enable = "avx2")]
-fn raster_clipped(tiles: &mut Tiles, v: [Vec3; 3], proj: &Projector) {
+unsafe fn raster_clipped<const WIDE: bool>(tiles: &mut Tiles, v: [Vec3; 3], proj: &Projector) {
     let grid = BlockGrid::new(tiles);
     proj.clipped_fan(v, |p| {
         let mut s = Screen8::default();
@@ -256,7 +261,12 @@ fn raster_clipped(tiles: &mut Tiles, v: [Vec3; 3], proj: &Projector) {
         let mut setup = Setup8::default();
         // The closure inherits AVX2 from `raster_clipped`.
         if setup8(&s, tiles.width, tiles.height, &mut setup) & 1 != 0 {
-            raster_blocks(&mut tiles.blocks, &grid, &setup, 0);
+            if WIDE {
+                // SAFETY: with `WIDE` the CPU supports AVX-512 (this function's contract).
+                unsafe { pairs::raster_pairs(&mut tiles.blocks, &grid, &setup, 0) };
+            } else {
+                raster_blocks(&mut tiles.blocks, &grid, &setup, 0);
+            }
         }
         false
     });
