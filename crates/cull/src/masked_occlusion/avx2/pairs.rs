@@ -118,7 +118,17 @@ avx512! {
                 let skip = bx < first_open || (bx > first_open && depth.behind(&tri, bx, z0, lanes));
                 if !skip {
                     let base = tile_columns(bx);
-                    let (mask, cmin, cmax) = pair_masks(rel_a, rel_b, base);
+                    // Inside the triangle (every scanline of the pair spans the whole block):
+                    // full masks, and the covered columns are the tiles' own.
+                    let inside = _mm512_cmple_epi32_mask(rel_a, _mm512_setzero_si512())
+                        & _mm512_cmpge_epi32_mask(rel_b, _mm512_set1_epi32(32))
+                        | !lanes;
+                    let (mask, cmin, cmax) = if inside == 0xFFFF {
+                        let all = _mm512_maskz_mov_epi32(lanes, _mm512_set1_epi32(-1));
+                        (all, base, _mm512_add_ps(base, _mm512_set1_ps(7.0)))
+                    } else {
+                        pair_masks(rel_a, rel_b, base)
+                    };
                     let cov = if bx == last_bx || depth.last_row {
                         let outside_x = _mm512_maskz_mov_epi32(
                             _mm512_cmpeq_epi32_mask(
