@@ -15,6 +15,7 @@ mod headless;
 mod limits;
 mod output;
 mod output_lock;
+mod progress;
 
 use std::io::Write;
 use std::process::ExitCode;

@@ -236,7 +236,8 @@ fn report_loads_in_chromium_with_the_pvs_numbers() {
         let rays = pvs["metadata"]["cells"][i]["rays"].as_u64().unwrap();
         assert_eq!(row[6], rays.to_string());
         let max_error = summary["cells"][i]["max_error_pixels"].as_u64().unwrap();
-        assert_eq!(row[9], max_error.to_string());
+        assert_eq!(row[8], "no: budget", "cell {i}: {row:?}");
+        assert_eq!(row[10], max_error.to_string());
         assert!(dom.contains(&format!("<tr data-cell=\"{i}\" data-pvs=\"{size}\"")));
     }
     let table = pvs["objects"].as_array().unwrap().len();

@@ -6,6 +6,7 @@
 
 use anyhow::Result;
 use clap::Subcommand;
+use indicatif::ProgressBar;
 use sightline_core::scene::{self, LoadOptions};
 use sightline_core::trace::{Bvh, RayCaster};
 use sightline_core::{Camera, Scene};
@@ -268,9 +269,19 @@ pub(crate) fn run(args: Args) -> Result<()> {
     }
 }
 
-/// Prints a benchmark's progress on stderr.
-fn progress(p: &Progress<'_>) {
-    eprintln!("{p}");
+/// A bar over `len` `unit`s of a bench run on stderr (hidden when stderr is not a terminal).
+fn bench_bar(len: usize, unit: &str) -> ProgressBar {
+    crate::progress::bar(len as u64, &crate::progress::template(unit))
+}
+
+/// Prints a benchmark's progress line on stderr, above `bar` (alone where the bar is hidden,
+/// so a log keeps every line); a round also moves the bar.
+fn print_above(bar: &ProgressBar, p: &Progress<'_>) {
+    bar.suspend(|| eprintln!("{p}"));
+    if let Progress::Round { round, rounds } = *p {
+        bar.set_length(rounds as u64);
+        bar.set_position(round.saturating_sub(1) as u64);
+    }
 }
 
 fn rv(args: RvArgs) -> Result<()> {
@@ -286,7 +297,10 @@ fn rv(args: RvArgs) -> Result<()> {
         rounds: args.rounds,
         memory_budget_bytes: args.memory,
     };
-    let rows = eval_bench::bench_rv(&options, Some(&progress))?;
+    let bar = bench_bar(args.rounds, "rounds");
+    let rows = eval_bench::bench_rv(&options, Some(&|p| print_above(&bar, p)));
+    bar.finish_and_clear();
+    let rows = rows?;
     if args.json {
         return print_json(&rows);
     }
@@ -340,7 +354,9 @@ fn trace(args: TraceArgs) -> Result<()> {
     #[cfg(feature = "gpu")]
     let mut gpu = None;
     let mut rows = Vec::new();
+    let bar = bench_bar(specs.len(), "scenes");
     for spec in &specs {
+        bar.set_message(format!("{spec}: loading, building the casters"));
         let scene = load(spec)?;
         let camera = overview_camera(&scene, args.size)?;
         let rays = eval_bench::TraceRays::new(&scene, &camera, args.rays);
@@ -372,8 +388,13 @@ fn trace(args: TraceArgs) -> Result<()> {
         }
         let n = scene.triangle_count();
         let seconds = args.seconds;
+        // Each caster on the coherent and the incoherent rays.
+        let expected = 2.0 * seconds * backends.len() as f64;
+        bar.set_message(format!("{spec}: measuring, about {expected:.0} s"));
         rows.extend(eval_bench::bench_trace(spec, n, &backends, &rays, seconds));
+        bar.inc(1);
     }
+    bar.finish_and_clear();
     if args.json {
         return print_json(&rows);
     }
@@ -391,11 +412,16 @@ fn raster(args: RasterArgs) -> Result<()> {
         args.scenes.clone()
     };
     let mut rows = Vec::new();
+    let bar = bench_bar(specs.len(), "scenes");
     for spec in &specs {
+        bar.set_message(format!("{spec}: loading"));
         let scene = load(spec)?;
         let camera = overview_camera(&scene, args.size)?;
+        bar.set_message(format!("{spec}: {} frames", args.frames));
         rows.push(eval_bench::bench_raster(spec, &scene, &camera, args.frames));
+        bar.inc(1);
     }
+    bar.finish_and_clear();
     if args.json {
         return print_json(&rows);
     }
@@ -430,20 +456,25 @@ fn pvs(args: PvsArgs) -> Result<()> {
         args.scenes.clone()
     };
     let mut all_rows = Vec::new();
+    let bar = bench_bar(specs.len(), "scenes");
     for spec in &specs {
+        bar.set_message(spec.clone());
         let scene = load(spec)?;
-        let report = eval_bench::bench_pvs_scene(spec, &scene, &options, Some(&progress))?;
+        let report =
+            eval_bench::bench_pvs_scene(spec, &scene, &options, Some(&|p| print_above(&bar, p)))?;
+        bar.inc(1);
         if let (Some(dir), Some(convergence)) = (&args.plot, &report.convergence) {
             let path = plot::write_convergence_plot(dir, spec, convergence, args.resolution)?;
-            eprintln!("wrote {}", path.display());
+            bar.suspend(|| eprintln!("wrote {}", path.display()));
         }
         if let Some(dir) = &args.plot {
             if let Some(path) = plot::write_budget_plot(dir, spec, &report.rows, args.resolution)? {
-                eprintln!("wrote {}", path.display());
+                bar.suspend(|| eprintln!("wrote {}", path.display()));
             }
         }
         all_rows.extend(report.rows);
     }
+    bar.finish_and_clear();
     if args.json {
         return print_json(&all_rows);
     }
@@ -488,7 +519,15 @@ fn share(args: ShareArgs) -> Result<()> {
         e => e.into(),
     })?;
     let scene = load(&args.scene)?;
-    let report = eval_bench::bench_share(&args.scene, &scene, &options, Some(&progress))?;
+    let bar = crate::progress::bar(0, "{spinner} bench share [{elapsed_precise}]");
+    let report = eval_bench::bench_share(
+        &args.scene,
+        &scene,
+        &options,
+        Some(&|p| print_above(&bar, p)),
+    );
+    bar.finish_and_clear();
+    let report = report?;
     if args.json {
         return print_json(&report);
     }

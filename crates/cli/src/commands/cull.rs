@@ -140,10 +140,8 @@ pub(crate) fn run(args: Args) -> Result<()> {
         } else {
             (Box::new(SoftwareBackend::new(width, height)), &Method::ALL)
         };
-    let camera_of = |f: u32| cameras.get(f as usize).copied();
-    let reports =
-        simulate_methods_with_cameras(&scene, &camera_of, &mut *backend, &config, methods)
-            .with_context(|| format!("simulating {}", args.scene))?;
+    let reports = simulate_with_progress(&scene, &cameras, &mut *backend, &config, methods)
+        .with_context(|| format!("simulating {}", args.scene))?;
     let summaries: Vec<Summary> = reports.iter().map(summarize).collect();
     if let Some(plot) = &args.plot {
         write_plot(plot, &reports, &args.scene)?;
@@ -203,6 +201,30 @@ pub(crate) fn run(args: Args) -> Result<()> {
         outln!("plot: {}", plot.display());
     }
     Ok(())
+}
+
+/// Simulates `methods` along `cameras` with a progress bar of the frames on stderr (every
+/// method culls each frame before the next one starts). Returns one report per method.
+fn simulate_with_progress(
+    scene: &CullScene,
+    cameras: &[Camera],
+    backend: &mut dyn sightline_cull::OcclusionBackend,
+    config: &SimConfig,
+    methods: &[Method],
+) -> Result<Vec<SimReport>, sightline_cull::GridError> {
+    let bar = crate::progress::bar(
+        u64::from(config.frames),
+        &crate::progress::template("frames"),
+    );
+    bar.set_message(format!("{} methods each", methods.len()));
+    // The simulation asks for frame f's camera once, when the frame starts.
+    let camera_of = |f: u32| {
+        bar.set_position(u64::from(f));
+        cameras.get(f as usize).copied()
+    };
+    let reports = simulate_methods_with_cameras(scene, &camera_of, backend, config, methods);
+    bar.finish_and_clear();
+    reports
 }
 
 /// `procedural:grid` / `procedural:graveyard` with `?seed=&size=`, or any scene spec animated

@@ -77,7 +77,14 @@ pub(crate) fn run(args: Args) -> Result<()> {
     let start = Instant::now();
     let mut visible = sightline_core::TriangleSet::with_capacity(scene.triangle_count());
     let mut outputs = Vec::new();
+    // Six faces take six times one image: show them (hidden when stderr is not a terminal).
+    let bar = if args.cube {
+        crate::progress::bar(cameras.len() as u64, &crate::progress::template("faces"))
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
     for (camera, path) in &cameras {
+        bar.set_message(path.display().to_string());
         let frame = raster::render(&scene, camera);
         for &id in &frame.ids {
             if (id as usize) < scene.triangle_count() {
@@ -91,7 +98,9 @@ pub(crate) fn run(args: Args) -> Result<()> {
         };
         save_png(&image, path)?;
         outputs.push(path.clone());
+        bar.inc(1);
     }
+    bar.finish_and_clear();
     let summary = Summary {
         outputs,
         visible_triangles: visible.count_ones(..),

@@ -12,7 +12,7 @@ use sightline_core::atomic_file::write_atomic;
 use sightline_core::scene::LoadOptions;
 use sightline_eval::EvalParams;
 
-use crate::args::{parse_ray_budgets, BudgetList, SceneArgs};
+use crate::args::{parse_ray_budgets, BudgetList, LoadLimitArgs, SceneArgs};
 use crate::commands::eval::{load_pvs_of, view_mode};
 use crate::output::print_json;
 use sightline_eval::report::budgets::{bake_budget_sets, ratio_text};
@@ -51,6 +51,10 @@ pub(crate) struct Args {
     /// Quake 3 maps: bezier patch tessellation (as when baking).
     #[arg(long, value_name = "N", default_value_t = LoadOptions::default().patch_subdivisions)]
     patch_subdivisions: u32,
+    // How the scene is loaded (`--up-axis`, `--max-scene-bytes`, `--allow-outside-refs`), as
+    // in every command that loads one.
+    #[command(flatten)]
+    limits: LoadLimitArgs,
     /// GVS++ against RAND at these ray budgets per cell (comma-separated, increasing), on
     /// `--budget-cells` of the file's cells, judged on the same views, with the time each bake
     /// took: the GVS++ paper's equal-time comparison, showing whether GVS++ beats random rays on
@@ -86,6 +90,17 @@ struct Summary {
     budgets: Option<BudgetSummary>,
 }
 
+impl Args {
+    /// The scene to load, with its load options.
+    fn scene_args(&self) -> SceneArgs {
+        SceneArgs {
+            scene: self.scene.clone(),
+            patch_subdivisions: self.patch_subdivisions,
+            limits: self.limits.clone(),
+        }
+    }
+}
+
 pub(crate) fn run(args: Args) -> Result<()> {
     if args.views == 0 || args.size == 0 || args.size > 4096 {
         bail!("--views must be >= 1 and --size in 1..=4096");
@@ -94,7 +109,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         &[&args.output, &args.output.join("index.html")],
         &[std::path::Path::new(&args.scene), &args.pvs],
     )?;
-    let scene = SceneArgs::new(args.scene.clone(), args.patch_subdivisions).load()?;
+    let scene = args.scene_args().load()?;
     let file = load_pvs_of(&scene, &args.pvs)?;
     let options = PvsReportOptions {
         params: EvalParams {
