@@ -57,6 +57,7 @@ mod node;
 mod node4;
 mod node8;
 mod slab;
+mod stats;
 #[cfg(test)]
 mod tests;
 mod traverse;
@@ -75,6 +76,7 @@ use input::{corners, triangle_boxes};
 use node::{Tree, WideNode};
 use node4::Node4;
 use node8::Node8;
+pub use stats::{TraversalStats, TreeStats};
 
 /// Rays per `rayon` task in [`Bvh::cast`].
 const RAYS_PER_TASK: usize = 64;
