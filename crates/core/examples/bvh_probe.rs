@@ -79,6 +79,13 @@ fn main() {
             ("coherent", coherent_rays(&camera(&scene))),
             ("incoherent", incoherent_rays(scene.bounds(), TIMED, 7)),
             ("outside", outside_rays(scene.bounds(), TIMED)),
+            (
+                "null",
+                incoherent_rays(scene.bounds(), TIMED, 7)
+                    .into_iter()
+                    .map(|r| Ray::new(r.origin + Vec3::splat(1e9), r.dir))
+                    .collect(),
+            ),
         ];
         for (name, rays) in &sets {
             // Every k-th ray, so a camera's sample spans the whole image.

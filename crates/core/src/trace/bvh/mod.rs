@@ -52,6 +52,7 @@
 mod build;
 mod collapse;
 mod flatten;
+mod huge;
 mod input;
 mod node;
 mod node4;
@@ -72,6 +73,7 @@ use super::ray_caster::RayCaster;
 use super::tri4::Tri4;
 use collapse::collapse;
 pub use flatten::{FlatBvh, FlatChild, FlatLink};
+use huge::onto_huge_pages;
 use input::{corners, triangle_boxes};
 use node::{Tree, WideNode};
 use node4::Node4;
@@ -178,12 +180,12 @@ impl Bvh {
             }
         };
         drop(tree.pairs);
-        // The collapse reserves for the worst case.
-        match &mut nodes {
-            Nodes::Four(n) => n.shrink_to_fit(),
-            Nodes::Eight(n) => n.shrink_to_fit(),
-        }
-        packets.shrink_to_fit();
+        // The collapse reserves for the worst case; the copy drops the spare capacity.
+        nodes = match nodes {
+            Nodes::Four(n) => Nodes::Four(onto_huge_pages(n)),
+            Nodes::Eight(n) => Nodes::Eight(onto_huge_pages(n)),
+        };
+        let packets = onto_huge_pages(packets);
         Self {
             nodes,
             packets,
