@@ -22,8 +22,8 @@ use sightline_core::Camera;
 
 /// Rays counted per set (counting is slower than casting).
 const COUNTED: usize = 200_000;
-/// Incoherent rays timed per set (a quarter of `sightline bench trace`'s, for quick runs).
-const TIMED: usize = 250_000;
+/// Incoherent rays timed per set (as many as `sightline bench trace` casts).
+const TIMED: usize = 1_000_000;
 
 /// The overview camera of `sightline bench trace`.
 fn camera(scene: &Scene) -> Camera {
