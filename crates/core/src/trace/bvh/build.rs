@@ -5,7 +5,7 @@
 //! Based on: Wald. On fast construction of SAH-based bounding volume hierarchies. 2007
 //! (binned SAH build, 16 bins, bins keep bounds and centroid bounds so children need no extra pass).
 
-use glam::Vec3;
+use glam::Vec3A;
 use rayon::prelude::*;
 
 use crate::geometry::Aabb;
@@ -87,36 +87,30 @@ pub(super) fn binary_tree(boxes: &[Aabb]) -> Option<BinaryTree> {
     if ids.is_empty() {
         return None;
     }
-    let input = BuildInput { boxes };
+    let input = BuildInput::new(boxes);
     let content = summarize(&input, &ids);
     let mut pairs = vec![NodePair::default(); ids.len() - 1];
     let root = build_node(&input, &mut ids, 0, content, &mut pairs, 0, 0);
     Some(BinaryTree { root, pairs, ids })
 }
 
-/// Bounds, centroid bounds and count of a set of triangles (a bin, or a node's content).
+/// Bounds, centroid bounds and count of a set of triangles: a node's content.
 #[derive(Clone, Copy, Debug)]
-struct Bin {
+struct Content {
     bounds: Aabb,
     centroids: Aabb,
     count: usize,
 }
 
-impl Bin {
-    const EMPTY: Bin = Bin {
+impl Content {
+    const EMPTY: Content = Content {
         bounds: Aabb::EMPTY,
         centroids: Aabb::EMPTY,
         count: 0,
     };
 
-    fn add(&mut self, b: &Aabb) {
-        self.bounds = self.bounds.union(b);
-        self.centroids.grow(b.center());
-        self.count += 1;
-    }
-
-    fn merge(&self, o: &Bin) -> Bin {
-        Bin {
+    fn merge(&self, o: &Content) -> Content {
+        Content {
             bounds: self.bounds.union(&o.bounds),
             centroids: self.centroids.union(&o.centroids),
             count: self.count + o.count,
@@ -124,14 +118,71 @@ impl Bin {
     }
 }
 
-/// What the build reads: each triangle's box, indexed by triangle id.
-struct BuildInput<'a> {
-    boxes: &'a [Aabb],
+/// Bounds and count of the triangles in one bin: what the SAH sweep needs. The children's
+/// centroid bounds are gathered by the partition instead, once, rather than per axis here.
+/// SIMD corners (`Vec3A`), so a union is two instructions.
+#[derive(Clone, Copy, Debug)]
+struct Bin {
+    min: Vec3A,
+    max: Vec3A,
+    count: usize,
+}
+
+impl Bin {
+    const EMPTY: Bin = Bin {
+        min: Vec3A::INFINITY,
+        max: Vec3A::NEG_INFINITY,
+        count: 0,
+    };
+
+    #[inline(always)]
+    fn add(&mut self, b: &[Vec3A; 2]) {
+        self.min = self.min.min(b[0]);
+        self.max = self.max.max(b[1]);
+        self.count += 1;
+    }
+
+    fn merge(&self, o: &Bin) -> Bin {
+        Bin {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+            count: self.count + o.count,
+        }
+    }
+
+    fn bounds(&self) -> Aabb {
+        if self.count == 0 {
+            Aabb::EMPTY
+        } else {
+            Aabb::new(self.min.into(), self.max.into())
+        }
+    }
+}
+
+/// What the build reads, by triangle id: each triangle's box and its centre, in SIMD form.
+struct BuildInput {
+    boxes: Vec<[Vec3A; 2]>,
+    centroids: Vec<Vec3A>,
+}
+
+impl BuildInput {
+    fn new(boxes: &[Aabb]) -> Self {
+        let simd: Vec<[Vec3A; 2]> = boxes
+            .par_iter()
+            .map(|b| [b.min.into(), b.max.into()])
+            .collect();
+        // The same `(min + max) * 0.5` as `Aabb::center`, lane by lane.
+        let centroids = simd.par_iter().map(|b| (b[0] + b[1]) * 0.5).collect();
+        Self {
+            boxes: simd,
+            centroids,
+        }
+    }
 }
 
 /// Maps a centroid to its bin along each axis (`None` for an axis of zero centroid extent).
 struct Binner {
-    min: Vec3,
+    min: Vec3A,
     scale: [Option<f32>; 3],
 }
 
@@ -143,18 +194,19 @@ impl Binner {
             (x > 0.0 && s.is_finite()).then_some(s)
         };
         Self {
-            min: centroids.min,
+            min: centroids.min.into(),
             scale: [scale(e.x), scale(e.y), scale(e.z)],
         }
     }
 
-    fn bin(&self, c: Vec3, axis: usize, scale: f32) -> usize {
+    #[inline(always)]
+    fn bin(&self, c: Vec3A, axis: usize, scale: f32) -> usize {
         // `as usize` saturates (NaN gives 0), so this is always in range.
         (((c[axis] - self.min[axis]) * scale) as usize).min(BINS - 1)
     }
 
-    fn bin_into(&self, bins: &mut [[Bin; BINS]; 3], b: &Aabb) {
-        let c = b.center();
+    #[inline(always)]
+    fn bin_into(&self, bins: &mut [[Bin; BINS]; 3], b: &[Vec3A; 2], c: Vec3A) {
         for (axis, axis_bins) in bins.iter_mut().enumerate() {
             if let Some(s) = self.scale[axis] {
                 axis_bins[self.bin(c, axis, s)].add(b);
@@ -177,7 +229,8 @@ fn bin_triangles(input: &BuildInput, ids: &[u32], binner: &Binner) -> [[Bin; BIN
     let bin_chunk = |chunk: &[u32]| {
         let mut bins = [[Bin::EMPTY; BINS]; 3];
         for &id in chunk {
-            binner.bin_into(&mut bins, &input.boxes[id as usize]);
+            let i = id as usize;
+            binner.bin_into(&mut bins, &input.boxes[i], input.centroids[i]);
         }
         bins
     };
@@ -218,8 +271,8 @@ fn best_split(bins: &[[Bin; BINS]; 3], binner: &Binner, parent_area: f32) -> Opt
             if left.count == 0 || right.count == 0 {
                 continue;
             }
-            let weighted = left.bounds.surface_area() * left.count as f32
-                + right.bounds.surface_area() * right.count as f32;
+            let weighted = left.bounds().surface_area() * left.count as f32
+                + right.bounds().surface_area() * right.count as f32;
             let cost = if parent_area > 0.0 {
                 TRAVERSAL_COST + INTERSECT_COST * weighted / parent_area
             } else {
@@ -242,34 +295,55 @@ fn best_split(bins: &[[Bin; BINS]; 3], binner: &Binner, parent_area: f32) -> Opt
     best
 }
 
-/// Bounds and centroid bounds of `ids` (parallel for big sets).
-fn summarize(input: &BuildInput, ids: &[u32]) -> Bin {
+/// Bounds, centroid bounds and count of `ids` (parallel for big sets).
+fn summarize(input: &BuildInput, ids: &[u32]) -> Content {
     let one = |chunk: &[u32]| {
-        let mut b = Bin::EMPTY;
+        let (mut b, mut c) = (Bin::EMPTY, Bin::EMPTY);
         for &id in chunk {
-            b.add(&input.boxes[id as usize]);
+            let i = id as usize;
+            b.add(&input.boxes[i]);
+            let centre = input.centroids[i];
+            c.add(&[centre, centre]);
         }
-        b
+        Content {
+            bounds: b.bounds(),
+            centroids: c.bounds(),
+            count: b.count,
+        }
     };
     if ids.len() < PARALLEL_BIN {
         one(ids)
     } else {
         ids.par_chunks(PARALLEL_BIN / 4)
             .map(one)
-            .reduce(|| Bin::EMPTY, |a, b| a.merge(&b))
+            .reduce(|| Content::EMPTY, |a, b| a.merge(&b))
     }
 }
 
-/// In-place partition: ids for which `left` holds come first. Returns their number.
-fn partition(ids: &mut [u32], left: impl Fn(u32) -> bool) -> usize {
+/// In-place partition: ids whose centroid falls in a bin below `bin` on `axis` come first.
+/// Returns their number and the centroid bounds of both sides (the children's binners need
+/// them; gathering them here is one pass instead of one per axis in the binning).
+fn partition(
+    input: &BuildInput,
+    ids: &mut [u32],
+    binner: &Binner,
+    axis: usize,
+    bin: usize,
+) -> (usize, Aabb, Aabb) {
+    let scale = binner.scale[axis].unwrap_or(0.0);
+    let (mut left, mut right) = (Bin::EMPTY, Bin::EMPTY);
     let mut n = 0;
     for j in 0..ids.len() {
-        if left(ids[j]) {
+        let c = input.centroids[ids[j] as usize];
+        if binner.bin(c, axis, scale) < bin {
+            left.add(&[c, c]);
             ids.swap(n, j);
             n += 1;
+        } else {
+            right.add(&[c, c]);
         }
     }
-    n
+    (n, left.bounds(), right.bounds())
 }
 
 /// Builds the subtree over `ids` (which start at `first` in leaf order) and returns its root.
@@ -280,7 +354,7 @@ fn build_node(
     input: &BuildInput,
     ids: &mut [u32],
     first: usize,
-    content: Bin,
+    content: Content,
     pairs: &mut [NodePair],
     pair_base: usize,
     depth: u32,
@@ -301,12 +375,14 @@ fn build_node(
     let leaf_cost = INTERSECT_COST * m as f32;
     let (n_left, left, right) = match split {
         Some(s) if m > MAX_LEAF || s.cost < leaf_cost => {
-            let scale = binner.scale[s.axis].unwrap_or(0.0);
-            let n = partition(ids, |id| {
-                binner.bin(input.boxes[id as usize].center(), s.axis, scale) < s.bin
-            });
+            let (n, lc, rc) = partition(input, ids, &binner, s.axis, s.bin);
             debug_assert_eq!(n, s.left.count);
-            (n, s.left, s.right)
+            let side = |b: &Bin, centroids| Content {
+                bounds: b.bounds(),
+                centroids,
+                count: b.count,
+            };
+            (n, side(&s.left, lc), side(&s.right, rc))
         }
         _ if m <= MAX_LEAF => return Node::leaf(&content.bounds, first, m),
         _ => {
@@ -322,8 +398,8 @@ fn build_node(
             };
             let half = m / 2;
             ids.select_nth_unstable_by(half, |&p, &q| {
-                let cp = input.boxes[p as usize].center()[axis];
-                let cq = input.boxes[q as usize].center()[axis];
+                let cp = input.centroids[p as usize][axis];
+                let cq = input.centroids[q as usize][axis];
                 cp.total_cmp(&cq).then(p.cmp(&q))
             });
             let (l, r) = ids.split_at(half);

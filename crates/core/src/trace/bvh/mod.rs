@@ -22,6 +22,8 @@
 //! `node8.rs`: the node, its child encoding and its SIMD box test) and `slab.rs` (the box test
 //! every layout's kernel equals). `input.rs` says which triangles the tree holds and their boxes.
 //! This file picks the layout and drives the rest.
+//! `huge.rs` moves the finished arrays onto transparent huge pages (TLB misses bound incoherent
+//! rays on big scenes otherwise); `stats.rs` counts what a traversal visits, for tuning.
 //! `flatten.rs` hands the same tree, collapsed to any width, to engines outside this crate
 //! (the GPU ray caster of `sightline-gpu`) as plain arrays ([`FlatBvh`]).
 //!
@@ -39,8 +41,9 @@
 //! of packets (3.4 triangles per packet) plus 13 to 17 bytes of nodes, so 61 bytes per
 //! triangle on the 1M-triangle procedural city and 64 to 66 on munich, czest3ctf and the
 //! Stanford bunny ([`Bvh::memory_bytes`]; 4-wide nodes took about 60 on the city). The build
-//! peaks at about 170 bytes per triangle (24-byte boxes, 4-byte ids, and an uncompacted binary
-//! node array of 64 bytes per triangle), i.e. about 1.7 GB for 10M triangles.
+//! peaks at about 220 bytes per triangle (24-byte boxes, their 32-byte SIMD copy and 16-byte
+//! centres, 4-byte ids, and an uncompacted binary node array of 64 bytes per triangle), i.e.
+//! about 2.2 GB for 10M triangles.
 //!
 //! # Exactness
 //! Leaves use the same watertight test as [`super::BruteForce`] (four lanes at a time with the
@@ -52,11 +55,13 @@
 mod build;
 mod collapse;
 mod flatten;
+mod huge;
 mod input;
 mod node;
 mod node4;
 mod node8;
 mod slab;
+mod stats;
 #[cfg(test)]
 mod tests;
 mod traverse;
@@ -71,10 +76,12 @@ use super::ray_caster::RayCaster;
 use super::tri4::Tri4;
 use collapse::collapse;
 pub use flatten::{FlatBvh, FlatChild, FlatLink};
+use huge::onto_huge_pages;
 use input::{corners, triangle_boxes};
 use node::{Tree, WideNode};
 use node4::Node4;
 use node8::Node8;
+pub use stats::{TraversalStats, TreeStats};
 
 /// Rays per `rayon` task in [`Bvh::cast`].
 const RAYS_PER_TASK: usize = 64;
@@ -176,12 +183,12 @@ impl Bvh {
             }
         };
         drop(tree.pairs);
-        // The collapse reserves for the worst case.
-        match &mut nodes {
-            Nodes::Four(n) => n.shrink_to_fit(),
-            Nodes::Eight(n) => n.shrink_to_fit(),
-        }
-        packets.shrink_to_fit();
+        // The collapse reserves for the worst case; the copy drops the spare capacity.
+        nodes = match nodes {
+            Nodes::Four(n) => Nodes::Four(onto_huge_pages(n)),
+            Nodes::Eight(n) => Nodes::Eight(onto_huge_pages(n)),
+        };
+        let packets = onto_huge_pages(packets);
         Self {
             nodes,
             packets,

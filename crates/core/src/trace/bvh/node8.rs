@@ -22,7 +22,7 @@ use crate::geometry::{Hit, Ray};
 
 use super::build::{Node, MAX_LEAF};
 use super::node::{Entry, Tree, WideNode};
-use super::slab::{empty_boxes, set_lane, BoxRay, Boxes};
+use super::slab::{empty_boxes, lane_box, set_lane, BoxRay, Boxes};
 use super::traverse::{self, stack_size};
 
 /// Bits of a slot that hold a leaf's packet count.
@@ -67,6 +67,10 @@ impl WideNode for Node8 {
 
     fn set_box(&mut self, lane: usize, n: &Node) {
         set_lane(&mut self.bounds, lane, n.min, n.max);
+    }
+
+    fn child_box(&self, lane: usize) -> ([f32; 3], [f32; 3]) {
+        lane_box(&self.bounds, lane)
     }
 
     fn set_leaf(&mut self, lane: usize, first: u32, packets: u32) {

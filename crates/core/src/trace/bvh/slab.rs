@@ -48,6 +48,12 @@ pub(super) fn set_lane<const N: usize>(
     }
 }
 
+/// The `(min, max)` corners of lane `lane` of `boxes`.
+pub(super) fn lane_box<const N: usize>(boxes: &Boxes<N>, lane: usize) -> ([f32; 3], [f32; 3]) {
+    let row = |r: usize| boxes[r][lane];
+    ([row(0), row(1), row(2)], [row(3), row(4), row(5)])
+}
+
 /// A ray prepared for slab tests against [`Boxes`] of any width.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct BoxRay {

@@ -30,12 +30,12 @@ const fn gamma(n: f32) -> f32 {
     n * eps / (1.0 - n * eps)
 }
 /// Ize 2013: scaling far slab distances by this makes the box test conservative.
-const ROBUST_FAR: f32 = 1.0 + 2.0 * gamma(3.0);
+pub(super) const ROBUST_FAR: f32 = 1.0 + 2.0 * gamma(3.0);
 /// Relative slack on the distances a box is culled against. The leaf test's `t` is a convex
 /// combination of the corners' distances along the ray and carries a few ulps of rounding, so
 /// it may sit a few ulps outside the box's slab interval; a tie at equal `t` with a lower id
 /// must still be found. Larger than strictly needed, at no measurable cost.
-const CULL_SLACK: f32 = 16.0 * gamma(3.0);
+pub(super) const CULL_SLACK: f32 = 16.0 * gamma(3.0);
 
 /// Traversal stack size for nodes of `width` children: the binary tree has at most
 /// `MAX_SAH_DEPTH` levels plus a median-split tail over at most 2^32 triangles; each wide level
@@ -46,7 +46,7 @@ pub(super) const fn stack_size(width: usize) -> usize {
 }
 
 /// `t` moved up by the culling slack (infinity stays infinity).
-fn slack_up(t: f32) -> f32 {
+pub(super) fn slack_up(t: f32) -> f32 {
     t + t.abs() * CULL_SLACK
 }
 
@@ -226,6 +226,7 @@ unsafe fn traverse<N: WideNode>(
                         (first, second)
                     };
                     debug_assert!(top < stack.len());
+                    tree.prefetch(far.child);
                     stack[top] = far;
                     top += 1;
                     current = near;
@@ -241,6 +242,9 @@ unsafe fn traverse<N: WideNode>(
                     stack[top] = entry(mask.trailing_zeros());
                     top += 1;
                     mask &= mask - 1;
+                }
+                for e in &stack[pushed..top] {
+                    tree.prefetch(e.child);
                 }
                 for i in pushed + 1..top {
                     let e = stack[i];
