@@ -45,7 +45,8 @@
 //! - `constants.rs`: the tile size and the tests' tolerances ([`DEPTH_SLACK`], [`COVER_MARGIN`]).
 //! - `project.rs`: view transform, projection, clipping to the near plane and the guard band,
 //!   a box against the near plane (shared with [`Hzb`](crate::Hzb)).
-//! - `tiles.rs`: the tile storage in 4x2-tile blocks and the two-layer tile merge.
+//! - `tiles.rs`: the tile storage in 4x2-tile blocks and the two-layer tile merge;
+//!   `block_storage.rs`: the blocks' memory, on huge pages for buffers of 512 KiB and more.
 //! - `raster_kernel.rs`: the kernel trait, which every kernel implements.
 //! - `kernel.rs`: [`Kernel`], the baseline kernels, CPU detection and dispatch (a new kernel is
 //!   a new file plus its arms there).
@@ -65,6 +66,7 @@ use sightline_core::{Aabb, Camera};
 mod avx2;
 #[cfg(target_arch = "x86_64")]
 mod baseline;
+mod block_storage;
 mod constants;
 mod kernel;
 mod per_tile;

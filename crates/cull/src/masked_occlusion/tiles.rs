@@ -7,6 +7,7 @@
 //! layout: the fields of several tiles side by side, so that one register holds a field of
 //! every tile of a block).
 
+use super::block_storage::BlockStorage;
 use super::constants::{TILE_H, TILE_W};
 
 /// A full coverage mask: every pixel of a tile.
@@ -65,7 +66,7 @@ pub(super) struct Tiles {
     /// covered by every occluder, so that edge tiles can become full.
     pub outside_x: u32,
     pub outside_y: u32,
-    pub blocks: Vec<Block>,
+    pub blocks: BlockStorage<Block>,
 }
 
 impl Tiles {
@@ -86,10 +87,10 @@ impl Tiles {
             blocks_x: tiles_x.div_ceil(BLOCK_TX),
             outside_x,
             outside_y,
-            blocks: vec![
-                CLEAR_BLOCK;
-                (tiles_x.div_ceil(BLOCK_TX) * tiles_y.div_ceil(BLOCK_TY)) as usize
-            ],
+            blocks: BlockStorage::new(
+                (tiles_x.div_ceil(BLOCK_TX) * tiles_y.div_ceil(BLOCK_TY)) as usize,
+                CLEAR_BLOCK,
+            ),
         }
     }
 
@@ -100,7 +101,9 @@ impl Tiles {
 
     /// True when both have the same size and identical tiles (masks and depths).
     pub fn same_contents(&self, other: &Self) -> bool {
-        self.width == other.width && self.height == other.height && self.blocks == other.blocks
+        self.width == other.width
+            && self.height == other.height
+            && self.blocks[..] == other.blocks[..]
     }
 
     /// Block index and lane of tile `(tx, ty)`.
