@@ -65,7 +65,7 @@ struct Row {
     pvs_percent: f64,
     seconds: f64,
     /// Viewpoints not evaluated (Quake 3 cells: outside the cell's cluster, or unreachable in
-    /// a bake with reachable origins).
+    /// a bake with reachable origins; other scenes: inside solid geometry).
     rejected_viewpoints: Rejected,
 }
 
@@ -273,6 +273,10 @@ fn print_mean(rows: &[Row], resolution: u32) -> Result<()> {
         .map(|r| r.rejected_viewpoints.outside_cluster)
         .sum();
     let unreachable: usize = rows.iter().map(|r| r.rejected_viewpoints.unreachable).sum();
+    let solid: usize = rows
+        .iter()
+        .map(|r| r.rejected_viewpoints.inside_solid)
+        .sum();
     let judged: Vec<&Row> = rows.iter().filter(|r| r.evaluation.images > 0).collect();
     if judged.len() < rows.len() {
         outln!(
@@ -295,6 +299,12 @@ fn print_mean(rows: &[Row], resolution: u32) -> Result<()> {
         outln!(
             "viewpoints not evaluated: {outside} outside their cell's cluster, {unreachable} \
              unreachable from the map's spawn points"
+        );
+    }
+    if solid > 0 {
+        outln!(
+            "viewpoints not evaluated: {solid} inside solid geometry (most rays from them hit \
+             back faces: a wall's volume or a sealed pocket, where no camera can be)"
         );
     }
     Ok(())

@@ -77,7 +77,8 @@ struct CellSummary {
     max_error_pixels: usize,
     avg_unconfirmed_pixels: f64,
     false_negatives: usize,
-    /// Viewpoints not evaluated (Quake 3 cells: outside the cluster, or unreachable).
+    /// Viewpoints not evaluated (Quake 3 cells: outside the cluster, or unreachable; other
+    /// scenes: inside solid geometry).
     rejected_viewpoints: sightline_eval::report::evaluate::Rejected,
 }
 
@@ -204,6 +205,16 @@ pub(crate) fn run(args: Args) -> Result<()> {
         .sum();
     if unreachable > 0 {
         outln!("{unreachable} viewpoints were unreachable from the map's spawn points and not evaluated");
+    }
+    let solid: usize = cells
+        .iter()
+        .map(|c| c.rejected_viewpoints.inside_solid)
+        .sum();
+    if solid > 0 {
+        outln!(
+            "{solid} viewpoints lay inside solid geometry (most rays from them hit back faces) \
+             and were not evaluated"
+        );
     }
     if let Some(b) = &report.budgets {
         let ratios: Vec<String> = b

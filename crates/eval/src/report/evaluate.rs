@@ -13,7 +13,7 @@ use glam::Vec3;
 use image::RgbImage;
 use sightline_core::trace::Bvh;
 use sightline_core::{Scene, TriangleSet};
-use sightline_region::cell_sources::{Q3OriginRule, Q3Origins};
+use sightline_region::cell_sources::{inside_solid, Q3OriginRule, Q3Origins};
 use sightline_region::PvsFile;
 
 use super::error::ReportError;
@@ -27,8 +27,8 @@ pub struct CellOutcome {
     pub extra: Vec<CellEvaluation>,
     /// Seconds the evaluation took.
     pub seconds: f64,
-    /// Viewpoints skipped for lying outside the cell's cluster, and for being unreachable
-    /// (Quake 3 cells only).
+    /// Viewpoints skipped for lying outside the cell's cluster, for being unreachable
+    /// (Quake 3 cells), or inside solid geometry (other scenes).
     pub rejected: Rejected,
 }
 
@@ -39,13 +39,27 @@ pub struct Rejected {
     pub outside_cluster: usize,
     /// In the cluster, but not in the space reachable from the map's spawn points.
     pub unreachable: usize,
+    /// Scenes without a BSP: inside closed geometry (a wall's or a pillar's volume, a sealed
+    /// pocket), where no camera can be, as `cell_sources::inside_solid` decides: most rays
+    /// from the point hit back faces.
+    pub inside_solid: usize,
+}
+
+impl Rejected {
+    /// All rejected viewpoints.
+    pub fn total(&self) -> usize {
+        self.outside_cluster + self.unreachable + self.inside_solid
+    }
 }
 
 /// Where the viewpoints of a file's cells may be: Quake 3 cells (`metadata["clusters"]`) take
 /// them where the bake took its ray origins (the cell's cluster, and reachable space when the
-/// bake recorded one); other cells anywhere in the cell.
+/// bake recorded one); cells of other scenes anywhere in the cell outside solid geometry (a
+/// view from inside a wall sees its back faces and would count them as errors of the PVS).
 pub struct Viewpoints<'a> {
     rule: Option<Q3OriginRule<'a>>,
+    /// Scenes without a BSP: the scene and a BVH over it, for the solid test.
+    solid: Option<(&'a Scene, Bvh)>,
 }
 
 impl<'a> Viewpoints<'a> {
@@ -57,13 +71,15 @@ impl<'a> Viewpoints<'a> {
         origins: Option<Q3Origins>,
     ) -> Result<Self, ReportError> {
         let rule = Q3OriginRule::from_metadata(scene, &file.metadata, origins)?;
-        Ok(Self { rule })
+        let solid = scene.bsp.is_none().then(|| (scene, Bvh::build(scene)));
+        Ok(Self { rule, solid })
     }
 
     /// The filter of cell `cell`.
     pub fn cell(&self, cell: usize) -> CellViewpoints<'_> {
         CellViewpoints {
             rule: self.rule.as_ref(),
+            solid: self.solid.as_ref().map(|(s, b)| (*s, b)),
             cluster: self
                 .rule
                 .as_ref()
@@ -77,6 +93,7 @@ impl<'a> Viewpoints<'a> {
     pub fn cluster(&self, cluster: u32) -> CellViewpoints<'_> {
         CellViewpoints {
             rule: self.rule.as_ref(),
+            solid: self.solid.as_ref().map(|(s, b)| (*s, b)),
             cluster: Some(cluster),
             last: Cell::new(None),
             rejected: Cell::new(Rejected::default()),
@@ -89,6 +106,7 @@ impl<'a> Viewpoints<'a> {
 /// is judged and counted once.
 pub struct CellViewpoints<'r> {
     rule: Option<&'r Q3OriginRule<'r>>,
+    solid: Option<(&'r Scene, &'r Bvh)>,
     cluster: Option<u32>,
     last: Cell<Option<(Vec3, bool)>>,
     rejected: Cell<Rejected>,
@@ -102,11 +120,25 @@ impl CellViewpoints<'_> {
                 return ok;
             }
         }
-        let (Some(rule), Some(cluster)) = (self.rule, self.cluster) else {
-            return true;
-        };
         let mut r = self.rejected.get();
-        let ok = if !rule.in_cluster(cluster, eye) {
+        let ok = if let Some((scene, bvh)) = self.solid {
+            let free = !inside_solid(scene, bvh, eye);
+            r.inside_solid += usize::from(!free);
+            free
+        } else if let (Some(rule), Some(cluster)) = (self.rule, self.cluster) {
+            Self::q3_allows(rule, cluster, eye, &mut r)
+        } else {
+            true
+        };
+        self.rejected.set(r);
+        self.last.set(Some((eye, ok)));
+        ok
+    }
+
+    /// The Quake 3 rule: in the cell's cluster and, where the bake recorded one, in reachable
+    /// space.
+    fn q3_allows(rule: &Q3OriginRule<'_>, cluster: u32, eye: Vec3, r: &mut Rejected) -> bool {
+        if !rule.in_cluster(cluster, eye) {
             r.outside_cluster += 1;
             false
         } else if !rule.reachable(eye) {
@@ -114,10 +146,7 @@ impl CellViewpoints<'_> {
             false
         } else {
             true
-        };
-        self.rejected.set(r);
-        self.last.set(Some((eye, ok)));
-        ok
+        }
     }
 
     /// What was rejected so far.
@@ -127,8 +156,8 @@ impl CellViewpoints<'_> {
 }
 
 /// Evaluates every cell of `file`; `extra[i]` (when present) are more sets for cell `i`.
-/// Cells of a Quake 3 bake take viewpoints only where the bake took its ray origins
-/// ([`Viewpoints`]). `progress(cell, view, views)` reports progress.
+/// Cells of a Quake 3 bake take viewpoints only where the bake took its ray origins, cells of
+/// other scenes only outside solid geometry ([`Viewpoints`]). `progress(cell, view, views)` reports progress.
 pub(crate) fn evaluate_cells(
     scene: &Scene,
     file: &PvsFile,
@@ -277,6 +306,30 @@ pub(crate) fn highlight(base: &RgbImage, v: &ViewErrors) -> RgbImage {
 mod tests {
     use super::*;
     use sightline_core::raster::Frame;
+
+    #[test]
+    fn viewpoints_inside_solid_geometry_are_rejected_and_counted() {
+        // A solid pillar (a closed box, faces outward) on a floor, and open space around it.
+        let mut b = sightline_core::scene::SceneBuilder::new("pillar");
+        b.add_box(Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 3.0));
+        b.add_box(Vec3::new(-10.0, -10.0, -0.5), Vec3::new(10.0, 10.0, 0.0));
+        let scene = b.finish();
+        let file = PvsFile::for_scene(&scene, serde_json::Value::Null);
+        let viewpoints = Viewpoints::of(&scene, &file, None).unwrap();
+        let filter = viewpoints.cell(0);
+        let inside = Vec3::new(0.2, -0.3, 1.5);
+        let outside = [Vec3::new(3.0, 0.0, 1.5), Vec3::new(-2.0, 4.0, 0.5)];
+        assert!(!filter.allows(inside));
+        // Asked again for the next face of the same cube map: judged and counted once.
+        assert!(!filter.allows(inside));
+        for p in outside {
+            assert!(filter.allows(p), "{p}");
+        }
+        // Inside the floor slab too.
+        assert!(!filter.allows(Vec3::new(5.0, 5.0, -0.25)));
+        let r = filter.rejected();
+        assert_eq!((r.inside_solid, r.total()), (2, 2));
+    }
 
     #[test]
     fn highlight_paints_errors_red_and_snaps_yellow_and_dims_the_rest() {

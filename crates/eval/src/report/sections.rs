@@ -79,6 +79,7 @@ pub(crate) fn summary(
             ),
         ),
         ("mean visible objects", mean_visible_objects(file)),
+        ("viewpoints not evaluated", rejected_viewpoints(outcomes)),
         (
             "mean erroneous pixels per view",
             format!("{:.3}", mean(&|o| o.eval.avg_error_pixels)),
@@ -130,6 +131,29 @@ fn mean_visible_objects(file: &PvsFile) -> String {
         .sum::<f64>()
         / cells;
     format!("{mean:.1} objects ({:.2} %)", 100.0 * mean / total)
+}
+
+/// The viewpoints the evaluation left out, by reason.
+fn rejected_viewpoints(outcomes: &[CellOutcome]) -> String {
+    let mut total = super::evaluate::Rejected::default();
+    for o in outcomes {
+        total.outside_cluster += o.rejected.outside_cluster;
+        total.unreachable += o.rejected.unreachable;
+        total.inside_solid += o.rejected.inside_solid;
+    }
+    if total.total() == 0 {
+        return "none".into();
+    }
+    let parts: Vec<String> = [
+        (total.inside_solid, "inside solid geometry"),
+        (total.outside_cluster, "outside their cell's cluster"),
+        (total.unreachable, "unreachable from the spawn points"),
+    ]
+    .iter()
+    .filter(|(n, _)| *n > 0)
+    .map(|(n, why)| format!("{n} {why}"))
+    .collect();
+    parts.join(", ")
 }
 
 /// One row per cell: PVS size, bake cost, pixel error.
