@@ -619,3 +619,54 @@ fn raster_bake_below_one_cube_map_says_what_it_renders() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!stderr(&o).contains("cube map"), "{}", stderr(&o));
 }
+
+#[test]
+fn walkable_cells_sit_at_eye_height_and_round_trip_through_a_cells_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let bake = |extra: &[&str]| {
+        let args = [&["pvs", "bake", SCENE, "--rays", "2000"][..], extra].concat();
+        sightline(&args, dir.path())
+    };
+    let o = bake(&[
+        "--walkable",
+        "4",
+        "--write-cells",
+        "cells.json",
+        "-o",
+        "w.pvs",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    let placed: usize = err
+        .split("placed ")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{err}"));
+    // The rooms stand on a floor at z = 0, with furniture: every cell spans 1.2..1.8 m above
+    // a floor no higher than 1.2 m.
+    let doc: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("cells.json")).unwrap()).unwrap();
+    let cells = doc["cells"].as_array().unwrap();
+    assert!(
+        placed > 10 && cells.len() == placed,
+        "{placed} {}",
+        cells.len()
+    );
+    for c in cells {
+        let z = c["center"][2].as_f64().unwrap();
+        let h = c["half_extents"][2].as_f64().unwrap();
+        assert!((1.45..=3.0).contains(&z) && h >= 0.299, "{c}");
+    }
+    // Edited or not, the file bakes the same cells.
+    let o = bake(&["--cells", "cells.json", "-o", "again.pvs"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for file in ["w.pvs", "again.pvs"] {
+        let o = sightline(&["pvs", "show", file, "--json"], dir.path());
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(v["cells"].as_array().unwrap().len(), placed, "{file}");
+    }
+    // Bad sizes are named.
+    let o = bake(&["--walkable", "0", "-o", "bad.pvs"]);
+    assert_fails_with(&o, "cell size 0");
+}

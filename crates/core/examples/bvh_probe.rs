@@ -115,9 +115,10 @@ fn timings(scene: &Scene, bvh: &Bvh, rays: &[Ray]) -> String {
     let embree = sightline_core::trace::EmbreeCaster::build(scene).expect("embree builds");
     #[cfg(not(feature = "embree"))]
     let _ = scene;
-    let mut casters: Vec<&dyn RayCaster> = vec![bvh];
     #[cfg(feature = "embree")]
-    casters.push(&embree);
+    let casters: Vec<&dyn RayCaster> = vec![bvh, &embree];
+    #[cfg(not(feature = "embree"))]
+    let casters: Vec<&dyn RayCaster> = vec![bvh];
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()

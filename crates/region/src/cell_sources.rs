@@ -123,6 +123,31 @@ pub fn read_cells_file(path: &Path) -> Result<Vec<ViewCell>, CellsError> {
         .collect()
 }
 
+/// Writes `cells` as a cells file that [`read_cells_file`] reads back exactly (JSON, each cell
+/// as `center`, `axes`, `half_extents`), atomically: for a user to edit (e.g. cells placed by
+/// `walkable::walkable_cells`) and bake with `--cells`.
+pub fn write_cells_file(path: &Path, cells: &[ViewCell]) -> Result<(), CellsError> {
+    let entries: Vec<serde_json::Value> = cells
+        .iter()
+        .map(|c| {
+            serde_json::json!({
+                "center": c.center.to_array(),
+                "axes": c.axes.map(|a| a.to_array()),
+                "half_extents": c.half_extents.to_array(),
+            })
+        })
+        .collect();
+    let doc = serde_json::json!({ "cells": entries });
+    sightline_core::atomic_file::write_atomic(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, &doc)?;
+        std::io::Write::write_all(w, b"\n")
+    })
+    .map_err(|source| CellsError::Io {
+        path: path.display().to_string(),
+        source,
+    })
+}
+
 /// True when `point` is inside closed solid geometry: of six axis rays from it, at least four
 /// first hit the back side of a triangle (its normal pointing away from the ray's origin).
 /// Meshes are assumed to be consistently wound with outward normals (as generators and most

@@ -24,6 +24,7 @@ pub mod sampler;
 pub mod segment_cells;
 pub mod shards;
 pub mod viewcell;
+pub mod walkable;
 
 pub use gvs::{Gvs, GvsParams};
 pub use gvspp::{GvsPlusPlus, GvsPlusPlusParams, GvsPlusPlusParamsError};

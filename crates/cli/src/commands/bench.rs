@@ -7,17 +7,19 @@
 use anyhow::Result;
 use clap::Subcommand;
 use indicatif::ProgressBar;
-use sightline_core::scene::{self, LoadOptions};
 use sightline_core::trace::{Bvh, RayCaster};
-use sightline_core::{Camera, Scene};
+use sightline_core::Scene;
 use sightline_eval::bench::{self as eval_bench, Progress, TraceBackend};
 
-use crate::args::{default_eye, parse_ms_budgets, parse_ray_budgets, BudgetList};
+use crate::args::{parse_ms_budgets, parse_ray_budgets, BudgetList};
 use crate::output::print_json;
 
 mod peers;
 mod plot;
+mod scenes;
 mod tables;
+
+use scenes::{load, overview_camera};
 
 /// Arguments of `sightline bench`.
 #[derive(clap::Args, Debug)]
@@ -305,27 +307,6 @@ fn rv(args: RvArgs) -> Result<()> {
         return print_json(&rows);
     }
     tables::rv(&rows, &options)
-}
-
-fn load(spec: &str) -> Result<Scene> {
-    let scene = scene::open(spec, &LoadOptions::default())?;
-    sightline_core::validate::validate(&scene).check()?;
-    Ok(scene)
-}
-
-fn overview_camera(scene: &Scene, size: u32) -> Result<Camera> {
-    crate::limits::check_pixels(size, size).map_err(anyhow::Error::msg)?;
-    let b = scene.bounds();
-    let eye = default_eye(scene, b.center(), b.diagonal());
-    Ok(Camera::look_at(
-        eye,
-        b.center(),
-        scene.up.vector(),
-        60.0,
-        size,
-        size,
-        sightline_core::default_near(scene, eye),
-    )?)
 }
 
 /// The CPU ray casters `bench trace` measures: our BVH, and Embree when built with it.

@@ -199,23 +199,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         cells.iter().map(|c| c.max_error_pixels).max().unwrap_or(0),
         index.display()
     );
-    let unreachable: usize = cells
-        .iter()
-        .map(|c| c.rejected_viewpoints.unreachable)
-        .sum();
-    if unreachable > 0 {
-        outln!("{unreachable} viewpoints were unreachable from the map's spawn points and not evaluated");
-    }
-    let solid: usize = cells
-        .iter()
-        .map(|c| c.rejected_viewpoints.inside_solid)
-        .sum();
-    if solid > 0 {
-        outln!(
-            "{solid} viewpoints lay inside solid geometry (most rays from them hit back faces) \
-             and were not evaluated"
-        );
-    }
+    print_rejected(&cells)?;
     if let Some(b) = &report.budgets {
         let ratios: Vec<String> = b
             .ratios()
@@ -247,4 +231,26 @@ fn bake_comparison(
     })?;
     bar.finish_and_clear();
     Ok(bakes)
+}
+
+/// Prints how many viewpoints the evaluation left out, by reason (none: nothing).
+fn print_rejected(cells: &[CellSummary]) -> Result<()> {
+    let unreachable: usize = cells
+        .iter()
+        .map(|c| c.rejected_viewpoints.unreachable)
+        .sum();
+    if unreachable > 0 {
+        outln!("{unreachable} viewpoints were unreachable from the map's spawn points and not evaluated");
+    }
+    let solid: usize = cells
+        .iter()
+        .map(|c| c.rejected_viewpoints.inside_solid)
+        .sum();
+    if solid > 0 {
+        outln!(
+            "{solid} viewpoints lay inside solid geometry (most rays from them hit back faces) \
+             and were not evaluated"
+        );
+    }
+    Ok(())
 }

@@ -8,6 +8,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::scenes::{load, overview_camera};
 use anyhow::{Context, Result};
 use sightline_core::scene::LoadOptions;
 use sightline_core::trace::{Bvh, RayCaster};
@@ -227,8 +228,8 @@ fn rays(args: &PeersArgs, options: &PeerBenchOptions, dir: &Path) -> Result<Vec<
     let casters = in_process();
     let mut rows = Vec::new();
     for spec in args.scenes.iter().filter(|s| !s.is_empty()) {
-        let scene = super::load(spec)?;
-        let camera = super::overview_camera(&scene, args.size)?;
+        let scene = load(spec)?;
+        let camera = overview_camera(&scene, args.size)?;
         let rays = TraceRays::new(&scene, &camera, args.rays);
         let mesh = MeshSet {
             vertices: scene.positions.clone(),

@@ -59,6 +59,23 @@ pub(crate) struct CellArgs {
     /// With --grid: drop cells whose centre is inside solid geometry.
     #[arg(long)]
     pub(crate) skip_solid: bool,
+    /// Cells where players walk, for mesh levels: SIZE x SIZE columns over the scene, and in
+    /// each a cell at eye height (--eye-height) over every floor found there: an upward-facing
+    /// surface (at most 45 degrees steep) with --head-room free above it and room for a
+    /// player's 0.3-unit footprint. Several storeys give several cells. Lengths in scene units
+    /// (the defaults assume metres); --write-cells saves them for editing.
+    #[arg(long, value_name = "SIZE")]
+    pub(crate) walkable: Option<f32>,
+    /// With --walkable: eye heights above the floor that a cell spans.
+    #[arg(long, value_name = "LOW,HIGH", default_value = "1.2,1.8")]
+    pub(crate) eye_height: String,
+    /// With --walkable: free height a floor needs above it.
+    #[arg(long, value_name = "H", default_value_t = 2.0)]
+    pub(crate) head_room: f32,
+    /// Also write the cells (from any source) to FILE as a cells file (JSON) before baking:
+    /// edit it and bake again with --cells FILE.
+    #[arg(long, value_name = "FILE")]
+    pub(crate) write_cells: Option<PathBuf>,
     /// Quake 3 maps: one cell per BSP leaf box (cells of a cluster together form it). Ray
     /// origins stay inside the leaf's cluster and in the space reachable from the map's spawn
     /// points; leaves without reachable space are not baked (see --include-unreachable).

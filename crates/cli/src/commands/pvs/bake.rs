@@ -1,4 +1,4 @@
-//! `sightline pvs bake` and `pvs merge`: cells from their sources, the bake (per cell or
+//! `sightline pvs bake` and `pvs merge`: the bake of the cells `cells.rs` collects (per cell or
 //! with shared rays, on the CPU or the GPU caster), incremental rebakes, shard merging.
 
 use std::collections::BTreeMap;
@@ -11,14 +11,10 @@ use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use serde::Serialize;
 use sightline_core::trace::{Bvh, RayCaster};
 use sightline_region::bake::BakeSetup;
-use sightline_region::cell_sources::{
-    inside_solid, q3_cells, read_cells_file, Q3CellKind, Q3Cells, Q3Origins, Q3OriginsSummary,
-    Q3_ORIGINS_KEY,
-};
+use sightline_region::cell_sources::{write_cells_file, Q3Cells, Q3OriginsSummary, Q3_ORIGINS_KEY};
 use sightline_region::checkpoint::{checkpoint_path, fingerprint, BakeProgress, ResumableBake};
 use sightline_region::methods::{sampler, MethodParams};
 use sightline_region::pvs_file::EncodedPvsFile;
-use sightline_region::reachable::{ReachParams, DEFAULT_STEP};
 use sightline_region::rebake::{
     plan_incremental_bake, IncrementalBake, IncrementalBakeError, OldBake,
 };
@@ -31,102 +27,8 @@ use crate::commands::bench::Device;
 use crate::output::{print_json, refuse_overwriting_inputs};
 use crate::output_lock::OutputLock;
 
-use super::args::{BakeArgs, CellArgs, MergeArgs};
-
-fn parse_numbers(s: &str, n: usize, what: &str) -> Result<Vec<f32>> {
-    let v: Vec<f32> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f32>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("{what} '{s}': not a list of numbers"))?;
-    if v.len() != n || v.iter().any(|x| !x.is_finite()) {
-        bail!("{what} '{s}': expected {n} finite numbers");
-    }
-    Ok(v)
-}
-
-/// The cells and, for Quake 3 leaves and clusters, their clusters and origin rule.
-fn collect_cells<'a>(
-    args: &CellArgs,
-    scene: &'a sightline_core::Scene,
-    caster: &Bvh,
-) -> Result<(Vec<ViewCell>, Option<Q3Cells<'a>>)> {
-    let sources = usize::from(args.cells.is_some())
-        + usize::from(!args.cell.is_empty())
-        + usize::from(args.grid.is_some())
-        + usize::from(args.q3_leaves)
-        + usize::from(args.q3_clusters);
-    if sources != 1 {
-        bail!("give exactly one cell source: --cells FILE, --cell SPEC, --grid NX,NY,NZ, --q3-leaves or --q3-clusters");
-    }
-    let q3 = args.q3_leaves || args.q3_clusters;
-    if !q3 && (args.include_unreachable || args.reach_step != DEFAULT_STEP) {
-        bail!("--include-unreachable and --reach-step apply to --q3-leaves and --q3-clusters only");
-    }
-    if let Some(path) = &args.cells {
-        return Ok((read_cells_file(path)?, None));
-    }
-    if !args.cell.is_empty() {
-        let cells = args
-            .cell
-            .iter()
-            .map(|s| ViewCell::parse(s))
-            .collect::<Result<_, _>>()?;
-        return Ok((cells, None));
-    }
-    if let Some(grid) = &args.grid {
-        let n = parse_numbers(grid, 3, "--grid")?;
-        if n.iter().any(|&x| x < 1.0 || x.fract() != 0.0 || x > 4096.0) {
-            bail!("--grid '{grid}': counts must be whole numbers in 1..=4096");
-        }
-        let (min, max) = match &args.bounds {
-            Some(b) => {
-                let v = parse_numbers(b, 6, "--bounds")?;
-                (Vec3::new(v[0], v[1], v[2]), Vec3::new(v[3], v[4], v[5]))
-            }
-            None => {
-                let b = scene.bounds();
-                (b.min, b.max)
-            }
-        };
-        crate::limits::check_cells(&[n[0] as u64, n[1] as u64, n[2] as u64], "--grid")?;
-        let mut cells = ViewCell::grid(min, max, [n[0] as u32, n[1] as u32, n[2] as u32])?;
-        if args.skip_solid {
-            cells.retain(|c| !inside_solid(scene, caster, c.center));
-        }
-        return Ok((cells, None));
-    }
-    if scene.bsp.is_none() {
-        bail!("--q3-leaves and --q3-clusters need a Quake 3 map (.bsp) as the scene");
-    }
-    let filter = (!args.clusters.is_empty()).then_some(args.clusters.as_slice());
-    let kind = if args.q3_clusters {
-        Q3CellKind::Clusters
-    } else {
-        Q3CellKind::Leaves
-    };
-    let origins = if args.include_unreachable {
-        Q3Origins::Cluster
-    } else {
-        Q3Origins::Reachable(ReachParams {
-            step: args.reach_step,
-        })
-    };
-    let mut q3 = q3_cells(scene, kind, filter, origins).context("--reach-step")?;
-    let map = Path::new(&scene.source).file_stem().map_or_else(
-        || scene.source.clone(),
-        |s| s.to_string_lossy().into_owned(),
-    );
-    let line = q3.summary.describe(&map);
-    match (&q3.summary.fallback, q3.summary.dropped_cells) {
-        (Some(_), _) => eprintln!("warning: {line}"),
-        (None, 0) if q3.rule.reach.is_none() => {}
-        (None, 0) => eprintln!("{line}"),
-        (None, _) => eprintln!("{line} (--include-unreachable bakes them with the old rule)"),
-    }
-    let cells = std::mem::take(&mut q3.cells);
-    Ok((cells, Some(q3)))
-}
+use super::args::{BakeArgs, MergeArgs};
+use super::cells::collect_cells;
 
 #[derive(Serialize)]
 struct BakeSummary {
@@ -222,6 +124,15 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
     let (cells, q3) = collect_cells(&args.cells, &scene, &bvh)?;
     if cells.is_empty() {
         bail!("no view cells to bake (all filtered out?)");
+    }
+    if let Some(path) = &args.cells.write_cells {
+        write_cells_file(path, &cells)?;
+        eprintln!(
+            "wrote {} cells to {} (edit it and bake with --cells {})",
+            cells.len(),
+            path.display(),
+            path.display()
+        );
     }
     let record = CellRecord::of(q3.as_ref());
     let params = args.method_overrides.params();

@@ -1,10 +1,12 @@
 //! `sightline pvs`: bake, show, diff and compare potentially visible sets.
 //!
 //! The face: `run` dispatches to one file per subcommand (`bake.rs` with merge, `show.rs`,
-//! `diff.rs`, `compare_q3.rs`); the arguments are in `args.rs`.
+//! `diff.rs`, `compare_q3.rs`); the arguments are in `args.rs`, the bake's cell sources in
+//! `cells.rs`.
 
 mod args;
 mod bake;
+mod cells;
 mod compare_q3;
 mod diff;
 mod show;

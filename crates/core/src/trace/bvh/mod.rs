@@ -61,7 +61,7 @@ mod node;
 mod node4;
 mod node8;
 mod slab;
-mod stats;
+pub mod stats;
 #[cfg(test)]
 mod tests;
 mod traverse;
@@ -81,7 +81,6 @@ use input::{corners, triangle_boxes};
 use node::{Tree, WideNode};
 use node4::Node4;
 use node8::Node8;
-pub use stats::{TraversalStats, TreeStats};
 
 /// Rays per `rayon` task in [`Bvh::cast`].
 const RAYS_PER_TASK: usize = 64;
