@@ -62,6 +62,9 @@ pub struct BakedCell {
     pub rays: u64,
     /// Seconds spent on it.
     pub seconds: f64,
+    /// Whether its sampler's termination rule held before the budget ran out (GVS, GVS++;
+    /// `None` for other samplers), as `CellResult::converged`.
+    pub converged: Option<bool>,
     /// Its statistics as compact JSON text (a parsed `serde_json::Value` with a 64-point
     /// convergence curve takes several KB; the text a tenth of that).
     stats: Box<str>,
@@ -76,6 +79,7 @@ impl BakedCell {
             set,
             rays: stats["rays"].as_u64().unwrap_or(0),
             seconds: stats["seconds"].as_f64().unwrap_or(0.0),
+            converged: stats["converged"].as_bool(),
             stats: stats.to_string().into_boxed_str(),
         }
     }

@@ -223,9 +223,7 @@ impl Column {
             origin = hit - self.up * step;
         }
     }
-}
 
-impl Column {
     /// Whether a player can stand at `hit` (on an upward-facing surface): `head_room` free
     /// above it, and the surface found again `footprint` away in the four horizontal
     /// directions, within a step's height (a quarter of the head room).

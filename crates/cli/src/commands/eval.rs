@@ -268,15 +268,12 @@ fn print_table(rows: &[Row]) -> Result<()> {
 fn print_mean(rows: &[Row], resolution: u32) -> Result<()> {
     // Cells without a viewpoint (a Quake 3 cell judged from reachable viewpoints only) have
     // no error to average.
-    let outside: usize = rows
-        .iter()
-        .map(|r| r.rejected_viewpoints.outside_cluster)
-        .sum();
-    let unreachable: usize = rows.iter().map(|r| r.rejected_viewpoints.unreachable).sum();
-    let solid: usize = rows
-        .iter()
-        .map(|r| r.rejected_viewpoints.inside_solid)
-        .sum();
+    let rejected: Rejected = rows.iter().map(|r| r.rejected_viewpoints).sum();
+    let (outside, unreachable, solid) = (
+        rejected.outside_cluster,
+        rejected.unreachable,
+        rejected.inside_solid,
+    );
     let judged: Vec<&Row> = rows.iter().filter(|r| r.evaluation.images > 0).collect();
     if judged.len() < rows.len() {
         outln!(

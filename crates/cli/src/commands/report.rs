@@ -235,17 +235,12 @@ fn bake_comparison(
 
 /// Prints how many viewpoints the evaluation left out, by reason (none: nothing).
 fn print_rejected(cells: &[CellSummary]) -> Result<()> {
-    let unreachable: usize = cells
-        .iter()
-        .map(|c| c.rejected_viewpoints.unreachable)
-        .sum();
+    let rejected: sightline_eval::report::evaluate::Rejected =
+        cells.iter().map(|c| c.rejected_viewpoints).sum();
+    let (unreachable, solid) = (rejected.unreachable, rejected.inside_solid);
     if unreachable > 0 {
         outln!("{unreachable} viewpoints were unreachable from the map's spawn points and not evaluated");
     }
-    let solid: usize = cells
-        .iter()
-        .map(|c| c.rejected_viewpoints.inside_solid)
-        .sum();
     if solid > 0 {
         outln!(
             "{solid} viewpoints lay inside solid geometry (most rays from them hit back faces) \

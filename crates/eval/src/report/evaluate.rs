@@ -52,6 +52,17 @@ impl Rejected {
     }
 }
 
+impl std::iter::Sum for Rejected {
+    /// The counts of several cells, reason by reason.
+    fn sum<I: Iterator<Item = Self>>(iter: I) -> Self {
+        iter.fold(Self::default(), |a, b| Self {
+            outside_cluster: a.outside_cluster + b.outside_cluster,
+            unreachable: a.unreachable + b.unreachable,
+            inside_solid: a.inside_solid + b.inside_solid,
+        })
+    }
+}
+
 /// Where the viewpoints of a file's cells may be: Quake 3 cells (`metadata["clusters"]`) take
 /// them where the bake took its ray origins (the cell's cluster, and reachable space when the
 /// bake recorded one); cells of other scenes anywhere in the cell outside solid geometry (a

@@ -135,12 +135,7 @@ fn mean_visible_objects(file: &PvsFile) -> String {
 
 /// The viewpoints the evaluation left out, by reason.
 fn rejected_viewpoints(outcomes: &[CellOutcome]) -> String {
-    let mut total = super::evaluate::Rejected::default();
-    for o in outcomes {
-        total.outside_cluster += o.rejected.outside_cluster;
-        total.unreachable += o.rejected.unreachable;
-        total.inside_solid += o.rejected.inside_solid;
-    }
+    let total: super::evaluate::Rejected = outcomes.iter().map(|o| o.rejected).sum();
     if total.total() == 0 {
         return "none".into();
     }

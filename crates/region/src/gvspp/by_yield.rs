@@ -117,13 +117,17 @@ pub(crate) fn sample_by_yield(
 ) -> bool {
     let mut scheduler = YieldScheduler::default();
     let mut rule_held = false;
+    // Border, reverse and refinement work waiting (random rays always have work).
+    let waiting = |c: &GvsppCell| {
+        [
+            !c.queue.is_empty(),
+            !c.pending.is_empty(),
+            !c.refine.is_empty(),
+        ]
+    };
     while !tally.exhausted() {
-        let has_work = [
-            true,
-            !cell.queue.is_empty(),
-            !cell.pending.is_empty(),
-            !cell.refine.is_empty(),
-        ];
+        let [border, reverse, refine] = waiting(cell);
+        let has_work = [true, border, reverse, refine];
         let Some(kind) = scheduler.choose(has_work) else {
             break;
         };
@@ -138,7 +142,7 @@ pub(crate) fn sample_by_yield(
             Kind::Refine => refine_batch(ctx, cell, tally, progress),
         };
         scheduler.record(kind, (tally.rays - before) as usize, new);
-        let idle = cell.queue.is_empty() && cell.pending.is_empty() && cell.refine.is_empty();
+        let idle = !waiting(cell).contains(&true);
         rule_held |= cell.batch_done(tally.rays - before, new) && idle;
     }
     rule_held

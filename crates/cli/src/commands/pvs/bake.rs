@@ -478,12 +478,7 @@ impl<'a> CellBake<'a> {
             file_bytes_per_cell: std::fs::metadata(&args.output).map_or(0.0, |m| m.len() as f64)
                 / sizes.len().max(1) as f64,
             reachable: inputs.record.origins.as_ref().map(|r| serde_json::json!(r)),
-            unconverged_cells: count_unconverged(
-                progress
-                    .done
-                    .values()
-                    .map(|c| c.stats()["converged"].as_bool()),
-            ),
+            unconverged_cells: count_unconverged(progress.done.values().map(|c| c.converged)),
         }
     }
 
