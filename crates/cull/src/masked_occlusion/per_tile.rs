@@ -7,8 +7,10 @@
 //! Based on: Hasselgren, Andersson, Akenine-Möller. Masked Software Occlusion Culling. 2016,
 //! sections 3-4: the edges of a triangle are evaluated for all scanlines of a tile row at once,
 //! and a tile's 32-bit coverage mask is built from the span ends of its scanlines instead of
-//! per-pixel tests; the depth of a tile is the `1/z` plane's farthest value over the covered
-//! part of the tile, which for an affine function is at a corner of it.
+//! per-pixel tests; the depth of a tile is the `1/z` plane's farthest value over the tile's
+//! pixel centres, which for an affine function is at a corner of it (the paper's per-tile
+//! depth at the farthest corner, stepped from tile to tile), but never farther than the
+//! triangle's farthest corner.
 //!
 //! Bit-exactness: every kernel evaluates the same `f32` expressions in the same order (Rust
 //! does not contract `a * b + c` into an FMA) and rounds them with the same integer rules, so
@@ -83,10 +85,9 @@ pub(super) trait TileSteps {
 }
 
 /// The `1/z` plane of a triangle over the screen, as the tile loop reads it:
-/// `1/z = r0 + ra (x - x0) + rb (y - y0)`.
+/// `1/z = r0 + ra (x - x0) + rb (y - y0)` (`x0` only through `far_col`).
 #[derive(Clone, Copy)]
 struct DepthPlane {
-    x0: f32,
     y0: f32,
     r0: f32,
     /// Zero for slivers.
@@ -94,9 +95,29 @@ struct DepthPlane {
     rb: f32,
     /// The farthest corner's `1/z`, a lower bound in every case.
     r_far: f32,
+    /// The offset from a tile's first column to its farthest pixel centres, minus `x0` (see
+    /// [`tile_column_offsets`]).
+    far_col: f32,
     /// True when the plane is well conditioned (area of a pixel at least); otherwise only
     /// `r_far` is used.
     ok: bool,
+}
+
+/// Where along a tile row the plane `r0 + ra (x - x0) + ...` is farthest and nearest: the
+/// offsets `(far, near)` such that, for a tile whose first column is `base`,
+/// `ra * (base + far)` is the plane's `x` term at the tile's farthest pixel centres (its
+/// minimum over the tile's 8 columns) and `ra * (base + near)` at the nearest ones (its
+/// maximum). Every kernel computes a tile's depth as `r_rows + ra * (base + far)` and the
+/// coarse cull's upper bound with `near`, in these `f32` operations, so they agree bit for bit;
+/// and since rounding is monotonic the bound is never below the depth.
+#[inline(always)]
+pub(super) fn tile_column_offsets(ra: f32, x0: f32) -> (f32, f32) {
+    let (first, last) = (0.5, (TILE_W - 1) as f32 + 0.5);
+    if ra < 0.0 {
+        (last - x0, first - x0)
+    } else {
+        (first - x0, last - x0)
+    }
 }
 
 /// The occluder loop of the tile-at-a-time kernels (see [`RasterKernel::render`]): view
@@ -196,12 +217,12 @@ pub(super) unsafe fn raster_triangle<T: TileSteps>(tiles: &mut Tiles, mut p: [[f
         (0.0, 0.0)
     };
     let plane = DepthPlane {
-        x0: p[0][0],
         y0: p[0][1],
         r0: p[0][2],
         ra,
         rb,
         r_far,
+        far_col: tile_column_offsets(ra, p[0][0]).0,
         ok: area >= 1.0,
     };
 
@@ -277,21 +298,16 @@ unsafe fn raster_tile_row<T: TileSteps>(
         if mask == 0 {
             continue;
         }
-        // The farthest depth is over the covered columns only: the lowest and highest set
-        // column of the tile (the same in every kernel, so they agree bit for bit).
-        let cols = (mask | mask >> 8 | mask >> 16 | mask >> 24) & 0xFF;
-        let cmin = cols.trailing_zeros() as i32;
-        let cmax = 31 - cols.leading_zeros() as i32;
         if tx == tiles.tiles_x - 1 {
             mask |= tiles.outside_x;
         }
         if ty == tiles.tiles_y - 1 {
             mask |= tiles.outside_y;
         }
+        // The plane's farthest value over the tile (see `tile_column_offsets`), never
+        // farther than the farthest corner.
         let r = if plane.ok {
-            let xa = (base + cmin) as f32 + 0.5 - plane.x0;
-            let xb = (base + cmax) as f32 + 0.5 - plane.x0;
-            (r_rows + (plane.ra * xa).min(plane.ra * xb)).max(plane.r_far)
+            (r_rows + plane.ra * (base as f32 + plane.far_col)).max(plane.r_far)
         } else {
             plane.r_far
         };

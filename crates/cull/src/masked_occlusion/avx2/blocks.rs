@@ -15,7 +15,7 @@
 use std::arch::x86_64::*;
 
 use super::super::constants::TILE_H;
-use super::super::per_tile::{EMPTY_HI, EMPTY_LO};
+use super::super::per_tile::{tile_column_offsets, EMPTY_HI, EMPTY_LO};
 use super::super::tiles::{Block, Tiles};
 use super::setup::Setup8;
 
@@ -49,7 +49,10 @@ type Edge8 = (__m256, __m256, __m256, __m256, __m256);
 /// block loop reads it.
 struct Triangle {
     edges: [Edge8; 3],
-    x0: __m256,
+    /// Offsets from a tile's first column to its farthest and nearest pixel centres, minus
+    /// `x0` (`per_tile::tile_column_offsets`).
+    far_col: __m256,
+    near_col: __m256,
     y0: __m256,
     r0: __m256,
     ra: __m256,
@@ -72,9 +75,11 @@ impl Triangle {
     #[target_feature(enable = "avx2")]
     fn new(t: &Setup8, l: usize) -> Self {
         let set1 = _mm256_set1_ps;
+        let (far_col, near_col) = tile_column_offsets(t.ra[l], t.x0[l]);
         Triangle {
             edges: edges8(t, l),
-            x0: set1(t.x0[l]),
+            far_col: set1(far_col),
+            near_col: set1(near_col),
             y0: set1(t.y0[l]),
             r0: set1(t.r0[l]),
             ra: set1(t.ra[l]),
@@ -100,7 +105,7 @@ impl Triangle {
 /// masks ([`block_masks`]), and the tiles' conservative depths are merged ([`merge_block`]).
 ///
 /// Every value is the one the per-tile path computes, with the same `f32` operations: spans
-/// as in the SSE2 kernel, a tile's depth from the lowest and highest covered column, the tile
+/// as in the SSE2 kernel, a tile's depth at its farthest pixel centres, the tile
 /// merge of `update_tile`; tiles the triangle does not cover get a zero mask and are left
 /// unchanged, and skipped blocks are ones the merge would leave unchanged. So the buffers are
 /// identical bit for bit (checked by the tests).
@@ -110,8 +115,6 @@ pub(super) fn raster_blocks(blocks: &mut [Block], g: &BlockGrid, t: &Setup8, l: 
     let tri = Triangle::new(t, l);
     let all = _mm256_set1_epi32(-1);
     let zero = _mm256_setzero_si256();
-    let half = _mm256_set1_ps(0.5);
-    let lane_tx = _mm256_setr_epi32(0, 1, 2, 3, 0, 1, 2, 3);
     let (bbox_bx0, bbox_bx1) = (tri.col0 as u32 / 32, tri.col1 as u32 / 32);
     let last_bx = g.last_tx / 4;
     for by in tri.row0 as u32 / (2 * TILE_H)..=tri.row1 as u32 / (2 * TILE_H) {
@@ -136,12 +139,12 @@ pub(super) fn raster_blocks(blocks: &mut [Block], g: &BlockGrid, t: &Setup8, l: 
             let z0 = unsafe { load_z0(block) };
             let skip = bx < first_open || (bx > first_open && depth.behind(&tri, bx, z0));
             if !skip {
-                let txv = _mm256_add_epi32(_mm256_set1_epi32((4 * bx) as i32), lane_tx);
-                let base = _mm256_cvtepi32_ps(_mm256_slli_epi32::<3>(txv));
-                let (mask, cmin, cmax) = block_masks(rel_a, rel_b, base);
+                let mask = block_masks(rel_a, rel_b);
                 // Mask bits beyond the image count as covered in a touched tile of the last
                 // tile column or row.
                 let cov = if bx == last_bx || depth.last_row {
+                    let lane_tx = _mm256_setr_epi32(0, 1, 2, 3, 0, 1, 2, 3);
+                    let txv = _mm256_add_epi32(_mm256_set1_epi32((4 * bx) as i32), lane_tx);
                     let outside_x = _mm256_and_si256(
                         _mm256_cmpeq_epi32(txv, _mm256_set1_epi32(g.last_tx as i32)),
                         _mm256_set1_epi32(g.outside_x as i32),
@@ -152,13 +155,13 @@ pub(super) fn raster_blocks(blocks: &mut [Block], g: &BlockGrid, t: &Setup8, l: 
                 } else {
                     mask
                 };
+                // The plane's farthest value over each tile, as `per_tile.rs` computes it.
                 let r = if tri.plane_ok {
-                    let xa = _mm256_sub_ps(_mm256_add_ps(cmin, half), tri.x0);
-                    let xb = _mm256_sub_ps(_mm256_add_ps(cmax, half), tri.x0);
-                    let m = min_like_f32(_mm256_mul_ps(tri.ra, xa), _mm256_mul_ps(tri.ra, xb));
+                    let far = _mm256_add_ps(tile_columns(bx), tri.far_col);
+                    let m = _mm256_add_ps(depth.r_rows, _mm256_mul_ps(tri.ra, far));
                     // `f32::max` without a NaN select: `r_far` is never NaN (corners are
                     // finite and in front of the near plane).
-                    _mm256_max_ps(_mm256_add_ps(depth.r_rows, m), tri.r_far)
+                    _mm256_max_ps(m, tri.r_far)
                 } else {
                     tri.r_far
                 };
@@ -217,9 +220,10 @@ impl BlockRowDepth {
     }
 
     /// Whether every tile of block column `bx` (reference layers `z0`) lies behind the
-    /// triangle: an upper bound of the depth the merge would compute for each tile, from the
-    /// tile's first and last column instead of the covered ones (f32 rounding is monotonic, so
-    /// it bounds them exactly), is not nearer than the tile's reference layer. The merge leaves
+    /// triangle: an upper bound of the depth the merge would compute for each tile, the plane
+    /// at the tile's nearest pixel centres instead of its farthest (f32 rounding is monotonic,
+    /// so it bounds the merge's depth exactly, see `per_tile::tile_column_offsets`), is not
+    /// nearer than the tile's reference layer. The merge leaves
     /// such tiles unchanged (its `r > z0` fails), so skipping them changes nothing; this is
     /// the coarse cull of occluder tiles of Hasselgren et al. 2016, section 4, with a tighter
     /// bound than the triangle's nearest corner.
@@ -233,17 +237,8 @@ impl BlockRowDepth {
             return false;
         }
         let behind = if tri.plane_ok {
-            let lane_x = _mm256_setr_ps(0.5, 8.5, 16.5, 24.5, 0.5, 8.5, 16.5, 24.5);
-            let xa = _mm256_sub_ps(
-                _mm256_add_ps(_mm256_set1_ps((32 * bx) as f32), lane_x),
-                tri.x0,
-            );
-            let xb = _mm256_sub_ps(
-                _mm256_add_ps(_mm256_set1_ps((32 * bx + 7) as f32), lane_x),
-                tri.x0,
-            );
-            let m = _mm256_max_ps(_mm256_mul_ps(tri.ra, xa), _mm256_mul_ps(tri.ra, xb));
-            let bound = _mm256_add_ps(self.r_rows_max, m);
+            let near = _mm256_add_ps(tile_columns(bx), tri.near_col);
+            let bound = _mm256_add_ps(self.r_rows_max, _mm256_mul_ps(tri.ra, near));
             _mm256_and_ps(behind_far, _mm256_cmp_ps::<_CMP_LE_OQ>(bound, z0))
         } else {
             behind_far
@@ -339,15 +334,13 @@ fn edges8(t: &Setup8, l: usize) -> [Edge8; 3] {
 
 /// The coverage masks of the 8 tiles of a block (one per lane) from the spans of the block
 /// row's 8 scanlines (one per lane, columns `rel_a..rel_b` relative to the block, `rel_b`
-/// exclusive; empty when `rel_a >= rel_b`), with the lowest and highest covered column of each
-/// tile as `f32` (meaningless for a tile with nothing covered: its zero mask leaves it
-/// unchanged); `base` is each tile's first column.
+/// exclusive; empty when `rel_a >= rel_b`).
 ///
 /// Hasselgren et al. 2016, section 4: a scanline's 32 pixels of coverage are two shifts of all
 /// ones; a byte transpose then turns 8 scanlines of 4 tiles' bytes into 8 tile masks.
 #[inline]
 #[target_feature(enable = "avx2")]
-fn block_masks(rel_a: __m256i, rel_b: __m256i, base: __m256) -> (__m256i, __m256, __m256) {
+fn block_masks(rel_a: __m256i, rel_b: __m256i) -> __m256i {
     let zero = _mm256_setzero_si256();
     let ones = _mm256_set1_epi32(-1);
     // `sllv` gives 0 for counts of 32 and more: spans past the block cover nothing, spans
@@ -362,20 +355,15 @@ fn block_masks(rel_a: __m256i, rel_b: __m256i, base: __m256) -> (__m256i, __m256
         0, 4, 8, 12, 1, 5, 9, 13, 2, 6, 10, 14, 3, 7, 11, 15, //
         0, 4, 8, 12, 1, 5, 9, 13, 2, 6, 10, 14, 3, 7, 11, 15,
     );
-    let mask = _mm256_shuffle_epi8(rows, transpose);
-    // The covered columns of each tile, a bit each, and the lowest and highest of them from
-    // the exponent of their value as f32 (exact below 2^24).
-    let cols = _mm256_or_si256(mask, _mm256_srli_epi32::<16>(mask));
-    let cols = _mm256_or_si256(cols, _mm256_srli_epi32::<8>(cols));
-    let cols = _mm256_and_si256(cols, _mm256_set1_epi32(0xFF));
-    let lowest = _mm256_and_si256(cols, _mm256_sub_epi32(zero, cols));
-    let log2 = |v: __m256i| {
-        let e = _mm256_srli_epi32::<23>(_mm256_castps_si256(_mm256_cvtepi32_ps(v)));
-        _mm256_cvtepi32_ps(_mm256_sub_epi32(e, _mm256_set1_epi32(127)))
-    };
-    let cmin = _mm256_add_ps(base, log2(lowest));
-    let cmax = _mm256_add_ps(base, log2(cols));
-    (mask, cmin, cmax)
+    _mm256_shuffle_epi8(rows, transpose)
+}
+
+/// The first pixel column of each lane's tile in block column `bx`, as `f32` (exact).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn tile_columns(bx: u32) -> __m256 {
+    let lane_x = _mm256_setr_ps(0.0, 8.0, 16.0, 24.0, 0.0, 8.0, 16.0, 24.0);
+    _mm256_add_ps(_mm256_set1_ps((32 * bx) as f32), lane_x)
 }
 
 /// `update_tile` for the 8 tiles of a block at once, with selects; lanes with a zero `cov`

@@ -17,7 +17,7 @@
 
 use std::arch::x86_64::*;
 
-use super::super::per_tile::{EMPTY_HI, EMPTY_LO};
+use super::super::per_tile::{tile_column_offsets, EMPTY_HI, EMPTY_LO};
 use super::super::tiles::Block;
 use super::blocks::BlockGrid;
 use super::setup::Setup8;
@@ -36,7 +36,9 @@ struct Triangle16 {
     edges: [(__m512, __m512, __m512); 3],
     bound_l: [bool; 3],
     bound_r: [bool; 3],
-    x0: __m512,
+    /// `per_tile::tile_column_offsets`: a tile's farthest and nearest pixel centres.
+    far_col: __m512,
+    near_col: __m512,
     y0: __m512,
     r0: __m512,
     ra: __m512,
@@ -58,11 +60,13 @@ impl Triangle16 {
         #[inline]
         fn new(t: &Setup8, l: usize) -> Self {
             let set1 = _mm512_set1_ps;
+            let (far_col, near_col) = tile_column_offsets(t.ra[l], t.x0[l]);
             Triangle16 {
                 edges: [0, 1, 2].map(|i| (set1(t.ex0[i][l]), set1(t.ey0[i][l]), set1(t.slope[i][l]))),
                 bound_l: [0, 1, 2].map(|i| t.bound_l[i][l] != 0),
                 bound_r: [0, 1, 2].map(|i| t.bound_r[i][l] != 0),
-                x0: set1(t.x0[l]),
+                far_col: set1(far_col),
+                near_col: set1(near_col),
                 y0: set1(t.y0[l]),
                 r0: set1(t.r0[l]),
                 ra: set1(t.ra[l]),
@@ -117,17 +121,15 @@ avx512! {
                 let z0 = load_z0(blocks, i, j, lanes);
                 let skip = bx < first_open || (bx > first_open && depth.behind(&tri, bx, z0, lanes));
                 if !skip {
-                    let base = tile_columns(bx);
                     // Inside the triangle (every scanline of the pair spans the whole block):
-                    // full masks, and the covered columns are the tiles' own.
+                    // full masks.
                     let inside = _mm512_cmple_epi32_mask(rel_a, _mm512_setzero_si512())
                         & _mm512_cmpge_epi32_mask(rel_b, _mm512_set1_epi32(32))
                         | !lanes;
-                    let (mask, cmin, cmax) = if inside == 0xFFFF {
-                        let all = _mm512_maskz_mov_epi32(lanes, _mm512_set1_epi32(-1));
-                        (all, base, _mm512_add_ps(base, _mm512_set1_ps(7.0)))
+                    let mask = if inside == 0xFFFF {
+                        _mm512_maskz_mov_epi32(lanes, _mm512_set1_epi32(-1))
                     } else {
-                        pair_masks(rel_a, rel_b, base)
+                        pair_masks(rel_a, rel_b)
                     };
                     let cov = if bx == last_bx || depth.last_row {
                         let outside_x = _mm512_maskz_mov_epi32(
@@ -146,13 +148,12 @@ avx512! {
                     } else {
                         mask
                     };
+                    // The plane's farthest value over each tile, as `per_tile.rs` computes it.
                     let r = if tri.plane_ok {
-                        let half = _mm512_set1_ps(0.5);
-                        let xa = _mm512_sub_ps(_mm512_add_ps(cmin, half), tri.x0);
-                        let xb = _mm512_sub_ps(_mm512_add_ps(cmax, half), tri.x0);
-                        let m = min_like(_mm512_mul_ps(tri.ra, xa), _mm512_mul_ps(tri.ra, xb));
+                        let far = _mm512_add_ps(tile_columns(bx), tri.far_col);
+                        let m = _mm512_add_ps(depth.r_rows, _mm512_mul_ps(tri.ra, far));
                         // `f32::max` without a NaN select: `r_far` is never NaN.
-                        _mm512_max_ps(_mm512_add_ps(depth.r_rows, m), tri.r_far)
+                        _mm512_max_ps(m, tri.r_far)
                     } else {
                         tri.r_far
                     };
@@ -237,11 +238,8 @@ impl PairDepth {
             if !tri.plane_ok {
                 return true;
             }
-            let first = tile_columns(bx);
-            let xa = _mm512_sub_ps(_mm512_add_ps(first, _mm512_set1_ps(0.5)), tri.x0);
-            let xb = _mm512_sub_ps(_mm512_add_ps(first, _mm512_set1_ps(7.5)), tri.x0);
-            let m = _mm512_max_ps(_mm512_mul_ps(tri.ra, xa), _mm512_mul_ps(tri.ra, xb));
-            let bound = _mm512_add_ps(self.r_rows_max, m);
+            let near = _mm512_add_ps(tile_columns(bx), tri.near_col);
+            let bound = _mm512_add_ps(self.r_rows_max, _mm512_mul_ps(tri.ra, near));
             (_mm512_cmp_ps_mask::<_CMP_LE_OQ>(bound, z0) | !lanes) == 0xFFFF
         }
     }
@@ -307,11 +305,10 @@ avx512! {
     }
 
     /// The coverage masks of the 16 tiles of a block pair (one per lane) from the spans of
-    /// its 16 scanlines, with each tile's lowest and highest covered column as `f32`:
-    /// `blocks::block_masks` for two blocks (the byte transpose works within each 128-bit
-    /// quarter: one tile row of 4 tiles).
+    /// its 16 scanlines: `blocks::block_masks` for two blocks (the byte transpose works
+    /// within each 128-bit quarter: one tile row of 4 tiles).
     #[inline]
-    fn pair_masks(rel_a: __m512i, rel_b: __m512i, base: __m512) -> (__m512i, __m512, __m512) {
+    fn pair_masks(rel_a: __m512i, rel_b: __m512i) -> __m512i {
         let zero = _mm512_setzero_si512();
         let ones = _mm512_set1_epi32(-1);
         let from_a = _mm512_sllv_epi32(ones, _mm512_max_epi32(rel_a, zero));
@@ -320,16 +317,7 @@ avx512! {
         let transpose = _mm512_broadcast_i32x4(_mm_setr_epi8(
             0, 4, 8, 12, 1, 5, 9, 13, 2, 6, 10, 14, 3, 7, 11, 15,
         ));
-        let mask = _mm512_shuffle_epi8(rows, transpose);
-        let cols = _mm512_or_si512(mask, _mm512_srli_epi32::<16>(mask));
-        let cols = _mm512_or_si512(cols, _mm512_srli_epi32::<8>(cols));
-        let cols = _mm512_and_si512(cols, _mm512_set1_epi32(0xFF));
-        let lowest = _mm512_and_si512(cols, _mm512_sub_epi32(zero, cols));
-        let log2 = |v: __m512i| {
-            let e = _mm512_srli_epi32::<23>(_mm512_castps_si512(_mm512_cvtepi32_ps(v)));
-            _mm512_cvtepi32_ps(_mm512_sub_epi32(e, _mm512_set1_epi32(127)))
-        };
-        (mask, _mm512_add_ps(base, log2(lowest)), _mm512_add_ps(base, log2(cols)))
+        _mm512_shuffle_epi8(rows, transpose)
     }
 
     /// `blocks::merge_block` for blocks `i` (lanes 0-7) and `j` (lanes 8-15, when `lanes` has
