@@ -194,6 +194,16 @@ fn batched_avx2_path_equals_previous_kernels_on_small_edge_and_near_triangles() 
                 t[2] = unproject(&cam, w, h, sx, sy + 2.0 * a / s, z * 0.7);
                 t[1] = unproject(&cam, w, h, sx + s, sy, z * 1.5);
             }
+            // A horizontal top edge (two corners on one screen row, at one depth), where
+            // only the row range bounds the spans above it.
+            5 => t[1] = unproject(&cam, w, h, sx + s, sy, z),
+            // A horizontal bottom edge.
+            6 => {
+                t[1] = unproject(&cam, w, h, sx + s, sy + s, z);
+                t[2] = unproject(&cam, w, h, sx - 0.5 * s, sy + s, z);
+            }
+            // Nearly horizontal edges, whose slopes are huge.
+            7 => t[1] = unproject(&cam, w, h, sx + s, sy + 1e-4, z),
             _ => {}
         }
         crossing_edge +=

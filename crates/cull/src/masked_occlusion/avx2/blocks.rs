@@ -17,7 +17,7 @@ use std::arch::x86_64::*;
 use super::super::constants::TILE_H;
 use super::super::per_tile::{tile_column_offsets, EMPTY_HI, EMPTY_LO};
 use super::super::tiles::{Block, Tiles};
-use super::setup::Setup8;
+use super::setup::{EdgeRoles, Setup8};
 
 /// The block grid of a buffer, apart from its blocks (which the kernel borrows mutably).
 pub(super) struct BlockGrid {
@@ -42,13 +42,17 @@ impl BlockGrid {
     }
 }
 
-/// One edge of lane `l` broadcast: `(x0, y0, slope, bounds left, bounds right)`.
-type Edge8 = (__m256, __m256, __m256, __m256, __m256);
+/// One edge of lane `l` broadcast: `x = x0 + (y - y0) * slope` as `(x0, y0, slope)`.
+type Edge8 = (__m256, __m256, __m256);
 
 /// The setup of one triangle (lane `l` of a [`Setup8`]) broadcast to the 8 lanes, as the
 /// block loop reads it.
 struct Triangle {
+    /// The edges in the order of [`EdgeRoles`]: left, right, third.
     edges: [Edge8; 3],
+    /// What the third edge adds to the left and right bounds (0 or -inf, 0 or +inf).
+    third_bias_l: __m256,
+    third_bias_r: __m256,
     /// Offsets from a tile's first column to its farthest and nearest pixel centres, minus
     /// `x0` (`per_tile::tile_column_offsets`).
     far_col: __m256,
@@ -76,8 +80,12 @@ impl Triangle {
     fn new(t: &Setup8, l: usize) -> Self {
         let set1 = _mm256_set1_ps;
         let (far_col, near_col) = tile_column_offsets(t.ra[l], t.x0[l]);
+        let roles = EdgeRoles::of(t, l);
+        let edge = |i: usize| (set1(t.ex0[i][l]), set1(t.ey0[i][l]), set1(t.slope[i][l]));
         Triangle {
-            edges: edges8(t, l),
+            edges: [edge(roles.left), edge(roles.right), edge(roles.third)],
+            third_bias_l: set1(roles.third_bias_l),
+            third_bias_r: set1(roles.third_bias_r),
             far_col: set1(far_col),
             near_col: set1(near_col),
             y0: set1(t.y0[l]),
@@ -263,26 +271,27 @@ fn row_spans(tri: &Triangle, by: u32) -> Option<(__m256i, __m256i, u32, u32)> {
         _mm256_set1_ps(row_base as f32 + 0.5),
         _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0),
     );
-    let mut xl = neg_inf;
-    let mut xr = pos_inf;
-    for &(ex0, ey0, slope, bound_l, bound_r) in &tri.edges {
-        let x = _mm256_add_ps(ex0, _mm256_mul_ps(_mm256_sub_ps(yc, ey0), slope));
-        // `maxps(x, acc)` returns `acc` when `x` is NaN, as `f32::max` does.
-        xl = _mm256_max_ps(_mm256_blendv_ps(neg_inf, x, bound_l), xl);
-        xr = _mm256_min_ps(_mm256_blendv_ps(pos_inf, x, bound_r), xr);
-    }
+    let x_of =
+        |(ex0, ey0, slope): Edge8| _mm256_add_ps(ex0, _mm256_mul_ps(_mm256_sub_ps(yc, ey0), slope));
+    let [left, right, third] = tri.edges.map(x_of);
+    // See `EdgeRoles` for why this is the per-tile kernels' maximum and minimum.
+    let xl = _mm256_max_ps(
+        _mm256_add_ps(third, tri.third_bias_l),
+        _mm256_max_ps(left, neg_inf),
+    );
+    let xr = _mm256_min_ps(
+        _mm256_add_ps(third, tri.third_bias_r),
+        _mm256_min_ps(right, pos_inf),
+    );
     let xa = _mm256_min_ps(_mm256_max_ps(_mm256_sub_ps(xl, half), tri.a_lo), tri.a_hi);
     let xb = _mm256_min_ps(_mm256_max_ps(_mm256_sub_ps(xr, half), tri.b_lo), tri.b_hi);
-    let ta = _mm256_cvttps_epi32(xa);
-    let a = _mm256_sub_epi32(
-        ta,
-        _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(xa, _mm256_cvtepi32_ps(ta))),
-    );
-    let tb = _mm256_cvttps_epi32(xb);
-    let b = _mm256_add_epi32(
-        tb,
-        _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LT_OQ>(xb, _mm256_cvtepi32_ps(tb))),
-    );
+    // `ceil_i` / `floor_i` of the clamped (finite, small) values: exact either way.
+    let a = _mm256_cvttps_epi32(_mm256_round_ps::<
+        { _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC },
+    >(xa));
+    let b = _mm256_cvttps_epi32(_mm256_round_ps::<
+        { _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC },
+    >(xb));
     let rows = _mm256_add_epi32(
         _mm256_set1_epi32(row_base),
         _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
@@ -313,23 +322,6 @@ fn row_spans(tri: &Triangle, by: u32) -> Option<(__m256i, __m256i, u32, u32)> {
     let rel_a = _mm256_sub_epi32(a, block0);
     let rel_b = _mm256_sub_epi32(_mm256_add_epi32(b, _mm256_set1_epi32(1)), block0);
     Some((rel_a, rel_b, bx0, bx1))
-}
-
-/// The edges of lane `l` broadcast, without branches: an edge that does not bound a side
-/// contributes -inf to the left bound (+inf to the right one), which `max` / `min` ignore.
-#[inline]
-#[target_feature(enable = "avx2")]
-fn edges8(t: &Setup8, l: usize) -> [Edge8; 3] {
-    let edge = |i: usize| {
-        (
-            _mm256_set1_ps(t.ex0[i][l]),
-            _mm256_set1_ps(t.ey0[i][l]),
-            _mm256_set1_ps(t.slope[i][l]),
-            _mm256_castsi256_ps(_mm256_set1_epi32(t.bound_l[i][l])),
-            _mm256_castsi256_ps(_mm256_set1_epi32(t.bound_r[i][l])),
-        )
-    };
-    [edge(0), edge(1), edge(2)]
 }
 
 /// The coverage masks of the 8 tiles of a block (one per lane) from the spans of the block

@@ -20,7 +20,7 @@ use std::arch::x86_64::*;
 use super::super::per_tile::{tile_column_offsets, EMPTY_HI, EMPTY_LO};
 use super::super::tiles::Block;
 use super::blocks::BlockGrid;
-use super::setup::Setup8;
+use super::setup::{EdgeRoles, Setup8};
 
 /// The features every function here needs.
 macro_rules! avx512 {
@@ -32,10 +32,11 @@ macro_rules! avx512 {
 
 /// One triangle (lane `l` of a [`Setup8`]) broadcast to 16 lanes.
 struct Triangle16 {
-    /// Edges `(x0, y0, slope)`, and whether each bounds spans from the left / right.
+    /// Edges `(x0, y0, slope)` in the order of [`EdgeRoles`] (left, right, third), and what
+    /// the third adds to the left and right bounds.
     edges: [(__m512, __m512, __m512); 3],
-    bound_l: [bool; 3],
-    bound_r: [bool; 3],
+    third_bias_l: __m512,
+    third_bias_r: __m512,
     /// `per_tile::tile_column_offsets`: a tile's farthest and nearest pixel centres.
     far_col: __m512,
     near_col: __m512,
@@ -61,10 +62,12 @@ impl Triangle16 {
         fn new(t: &Setup8, l: usize) -> Self {
             let set1 = _mm512_set1_ps;
             let (far_col, near_col) = tile_column_offsets(t.ra[l], t.x0[l]);
+            let roles = EdgeRoles::of(t, l);
             Triangle16 {
-                edges: [0, 1, 2].map(|i| (set1(t.ex0[i][l]), set1(t.ey0[i][l]), set1(t.slope[i][l]))),
-                bound_l: [0, 1, 2].map(|i| t.bound_l[i][l] != 0),
-                bound_r: [0, 1, 2].map(|i| t.bound_r[i][l] != 0),
+                edges: [roles.left, roles.right, roles.third]
+                    .map(|i| (set1(t.ex0[i][l]), set1(t.ey0[i][l]), set1(t.slope[i][l]))),
+                third_bias_l: set1(roles.third_bias_l),
+                third_bias_r: set1(roles.third_bias_r),
                 far_col: set1(far_col),
                 near_col: set1(near_col),
                 y0: set1(t.y0[l]),
@@ -256,28 +259,24 @@ avx512! {
             0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0, 13.0, 14.0, 15.0,
         );
         let yc = _mm512_add_ps(_mm512_set1_ps(row_base as f32 + 0.5), lane_f);
-        let mut xl = _mm512_set1_ps(f32::NEG_INFINITY);
-        let mut xr = _mm512_set1_ps(f32::INFINITY);
-        for (i, &(ex0, ey0, slope)) in tri.edges.iter().enumerate() {
-            let x = _mm512_add_ps(ex0, _mm512_mul_ps(_mm512_sub_ps(yc, ey0), slope));
-            // An edge that does not bound a side adds -inf / +inf there, which changes nothing;
-            // `maxps(x, acc)` returns `acc` when `x` is NaN, as `f32::max` does.
-            if tri.bound_l[i] {
-                xl = _mm512_max_ps(x, xl);
-            }
-            if tri.bound_r[i] {
-                xr = _mm512_min_ps(x, xr);
-            }
-        }
+        let x_of = |&(ex0, ey0, slope): &(__m512, __m512, __m512)| {
+            _mm512_add_ps(ex0, _mm512_mul_ps(_mm512_sub_ps(yc, ey0), slope))
+        };
+        let [left, right, third] = [0, 1, 2].map(|i| x_of(&tri.edges[i]));
+        // See `EdgeRoles` for why this is the per-tile kernels' maximum and minimum.
+        let xl = _mm512_max_ps(
+            _mm512_add_ps(third, tri.third_bias_l),
+            _mm512_max_ps(left, _mm512_set1_ps(f32::NEG_INFINITY)),
+        );
+        let xr = _mm512_min_ps(
+            _mm512_add_ps(third, tri.third_bias_r),
+            _mm512_min_ps(right, _mm512_set1_ps(f32::INFINITY)),
+        );
         let xa = _mm512_min_ps(_mm512_max_ps(_mm512_sub_ps(xl, half), tri.a_lo), tri.a_hi);
         let xb = _mm512_min_ps(_mm512_max_ps(_mm512_sub_ps(xr, half), tri.b_lo), tri.b_hi);
         // Ceiling of `xa`, floor of `xb`, as `blocks::row_spans` rounds them.
-        let ta = _mm512_cvttps_epi32(xa);
-        let up = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(xa, _mm512_cvtepi32_ps(ta));
-        let a = _mm512_mask_add_epi32(ta, up, ta, _mm512_set1_epi32(1));
-        let tb = _mm512_cvttps_epi32(xb);
-        let down = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(xb, _mm512_cvtepi32_ps(tb));
-        let b = _mm512_mask_sub_epi32(tb, down, tb, _mm512_set1_epi32(1));
+        let a = _mm512_cvt_roundps_epi32::<{ _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC }>(xa);
+        let b = _mm512_cvt_roundps_epi32::<{ _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC }>(xb);
         let rows = _mm512_add_epi32(
             _mm512_set1_epi32(row_base),
             _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15),

@@ -203,3 +203,48 @@ fn store_edges(out: &mut Setup8, xs: [__m256; 3], ys: [__m256; 3]) {
         );
     }
 }
+
+/// Which edge of a set-up triangle plays which part in its spans: every triangle with an area
+/// has an edge bounding its spans from the left and one from the right; the third bounds
+/// either side, or neither when it is horizontal. The span loops evaluate the three edges in
+/// this order and add `third_bias_l` / `third_bias_r` (0 where the third edge bounds that
+/// side, -inf / +inf where it does not) to the third before the `max` / `min`, which
+/// replaces a select per edge with one add (Hasselgren et al. 2016 sort the edges in their
+/// setup for the same reason).
+///
+/// Bit-exactness: the left bound is `max(third + bias, max(left, -inf))`, the maximum of the
+/// edges that bound the left side that are not NaN (an edge's `x` is NaN for a horizontal
+/// edge, or a near-horizontal one whose slope overflowed), which is what the per-tile kernels
+/// compute in edge order: `max` of values that are not NaN does not depend on the order, and
+/// `maxps` returns its second operand when either is NaN. The same for the right bound.
+pub(super) struct EdgeRoles {
+    pub(super) left: usize,
+    pub(super) right: usize,
+    pub(super) third: usize,
+    pub(super) third_bias_l: f32,
+    pub(super) third_bias_r: f32,
+}
+
+impl EdgeRoles {
+    /// The roles of lane `l`'s edges (a lane that [`setup8`] said to draw).
+    #[inline(always)]
+    pub(super) fn of(t: &Setup8, l: usize) -> Self {
+        let bounds_l = |i: usize| t.bound_l[i][l] != 0;
+        let bounds_r = |i: usize| t.bound_r[i][l] != 0;
+        // A drawn triangle has an area, so an edge going up and one going down.
+        let left = (0..3).find(|&i| bounds_l(i)).unwrap_or(0);
+        let right = (0..3).find(|&i| bounds_r(i)).unwrap_or(1);
+        let third = 3 - left - right;
+        EdgeRoles {
+            left,
+            right,
+            third,
+            third_bias_l: if bounds_l(third) {
+                0.0
+            } else {
+                f32::NEG_INFINITY
+            },
+            third_bias_r: if bounds_r(third) { 0.0 } else { f32::INFINITY },
+        }
+    }
+}
