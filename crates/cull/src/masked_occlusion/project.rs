@@ -131,9 +131,16 @@ impl Projector {
         let mut n = 3;
         for plane in self.planes() {
             let dist = |p: Vec3| plane[0] * p.x + plane[1] * p.y + plane[2] * p.z + plane[3];
+            // Most triangles cross one or two of the five planes: a plane that every vertex
+            // is inside of would copy the polygon unchanged.
+            if poly[..n].iter().all(|&p| dist(p) >= 0.0) {
+                continue;
+            }
             let mut m = 0;
             for i in 0..n {
-                let (a, b) = (poly[i], poly[(i + 1) % n]);
+                // The next vertex without `%`: an integer division per edge was a third of the
+                // clipping time.
+                let (a, b) = (poly[i], poly[if i + 1 == n { 0 } else { i + 1 }]);
                 let (da, db) = (dist(a), dist(b));
                 if da >= 0.0 {
                     next[m] = a;
