@@ -284,6 +284,35 @@ impl PyPvs {
         self.file.cells.len()
     }
 
+    /// `pvs[i]`: the triangle ids of cell `i` (uint32, increasing), with Python's negative
+    /// indices (`pvs[-1]` is the last cell); `IndexError` outside the cells.
+    fn __getitem__<'py>(&self, py: Python<'py>, i: isize) -> PyResult<Bound<'py, PyArray1<u32>>> {
+        let n = self.file.cells.len();
+        let index = if i < 0 { i + n as isize } else { i };
+        let cell = usize::try_from(index)
+            .ok()
+            .and_then(|k| self.file.cells.get(k))
+            .ok_or_else(|| {
+                pyo3::exceptions::PyIndexError::new_err(format!(
+                    "cell index {i} is out of range (the file has {n} cells)"
+                ))
+            })?;
+        Ok(ids_array(py, &cell.visible))
+    }
+
+    /// `for ids in pvs`: the triangle ids of each cell in turn, as `pvs.sets()` lists them.
+    fn __iter__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let sets = pyo3::types::PyList::new(py, self.sets(py))?;
+        sets.as_any().try_iter().map(|it| it.into_any())
+    }
+
+    /// Pickling (multiprocessing, Ray): the `.pvs` bytes, read back with `Pvs.from_bytes`
+    /// (the file it was loaded from, if any, is not carried).
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyTuple>> {
+        let from_bytes = py.get_type::<PyPvs>().getattr("from_bytes")?;
+        (from_bytes, (self.to_bytes(py)?,)).into_pyobject(py)
+    }
+
     fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
         match other.cast::<PyPvs>() {
             Ok(o) => {
@@ -297,11 +326,15 @@ impl PyPvs {
     }
 
     fn __repr__(&self) -> String {
+        let source = match &self.path {
+            Some(p) => format!(" from {:?}", p.display().to_string()),
+            None => String::new(),
+        };
         format!(
-            "Pvs({} cells, scene {:016x} with {} triangles)",
+            "<sightline.Pvs: {} cells over {} triangles of scene {:#018x}{source}>",
             self.file.cells.len(),
+            self.file.triangle_count,
             self.file.scene_hash,
-            self.file.triangle_count
         )
     }
 }

@@ -1,6 +1,7 @@
 """The Python API: scenes from arrays, view cells, bakes, .pvs files, from-point visibility, and
 the errors bad input raises."""
 
+import pickle
 import subprocess
 from pathlib import Path
 
@@ -313,6 +314,34 @@ def test_pvs_from_arrays_keeps_sets_and_metadata(tmp_path, city, city_cells):
     assert len(back.visible(1)) == 0
     assert back.metadata == {"note": "hand-made"}
     assert back.scene_hash == city.geometry_hash and back.triangle_count == city.triangle_count
+
+
+def test_pvs_is_a_sequence_of_id_arrays_and_pickles(tmp_path, city, city_cells):
+    sets = [np.array([0, 5, 9]), np.array([], dtype=np.int64), np.array([2, 3])]
+    pvs = sl.Pvs(city, city_cells[:3], sets, {"note": "hand-made"})
+    # Indexing as Python does, negative indices included.
+    np.testing.assert_array_equal(pvs[0], [0, 5, 9])
+    np.testing.assert_array_equal(pvs[-1], [2, 3])
+    np.testing.assert_array_equal(pvs[-3], pvs[0])
+    assert pvs[1].dtype == np.uint32 and len(pvs[1]) == 0
+    for bad in (3, -4, 10**6):
+        with pytest.raises(IndexError, match=f"cell index {bad} is out of range"):
+            pvs[bad]
+    # Iteration yields the same arrays as sets().
+    listed = list(pvs)
+    assert len(listed) == 3
+    for a, b in zip(listed, pvs.sets()):
+        np.testing.assert_array_equal(a, b)
+    # Pickling round-trips cells, sets and metadata (multiprocessing and Ray send it so).
+    back = pickle.loads(pickle.dumps(pvs))
+    assert back == pvs and back.metadata == {"note": "hand-made"}
+    for a, b in zip(back.cells, pvs.cells):
+        np.testing.assert_array_equal(a.center, b.center)
+    # The repr names what it holds, and where it was read from.
+    assert repr(pvs).startswith("<sightline.Pvs: 3 cells over ")
+    path = tmp_path / "seq.pvs"
+    pvs.save(str(path))
+    assert str(path) in repr(sl.Pvs.load(str(path)))
 
 
 def test_pvs_of_another_scene_is_rejected(city, city_cells, two_boxes):

@@ -1,7 +1,7 @@
 """Type stubs of the native module (see the Rust sources in crates/py/src for the docs)."""
 
 from os import PathLike
-from typing import Any, Callable, Dict, List, Literal, Optional, Sequence, Tuple, Union, overload
+from typing import Any, Callable, Dict, Iterator, List, Literal, Optional, Sequence, Tuple, Union, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -110,6 +110,8 @@ class Pvs:
     def visible_objects(self, i: int) -> _Ids: ...
     def object_sets(self) -> List[_Ids]: ...
     def __len__(self) -> int: ...
+    def __getitem__(self, i: int) -> _Ids: ...
+    def __iter__(self) -> Iterator[_Ids]: ...
 
 _MethodArg = Union[str, Method]
 # None: a line on stderr when it is a terminal; False: none; True: always that line; a callable
