@@ -35,8 +35,16 @@ fn chromium() -> PathBuf {
 /// Runs headless chromium on `page` with `args` added, in a fresh profile, killing it after
 /// 90 s (a hung browser must fail the test, not hang it).
 fn run_chromium(page: &Path, args: &[&str]) -> Output {
+    run_chromium_at(page, "", args)
+}
+
+/// [`run_chromium`] on the page's address with `fragment` (`#...`) appended.
+fn run_chromium_at(page: &Path, fragment: &str, args: &[&str]) -> Output {
     let profile = tempfile::tempdir().unwrap();
-    let url = format!("file://{}", page.canonicalize().unwrap().display());
+    let url = format!(
+        "file://{}{fragment}",
+        page.canonicalize().unwrap().display()
+    );
     let logs = tempfile::tempdir().unwrap();
     let (out_path, err_path) = (logs.path().join("stdout"), logs.path().join("stderr"));
     let mut child = Command::new(chromium())
@@ -208,6 +216,8 @@ fn report_loads_in_chromium_with_the_pvs_numbers() {
             "20000,80000",
             "--budget-cells",
             "2",
+            "--cell-rows",
+            "2",
             "--json",
         ],
         dir.path(),
@@ -249,8 +259,8 @@ fn report_loads_in_chromium_with_the_pvs_numbers() {
         dom.contains("<td>gvs++</td>")
             && dom.contains("<td>procedural:city?seed=1&amp;size=3000</td>")
     );
-    // The map: one coloured cell each.
-    assert_eq!(dom.matches("<polygon class=\"cell\"").count(), cells.len());
+    assert_designer_layout(&dom, &summary, cells.len());
+    assert_cell_filter(&page, &dom);
     // Worst views: the cells with errors, each image showing exactly the counted pixels.
     let with_errors = (0..cells.len())
         .filter(|&i| summary["cells"][i]["max_error_pixels"].as_u64().unwrap() > 0)
@@ -280,6 +290,111 @@ fn report_loads_in_chromium_with_the_pvs_numbers() {
     assert_equal_budget_section(&dom, &summary);
 
     assert_screenshot_not_blank(&page);
+}
+
+/// What a designer sees first (issue 19): the summary, the map and the worst views before the
+/// per-cell table; the table's worst `--cell-rows 2` cells shown and the rest collapsed; the
+/// map coloured by PVS size and by pixel error, cells that missed triangles outlined in red,
+/// every cell linked to its table row.
+fn assert_designer_layout(dom: &str, summary: &serde_json::Value, n: usize) {
+    let at = |id: &str| {
+        dom.find(&format!("<section id=\"{id}\""))
+            .unwrap_or_else(|| panic!("no section {id}"))
+    };
+    assert!(at("summary") < at("map") && at("map") < at("worst-views"));
+    assert!(at("worst-views") < at("cells") && at("cells") < at("convergence"));
+    // The two worst cells (largest average error, then largest view error) are not collapsed.
+    let errors: Vec<(f64, u64)> = (0..n)
+        .map(|i| {
+            let c = &summary["cells"][i];
+            (
+                c["avg_error_pixels"].as_f64().unwrap(),
+                c["max_error_pixels"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| {
+        errors[b]
+            .0
+            .total_cmp(&errors[a].0)
+            .then(errors[b].1.cmp(&errors[a].1))
+            .then(a.cmp(&b))
+    });
+    for (rank, &i) in order.iter().enumerate() {
+        let row_start = dom.find(&format!("<tr data-cell=\"{i}\"")).unwrap();
+        let row = &dom[row_start..row_start + dom[row_start..].find('>').unwrap()];
+        assert!(row.contains(&format!("data-rank=\"{rank}\"")), "{row}");
+        assert!(row.contains(&format!("id=\"cell-row-{i}\"")), "{row}");
+        assert_eq!(row.contains("class=\"rest\""), rank >= 2, "{row}");
+    }
+    assert!(dom.contains("show all 6 cells (the 2 worst are shown)"));
+    // The map: every cell in both layers, the error layer's values the evaluation's.
+    for layer in ["by-pvs", "by-error"] {
+        let start = dom.find(&format!("<g class=\"layer {layer}\">")).unwrap();
+        let group = &dom[start..start + dom[start..].find("</g>").unwrap()];
+        assert_eq!(group.matches("<polygon class=\"cell").count(), n, "{layer}");
+        for i in 0..n {
+            assert!(
+                group.contains(&format!("<a href=\"#cell-row-{i}\">")),
+                "{layer} {i}"
+            );
+            let missed = summary["cells"][i]["false_negatives"].as_u64().unwrap() > 0;
+            let class = if missed { "cell flagged" } else { "cell" };
+            let tag = format!("<polygon class=\"{class}\" data-cell=\"{i}\" data-value=\"");
+            let value_at = group.find(&tag).unwrap_or_else(|| panic!("{layer}: {tag}"));
+            let value = &group[value_at + tag.len()..];
+            let value: f64 = value[..value.find('"').unwrap()].parse().unwrap();
+            if layer == "by-error" {
+                assert_eq!(value, errors[i].0, "cell {i}");
+            }
+        }
+    }
+    assert!(dom.contains("id=\"map-by-pvs\" checked") && dom.contains("id=\"map-by-error\""));
+    // Each worst view links to its cell's row.
+    for (i, _) in dom.match_indices("<figure class=\"worst\" data-cell=\"") {
+        let rest = &dom[i + "<figure class=\"worst\" data-cell=\"".len()..];
+        let cell = &rest[..rest.find('"').unwrap()];
+        let figure = &rest[..rest.find("</figure>").unwrap()];
+        assert!(
+            figure.contains(&format!("href=\"#cell-row-{cell}\"")),
+            "{figure}"
+        );
+    }
+}
+
+/// The cell table's filter, given in the page address (`#cell-filter=TEXT`): only the rows
+/// containing the text stay, collapsed ones included.
+fn assert_cell_filter(page: &Path, dom: &str) {
+    // A text that only one row has: the centre of the last cell, a collapsed one.
+    let last = dom.rfind("<tr data-cell=").unwrap();
+    let cell: usize = {
+        let rest = &dom[last + "<tr data-cell=\"".len()..];
+        rest[..rest.find('"').unwrap()].parse().unwrap()
+    };
+    let centre = cell_row(dom, cell)[1].clone();
+    // The rows whose text (all cells run together, as the filter reads it) holds it.
+    let matching: Vec<usize> = (0..6)
+        .filter(|&i| cell_row(dom, i).concat().contains(&centre))
+        .collect();
+    assert!(
+        matching.contains(&cell) && matching.len() < 6,
+        "{matching:?}"
+    );
+    let fragment = format!("#cell-filter={}", centre.replace(' ', "%20"));
+    let out = run_chromium_at(page, &fragment, &["--dump-dom"]);
+    assert!(console_messages(&stderr(&out)).is_empty());
+    let filtered = String::from_utf8(out.stdout).unwrap();
+    let shown = filtered.matches("style=\"display: table-row;\"").count();
+    let hidden = filtered.matches("style=\"display: none;\"").count();
+    assert_eq!(
+        (shown, hidden),
+        (matching.len(), 6 - matching.len()),
+        "filter {centre:?}"
+    );
+    let row_start = filtered.find(&format!("<tr data-cell=\"{cell}\"")).unwrap();
+    let row = &filtered[row_start..row_start + filtered[row_start..].find('>').unwrap()];
+    assert!(row.contains("display: table-row"), "{row}");
 }
 
 /// The equal-budget section shows GVS++ and RAND at `--budgets 20000,80000` on two cells: a

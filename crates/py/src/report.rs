@@ -42,7 +42,7 @@ impl From<Failure> for PyErr {
 #[pyfunction]
 #[pyo3(signature = (
     scene, pvs, out_dir, views = 16, size = 256, view_mode = "cube", worst = 6, seed = 1,
-    budgets = Some(vec![250_000, 1_000_000]), budget_cells = 4
+    budgets = Some(vec![250_000, 1_000_000]), budget_cells = 4, cell_rows = 20
 ))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn report<'py>(
@@ -57,6 +57,7 @@ pub(crate) fn report<'py>(
     seed: u64,
     budgets: Option<Vec<u64>>,
     budget_cells: usize,
+    cell_rows: usize,
 ) -> PyResult<Bound<'py, PyAny>> {
     if views == 0 || size == 0 || size > MAX_SIZE {
         return Err(value_error(format!(
@@ -90,6 +91,7 @@ pub(crate) fn report<'py>(
             seed,
         },
         worst_views: worst,
+        cell_rows,
     };
     let budget_options = budgets
         .filter(|b| !b.is_empty())

@@ -466,6 +466,7 @@ fn evaluate_pvs(
             ..EvalParams::default()
         },
         worst_views: args.cells.min(6),
+        cell_rows: 20,
     };
     let pvs = pvs_report(
         scene,

@@ -45,6 +45,10 @@ pub(crate) struct Args {
     /// Worst views shown (one per cell, most erroneous pixels first).
     #[arg(long, value_name = "K", default_value_t = 6)]
     worst: usize,
+    /// Rows of the cell table shown before its "show all" toggle: the worst cells (largest
+    /// average error first); the others stay in the page, behind the toggle and the filter.
+    #[arg(long, value_name = "N", default_value_t = 20)]
+    cell_rows: usize,
     /// Seed of the viewpoint sequence.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -120,6 +124,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
             seed: args.seed,
         },
         worst_views: args.worst,
+        cell_rows: args.cell_rows,
     };
     let budget_options = (!args.budgets.0.is_empty()).then(|| BudgetOptions {
         budgets: args.budgets.0.clone(),

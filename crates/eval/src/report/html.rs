@@ -71,9 +71,17 @@ impl Table {
 
     /// Appends a row; `data` are `(name, value)` pairs written as `data-name="value"`.
     pub fn row(&mut self, cells: Vec<Cell>, data: &[(&str, String)]) {
+        self.row_with(cells, data, &[]);
+    }
+
+    /// [`Table::row`] with further attributes (`id`, `class`) on the row.
+    pub fn row_with(&mut self, cells: Vec<Cell>, data: &[(&str, String)], attrs: &[(&str, &str)]) {
         self.rows.push_str("<tr");
         for (name, value) in data {
             let _ = write!(self.rows, " data-{}=\"{}\"", escape(name), escape(value));
+        }
+        for (name, value) in attrs {
+            let _ = write!(self.rows, " {}=\"{}\"", escape(name), escape(value));
         }
         self.rows.push('>');
         for c in cells {
@@ -142,10 +150,16 @@ td,th{border:1px solid #ccc;padding:3px 7px;font-size:13px}th{background:#eee}\
 td.num{text-align:right;font-variant-numeric:tabular-nums}table.sortable th{cursor:pointer}\
 nav a{margin-right:1em}figure{display:inline-block;margin:.4em;vertical-align:top}\
 figcaption{font-size:12px;max-width:400px}figure.worst img{image-rendering:pixelated}.note{color:#555;font-style:italic}\
-svg{background:#fff;border:1px solid #ddd}";
+svg{background:#fff;border:1px solid #ddd}\
+#cell-table-all:not(:checked)~#cell-table tr.rest{display:none}\
+#map-by-pvs:checked~svg .by-error,#map-by-error:checked~svg .by-pvs{display:none}\
+.controls{margin:.3em 0}.controls label{margin-right:1em}tr:target{outline:2px solid #d00}";
 
 /// Sorts a table by the clicked column (numbers numerically), so long per-cell tables can be
-/// read from the worst cell down. Written defensively: it must never raise a console error.
+/// read from the worst cell down; filters the cell table's rows by the text typed in its filter
+/// box (or given in the page address as `#cell-filter=TEXT`, so a filtered view can be linked
+/// to), showing the matching rows even among those collapsed. Written defensively: it must
+/// never raise a console error.
 const SCRIPT: &str = "document.querySelectorAll('table.sortable').forEach(function(t){\
 var hs=t.querySelectorAll('thead th');hs.forEach(function(h,i){h.addEventListener('click',\
 function(){var b=t.tBodies[0];if(!b)return;var rs=Array.prototype.slice.call(b.rows);\
@@ -153,7 +167,13 @@ var asc=h.getAttribute('data-sort')!=='asc';hs.forEach(function(o){o.removeAttri
 h.setAttribute('data-sort',asc?'asc':'desc');rs.sort(function(x,y){\
 var a=x.cells[i]?x.cells[i].textContent:'',c=y.cells[i]?y.cells[i].textContent:'';\
 var p=parseFloat(a),q=parseFloat(c);var r=(isNaN(p)||isNaN(q))?a.localeCompare(c):p-q;\
-return asc?r:-r;});rs.forEach(function(r){b.appendChild(r);});});});});";
+return asc?r:-r;});rs.forEach(function(r){b.appendChild(r);});});});});\
+(function(){var t=document.getElementById('cell-table'),f=document.getElementById('cell-table-filter');\
+if(!t||!f||!t.tBodies[0])return;function apply(){var q=f.value.trim().toLowerCase();\
+Array.prototype.forEach.call(t.tBodies[0].rows,function(r){\
+r.style.display=!q?'':(r.textContent.toLowerCase().indexOf(q)>=0?'table-row':'none');});}\
+f.addEventListener('input',apply);var m=/^#cell-filter=(.*)$/.exec(location.hash);\
+if(m){try{f.value=decodeURIComponent(m[1]);}catch(e){f.value=m[1];}apply();}})();";
 
 /// The whole page: title, a one-line intro, a table of contents and the sections.
 pub fn page(title: &str, intro: &str, sections: &[Section]) -> String {

@@ -1,7 +1,9 @@
 //! The top-down map of the view cells: the scene's footprint (see `footprint.rs`) under the
 //! cells, each drawn as the outline of its box seen from above (projected as `plan.rs` says)
-//! and filled by its PVS size on the colour scale, with a legend. Cells stacked on the up axis
-//! overlap; the upper ones are drawn last.
+//! and filled on a colour scale, with a legend, once per layer (PVS size, pixel error: the page
+//! shows one at a time); cells whose PVS missed triangles are outlined in red, and each cell
+//! links to its row of the cell table. Cells stacked on the up axis overlap; the upper ones
+//! are drawn last.
 
 use std::fmt::Write as _;
 
@@ -57,25 +59,60 @@ const MIN_HALF_PX: f64 = 8.0;
 pub(crate) struct MapCell {
     /// The cell.
     pub cell: ViewCell,
-    /// The value it is coloured by (PVS size).
-    pub value: f64,
     /// Hover text.
     pub title: String,
+    /// Drawn with a red outline (cells whose PVS missed triangles seen from them).
+    pub flagged: bool,
 }
 
-/// The map as an inline `<svg>` at most `max_width` pixels wide; `value_label` names the
-/// coloured quantity in the legend.
+/// One colouring of the cells: `values[i]` for cell `i` on its own colour scale, drawn in a
+/// group of class `class` with its legend.
+pub(crate) struct MapLayer<'a> {
+    /// The group's class (the page's controls show one layer at a time by class).
+    pub class: &'a str,
+    /// The coloured quantity, for the legend.
+    pub label: &'a str,
+    pub values: Vec<f64>,
+}
+
+/// A cell's outline on the map in pixels: the convex hull of its box's corners seen from above,
+/// or a small square marker for a cell a few pixels across (it would vanish), and its centre.
+fn outline(c: &ViewCell, plan: &Plan, frame: &MapFrame) -> (Vec<(f64, f64)>, (f64, f64), bool) {
+    let corners: Vec<(f64, f64)> = c
+        .corners()
+        .iter()
+        .map(|&p| frame.pixel_of(plan.project(p)))
+        .collect();
+    let hull = convex_hull(&corners);
+    let (cx, cy) = frame.pixel_of(plan.project(c.center));
+    let span = hull
+        .iter()
+        .map(|&(x, y)| (x - cx).abs().max((y - cy).abs()))
+        .fold(0.0, f64::max);
+    if span < MIN_HALF_PX {
+        let square = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+            .map(|(dx, dy)| (cx + dx * MIN_HALF_PX, cy + dy * MIN_HALF_PX))
+            .to_vec();
+        (square, (cx, cy), true)
+    } else {
+        (hull, (cx, cy), false)
+    }
+}
+
+/// The map as an inline `<svg>` at most `max_width` pixels wide: the footprint, then one group
+/// per layer (class `layer` and the layer's class: its cells filled on its scale, and its
+/// legend), then the cell numbers. Each cell links to `#cell-row-{i}` (its row in the cell
+/// table); flagged cells get a red outline in every layer.
 pub(crate) fn map_svg(
     scene: &Scene,
     cells: &[MapCell],
+    layers: &[MapLayer<'_>],
     max_width: u32,
-    value_label: &str,
 ) -> Result<String, ReportError> {
     let plan = Plan::new(scene.up);
     let boxes: Vec<ViewCell> = cells.iter().map(|c| c.cell).collect();
     let frame = MapFrame::around(scene, &boxes, &plan, max_width, max_width);
     let ground = footprint_image(scene, &plan, &frame);
-    let scale = ColourScale::spanning(cells.iter().map(|c| c.value));
     let legend_h = 44.0;
     let (w, h) = (frame.width as f64, frame.height as f64);
     let mut svg = format!(
@@ -86,48 +123,54 @@ pub(crate) fn map_svg(
         h + legend_h,
         png_data_uri(&ground)?
     );
+    // Upper cells last, so they cover the ones below.
     let mut order: Vec<usize> = (0..cells.len()).collect();
     order.sort_by(|&a, &b| {
         plan.height(cells[a].cell.center)
             .total_cmp(&plan.height(cells[b].cell.center))
     });
-    let label = cells.len() <= 64;
-    for i in order {
-        let c = &cells[i];
-        let corners: Vec<(f64, f64)> = c
-            .cell
-            .corners()
-            .iter()
-            .map(|&p| frame.pixel_of(plan.project(p)))
-            .collect();
-        let mut hull = convex_hull(&corners);
-        // Cells a few pixels across would vanish: draw them as a small square marker.
-        let (cx, cy) = frame.pixel_of(plan.project(c.cell.center));
-        let span = hull
-            .iter()
-            .map(|&(x, y)| (x - cx).abs().max((y - cy).abs()))
-            .fold(0.0, f64::max);
-        let marker = span < MIN_HALF_PX;
-        if marker {
-            hull = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
-                .map(|(dx, dy)| (cx + dx * MIN_HALF_PX, cy + dy * MIN_HALF_PX))
-                .to_vec();
+    let outlines: Vec<_> = cells
+        .iter()
+        .map(|c| outline(&c.cell, &plan, &frame))
+        .collect();
+    for layer in layers {
+        let scale = ColourScale::spanning(layer.values.iter().copied());
+        let _ = writeln!(svg, "<g class=\"layer {}\">", escape(layer.class));
+        for &i in &order {
+            let (c, value) = (&cells[i], layer.values[i]);
+            let points: String = outlines[i]
+                .0
+                .iter()
+                .map(|(x, y)| format!("{x:.1},{y:.1} "))
+                .collect();
+            let (class, stroke, stroke_w) = if c.flagged {
+                ("cell flagged", "#d00", 2.5)
+            } else {
+                ("cell", "#222", 0.8)
+            };
+            let _ = writeln!(
+                svg,
+                "<a href=\"#cell-row-{i}\"><polygon class=\"{class}\" data-cell=\"{i}\" data-value=\"{value}\" \
+                 points=\"{}\" fill=\"{}\" fill-opacity=\"0.7\" stroke=\"{stroke}\" \
+                 stroke-width=\"{stroke_w}\"><title>{}</title></polygon></a>",
+                points.trim_end(),
+                hex(scale.colour(value)),
+                escape(&c.title)
+            );
         }
-        let points: String = hull
-            .iter()
-            .map(|(x, y)| format!("{x:.1},{y:.1} "))
-            .collect();
-        let _ = writeln!(
-            svg,
-            "<polygon class=\"cell\" data-cell=\"{i}\" data-value=\"{}\" points=\"{}\" fill=\"{}\" \
-             fill-opacity=\"0.7\" stroke=\"#222\" stroke-width=\"0.8\"><title>{}</title></polygon>",
-            c.value,
-            points.trim_end(),
-            hex(scale.colour(c.value)),
-            escape(&c.title)
-        );
-        if label {
+        svg.push_str(&scale.legend_svg(
+            &format!("map-scale-{}", layer.class),
+            10.0,
+            h + 6.0,
+            (w - 20.0).clamp(40.0, 320.0),
+            layer.label,
+        ));
+        svg.push_str("</g>\n");
+    }
+    if cells.len() <= 64 {
+        for &i in &order {
             // A marker's number goes beside it, a cell's in its middle.
+            let (_, (cx, cy), marker) = outlines[i];
             let (tx, anchor) = if marker {
                 (cx + MIN_HALF_PX + 2.0, "start")
             } else {
@@ -136,19 +179,13 @@ pub(crate) fn map_svg(
             let _ = writeln!(
                 svg,
                 "<text x=\"{tx:.1}\" y=\"{:.1}\" font-size=\"11\" text-anchor=\"{anchor}\" \
-                 fill=\"#000\" stroke=\"#fff\" stroke-width=\"2.5\" paint-order=\"stroke\">{i}</text>",
+                 fill=\"#000\" stroke=\"#fff\" stroke-width=\"2.5\" paint-order=\"stroke\" \
+                 pointer-events=\"none\">{i}</text>",
                 cy + 4.0
             );
         }
     }
-    svg.push_str(&scale.legend_svg(
-        "map-scale",
-        10.0,
-        h + 6.0,
-        (w - 20.0).clamp(40.0, 320.0),
-        value_label,
-    ));
-    svg.push_str("\n</svg>\n");
+    svg.push_str("</svg>\n");
     Ok(svg)
 }
 
@@ -192,17 +229,40 @@ mod tests {
         let cells = [
             MapCell {
                 cell: cell(1.0),
-                value: 10.0,
                 title: "a <b>".into(),
+                flagged: false,
             },
             MapCell {
                 cell: cell(5.0),
-                value: 30.0,
                 title: "c".into(),
+                flagged: true,
             },
         ];
-        let svg = map_svg(&scene, &cells, 300, "PVS").unwrap();
-        assert_eq!(svg.matches("<polygon").count(), 2);
+        let layers = [
+            MapLayer {
+                class: "by-pvs",
+                label: "PVS",
+                values: vec![10.0, 30.0],
+            },
+            MapLayer {
+                class: "by-error",
+                label: "error",
+                values: vec![0.0, 2.0],
+            },
+        ];
+        let svg = map_svg(&scene, &cells, &layers, 300).unwrap();
+        // Each layer draws every cell, linked to its table row; the flagged cell is outlined
+        // in red in both.
+        assert_eq!(svg.matches("<polygon").count(), 4);
+        assert_eq!(svg.matches("<g class=\"layer by-error\">").count(), 1);
+        assert_eq!(svg.matches("href=\"#cell-row-1\"").count(), 2);
+        assert_eq!(
+            svg.matches("class=\"cell flagged\" data-cell=\"1\"")
+                .count(),
+            2
+        );
+        assert!(!svg.contains("class=\"cell flagged\" data-cell=\"0\""));
+        assert!(svg.contains("data-cell=\"1\" data-value=\"2\""));
         assert!(svg.contains(&hex(super::super::colour::ramp(0.0))));
         assert!(svg.contains(&hex(super::super::colour::ramp(1.0))));
         assert!(svg.contains("a &lt;b&gt;"));

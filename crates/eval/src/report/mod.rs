@@ -38,11 +38,13 @@ pub struct PvsReportOptions {
     pub params: EvalParams,
     /// Worst views shown (one per cell, the cells with the most erroneous pixels first).
     pub worst_views: usize,
+    /// Rows of the cell table shown before its "show all" toggle (the worst cells).
+    pub cell_rows: usize,
 }
 
 /// A PVS report: its sections and the numbers behind them.
 pub struct PvsReport {
-    /// Summary, cells, worst views, convergence, equal budgets (when baked), map.
+    /// Summary, map, worst views, cells, convergence, equal budgets (when baked).
     pub sections: Vec<Section>,
     /// Per-cell evaluation, in the file's cell order.
     pub outcomes: Vec<CellOutcome>,
@@ -83,16 +85,18 @@ pub fn pvs_report(
         options.params.resolution,
         options.worst_views,
     );
+    // What a designer looks at first: the summary, where the cells are weak, the worst views;
+    // then the per-cell numbers and the curves.
     let mut sections = vec![
         sections::summary(scene, file, pvs_label, &options.params, &outcomes),
-        sections::cell_table(scene, file, &outcomes),
+        sections::cell_map(scene, file, &outcomes)?,
         sections::worst_views(&worst, options.worst_views)?,
+        sections::cell_table(scene, file, &outcomes, options.cell_rows),
         sections::convergence(file)?,
     ];
     if let Some(s) = &summary {
         sections.push(budgets::budget_section(s, options.params.resolution)?);
     }
-    sections.push(sections::cell_map(scene, file)?);
     Ok(PvsReport {
         sections,
         outcomes,

@@ -10,7 +10,7 @@ use sightline_region::PvsFile;
 use super::error::ReportError;
 use super::evaluate::{CellOutcome, WorstImage};
 use super::html::{escape, img, key_value_table, Cell, Section, Table};
-use super::map::{map_svg, MapCell};
+use super::map::{map_svg, MapCell, MapLayer};
 use super::metadata::{budget, cell_bake, converged_cells, text};
 use super::plot::{line_plot, Series, MAX_LINES};
 
@@ -151,8 +151,30 @@ fn rejected_viewpoints(outcomes: &[CellOutcome]) -> String {
     parts.join(", ")
 }
 
-/// One row per cell: PVS size, bake cost, pixel error.
-pub(crate) fn cell_table(scene: &Scene, file: &PvsFile, outcomes: &[CellOutcome]) -> Section {
+/// The cells from the worst down: the largest average error first, then the largest single
+/// view's error, then the file's order.
+fn worst_first(outcomes: &[CellOutcome]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..outcomes.len()).collect();
+    order.sort_by(|&a, &b| {
+        let (ea, eb) = (&outcomes[a].eval, &outcomes[b].eval);
+        eb.avg_error_pixels
+            .total_cmp(&ea.avg_error_pixels)
+            .then(eb.max_error_pixels.cmp(&ea.max_error_pixels))
+            .then(a.cmp(&b))
+    });
+    order
+}
+
+/// One row per cell: PVS size, bake cost, pixel error; the worst cells first, the
+/// `shown` worst visible and the rest behind a toggle (a file of 400 cells would otherwise
+/// push everything below it off the page), with a filter box. Row `i` has the id
+/// `cell-row-{i}`, which the map and the worst views link to.
+pub(crate) fn cell_table(
+    scene: &Scene,
+    file: &PvsFile,
+    outcomes: &[CellOutcome],
+    shown: usize,
+) -> Section {
     let n = scene.triangle_count().max(1) as f64;
     let mut t = Table::new(
         "cell-table",
@@ -177,13 +199,19 @@ pub(crate) fn cell_table(scene: &Scene, file: &PvsFile, outcomes: &[CellOutcome]
             "eval s",
         ],
     );
-    for (i, (c, o)) in file.cells.iter().zip(outcomes).enumerate() {
+    for (rank, &i) in worst_first(outcomes).iter().enumerate() {
+        let (c, o) = (&file.cells[i], &outcomes[i]);
         let bake = cell_bake(&file.metadata, i);
         let pvs = c.visible.count_ones(..);
         let objects = file.visible_objects(i).map(|set| set.count_ones(..));
         let e = &o.eval;
         let v3 = |v: glam::Vec3| format!("{:.2}, {:.2}, {:.2}", v.x, v.y, v.z);
-        t.row(
+        let row_id = format!("cell-row-{i}");
+        let mut attrs = vec![("id", row_id.as_str())];
+        if rank >= shown {
+            attrs.push(("class", "rest"));
+        }
+        t.row_with(
             vec![
                 Cell::Num(i.to_string()),
                 Cell::Text(v3(c.cell.center)),
@@ -211,14 +239,28 @@ pub(crate) fn cell_table(scene: &Scene, file: &PvsFile, outcomes: &[CellOutcome]
                 ("cell", i.to_string()),
                 ("pvs", pvs.to_string()),
                 ("max-error", e.max_error_pixels.to_string()),
+                ("rank", rank.to_string()),
             ],
+            &attrs,
         );
     }
+    let n_cells = file.cells.len();
+    let toggle = if n_cells > shown {
+        format!(
+            "<input type=\"checkbox\" id=\"cell-table-all\"><label for=\"cell-table-all\">show all \
+             {n_cells} cells (the {shown} worst are shown)</label>"
+        )
+    } else {
+        String::new()
+    };
     let body = format!(
         "<p>Error pixels as the GVS++ paper counts them: pixels whose triangle in the full-scene \
          render is missing from the PVS, confirmed by casting the ray through the pixel centre; \
          <em>unconfirmed</em> pixels are those the rasterizer alone calls wrong (vertex snapping \
-         artefacts of the reference). Click a column to sort.</p>\n{}",
+         artefacts of the reference). The worst cells come first; click a column to sort, type \
+         in the filter to find cells (any text of a row, e.g. <code>no: budget</code>).</p>\n\
+         <div class=\"controls\"><label>filter <input type=\"search\" id=\"cell-table-filter\" \
+         placeholder=\"text in any column\"></label></div>\n{toggle}\n{}",
         t.html()
     );
     Section::new("cells", "Cells", body)
@@ -259,11 +301,13 @@ pub(crate) fn worst_views(images: &[WorstImage], shown: usize) -> Result<Section
         );
         let _ = writeln!(
             body,
-            "<figure class=\"worst\" data-cell=\"{}\" data-errors=\"{}\">{}<figcaption>{}</figcaption></figure>",
+            "<figure class=\"worst\" data-cell=\"{}\" data-errors=\"{}\">{}<figcaption>{} \
+             <a href=\"#cell-row-{}\">its row in the cell table</a></figcaption></figure>",
             w.cell,
             w.errors,
             img(&w.image, &caption, w.image.width().clamp(320, 400))?,
-            escape(&caption)
+            escape(&caption),
+            w.cell
         );
     }
     Ok(Section::new("worst-views", "Worst views", body))
@@ -318,32 +362,68 @@ pub(crate) fn convergence(file: &PvsFile) -> Result<Section, ReportError> {
     Ok(Section::new("convergence", "Convergence", body))
 }
 
-/// The map of the cells coloured by PVS size.
-pub(crate) fn cell_map(scene: &Scene, file: &PvsFile) -> Result<Section, ReportError> {
+/// The map of the cells, coloured by PVS size or by pixel error (radio buttons switch, without
+/// script), cells whose PVS missed triangles outlined in red.
+pub(crate) fn cell_map(
+    scene: &Scene,
+    file: &PvsFile,
+    outcomes: &[CellOutcome],
+) -> Result<Section, ReportError> {
     let n = scene.triangle_count().max(1) as f64;
+    let pvs_sizes: Vec<f64> = file
+        .cells
+        .iter()
+        .map(|c| c.visible.count_ones(..) as f64)
+        .collect();
+    let errors: Vec<f64> = outcomes.iter().map(|o| o.eval.avg_error_pixels).collect();
     let cells: Vec<MapCell> = file
         .cells
         .iter()
+        .zip(outcomes)
         .enumerate()
-        .map(|(i, c)| {
-            let pvs = c.visible.count_ones(..);
+        .map(|(i, (c, o))| {
+            let pvs = pvs_sizes[i];
             let objects = file.visible_objects(i).map_or(String::new(), |set| {
                 format!(", {} objects", set.count_ones(..))
             });
+            let e = &o.eval;
             MapCell {
                 cell: c.cell,
-                value: pvs as f64,
                 title: format!(
-                    "cell {i}: PVS {pvs} triangles ({:.3} %){objects}",
-                    100.0 * pvs as f64 / n
+                    "cell {i}: PVS {pvs} triangles ({:.3} %){objects}; error {:.3} px per view \
+                     (max {}), {} triangles seen but missing",
+                    100.0 * pvs / n,
+                    e.avg_error_pixels,
+                    e.max_error_pixels,
+                    e.false_negatives
                 ),
+                flagged: e.false_negatives > 0,
             }
         })
         .collect();
+    let flagged = cells.iter().filter(|c| c.flagged).count();
+    let layers = [
+        MapLayer {
+            class: "by-pvs",
+            label: "PVS size (triangles)",
+            values: pvs_sizes,
+        },
+        MapLayer {
+            class: "by-error",
+            label: "error (pixels per view)",
+            values: errors,
+        },
+    ];
     let body = format!(
-        "<p>The scene from above (grey: higher is darker) with the view cells coloured by PVS \
-         size; hover a cell for its numbers.</p>\n{}",
-        map_svg(scene, &cells, 900, "PVS size (triangles)")?
+        "<p>The scene from above (grey: higher is darker) with the view cells; {flagged} of {} \
+         cells, outlined in red, missed triangles that were seen from them. Hover a cell for its \
+         numbers, click it for its row in the cell table.</p>\n\
+         colour by: <input type=\"radio\" name=\"map-colour\" id=\"map-by-pvs\" checked>\
+         <label for=\"map-by-pvs\">PVS size</label>\n\
+         <input type=\"radio\" name=\"map-colour\" id=\"map-by-error\">\
+         <label for=\"map-by-error\">pixel error</label><br>\n{}",
+        cells.len(),
+        map_svg(scene, &cells, &layers, 900)?
     );
     Ok(Section::new("map", "Map of the view cells", body))
 }

@@ -236,10 +236,13 @@ def report(
     seed: int = 1,
     budgets: Optional[Sequence[int]] = [250000, 1000000],
     budget_cells: int = 4,
+    cell_rows: int = 20,
 ) -> Dict[str, Any]:
     """Writes the HTML report of ``pvs`` (baked for ``scene``) to ``out_dir/index.html``, as
-    ``sightline report SCENE PVS -o OUT_DIR`` does: summary, per-cell PVS size and pixel error,
-    the worst views, convergence plots, GVS++ against RAND at equal budgets, a map of the cells.
+    ``sightline report SCENE PVS -o OUT_DIR`` does: summary, a map of the cells (coloured by PVS
+    size or pixel error), the worst views, per-cell PVS size and pixel error (the ``cell_rows``
+    worst cells shown, the rest behind a toggle and a filter), convergence plots, GVS++ against
+    RAND at equal budgets.
 
     ``views`` viewpoints per cell, ``size`` x ``size`` pixel images (1 to 4096), ``view_mode``
     ``"cube"`` (six faces per viewpoint) or ``"random"`` (one 90-degree view), ``worst`` worst
