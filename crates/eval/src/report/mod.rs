@@ -14,6 +14,7 @@ pub mod colour;
 pub mod error;
 pub mod evaluate;
 pub(crate) mod footprint;
+pub(crate) mod growth;
 pub mod html;
 pub(crate) mod map;
 pub(crate) mod metadata;
@@ -50,6 +51,14 @@ pub struct PvsReport {
     pub outcomes: Vec<CellOutcome>,
     /// GVS++ against RAND at equal budgets, when `budgets` were given.
     pub budgets: Option<BudgetSummary>,
+}
+
+/// The cells with erroneous pixels, the largest average error first.
+fn with_errors_worst_first(outcomes: &[CellOutcome]) -> Vec<usize> {
+    sections::worst_first(outcomes)
+        .into_iter()
+        .filter(|&i| outcomes[i].eval.avg_error_pixels > 0.0)
+        .collect()
 }
 
 /// Evaluates `file` (made for `scene`; the caller checks) and builds its sections.
@@ -92,7 +101,7 @@ pub fn pvs_report(
         sections::cell_map(scene, file, &outcomes)?,
         sections::worst_views(&worst, options.worst_views)?,
         sections::cell_table(scene, file, &outcomes, options.cell_rows),
-        sections::convergence(file)?,
+        sections::convergence(file, &with_errors_worst_first(&outcomes))?,
     ];
     if let Some(s) = &summary {
         sections.push(budgets::budget_section(s, options.params.resolution)?);

@@ -70,6 +70,78 @@ pub fn line_plot(
     Ok(svg)
 }
 
+/// A percentile band (`low..high` shaded, `median` as a dark line) on the x values `xs`, with
+/// further `lines` over it in the colours of [`series_colour`] and a legend; y from 0 to 1
+/// (fractions), `width x height` pixels.
+pub fn band_plot(
+    xs: &[f64],
+    (low, median, high): (&[f64], &[f64], &[f64]),
+    lines: &[Series],
+    (x_desc, y_desc): (&str, &str),
+    (width, height): (u32, u32),
+) -> Result<String, ReportError> {
+    let xmax = xs
+        .iter()
+        .copied()
+        .filter(|x| x.is_finite())
+        .fold(1.0, f64::max);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area();
+        let draw = || -> std::result::Result<(), Box<dyn std::error::Error>> {
+            root.fill(&WHITE)?;
+            let mut chart = ChartBuilder::on(&root)
+                .margin(10)
+                .x_label_area_size(36)
+                .y_label_area_size(64)
+                .build_cartesian_2d(0.0..xmax * 1.02, 0.0..1.05)?;
+            let shade = RGBColor(110, 140, 200);
+            let outline: Vec<(f64, f64)> = xs
+                .iter()
+                .copied()
+                .zip(high.iter().copied())
+                .chain(xs.iter().copied().zip(low.iter().copied()).rev())
+                .collect();
+            chart
+                .draw_series(std::iter::once(Polygon::new(
+                    outline,
+                    shade.mix(0.35).filled(),
+                )))?
+                .label("10th-90th percentile of the cells")
+                .legend(move |(x, y)| {
+                    Rectangle::new([(x, y - 5), (x + 16, y + 5)], shade.mix(0.35).filled())
+                });
+            let dark = RGBColor(20, 40, 90);
+            let mid: Vec<(f64, f64)> = xs.iter().copied().zip(median.iter().copied()).collect();
+            chart
+                .draw_series(LineSeries::new(mid, dark.stroke_width(3)))?
+                .label("median cell")
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 16, y)], dark.stroke_width(3))
+                });
+            draw_series(
+                &mut chart,
+                lines,
+                (x_desc, y_desc),
+                &|p| p.0.is_finite() && p.1.is_finite(),
+                false,
+                None,
+            )?;
+            // The legend always has the band and the median, lines or not.
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::LowerRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .draw()?;
+            root.present()?;
+            Ok(())
+        };
+        draw().map_err(|e| ReportError::Plot(e.to_string()))?;
+    }
+    Ok(svg)
+}
+
 /// A log-log plot of `series` (each drawn as a line with a marker at every point, in the
 /// colours of [`series_colour`], with a legend), `width x height` pixels. Points must be
 /// positive; the axes span the points with some room.

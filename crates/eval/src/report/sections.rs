@@ -9,10 +9,11 @@ use sightline_region::PvsFile;
 
 use super::error::ReportError;
 use super::evaluate::{CellOutcome, WorstImage};
+use super::growth;
 use super::html::{escape, img, key_value_table, Cell, Section, Table};
 use super::map::{map_svg, MapCell, MapLayer};
 use super::metadata::{budget, cell_bake, converged_cells, text};
-use super::plot::{line_plot, Series, MAX_LINES};
+use super::plot::{band_plot, line_plot, Series};
 
 /// "—" for a missing value.
 const MISSING: &str = "—";
@@ -153,7 +154,7 @@ fn rejected_viewpoints(outcomes: &[CellOutcome]) -> String {
 
 /// The cells from the worst down: the largest average error first, then the largest single
 /// view's error, then the file's order.
-fn worst_first(outcomes: &[CellOutcome]) -> Vec<usize> {
+pub(crate) fn worst_first(outcomes: &[CellOutcome]) -> Vec<usize> {
     let mut order: Vec<usize> = (0..outcomes.len()).collect();
     order.sort_by(|&a, &b| {
         let (ea, eb) = (&outcomes[a].eval, &outcomes[b].eval);
@@ -313,53 +314,110 @@ pub(crate) fn worst_views(images: &[WorstImage], shown: usize) -> Result<Section
     Ok(Section::new("worst-views", "Worst views", body))
 }
 
-/// PVS size against rays for every cell, from `metadata["cells"][i]["convergence"]`.
-pub(crate) fn convergence(file: &PvsFile) -> Result<Section, ReportError> {
-    let series: Vec<Series> = (0..file.cells.len())
-        .filter_map(|i| {
-            let points = cell_bake(&file.metadata, i).convergence?;
-            Some(Series {
+/// Cells up to which the convergence plot draws one line per cell; beyond, the distribution.
+const CURVES_PER_CELL_UP_TO: usize = 12;
+/// Worst cells drawn as lines over the distribution.
+const WORST_LINES: usize = 5;
+
+/// PVS size against rays, from `metadata["cells"][i]["convergence"]`: one line per cell for a
+/// few cells; for more, the distribution over all cells (percentile band and median of the
+/// fraction of its final PVS each cell had found) with the worst cells (`worst`: the cells with
+/// erroneous pixels, worst first) as labelled lines.
+pub(crate) fn convergence(file: &PvsFile, worst: &[usize]) -> Result<Section, ReportError> {
+    let curves: Vec<(usize, Vec<(u64, u64)>)> = (0..file.cells.len())
+        .filter_map(|i| Some((i, cell_bake(&file.metadata, i).convergence?)))
+        .collect();
+    let mut body = if curves.is_empty() {
+        "<p class=\"note\" id=\"no-convergence\">This .pvs file has no convergence data \
+         (<code>metadata.cells[i].convergence</code> is absent: it was baked by a version that \
+         did not record it), so there is no convergence plot.</p>\n"
+            .to_string()
+    } else if curves.len() <= CURVES_PER_CELL_UP_TO {
+        let series: Vec<Series> = curves
+            .iter()
+            .map(|(i, points)| Series {
                 label: format!("cell {i}"),
                 points: std::iter::once((0.0, 0.0))
                     .chain(points.iter().map(|&(r, p)| (r as f64, p as f64)))
                     .collect(),
             })
+            .collect();
+        format!(
+            "<p>PVS size after each batch of rays, one line per cell.</p>\n\
+             <div id=\"convergence-plot\">{}</div>\n",
+            line_plot(&series, "rays", "PVS size (triangles)", (900, 420), true)?
+        )
+    } else {
+        convergence_distribution(&curves, worst)?
+    };
+    if curves.len() < file.cells.len() && !curves.is_empty() {
+        let _ = writeln!(
+            body,
+            "<p class=\"note\">{} of {} cells have no convergence data.</p>",
+            file.cells.len() - curves.len(),
+            file.cells.len()
+        );
+    }
+    Ok(Section::new("convergence", "Convergence", body))
+}
+
+/// The distribution plot of [`convergence`] for many cells.
+fn convergence_distribution(
+    curves: &[(usize, Vec<(u64, u64)>)],
+    worst: &[usize],
+) -> Result<String, ReportError> {
+    let fractions: Vec<(usize, Vec<(f64, f64)>)> = curves
+        .iter()
+        .filter_map(|(i, c)| Some((*i, growth::growth_fraction(c)?)))
+        .collect();
+    let all: Vec<Vec<(f64, f64)>> = fractions.iter().map(|(_, f)| f.clone()).collect();
+    let Some(band) = growth::growth_band(&all, 60) else {
+        return Ok(
+            "<p class=\"note\" id=\"no-convergence\">The cells' convergence data are \
+                   empty.</p>\n"
+                .to_string(),
+        );
+    };
+    let lines: Vec<Series> = worst
+        .iter()
+        .filter_map(|w| fractions.iter().find(|(i, _)| i == w))
+        .take(WORST_LINES)
+        .map(|(i, f)| Series {
+            label: format!(
+                "cell {i} (worst #{})",
+                worst.iter().position(|w| w == i).unwrap_or(0) + 1
+            ),
+            points: f.clone(),
         })
         .collect();
-    let body = if series.is_empty() {
-        "<p class=\"note\" id=\"no-convergence\">This .pvs file has no convergence data \
-         (<code>metadata.cells[i].convergence</code> is absent: it was baked by a version that \
-         did not record it), so there is no convergence plot.</p>\n"
-            .to_string()
+    let labels: Vec<String> = lines.iter().map(|l| escape(&l.label)).collect();
+    let named = if lines.is_empty() {
+        "no cell has erroneous pixels, so none is drawn on its own".to_string()
     } else {
-        let mut b = format!(
-            "<p>PVS size after each batch of rays, one line per cell{}.</p>\n",
-            if series.len() > MAX_LINES {
-                format!(" (the first {MAX_LINES} of {} cells)", series.len())
-            } else {
-                String::new()
-            }
-        );
-        if series.len() < file.cells.len() {
-            let _ = writeln!(
-                b,
-                "<p class=\"note\">{} of {} cells have no convergence data.</p>",
-                file.cells.len() - series.len(),
-                file.cells.len()
-            );
-        }
-        b.push_str("<div id=\"convergence-plot\">");
-        b.push_str(&line_plot(
-            &series,
-            "rays",
-            "PVS size (triangles)",
-            (900, 420),
-            true,
-        )?);
-        b.push_str("</div>\n");
-        b
+        format!(
+            "the {} cells with the largest pixel error are drawn on their own ({})",
+            lines.len(),
+            labels.join(", ")
+        )
     };
-    Ok(Section::new("convergence", "Convergence", body))
+    Ok(format!(
+        "<p>How the {} cells converged: the fraction of its final PVS each cell had found after \
+         each batch of rays; the band holds the middle 80 % of the cells, the dark line is the \
+         median cell, and {named}. A cell whose curve is still rising at its last batch \
+         stopped before it converged. (The bake records PVS size per batch, not pixel error; \
+         the error is the final set's.)</p>\n\
+         <div id=\"convergence-plot\" data-cells=\"{}\" data-lines=\"{}\">{}</div>\n",
+        all.len(),
+        all.len(),
+        lines.len(),
+        band_plot(
+            &band.rays,
+            (&band.low, &band.median, &band.high),
+            &lines,
+            ("rays", "fraction of the final PVS"),
+            (900, 420),
+        )?
+    ))
 }
 
 /// The map of the cells, coloured by PVS size or by pixel error (radio buttons switch, without
@@ -426,4 +484,66 @@ pub(crate) fn cell_map(
         map_svg(scene, &cells, &layers, 900)?
     );
     Ok(Section::new("map", "Map of the view cells", body))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+    use sightline_region::{CellPvs, ViewCell};
+
+    /// A file of `n` cells whose bakes recorded convergence curves: cell `i` reaches 100
+    /// triangles after `1000 (i + 1)` rays.
+    fn file_with_curves(n: usize) -> PvsFile {
+        let mut b = sightline_core::scene::SceneBuilder::new("box");
+        b.add_box(Vec3::ZERO, Vec3::ONE);
+        let scene = b.finish();
+        let cells: Vec<serde_json::Value> = (0..n)
+            .map(|i| {
+                let end = 1000 * (i as u64 + 1);
+                serde_json::json!({"rays": end, "convergence": [[end / 2, 60], [end, 100]]})
+            })
+            .collect();
+        let mut file = PvsFile::for_scene(&scene, serde_json::json!({ "cells": cells }));
+        for i in 0..n {
+            let x = i as f32;
+            file.cells.push(CellPvs {
+                cell: ViewCell::aabb(Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 1.0, 1.0)).unwrap(),
+                visible: sightline_core::TriangleSet::with_capacity(scene.triangle_count()),
+            });
+        }
+        file
+    }
+
+    #[test]
+    fn few_cells_get_a_line_each_many_cells_a_band_with_the_worst_named() {
+        let few = convergence(&file_with_curves(3), &[2, 0, 1]).unwrap().body;
+        assert!(few.contains("one line per cell") && few.contains("cell 2"));
+        let n = 30;
+        let worst: Vec<usize> = (0..n).rev().collect();
+        let many = convergence(&file_with_curves(n), &worst).unwrap().body;
+        assert!(many.contains(&format!("data-cells=\"{n}\" data-lines=\"{WORST_LINES}\"")));
+        // The five worst cells (29, 28, ...) are labelled, the others are not.
+        for (rank, cell) in [29, 28, 27, 26, 25].iter().enumerate() {
+            assert!(
+                many.contains(&format!("cell {cell} (worst #{})", rank + 1)),
+                "{cell}"
+            );
+        }
+        assert!(!many.contains("cell 24 (worst"));
+        assert!(many.contains("10th-90th percentile") && many.contains("median cell"));
+        assert!(many.contains("<polygon"), "the band is drawn");
+        // Without erroneous cells no line is singled out, and the legend still explains the band.
+        let clean = convergence(&file_with_curves(n), &[]).unwrap().body;
+        assert!(clean.contains("data-lines=\"0\"") && clean.contains("none is drawn"));
+        assert!(clean.contains("median cell") && !clean.contains("(worst #"));
+    }
+
+    #[test]
+    fn files_without_curves_say_so() {
+        let mut file = file_with_curves(2);
+        file.metadata = serde_json::Value::Null;
+        let s = convergence(&file, &[0, 1]).unwrap().body;
+        assert!(s.contains("id=\"no-convergence\""));
+    }
 }
