@@ -153,6 +153,8 @@ figcaption{font-size:12px;max-width:400px}figure.worst img{image-rendering:pixel
 svg{background:#fff;border:1px solid #ddd}\
 #cell-table-all:not(:checked)~#cell-table tr.rest{display:none}\
 #map-by-pvs:checked~svg .by-error,#map-by-error:checked~svg .by-pvs{display:none}\
+#floor-1:checked~svg .floor:not(.band-1),#floor-2:checked~svg .floor:not(.band-2),\
+#floor-3:checked~svg .floor:not(.band-3),#floor-4:checked~svg .floor:not(.band-4){display:none}\
 .controls{margin:.3em 0}.controls label{margin-right:1em}tr:target{outline:2px solid #d00}";
 
 /// Sorts a table by the clicked column (numbers numerically), so long per-cell tables can be

@@ -75,6 +75,61 @@ pub(crate) struct MapLayer<'a> {
     pub values: Vec<f64>,
 }
 
+/// Most floors the map offers (its radio buttons and the page's style rules go to 4).
+pub(crate) const MAX_FLOORS: usize = 4;
+
+/// The floor of every cell when cells are stacked (two cells overlapping from above, one
+/// wholly above the other, as Quake 3 clusters of several storeys are), else `None`: the cells'
+/// heights (of their centres) split at the largest gaps between them (of at least half the
+/// median cell height) into at most [`MAX_FLOORS`] bands, numbered from 1, lowest first.
+pub(crate) fn floors(cells: &[ViewCell], plan: &Plan) -> Option<Vec<usize>> {
+    let extent = |c: &ViewCell| {
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for p in c.corners() {
+            let [x, y] = plan.project(p);
+            let z = plan.height(p);
+            for (k, v) in [x, y, z].into_iter().enumerate() {
+                lo[k] = lo[k].min(v);
+                hi[k] = hi[k].max(v);
+            }
+        }
+        (lo, hi)
+    };
+    let boxes: Vec<_> = cells.iter().map(extent).collect();
+    let stacked = (0..boxes.len()).any(|i| {
+        (i + 1..boxes.len()).any(|j| {
+            let ((a0, a1), (b0, b1)) = (boxes[i], boxes[j]);
+            let overlap = |k: usize| a0[k] < b1[k] && b0[k] < a1[k];
+            overlap(0) && overlap(1) && (a1[2] <= b0[2] || b1[2] <= a0[2])
+        })
+    });
+    if !stacked {
+        return None;
+    }
+    let heights: Vec<f64> = cells.iter().map(|c| plan.height(c.center)).collect();
+    let mut sorted = heights.clone();
+    sorted.sort_by(f64::total_cmp);
+    // The largest gaps between consecutive heights are the splits between floors; a gap under
+    // half a typical cell's height is cells of one floor at slightly different heights.
+    let mut tall: Vec<f64> = boxes.iter().map(|(lo, hi)| hi[2] - lo[2]).collect();
+    tall.sort_by(f64::total_cmp);
+    let least_gap = 0.5 * tall[tall.len() / 2];
+    let mut gaps: Vec<(f64, f64)> = sorted
+        .windows(2)
+        .filter(|w| w[1] - w[0] >= least_gap && w[1] > w[0])
+        .map(|w| (w[1] - w[0], 0.5 * (w[0] + w[1])))
+        .collect();
+    gaps.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let mut splits: Vec<f64> = gaps.iter().take(MAX_FLOORS - 1).map(|g| g.1).collect();
+    splits.sort_by(f64::total_cmp);
+    Some(
+        heights
+            .iter()
+            .map(|&h| 1 + splits.iter().filter(|&&s| h > s).count())
+            .collect(),
+    )
+}
+
 /// A cell's outline on the map in pixels: the convex hull of its box's corners seen from above,
 /// or a small square marker for a cell a few pixels across (it would vanish), and its centre.
 fn outline(c: &ViewCell, plan: &Plan, frame: &MapFrame) -> (Vec<(f64, f64)>, (f64, f64), bool) {
@@ -133,6 +188,12 @@ pub(crate) fn map_svg(
         .iter()
         .map(|c| outline(&c.cell, &plan, &frame))
         .collect();
+    // With stacked cells every drawn element says its floor, so the page can show one.
+    let floor_of = floors(&boxes, &plan);
+    let floor_class = |i: usize| match &floor_of {
+        Some(f) => format!(r#" class="floor band-{}""#, f[i]),
+        None => String::new(),
+    };
     for layer in layers {
         let scale = ColourScale::spanning(layer.values.iter().copied());
         let _ = writeln!(svg, "<g class=\"layer {}\">", escape(layer.class));
@@ -150,9 +211,10 @@ pub(crate) fn map_svg(
             };
             let _ = writeln!(
                 svg,
-                "<a href=\"#cell-row-{i}\"><polygon class=\"{class}\" data-cell=\"{i}\" data-value=\"{value}\" \
+                "<a href=\"#cell-row-{i}\"{}><polygon class=\"{class}\" data-cell=\"{i}\" data-value=\"{value}\" \
                  points=\"{}\" fill=\"{}\" fill-opacity=\"0.7\" stroke=\"{stroke}\" \
                  stroke-width=\"{stroke_w}\"><title>{}</title></polygon></a>",
+                floor_class(i),
                 points.trim_end(),
                 hex(scale.colour(value)),
                 escape(&c.title)
@@ -178,9 +240,10 @@ pub(crate) fn map_svg(
             };
             let _ = writeln!(
                 svg,
-                "<text x=\"{tx:.1}\" y=\"{:.1}\" font-size=\"11\" text-anchor=\"{anchor}\" \
+                "<text{} x=\"{tx:.1}\" y=\"{:.1}\" font-size=\"11\" text-anchor=\"{anchor}\" \
                  fill=\"#000\" stroke=\"#fff\" stroke-width=\"2.5\" paint-order=\"stroke\" \
                  pointer-events=\"none\">{i}</text>",
+                floor_class(i),
                 cy + 4.0
             );
         }
@@ -267,5 +330,32 @@ mod tests {
         assert!(svg.contains(&hex(super::super::colour::ramp(1.0))));
         assert!(svg.contains("a &lt;b&gt;"));
         assert!(svg.contains("data:image/png;base64,"));
+    }
+
+    #[test]
+    fn stacked_cells_get_floors_from_the_largest_height_gaps() {
+        let plan = Plan::new(UpAxis::Z);
+        let cell = |x: f32, z: f32| {
+            ViewCell::aabb(Vec3::new(x, 0.0, z), Vec3::new(x + 1.0, 1.0, z + 1.0)).unwrap()
+        };
+        // Side by side: no floors.
+        assert_eq!(floors(&[cell(0.0, 0.0), cell(2.0, 0.0)], &plan), None);
+        // Two storeys (z 0 and 0.2 below, 5 above): the gap between them splits them.
+        let two = [
+            cell(0.0, 0.0),
+            cell(2.0, 0.2),
+            cell(0.0, 5.0),
+            cell(2.0, 5.0),
+        ];
+        let f = floors(&two, &plan).unwrap();
+        assert_eq!(f[0], f[1]);
+        assert_eq!(f[2], f[3]);
+        assert!(f[0] < f[2]);
+        // Never more than MAX_FLOORS, numbered from 1.
+        let tower: Vec<ViewCell> = (0..10).map(|k| cell(0.0, 3.0 * k as f32)).collect();
+        let f = floors(&tower, &plan).unwrap();
+        assert_eq!(*f.iter().min().unwrap(), 1);
+        assert_eq!(*f.iter().max().unwrap(), MAX_FLOORS);
+        assert!(f.windows(2).all(|w| w[0] <= w[1]), "lowest first: {f:?}");
     }
 }

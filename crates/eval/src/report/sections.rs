@@ -11,8 +11,9 @@ use super::error::ReportError;
 use super::evaluate::{CellOutcome, WorstImage};
 use super::growth;
 use super::html::{escape, img, key_value_table, Cell, Section, Table};
-use super::map::{map_svg, MapCell, MapLayer};
+use super::map::{floors, map_svg, MapCell, MapLayer};
 use super::metadata::{budget, cell_bake, converged_cells, text};
+use super::plan::Plan;
 use super::plot::{band_plot, line_plot, Series};
 
 /// "—" for a missing value.
@@ -420,6 +421,30 @@ fn convergence_distribution(
     ))
 }
 
+/// Radio buttons that show one floor of stacked cells at a time (`map::floors`), or nothing
+/// when no cell lies above another.
+fn floor_controls(scene: &Scene, file: &PvsFile) -> String {
+    let boxes: Vec<_> = file.cells.iter().map(|c| c.cell).collect();
+    let Some(floor_of) = floors(&boxes, &Plan::new(scene.up)) else {
+        return String::new();
+    };
+    let n = floor_of.iter().copied().max().unwrap_or(1);
+    let mut html = String::from(
+        " &nbsp; floor (cells stacked above each other): \
+         <input type=\"radio\" name=\"map-floor\" id=\"floor-all\" checked>\
+         <label for=\"floor-all\">all</label>",
+    );
+    for k in 1..=n {
+        let cells = floor_of.iter().filter(|&&f| f == k).count();
+        let _ = write!(
+            html,
+            "<input type=\"radio\" name=\"map-floor\" id=\"floor-{k}\">\
+             <label for=\"floor-{k}\">{k} ({cells} cells)</label>"
+        );
+    }
+    html
+}
+
 /// The map of the cells, coloured by PVS size or by pixel error (radio buttons switch, without
 /// script), cells whose PVS missed triangles outlined in red.
 pub(crate) fn cell_map(
@@ -479,8 +504,9 @@ pub(crate) fn cell_map(
          colour by: <input type=\"radio\" name=\"map-colour\" id=\"map-by-pvs\" checked>\
          <label for=\"map-by-pvs\">PVS size</label>\n\
          <input type=\"radio\" name=\"map-colour\" id=\"map-by-error\">\
-         <label for=\"map-by-error\">pixel error</label><br>\n{}",
+         <label for=\"map-by-error\">pixel error</label>{}<br>\n{}",
         cells.len(),
+        floor_controls(scene, file),
         map_svg(scene, &cells, &layers, 900)?
     );
     Ok(Section::new("map", "Map of the view cells", body))
