@@ -106,8 +106,8 @@ fn dom_without_console_errors(page: &Path) -> String {
     String::from_utf8(out.stdout).unwrap()
 }
 
-/// Screenshot of the top 1200x1600 pixels; asserts the page is not blank.
-fn assert_screenshot_not_blank(page: &Path) {
+/// Screenshot of the top 1200x1600 pixels; asserts the page is not blank and returns it.
+fn assert_screenshot_not_blank(page: &Path) -> image::RgbImage {
     let dir = tempfile::tempdir().unwrap();
     let shot = dir.path().join("shot.png");
     let out = run_chromium(
@@ -140,6 +140,7 @@ fn assert_screenshot_not_blank(page: &Path) {
         total - background
     );
     assert!(colourful > total / 200, "only {colourful} colourful pixels");
+    img
 }
 
 /// Every `src` and `href` in `html` is inline data or an anchor in the page.
@@ -289,7 +290,21 @@ fn report_loads_in_chromium_with_the_pvs_numbers() {
 
     assert_equal_budget_section(&dom, &summary);
 
-    assert_screenshot_not_blank(&page);
+    // The top of the page shows the summary and the map: the cells that missed triangles are
+    // outlined in pure red there (worst views, whose error pixels are red too, come below).
+    let shot = assert_screenshot_not_blank(&page);
+    let flagged = (0..cells.len())
+        .filter(|&i| summary["cells"][i]["false_negatives"].as_u64().unwrap() > 0)
+        .count();
+    let red = shot
+        .pixels()
+        .filter(|p| p.0[0] > 180 && p.0[1] < 50 && p.0[2] < 50)
+        .count();
+    if flagged > 0 {
+        assert!(red > 100 * flagged, "{flagged} flagged cells, {red} red pixels");
+    } else {
+        assert!(red < 20, "no flagged cell, but {red} red pixels");
+    }
 }
 
 /// What a designer sees first (issue 19): the summary, the map and the worst views before the
