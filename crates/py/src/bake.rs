@@ -31,6 +31,28 @@ use crate::scene::{PyScene, SceneData};
 /// A sampling method with its parameters (the options of `sightline pvs bake`).
 ///
 /// `Method("gvs++", n_rand=100_000)`; bake functions also take the bare name.
+///
+/// `Method(name, **parameters)`: each parameter left `None` keeps the method's default; they
+/// are `sightline pvs bake`'s flags of the same names.
+///
+/// `name`: `"gvs++"` (Guided Visibility Sampling++, the default), `"gvs"` (the original
+/// GVS), `"rand"` (random rays only) or `"raster"` (cube-map rasterization from sample
+/// points). Parameters:
+///
+/// - `n_rand`: GVS++/GVS random rays per round (paper: 10,000,000). Under a ray or time
+///   budget GVS++ has no rounds: each batch of 16,384 rays goes to random, border or
+///   reverse sampling, whichever found the most new triangles per ray lately.
+/// - `n_abs_edge`: GVS++ samples per border-polygon edge (paper: 20).
+/// - `delta_abs`: GVS++/GVS border offset, a fraction of the scene diagonal (1e-6).
+/// - `n_rs_edge`, `n_rs_area`: GVS++ reverse-sampling origins per cell edge and on the
+///   cell surface (paper: 20 each).
+/// - `delta`: GVS++/GVS discontinuity threshold, a fraction of the scene diagonal (1e-5).
+/// - `termination`: GVS++/GVS stop after a round finding fewer new triangles (paper: 10).
+/// - `raster_resolution`: RASTER cube-map face resolution (512).
+/// - `fixed_rounds`: GVS++ keeps the paper's rounds under a budget too (sized for a GPU:
+///   on a CPU a budget below one round is then spent on random rays alone).
+///
+/// Raises `ValueError` for an unknown name or a parameter out of range.
 #[pyclass(module = "sightline", name = "Method", frozen)]
 #[derive(Clone)]
 pub(crate) struct PyMethod {
@@ -59,8 +81,7 @@ impl PyMethod {
 
 #[pymethods]
 impl PyMethod {
-    /// A method by name (`gvs++`, `gvs`, `rand`, `raster`) with optional parameters; see
-    /// `sightline pvs bake --help` for their meaning (`fixed_rounds` is `--fixed-rounds`).
+    /// A method by name with optional parameters (see the class documentation).
     // The keywords are the fields of `MethodOverrides`, the list the CLI's flags come from:
     // pyo3 names each keyword after its argument, and the arguments fill the struct by
     // field-init shorthand, so a field without a keyword of its name does not compile (and a

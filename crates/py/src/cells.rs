@@ -9,6 +9,12 @@ use sightline_region::ViewCell;
 use crate::convert::value_error;
 
 /// An oriented box (or flat rectangle) view cell: centre, orthonormal axes, half extents.
+///
+/// `ViewCell(center, axes, half_extents)`: `center` (3 floats), `axes` (three orthonormal
+/// 3-vectors), `half_extents` (3 floats, each at least 0; one of them 0 makes a flat
+/// rectangle). `ViewCell.box(min, max)` makes an axis-aligned box; `ViewCell.parse(spec)` reads
+/// the CLI's `--cell` syntax. Raises `ValueError` for axes that are not orthonormal or extents
+/// that are negative or not finite.
 #[pyclass(module = "sightline", name = "ViewCell", frozen, eq, from_py_object)]
 #[derive(Clone, PartialEq)]
 pub(crate) struct PyViewCell {
@@ -110,8 +116,9 @@ impl PyViewCell {
     }
 }
 
-/// A regular `nx x ny x nz` grid of axis-aligned cells filling `[min, max]`, x fastest (the
-/// order of the CLI's `--grid`).
+/// A regular grid of axis-aligned cells filling the box `[min, max]` (3 floats each): `counts`
+/// is `(nx, ny, nz)`, cells per axis (each at least 1), listed x fastest (the order of the
+/// CLI's `--grid`). Raises `ValueError` for bounds that are not finite or not ordered.
 #[pyfunction]
 pub(crate) fn grid(min: [f32; 3], max: [f32; 3], counts: [u32; 3]) -> PyResult<Vec<PyViewCell>> {
     let (lo, hi) = (vec3(min), vec3(max));

@@ -29,9 +29,17 @@ fn camera(
         .map_err(|e| value_error(format!("invalid camera: {e}")))
 }
 
-/// Triangles with a visible region of positive area from `eye` looking at `look` (exact).
-/// `near` defaults as the CLI's `--near`: 1/100 of the distance from the eye to the nearest
-/// triangle, clamped to the scene's scale.
+/// The ids (uint32, increasing) of the triangles of `scene` with a visible region of positive
+/// area from `eye` looking at `look`: the exact from-point visible set (analytic visibility).
+///
+/// The camera: `eye` and `look` (3 floats each), `up` (default: the scene's up axis), `fov`
+/// (vertical field of view in degrees, default 60), `size` (`(width, height)` pixels, default
+/// `(1024, 768)`), `near` (the near-plane distance; by default, as the CLI's `--near`, 1/100 of
+/// the distance from the eye to the nearest triangle, clamped to the scene's scale).
+/// `bin_size`: screen bins of `bin_size` x `bin_size` pixels the analytic method works in
+/// (default 16; a speed setting, the result does not depend on it).
+///
+/// Raises `ValueError` for an invalid camera. The GIL is released while it works.
 #[pyfunction]
 #[pyo3(signature = (scene, eye, look, up = None, fov = 60.0, size = (1024, 768), near = None,
     bin_size = 16))]
@@ -64,10 +72,19 @@ pub(crate) fn visible_exact<'py>(
     Ok(ids_array(py, &result.visible))
 }
 
-/// A conservative visible set (never misses a visible triangle) computed in at most `memory`
-/// bytes. `guarantee`: "area" (every triangle with a visible region of positive area, the
-/// exact set's triangles) or "samples" (also those the rasterizer could show on a silhouette
-/// they only touch).
+/// The ids (uint32, increasing) of a conservative visible set of `scene` from `eye` looking
+/// at `look`: it never misses a visible triangle, and is computed in at most `memory` bytes
+/// (default 256 MiB; the RV method's hard budget).
+///
+/// The camera: `eye` and `look` (3 floats each), `up` (default: the scene's up axis), `fov`
+/// (vertical field of view in degrees, default 60), `size` (`(width, height)` pixels, default
+/// `(1024, 768)`), `near` (the near-plane distance; by default, as the CLI's `--near`, 1/100 of
+/// the distance from the eye to the nearest triangle, clamped to the scene's scale).
+/// `guarantee`: `"area"` (every triangle with a visible region of positive area, the exact
+/// set's triangles) or `"samples"` (also those the rasterizer could show on a silhouette they
+/// only touch).
+///
+/// Raises `ValueError` for an invalid camera, guarantee or memory budget.
 #[pyfunction]
 #[pyo3(signature = (scene, eye, look, up = None, fov = 60.0, size = (1024, 768), near = None,
     memory = 256 << 20, guarantee = "area"))]

@@ -36,9 +36,21 @@ impl From<Failure> for PyErr {
     }
 }
 
-/// Writes the HTML report of `pvs` (made for `scene`) to `out_dir/index.html` and returns its
-/// summary (the CLI's `sightline report --json`). The arguments are the CLI's options;
-/// `budgets=None` or `[]` leaves the equal-budget comparison out.
+/// Writes the HTML report of `pvs` (made for `scene`) to `out_dir/index.html`, as
+/// `sightline report` does, and returns its summary (the CLI's `--json`) as a dict.
+///
+/// - `views`: viewpoints per cell (default 16); `size`: image size in pixels, square, 1 to
+///   4096 (default 256); `view_mode`: `"cube"` (six 90-degree faces per viewpoint) or
+///   `"random"` (one random 90-degree view); `seed` of the viewpoints and of the comparison's
+///   bakes (default 1).
+/// - `worst`: worst views shown, one per cell (default 6); `cell_rows`: rows of the cell table
+///   shown before its "show all" toggle, the worst cells (default 20).
+/// - `budgets`: ray budgets per cell of the GVS++ / RAND comparison at equal budgets (default
+///   250k and 1M rays); `None` or `[]` leaves it out; `budget_cells`: cells it bakes (default
+///   4, spread over the file).
+///
+/// Raises `ValueError` for bad arguments, a `pvs` of another scene, or an output that is the
+/// scene or `.pvs` file; `OSError` when the page cannot be written.
 #[pyfunction]
 #[pyo3(signature = (
     scene, pvs, out_dir, views = 16, size = 256, view_mode = "cube", worst = 6, seed = 1,
