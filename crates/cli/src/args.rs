@@ -288,16 +288,14 @@ pub(crate) fn parse_bytes(s: &str) -> Result<u64, String> {
         .ok_or_else(|| format!("'{s}' is more than 2^64 bytes"))
 }
 
-/// Parses `WxH` with both in 1..=16384 and at most [`crate::limits::MAX_PIXELS`] pixels.
+/// Parses an image size, `WxH` or one number `N` for `NxN` (every command takes both), with
+/// both sides in 1..=16384 and at most [`crate::limits::MAX_PIXELS`] pixels.
 pub(crate) fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .ok_or_else(|| format!("'{s}' is not WxH (e.g. 1024x768)"))?;
+    let (w, h) = s.split_once(['x', 'X']).unwrap_or((s, s));
     let parse = |p: &str| -> Result<u32, String> {
-        let n: u32 = p
-            .trim()
-            .parse()
-            .map_err(|_| format!("'{p}' in '{s}' is not a whole number"))?;
+        let n: u32 = p.trim().parse().map_err(|_| {
+            format!("'{p}' in '{s}' is not a whole number (an image size is WxH, or N for NxN)")
+        })?;
         if n == 0 || n > 16384 {
             return Err(format!("{n} in '{s}' is outside 1..=16384"));
         }
@@ -306,6 +304,18 @@ pub(crate) fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = (parse(w)?, parse(h)?);
     crate::limits::check_pixels(w, h)?;
     Ok((w, h))
+}
+
+/// Parses the size of square images (the pixel-error evaluation's): `N`, or `NxN` as the
+/// other commands write sizes; `WxH` with two different sides is an error that says why.
+pub(crate) fn parse_square_size(s: &str) -> Result<u32, String> {
+    let (w, h) = parse_size(s)?;
+    if w != h {
+        return Err(format!(
+            "'{s}': these images are square (cube faces); give one number, e.g. {w}"
+        ));
+    }
+    Ok(w)
 }
 
 #[cfg(test)]
@@ -339,7 +349,16 @@ mod tests {
     fn size_parses_and_rejects_zero() {
         assert_eq!(parse_size("640x480").unwrap(), (640, 480));
         assert!(parse_size("0x480").unwrap_err().contains("outside"));
-        assert!(parse_size("640").unwrap_err().contains("WxH"));
+        assert_eq!(parse_size("640").unwrap(), (640, 640));
+        assert!(parse_size("640y").unwrap_err().contains("WxH, or N"));
+    }
+
+    #[test]
+    fn square_sizes_take_one_number_or_equal_sides() {
+        assert_eq!(parse_square_size("256").unwrap(), 256);
+        assert_eq!(parse_square_size("256x256").unwrap(), 256);
+        assert!(parse_square_size("256x128").unwrap_err().contains("square"));
+        assert!(parse_square_size("0").unwrap_err().contains("outside"));
     }
 }
 

@@ -694,3 +694,119 @@ fn up_axis_is_inferred_for_flat_meshes_and_overridable() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("use x, y or z"), "{}", stderr(&o));
 }
+
+/// One vocabulary across commands (issue 18): viewpoints are `--views N`, square image sizes
+/// `--size PX` (or `PXxPX`), other image sizes `--size WxH` or one number, the view mode
+/// `--view-mode`, and `eval` takes the PVS as its second argument like `report`; the old
+/// spellings (`--viewpoints`, `--resolution`, `eval --pvs F`, `eval --views cube|random`) still
+/// work as hidden aliases and give the same results.
+#[test]
+fn commands_share_one_vocabulary_and_keep_the_old_spellings() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "procedural:city?size=1500";
+    let o = sightline(
+        &[
+            "pvs",
+            "bake",
+            scene,
+            "--grid",
+            "2,1,1",
+            "--bounds=-100,-100,1,100,100,3",
+            "--rays",
+            "5000",
+            "-o",
+            "a.pvs",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let eval = |args: &[&str]| {
+        let mut all = vec!["eval", scene];
+        all.extend_from_slice(args);
+        all.push("--json");
+        let o = sightline(&all, dir.path());
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        let mut v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        for row in v.as_array_mut().unwrap() {
+            row.as_object_mut().unwrap().remove("seconds");
+        }
+        v
+    };
+    let new = eval(&[
+        "a.pvs",
+        "--views",
+        "2",
+        "--size",
+        "48",
+        "--view-mode",
+        "random",
+    ]);
+    let old = eval(&[
+        "--pvs",
+        "a.pvs",
+        "--viewpoints",
+        "2",
+        "--resolution",
+        "48",
+        "--views",
+        "random",
+    ]);
+    assert_eq!(new, old);
+    assert_eq!(new.as_array().unwrap().len(), 2);
+    // The sizes agree too: `48x48` is `48`.
+    assert_eq!(
+        eval(&[
+            "a.pvs",
+            "--views",
+            "2",
+            "--size",
+            "48x48",
+            "--view-mode",
+            "random"
+        ]),
+        new
+    );
+    // And the settings matter (the comparison above could not pass by ignoring them).
+    assert_ne!(
+        eval(&[
+            "a.pvs",
+            "--views",
+            "3",
+            "--size",
+            "48",
+            "--view-mode",
+            "random"
+        ]),
+        new
+    );
+    let fails = |args: &[&str], message: &str| {
+        let mut all = vec!["eval", scene];
+        all.extend_from_slice(args);
+        assert_fails_with(&sightline(&all, dir.path()), message);
+    };
+    fails(
+        &["a.pvs", "--views", "2", "--viewpoints", "3"],
+        "say the same",
+    );
+    fails(
+        &["a.pvs", "--views", "cube", "--view-mode", "random"],
+        "say the same",
+    );
+    // A bad value is a usage error (clap's exit code 2), naming the rule.
+    let o = sightline(&["eval", scene, "a.pvs", "--size", "48x32"], dir.path());
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("these images are square"),
+        "{}",
+        stderr(&o)
+    );
+    fails(&[], "no .pvs file to evaluate");
+    // `render --size N` is an N x N image, as `--size NxN`.
+    let o = sightline(
+        &["render", scene, "--size", "40", "-o", "r.png"],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = image::open(dir.path().join("r.png")).unwrap();
+    assert_eq!((img.width(), img.height()), (40, 40));
+}

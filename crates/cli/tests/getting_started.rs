@@ -22,10 +22,7 @@ const SMALLER: &[(&str, &str)] = &[
     ("--rays 1000000", "--rays 20000"),
     ("-o probe.pvs", "--rays 20000 -o probe.pvs"),
     ("-o shipped.pvs", "--rays 20000 -o shipped.pvs"),
-    (
-        "--viewpoints 200 --resolution 512",
-        "--viewpoints 3 --resolution 32",
-    ),
+    ("--views 200 --size 512", "--views 3 --size 32"),
     (
         "-o report\n",
         "-o report --views 2 --size 32 --budgets 5000 --budget-cells 1\n",

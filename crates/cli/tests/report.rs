@@ -301,7 +301,10 @@ fn report_loads_in_chromium_with_the_pvs_numbers() {
         .filter(|p| p.0[0] > 180 && p.0[1] < 50 && p.0[2] < 50)
         .count();
     if flagged > 0 {
-        assert!(red > 100 * flagged, "{flagged} flagged cells, {red} red pixels");
+        assert!(
+            red > 100 * flagged,
+            "{flagged} flagged cells, {red} red pixels"
+        );
     } else {
         assert!(red < 20, "no flagged cell, but {red} red pixels");
     }

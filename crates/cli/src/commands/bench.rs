@@ -122,10 +122,16 @@ struct ShareArgs {
     #[arg(long, default_value_t = 16)]
     eval_cells: usize,
     /// Evaluation viewpoints per cell (in free space, six cube faces each).
-    #[arg(long, default_value_t = 16)]
+    #[arg(
+        long = "views",
+        alias = "viewpoints",
+        value_name = "N",
+        default_value_t = 16
+    )]
     viewpoints: usize,
-    /// Evaluation resolution.
-    #[arg(long, default_value_t = 256)]
+    /// Evaluation image size (square: one number, or NxN).
+    #[arg(long = "size", alias = "resolution", value_name = "PX", default_value = "256",
+        value_parser = crate::args::parse_square_size)]
     resolution: u32,
     /// Seed.
     #[arg(long, default_value_t = 1)]
@@ -153,10 +159,16 @@ struct PvsArgs {
     #[arg(long, default_value_t = 0.004)]
     cell_size: f32,
     /// Evaluation viewpoints per cell (six cube faces each).
-    #[arg(long, default_value_t = 50)]
+    #[arg(
+        long = "views",
+        alias = "viewpoints",
+        value_name = "N",
+        default_value_t = 50
+    )]
     viewpoints: usize,
-    /// Evaluation resolution.
-    #[arg(long, default_value_t = 512)]
+    /// Evaluation image size (square: one number, or NxN).
+    #[arg(long = "size", alias = "resolution", value_name = "PX", default_value = "512",
+        value_parser = crate::args::parse_square_size)]
     resolution: u32,
     /// GVS++/GVS random rays per round (paper: 10,000,000).
     #[arg(long, default_value_t = 10_000_000)]

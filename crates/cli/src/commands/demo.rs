@@ -46,8 +46,9 @@ pub(crate) struct Args {
     /// Directory for the report.
     #[arg(short, long, default_value = "sightline-report")]
     output: PathBuf,
-    /// Image size (square) of the rendered views (the evaluation uses at most 256).
-    #[arg(long, default_value_t = 512)]
+    /// Image size of the rendered views: square, one number (or NxN); the evaluation uses at
+    /// most 256.
+    #[arg(long, value_name = "PX", default_value = "512", value_parser = crate::args::parse_square_size)]
     size: u32,
     /// View cells baked.
     #[arg(long, default_value_t = 3)]

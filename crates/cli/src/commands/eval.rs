@@ -25,18 +25,31 @@ pub(crate) struct Args {
     #[command(flatten)]
     scene: SceneArgs,
     /// The .pvs file to evaluate (it must have been made for SCENE).
-    #[arg(long)]
-    pvs: PathBuf,
-    /// Viewpoints per cell (randomly shifted Halton points inside the cell).
-    #[arg(long, default_value_t = 2000)]
-    viewpoints: usize,
-    /// Image resolution (square).
-    #[arg(long, default_value_t = 1000)]
-    resolution: u32,
+    #[arg(value_name = "PVS")]
+    pvs_file: Option<PathBuf>,
+    /// The .pvs file: the spelling before the commands shared one convention (hidden).
+    #[arg(
+        long = "pvs",
+        value_name = "PVS",
+        hide = true,
+        conflicts_with = "pvs_file"
+    )]
+    pvs_flag: Option<PathBuf>,
+    /// Viewpoints per cell (randomly shifted Halton points inside the cell) [default: 2000].
+    /// (`--views cube|random`, the old spelling of --view-mode, is still understood.)
+    #[arg(long, value_name = "N", value_parser = parse_views)]
+    views: Option<ViewsArg>,
+    /// The old spelling of --views N (hidden).
+    #[arg(long, value_name = "N", hide = true)]
+    viewpoints: Option<usize>,
+    /// Image size of the evaluation: square, one number (or NxN).
+    #[arg(long, value_name = "PX", alias = "resolution", default_value = "1000",
+        value_parser = crate::args::parse_square_size)]
+    size: u32,
     /// Views per viewpoint: `cube` (six faces, no direction unchecked) or `random` (one
-    /// 90-degree view in a random direction, closer to the paper).
-    #[arg(long, default_value = "cube", value_parser = ["cube", "random"])]
-    views: String,
+    /// 90-degree view in a random direction, closer to the paper) [default: cube].
+    #[arg(long, value_name = "MODE", value_parser = ["cube", "random"])]
+    view_mode: Option<String>,
     /// Only these cells (comma-separated indices).
     #[arg(long, value_delimiter = ',')]
     cells: Vec<usize>,
@@ -55,6 +68,54 @@ pub(crate) struct Args {
     /// Print JSON.
     #[arg(long)]
     json: bool,
+}
+
+/// `--views`: a viewpoint count, as in every command; or, as `eval` spelled it before, the
+/// view mode (`cube` or `random`).
+#[derive(Clone, Debug)]
+enum ViewsArg {
+    Count(usize),
+    Mode(String),
+}
+
+fn parse_views(s: &str) -> Result<ViewsArg, String> {
+    match s {
+        "cube" | "random" => Ok(ViewsArg::Mode(s.to_string())),
+        _ => s.parse().map(ViewsArg::Count).map_err(|_| {
+            format!("'{s}' is not a viewpoint count (the view mode is --view-mode cube|random)")
+        }),
+    }
+}
+
+impl Args {
+    /// The .pvs file, from the positional argument or the old `--pvs`.
+    fn pvs(&self) -> Result<&std::path::Path> {
+        match (&self.pvs_file, &self.pvs_flag) {
+            (Some(p), _) | (None, Some(p)) => Ok(p),
+            (None, None) => bail!("no .pvs file to evaluate: sightline eval SCENE PVS"),
+        }
+    }
+
+    /// Viewpoints per cell and the view mode, from `--views`, `--view-mode` and the old
+    /// `--viewpoints` and `--views cube|random`; the same thing given twice is an error.
+    fn views(&self) -> Result<(usize, String)> {
+        let (count, mode) = match &self.views {
+            Some(ViewsArg::Count(n)) => (Some(*n), None),
+            Some(ViewsArg::Mode(m)) => (None, Some(m.clone())),
+            None => (None, None),
+        };
+        let count = match (count, self.viewpoints) {
+            (Some(_), Some(_)) => bail!("--views N and --viewpoints N say the same: give one"),
+            (a, b) => a.or(b).unwrap_or(2000),
+        };
+        let mode = match (mode, &self.view_mode) {
+            (Some(_), Some(_)) => {
+                bail!("--views cube|random and --view-mode say the same: give --view-mode")
+            }
+            (a, b) => a.or(b.clone()).unwrap_or_else(|| "cube".to_string()),
+        };
+        Ok((count, mode))
+    }
 }
 
 #[derive(Serialize)]
@@ -97,18 +158,18 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if let Some(dir) = &args.images {
         crate::output::refuse_overwriting_inputs(
             &[dir],
-            &[std::path::Path::new(&args.scene.scene), &args.pvs],
+            &[std::path::Path::new(&args.scene.scene), args.pvs()?],
         )?;
     }
     let scene = args.scene.load()?;
-    let file = load_pvs_of(&scene, &args.pvs)?;
+    let file = load_pvs_of(&scene, args.pvs()?)?;
     let plan = plan(&args, &file)?;
     let rows = evaluate_cells(&args, &scene, &file, &plan)?;
     if args.json {
         return print_json(&rows);
     }
     print_table(&rows)?;
-    print_mean(&rows, args.resolution)
+    print_mean(&rows, args.size)
 }
 
 /// What to evaluate, from the checked arguments.
@@ -122,13 +183,14 @@ struct Plan {
 /// Checks the numeric arguments and the cells asked for against `file` (every cell when none
 /// are), and creates the images' folder: the errors a user can fix, before any work.
 fn plan(args: &Args, file: &PvsFile) -> Result<Plan> {
-    if args.viewpoints == 0 || args.resolution == 0 || args.resolution > 8192 {
-        bail!("--viewpoints must be >= 1 and --resolution in 1..=8192");
+    let (viewpoints, mode) = args.views()?;
+    if viewpoints == 0 || args.size > 8192 {
+        bail!("--views must be >= 1 and --size in 1..=8192");
     }
     let params = EvalParams {
-        viewpoints: args.viewpoints,
-        resolution: args.resolution,
-        views: view_mode(&args.views),
+        viewpoints,
+        resolution: args.size,
+        views: view_mode(&mode),
         seed: args.seed,
     };
     let indices: Vec<usize> = if args.cells.is_empty() {
@@ -140,7 +202,7 @@ fn plan(args: &Args, file: &PvsFile) -> Result<Plan> {
         bail!(
             "cell {bad} does not exist ({} cells in {})",
             file.cells.len(),
-            args.pvs.display()
+            args.pvs()?.display()
         );
     }
     if let Some(dir) = &args.images {
@@ -189,7 +251,7 @@ fn evaluate_cells(
                 scene,
                 cell,
                 &worst,
-                args.resolution,
+                args.size,
                 &dir.join(format!("cell{i}_worst.png")),
             )?;
         }

@@ -36,8 +36,8 @@ pub(crate) struct Args {
     /// Viewpoints per cell for the pixel error (randomly shifted Halton points in the cell).
     #[arg(long, value_name = "N", default_value_t = 16)]
     views: usize,
-    /// Image resolution (square) of the evaluation and of the worst views.
-    #[arg(long, value_name = "PX", default_value_t = 256)]
+    /// Image size of the evaluation and of the worst views: square, one number (or NxN).
+    #[arg(long, value_name = "PX", default_value = "256", value_parser = crate::args::parse_square_size)]
     size: u32,
     /// Views per viewpoint: `cube` (six faces) or `random` (one 90-degree view).
     #[arg(long, default_value = "cube", value_parser = ["cube", "random"])]

@@ -233,10 +233,16 @@ pub(crate) struct CompareQ3Args {
     pub(crate) patch_subdivisions: u32,
     /// Also measure the pixel error of both PVSs from this many viewpoints per leaf (inside
     /// the leaf's own cluster), six cube faces each; 0 skips it.
-    #[arg(long, default_value_t = 0)]
+    #[arg(
+        long = "views",
+        alias = "viewpoints",
+        value_name = "N",
+        default_value_t = 0
+    )]
     pub(crate) viewpoints: usize,
-    /// Resolution of those views.
-    #[arg(long, default_value_t = 256)]
+    /// Image size of those views (square: one number, or NxN).
+    #[arg(long = "size", alias = "resolution", value_name = "PX", default_value = "256",
+        value_parser = crate::args::parse_square_size)]
     pub(crate) resolution: u32,
     /// Print JSON.
     #[arg(long)]

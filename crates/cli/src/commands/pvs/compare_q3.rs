@@ -18,11 +18,11 @@ struct ClusterComparison {
     q3map2: usize,
     ours_not_q3map2: usize,
     q3map2_not_ours: usize,
-    /// Average erroneous pixels per view of our PVS and of q3map2's (with --viewpoints).
+    /// Average erroneous pixels per view of our PVS and of q3map2's (with --views).
     ours_avg_error_pixels: Option<f64>,
     q3map2_avg_error_pixels: Option<f64>,
     /// Viewpoints not evaluated (outside the cluster, or unreachable in a bake with reachable
-    /// origins), with --viewpoints.
+    /// origins), with --views.
     rejected_viewpoints: sightline_eval::report::evaluate::Rejected,
 }
 
