@@ -13,7 +13,9 @@ pub(crate) const DEFAULT_SCENE: &str = "procedural:city";
 /// Which scene to load, and how.
 #[derive(clap::Args, Debug, Clone)]
 pub(crate) struct SceneArgs {
-    /// Scene file or `procedural:NAME[?seed=S&size=N]` (default: the embedded procedural city).
+    /// Scene file or `procedural:NAME[?seed=S&size=N]` (NAME: city, rooms, canyon, boxes,
+    /// spheres, spikes, zoneplate, and `cull`'s grid and graveyard; default: the embedded
+    /// procedural city).
     #[arg(value_name = "SCENE", default_value = DEFAULT_SCENE)]
     pub scene: String,
     /// Quake 3 maps: tessellate each bezier sub-patch into N x N quads (0 = leave patches out).
@@ -116,6 +118,10 @@ impl SceneArgs {
                 "--patch-subdivisions {} is above the maximum of 64",
                 self.patch_subdivisions
             );
+        }
+        // `cull`'s own procedural scenes are scenes like any other: their geometry at time 0.
+        if let Some(ours) = crate::cull_scenes::procedural(&self.scene) {
+            return Ok(ours?.scene);
         }
         let scene = scene::open(&self.scene, &options)?;
         print_load_warnings(&self.scene, &scene);

@@ -8,6 +8,7 @@ mod stdout;
 
 mod args;
 mod commands;
+mod cull_scenes;
 mod errors;
 mod features;
 #[cfg(feature = "gpu")]

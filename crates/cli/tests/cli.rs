@@ -809,4 +809,14 @@ fn commands_share_one_vocabulary_and_keep_the_old_spellings() {
     assert!(o.status.success(), "{}", stderr(&o));
     let img = image::open(dir.path().join("r.png")).unwrap();
     assert_eq!((img.width(), img.height()), (40, 40));
+    // `cull`'s procedural scenes are scene specs of every command (their geometry at time 0).
+    for spec in ["procedural:grid?size=2", "procedural:graveyard?size=3"] {
+        let o = sightline(&["info", spec, "--json"], dir.path());
+        assert!(o.status.success(), "{spec}: {}", stderr(&o));
+        let info: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let triangles = info["validation"]["triangles"].as_u64().unwrap();
+        assert!(triangles > 100, "{spec}: {info}");
+    }
+    let o = sightline(&["info", "procedural:grid?size=5000"], dir.path());
+    assert_fails_with(&o, "above the maximum of 1000");
 }

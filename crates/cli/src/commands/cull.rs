@@ -24,7 +24,7 @@ use sightline_core::camera_path::{interpolate, read_camera_path};
 use sightline_core::scene::{self, LoadOptions};
 use sightline_core::validate::validate;
 use sightline_core::{Camera, NearPlaneRule};
-use sightline_cull::scenes::{animate, graveyard, the_grid, walk_keys, CullScene};
+use sightline_cull::scenes::{animate, walk_keys, CullScene};
 use sightline_cull::{
     simulate_methods_with_cameras, FrameStats, Method, SimConfig, SimReport, SoftwareBackend,
 };
@@ -230,50 +230,17 @@ fn simulate_with_progress(
 /// `procedural:grid` / `procedural:graveyard` with `?seed=&size=`, or any scene spec animated
 /// (loaded with `options` and validated as every command does).
 pub(crate) fn load_scene(spec: &str, options: &LoadOptions) -> Result<CullScene> {
-    let (name, query) = spec.split_once('?').unwrap_or((spec, ""));
-    let ours = match name {
-        "procedural:grid" => Some(true),
-        "procedural:graveyard" => Some(false),
-        _ => None,
-    };
-    let Some(is_grid) = ours else {
-        let loaded = scene::open(spec, options).with_context(|| format!("loading scene {spec}"))?;
-        print_load_warnings(spec, &loaded);
-        // The check of `SceneArgs::load`: NaN coordinates or bad indices would reach the
-        // rasterizer and the grid otherwise.
-        if let Err(e) = validate(&loaded).check() {
-            bail!("{spec}: {e}");
-        }
-        return Ok(animate(loaded));
-    };
-    let (mut seed, mut size) = (1u64, if is_grid { 40usize } else { 5000 });
-    for kv in query.split('&').filter(|kv| !kv.is_empty()) {
-        let (k, v) = kv
-            .split_once('=')
-            .with_context(|| format!("{spec}: expected key=value, got {kv:?}"))?;
-        match k {
-            "seed" => {
-                seed = v
-                    .parse()
-                    .with_context(|| format!("{spec}: bad seed {v:?}"))?
-            }
-            "size" => {
-                size = v
-                    .parse()
-                    .with_context(|| format!("{spec}: bad size {v:?}"))?
-            }
-            _ => bail!("{spec}: unknown parameter {k:?} (expected seed, size)"),
-        }
+    if let Some(ours) = crate::cull_scenes::procedural(spec) {
+        return ours;
     }
-    let limit = if is_grid { 1000 } else { 200_000 };
-    if size > limit {
-        bail!("{spec}: size {size} is above the maximum of {limit}");
+    let loaded = scene::open(spec, options).with_context(|| format!("loading scene {spec}"))?;
+    print_load_warnings(spec, &loaded);
+    // The check of `SceneArgs::load`: NaN coordinates or bad indices would reach the
+    // rasterizer and the grid otherwise.
+    if let Err(e) = validate(&loaded).check() {
+        bail!("{spec}: {e}");
     }
-    Ok(if is_grid {
-        the_grid(seed, size)
-    } else {
-        graveyard(seed, size)
-    })
+    Ok(animate(loaded))
 }
 
 /// The camera of every frame: from `--path`, else the procedural scene's own path, else a
