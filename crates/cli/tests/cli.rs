@@ -350,6 +350,10 @@ fn demo_writes_report_with_every_step() {
     ] {
         assert!(html.contains(&format!("<table id=\"{id}\"")), "no {id}");
     }
+    // What the numbers mean for a player: the error on a 1080p frame, the method to ship.
+    assert!(html.contains("<p id=\"error-for-a-player\">For a player: an average of "));
+    assert!(html.contains("<p id=\"culling-advice\">"));
+    assert!(html.contains("Which to ship: ") || html.contains("Every method culled"));
     // Self-contained: images are inline, the PNG files beside it are extras.
     assert!(html.contains("src=\"data:image/png;base64,"));
     assert!(!html.contains("src=\"overview.png"));

@@ -86,7 +86,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         ds::from_point(&from_point),
     ];
     sections.extend(pvs.sections);
-    sections.push(ds::gvspp_vs_rand(&pvs.outcomes));
+    sections.push(ds::gvspp_vs_rand(&pvs.outcomes, args.size.min(256)));
     sections.push(ds::culling(&culling)?);
     let index = write_page(&args, &scene, &sections)?;
     log.progress.finish_and_clear();
