@@ -43,9 +43,13 @@ impl ShearedRay {
     }
 
     /// Prepares `ray`. A ray with a zero direction never hits anything.
+    #[inline]
     pub fn new(ray: &Ray) -> Self {
-        let d = ray.dir;
-        let a = d.abs();
+        // Indexing a plain array rather than `Vec3`: the kz of random directions is
+        // unpredictable, and `Vec3`'s index compiles to a branch per access; an array is one
+        // load.
+        let d = ray.dir.to_array();
+        let a = ray.dir.abs();
         // kz = dimension where the direction is largest.
         let kz = if a.x > a.y {
             if a.x > a.z {
