@@ -308,8 +308,9 @@ fn sort_far_to_near<C: Copy>(entries: &mut [Entry<C>]) {
     fn order<C: Copy>(e: &mut [Entry<C>], i: usize, j: usize) {
         let (a, b) = (e[i], e[j]);
         let swap = a.t < b.t;
-        e[i] = if swap { b } else { a };
-        e[j] = if swap { a } else { b };
+        // A plain `if` compiled to a branch here.
+        e[i] = std::hint::select_unpredictable(swap, b, a);
+        e[j] = std::hint::select_unpredictable(swap, a, b);
     }
     match entries.len() {
         3 => {
