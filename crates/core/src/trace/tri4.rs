@@ -99,12 +99,7 @@ fn intersect4_sse(ray: &ShearedRay, tris: &Tri4) -> ([f32; 4], u32) {
     // SAFETY: SSE is part of the x86_64 baseline, so these intrinsics are available on every
     // x86_64 CPU; they only operate on values (no memory access).
     let (t, mask, zero) = unsafe {
-        // An array, not `Vec3`, indexed by the ray's axes: `Vec3`'s index is a branch per
-        // access, mispredicted for random directions.
-        let origin = ray.origin.to_array();
-        let ox = _mm_set1_ps(origin[kx]);
-        let oy = _mm_set1_ps(origin[ky]);
-        let oz = _mm_set1_ps(origin[kz]);
+        let [ox, oy, oz] = ray.origin_k.map(|o| _mm_set1_ps(o));
         let sx = _mm_set1_ps(ray.sx);
         let sy = _mm_set1_ps(ray.sy);
         let sz = _mm_set1_ps(ray.sz);

@@ -18,6 +18,9 @@ use crate::geometry::Ray;
 #[derive(Clone, Copy, Debug)]
 pub struct ShearedRay {
     pub(super) origin: Vec3,
+    /// `origin` permuted to `[origin[kx], origin[ky], origin[kz]]`, for the packet test
+    /// (`tri4.rs`), which would otherwise permute it for every packet.
+    pub(super) origin_k: [f32; 3],
     pub(super) kx: usize,
     pub(super) ky: usize,
     pub(super) kz: usize,
@@ -74,6 +77,10 @@ impl ShearedRay {
         };
         Self {
             origin: ray.origin,
+            origin_k: {
+                let o = ray.origin.to_array();
+                [o[kx], o[ky], o[kz]]
+            },
             kx,
             ky,
             kz,
