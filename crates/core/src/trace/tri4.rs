@@ -99,9 +99,7 @@ fn intersect4_sse(ray: &ShearedRay, tris: &Tri4) -> ([f32; 4], u32) {
     // SAFETY: SSE is part of the x86_64 baseline, so these intrinsics are available on every
     // x86_64 CPU; they only operate on values (no memory access).
     let (t, mask, zero) = unsafe {
-        let ox = _mm_set1_ps(ray.origin[kx]);
-        let oy = _mm_set1_ps(ray.origin[ky]);
-        let oz = _mm_set1_ps(ray.origin[kz]);
+        let [ox, oy, oz] = ray.origin_k.map(|o| _mm_set1_ps(o));
         let sx = _mm_set1_ps(ray.sx);
         let sy = _mm_set1_ps(ray.sy);
         let sz = _mm_set1_ps(ray.sz);

@@ -18,6 +18,9 @@ use crate::geometry::Ray;
 #[derive(Clone, Copy, Debug)]
 pub struct ShearedRay {
     pub(super) origin: Vec3,
+    /// `origin` permuted to `[origin[kx], origin[ky], origin[kz]]`, for the packet test
+    /// (`tri4.rs`), which would otherwise permute it for every packet.
+    pub(super) origin_k: [f32; 3],
     pub(super) kx: usize,
     pub(super) ky: usize,
     pub(super) kz: usize,
@@ -43,9 +46,13 @@ impl ShearedRay {
     }
 
     /// Prepares `ray`. A ray with a zero direction never hits anything.
+    #[inline]
     pub fn new(ray: &Ray) -> Self {
-        let d = ray.dir;
-        let a = d.abs();
+        // Indexing a plain array rather than `Vec3`: the kz of random directions is
+        // unpredictable, and `Vec3`'s index compiles to a branch per access; an array is one
+        // load.
+        let d = ray.dir.to_array();
+        let a = ray.dir.abs();
         // kz = dimension where the direction is largest.
         let kz = if a.x > a.y {
             if a.x > a.z {
@@ -70,6 +77,10 @@ impl ShearedRay {
         };
         Self {
             origin: ray.origin,
+            origin_k: {
+                let o = ray.origin.to_array();
+                [o[kx], o[ky], o[kz]]
+            },
             kx,
             ky,
             kz,

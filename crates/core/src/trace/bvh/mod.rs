@@ -37,15 +37,18 @@
 //! the scene is not touched while tracing.
 //!
 //! # Memory
-//! Per triangle that is kept (degenerate ones are dropped), with 8-wide nodes: about 48 bytes
-//! of packets (3.4 triangles per packet) plus 13 to 17 bytes of nodes, so 61 bytes per
-//! triangle on the 1M-triangle procedural city and 64 to 66 on munich, czest3ctf and the
-//! Stanford bunny ([`Bvh::memory_bytes`]; 4-wide nodes took about 60 on the city). The build
+//! Per triangle that is kept (degenerate ones are dropped), with 8-wide nodes: about 42 to 46
+//! bytes of packets (3.5 to 3.8 triangles per packet: the SAH costs leaves by packet lanes)
+//! plus 12 to 17 bytes of nodes, so 57 bytes per triangle on the 1M-triangle procedural city,
+//! 58 to 61 on munich, czest3ctf, the Stanford bunny and the Stanford dragon
+//! ([`Bvh::memory_bytes`]; before packet-lane costs: 61 to 68). The build
 //! peaks at about 220 bytes per triangle (24-byte boxes, their 32-byte SIMD copy and 16-byte
 //! centres, 4-byte ids, and an uncompacted binary node array of 64 bytes per triangle), i.e.
 //! about 2.2 GB for 10M triangles.
 //!
 //! # Exactness
+//! Rays with a finite inverse direction (almost all) take a cheaper slab test on the bits of
+//! the distances as integers, which enters every box the float test enters (`slab.rs`).
 //! Leaves use the same watertight test as [`super::BruteForce`] (four lanes at a time with the
 //! same bits, see `tri4.rs`) and ties in `t` go to the lower triangle id, so hits equal brute
 //! force bit for bit. Box tests are only ever made more conservative (Ize's slack on the far

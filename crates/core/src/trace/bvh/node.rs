@@ -61,6 +61,15 @@ pub(super) trait WideNode: Copy + Sized {
     /// The CPU must have what [`WideNode::supported`] checks.
     unsafe fn enter(&self, ray: &BoxRay, t_far: f32, far_slack: f32) -> (Self::Dists, u32);
 
+    /// [`WideNode::enter`] with the traversal's far slack for a ray whose [`BoxRay::finite`]
+    /// holds: the same entry distances, and a mask of at least the lanes `enter` gives. A
+    /// layout with a cheaper kernel for such rays gives `BoxRay::enter_finite_scalar`'s bits;
+    /// one without calls `enter`.
+    ///
+    /// # Safety
+    /// As [`WideNode::enter`]; `ray.finite` holds.
+    unsafe fn enter_finite(&self, ray: &BoxRay, t_far: f32) -> (Self::Dists, u32);
+
     /// Closest hits of `rays` by [`super::traverse::cast`], compiled with the CPU features
     /// [`WideNode::enter`] needs.
     ///
@@ -97,34 +106,35 @@ impl<N: WideNode> Tree<'_, N> {
     /// the farther children it enters and pops most of them later, when a cache miss would
     /// stall the loop; on scenes larger than the caches a traversal is bound by such misses,
     /// and a hint costs a few instructions.
+    ///
+    /// The address is picked without a branch (node or packet is unpredictable for incoherent
+    /// rays), and the same run of lines is fetched for both: the larger of a node and a
+    /// packet (with 8-wide nodes, a packet and the start of the next one, a leaf's second
+    /// packet when it has one).
     #[inline(always)]
     pub(super) fn prefetch(&self, child: N::Child) {
         let (index, packets) = N::decode(child);
-        if packets > 0 {
-            if let Some(p) = self.packets.get(index) {
-                prefetch_lines(p);
-            }
-        } else if let Some(n) = self.nodes.get(index) {
-            prefetch_lines(n);
-        }
+        let node = self.nodes.as_ptr().wrapping_add(index).cast::<i8>();
+        let packet = self.packets.as_ptr().wrapping_add(index).cast::<i8>();
+        let start = if packets > 0 { packet } else { node };
+        let size = std::mem::size_of::<N>().max(std::mem::size_of::<Tri4>());
+        prefetch_lines(start, size);
     }
 }
 
-/// One prefetch hint per 64 bytes of `*value` and one for its last byte, which covers every
-/// cache line it touches. Unlike `crate::prefetch::prefetch`, which counts the lines at run
-/// time in a loop, this unrolls to a few instructions for the fixed sizes of nodes and
-/// packets, in a loop that runs for every pushed child.
+/// One prefetch hint per 64 bytes of the `size` bytes from `start` and one for the last
+/// byte, which covers every cache line they touch, unrolled for the fixed sizes of nodes (a
+/// generic helper that counts the lines at run time looped for every pushed child). A
+/// prefetch never faults, so `start` may point anywhere.
 #[inline(always)]
-fn prefetch_lines<T>(value: &T) {
+fn prefetch_lines(start: *const i8, size: usize) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let start = (value as *const T).cast::<i8>();
-        let size = std::mem::size_of::<T>();
         let mut offset = 0;
         while offset < size {
             // SAFETY: SSE is part of the x86-64 baseline, and a prefetch never faults nor
-            // reads anything into the program; the addresses lie within `*value` anyway.
+            // reads anything into the program, whatever the address.
             unsafe { _mm_prefetch::<_MM_HINT_T0>(start.wrapping_add(offset)) };
             offset += 64;
         }
@@ -132,5 +142,5 @@ fn prefetch_lines<T>(value: &T) {
         unsafe { _mm_prefetch::<_MM_HINT_T0>(start.wrapping_add(size.max(1) - 1)) };
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = value;
+    let _ = (start, size);
 }

@@ -21,7 +21,7 @@ use crate::geometry::{Hit, Ray};
 use super::build::Node;
 use super::node::{Entry, Tree, WideNode};
 use super::slab::{empty_boxes, lane_box, set_lane, BoxRay, Boxes};
-use super::traverse::{self, stack_size};
+use super::traverse::{self, stack_size, ROBUST_FAR};
 
 /// A 4-wide node (see the module documentation). Unused slots have [`empty_boxes`]'
 /// never-entered boxes.
@@ -103,6 +103,13 @@ impl WideNode for Node4 {
         }
     }
 
+    #[inline(always)]
+    unsafe fn enter_finite(&self, ray: &BoxRay, t_far: f32) -> ([f32; 4], u32) {
+        // SSE2 has no 32-bit integer max and min (SSE4.1 does), so the NaN-aware test serves.
+        // SAFETY: as `enter`, which the caller's guarantee covers.
+        unsafe { self.enter(ray, t_far, ROBUST_FAR) }
+    }
+
     unsafe fn cast(tree: Tree<'_, Self>, rays: &[Ray], hits: &mut [Hit]) {
         // SAFETY: `enter` needs nothing beyond the baseline (`supported` is always true).
         unsafe { traverse::cast(tree, rays, hits) }
@@ -170,5 +177,18 @@ mod tests {
     fn simd_equals_scalar_on_random_boxes() {
         // Every fifth node leaves lane 3 an empty slot.
         kernel_tests::equals_scalar_on_random_boxes(enter, |i| if i % 5 == 0 { 3 } else { 4 });
+    }
+
+    #[test]
+    fn finite_test_is_the_nan_aware_test() {
+        kernel_tests::finite_cases::<4>(|i, r, boxes, t_far| {
+            let node = Node4 {
+                bounds: *boxes,
+                ..Node4::EMPTY
+            };
+            // SAFETY: the 4-wide test needs nothing beyond the x86-64 baseline.
+            let finite = unsafe { node.enter_finite(r, t_far) };
+            assert_eq!(finite, enter(r, boxes, t_far, ROBUST_FAR), "case {i}");
+        });
     }
 }

@@ -142,7 +142,14 @@ fn count_ray<N: WideNode>(
         }
         s.nodes += 1;
         // SAFETY: `Bvh::build_with` only builds a layout where the CPU runs its box test.
-        let (t, mask) = unsafe { nodes[index].enter(&r, t_far, ROBUST_FAR) };
+        // As `traverse::walk` picks it.
+        let (t, mask) = unsafe {
+            if r.finite {
+                nodes[index].enter_finite(&r, t_far)
+            } else {
+                nodes[index].enter(&r, t_far, ROBUST_FAR)
+            }
+        };
         let mut kids: Vec<_> = (0..N::WIDTH)
             .filter(|&l| mask & (1 << l) != 0)
             .map(|l| Entry {

@@ -9,6 +9,9 @@
 //! CPU Architectures. JCGT 4(5), 2015 (the same loop over 8-wide nodes; insertion-sorting the
 //! entered children on the stack).
 //! Based on: Ize. Robust BVH ray traversal. JCGT 2(2), 2013 (the `1 + 2 gamma(3)` slab slack).
+//! Embree's `bvh_traverser1.h` and `node_intersector1.h` (read, not copied) for the integer
+//! `max`/`min` of the slab bounds (`slab.rs`, rays with a finite inverse direction) and the
+//! sorting network over three or four entered children.
 //!
 //! # Exactness
 //! Box tests are only ever made more conservative (Ize's slack on the far distance, a relative
@@ -22,13 +25,8 @@ use crate::trace::triangle::ShearedRay;
 
 use super::build::MAX_SAH_DEPTH;
 use super::node::{Entry, Tree, WideNode};
-use super::slab::BoxRay;
+use super::slab::{gamma, BoxRay};
 
-/// `gamma(n) = n eps / (1 - n eps)` of Pharr et al. with `eps = 2^-24`.
-const fn gamma(n: f32) -> f32 {
-    let eps = f32::EPSILON * 0.5;
-    n * eps / (1.0 - n * eps)
-}
 /// Ize 2013: scaling far slab distances by this makes the box test conservative.
 pub(super) const ROBUST_FAR: f32 = 1.0 + 2.0 * gamma(3.0);
 /// Relative slack on the distances a box is culled against. The leaf test's `t` is a convex
@@ -187,7 +185,33 @@ unsafe fn traverse<N: WideNode>(
     let Some(r) = BoxRay::new(ray, t_min) else {
         return true;
     };
-    let mut t_far = slack_up(ray.t_max);
+    let t_far = slack_up(ray.t_max);
+    // SAFETY: the caller guarantees the CPU features and a non-empty tree; `walk::<_, true>`
+    // is only called when `r.finite` holds.
+    unsafe {
+        if r.finite {
+            walk::<N, true>(tree, &r, t_far, stack, leaf)
+        } else {
+            walk::<N, false>(tree, &r, t_far, stack, leaf)
+        }
+    }
+}
+
+/// The loop of [`traverse`] for the prepared ray `r`, with `t_far` the culling distance while
+/// nothing is hit. `FINITE` picks the box test: [`WideNode::enter_finite`] (only where
+/// `r.finite`), else [`WideNode::enter`]; almost every ray takes the first (a zero direction
+/// component or a negative `t_min` takes the second), each compiled as its own loop.
+///
+/// # Safety
+/// As [`traverse`]; `r.finite` holds when `FINITE` is true.
+#[inline(always)]
+unsafe fn walk<N: WideNode, const FINITE: bool>(
+    tree: Tree<'_, N>,
+    r: &BoxRay,
+    mut t_far: f32,
+    stack: &mut [Entry<N::Child>],
+    leaf: &mut impl Leaf,
+) -> bool {
     let mut top = 0usize;
     // The root, an inner node.
     let mut current = Entry::<N::Child>::default();
@@ -200,8 +224,14 @@ unsafe fn traverse<N: WideNode>(
             }
         } else {
             let node = &tree.nodes[index];
-            // SAFETY: the caller guarantees the CPU features.
-            let (t, mut mask) = unsafe { node.enter(&r, t_far, ROBUST_FAR) };
+            // SAFETY: the caller guarantees the CPU features, and `r.finite` for `FINITE`.
+            let (t, mut mask) = unsafe {
+                if FINITE {
+                    node.enter_finite(r, t_far)
+                } else {
+                    node.enter(r, t_far, ROBUST_FAR)
+                }
+            };
             if mask != 0 {
                 let entry = |lane: u32| {
                     // The mask keeps the index in range without a bounds check.
@@ -246,15 +276,7 @@ unsafe fn traverse<N: WideNode>(
                 for e in &stack[pushed..top] {
                     tree.prefetch(e.child);
                 }
-                for i in pushed + 1..top {
-                    let e = stack[i];
-                    let mut j = i;
-                    while j > pushed && stack[j - 1].t < e.t {
-                        stack[j] = stack[j - 1];
-                        j -= 1;
-                    }
-                    stack[j] = e;
-                }
+                sort_far_to_near(&mut stack[pushed..top]);
                 top -= 1;
                 current = stack[top];
                 continue;
@@ -269,6 +291,49 @@ unsafe fn traverse<N: WideNode>(
             if stack[top].t <= t_far {
                 current = stack[top];
                 break;
+            }
+        }
+    }
+}
+
+/// Sorts the entries of one node's entered children, farthest first. Three and four (most
+/// nodes an incoherent ray enters more than two children of) go through a sorting network of
+/// selects, as Embree's traverser does: an insertion sort's branches are mispredicted about
+/// once per such node. Equal distances may come out in any order (the closest hit does not
+/// depend on it).
+#[inline(always)]
+fn sort_far_to_near<C: Copy>(entries: &mut [Entry<C>]) {
+    /// Puts the farther of entries `i` and `j` (`i < j`) at `i`.
+    #[inline(always)]
+    fn order<C: Copy>(e: &mut [Entry<C>], i: usize, j: usize) {
+        let (a, b) = (e[i], e[j]);
+        let swap = a.t < b.t;
+        // A plain `if` compiled to a branch here.
+        e[i] = std::hint::select_unpredictable(swap, b, a);
+        e[j] = std::hint::select_unpredictable(swap, a, b);
+    }
+    match entries.len() {
+        3 => {
+            order(entries, 0, 1);
+            order(entries, 1, 2);
+            order(entries, 0, 1);
+        }
+        4 => {
+            order(entries, 0, 1);
+            order(entries, 2, 3);
+            order(entries, 0, 2);
+            order(entries, 1, 3);
+            order(entries, 1, 2);
+        }
+        _ => {
+            for i in 1..entries.len() {
+                let e = entries[i];
+                let mut j = i;
+                while j > 0 && entries[j - 1].t < e.t {
+                    entries[j] = entries[j - 1];
+                    j -= 1;
+                }
+                entries[j] = e;
             }
         }
     }
