@@ -670,3 +670,110 @@ fn walkable_cells_sit_at_eye_height_and_round_trip_through_a_cells_file() {
     let o = bake(&["--walkable", "0", "-o", "bad.pvs"]);
     assert_fails_with(&o, "cell size 0");
 }
+
+/// `pvs merge-cells`: with no similarity asked, the whole 4x2 grid becomes one cell whose set is
+/// the union of all (the PVS of the joined region); with equal sets asked, nothing merges; the
+/// input is never overwritten and bad thresholds are refused.
+#[test]
+fn merge_cells_joins_neighbours_into_their_union() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "procedural:city?size=1500";
+    let o = sightline(
+        &[
+            "pvs",
+            "bake",
+            scene,
+            "--grid",
+            "4,2,1",
+            "--bounds=-100,-100,1,100,100,3",
+            "--rays",
+            "5000",
+            "-o",
+            "a.pvs",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let show = |file: &str| {
+        let o = sightline(&["pvs", "show", file, "--json"], dir.path());
+        assert!(o.status.success(), "{}", stderr(&o));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
+    };
+    let before = show("a.pvs");
+    let merge = |args: &[&str]| {
+        let mut all = vec!["pvs", "merge-cells", "a.pvs", "--json"];
+        all.extend_from_slice(args);
+        let o = sightline(&all, dir.path());
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
+    };
+    let all = merge(&[
+        "-o",
+        "one.pvs",
+        "--min-similarity",
+        "0",
+        "--max-growth",
+        "1000",
+    ]);
+    assert_eq!(
+        (all["cells_before"].as_u64(), all["cells_after"].as_u64()),
+        (Some(8), Some(1))
+    );
+    let one = show("one.pvs");
+    let cells = one["cells"].as_array().unwrap();
+    assert_eq!(cells.len(), 1);
+    let mut union: Vec<u64> = before["cells"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|c| {
+            c["triangles"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|t| t.as_u64().unwrap())
+        })
+        .collect();
+    union.sort_unstable();
+    union.dedup();
+    let merged: Vec<u64> = cells[0]["triangles"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t.as_u64().unwrap())
+        .collect();
+    assert_eq!(merged, union);
+    let from = &one["metadata"]["cells"][0]["merged_from"];
+    assert_eq!(from.as_array().unwrap().len(), 8, "{from}");
+    let none = merge(&[
+        "-o",
+        "same.pvs",
+        "--min-similarity",
+        "1",
+        "--max-growth",
+        "0",
+    ]);
+    assert_eq!(
+        none["cells_after"],
+        before["cells"].as_array().unwrap().len()
+    );
+    assert_fails_with(
+        &sightline(&["pvs", "merge-cells", "a.pvs", "-o", "a.pvs"], dir.path()),
+        "refusing to overwrite an input",
+    );
+    assert_fails_with(
+        &sightline(
+            &[
+                "pvs",
+                "merge-cells",
+                "a.pvs",
+                "-o",
+                "b.pvs",
+                "--min-similarity",
+                "1.5",
+            ],
+            dir.path(),
+        ),
+        "outside 0..=1",
+    );
+}

@@ -11,6 +11,7 @@ pub mod gvs;
 pub mod gvspp;
 pub mod hull_box;
 pub mod incremental;
+pub mod merge_similar;
 pub mod methods;
 pub mod pvs_file;
 pub mod pvs_objects;

@@ -25,6 +25,13 @@ pub(crate) enum What {
     Show(ShowArgs),
     /// Join the shard files of a bake (`pvs bake --shard I/N`) into one .pvs, cells in order.
     Merge(MergeArgs),
+    /// Merge neighbouring cells whose PVSs are nearly the same (fewer cells at run time): two
+    /// axis-aligned cells sharing a whole face become their union box with the union of their
+    /// sets (exactly the PVS of the joined region), most similar first, while the Jaccard
+    /// similarity of the sets is at least --min-similarity and the larger set grows by at most
+    /// --max-growth. Per-cell statistics are summed; `metadata.cells[i].merged_from` lists the
+    /// original cells.
+    MergeCells(MergeCellsArgs),
     /// Compare two .pvs files of the same scene cell by cell. Exit status as `diff`: 0 when
     /// every cell's set is equal, 1 when some differ (with a summary line: cells differing,
     /// triangles only in the second file = added, only in the first = removed), 2 on errors.
@@ -194,6 +201,26 @@ pub(crate) struct MergeArgs {
     /// cells' global indices in `cell_indices`).
     #[arg(long)]
     pub(crate) allow_partial: bool,
+    /// Print a JSON summary.
+    #[arg(long)]
+    pub(crate) json: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub(crate) struct MergeCellsArgs {
+    /// The .pvs file.
+    pub(crate) file: PathBuf,
+    /// Output .pvs file (written atomically; never the input).
+    #[arg(short, long)]
+    pub(crate) output: PathBuf,
+    /// The least similarity (shared triangles over triangles of either, 0 to 1) of two cells'
+    /// sets that may merge.
+    #[arg(long, value_name = "S", default_value_t = 0.9)]
+    pub(crate) min_similarity: f64,
+    /// The most a merged set may exceed the larger of its two parts, as a fraction (0.1 =
+    /// 10 %).
+    #[arg(long, value_name = "F", default_value_t = 0.1)]
+    pub(crate) max_growth: f64,
     /// Print a JSON summary.
     #[arg(long)]
     pub(crate) json: bool,

@@ -1,7 +1,7 @@
 //! `sightline pvs`: bake, show, diff and compare potentially visible sets.
 //!
 //! The face: `run` dispatches to one file per subcommand (`bake.rs` with merge, `show.rs`,
-//! `diff.rs`, `compare_q3.rs`); the arguments are in `args.rs`, the bake's cell sources in
+//! `diff.rs`, `compare_q3.rs`, `merge_cells.rs`); the arguments are in `args.rs`, the bake's cell sources in
 //! `cells.rs`.
 
 mod args;
@@ -9,6 +9,7 @@ mod bake;
 mod cells;
 mod compare_q3;
 mod diff;
+mod merge_cells;
 mod show;
 
 use anyhow::Result;
@@ -18,6 +19,7 @@ use args::What;
 use bake::{run_bake, run_merge};
 use compare_q3::run_compare_q3;
 use diff::run_diff;
+use merge_cells::run_merge_cells;
 use show::run_show;
 
 use crate::errors::ExitStatus;
@@ -27,6 +29,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         What::Bake(a) => run_bake(*a),
         What::Show(a) => run_show(a),
         What::Merge(a) => run_merge(a),
+        What::MergeCells(a) => run_merge_cells(a),
         // As `diff`: 0 same sets, 1 different, 2 trouble (unreadable or unrelated files).
         What::Diff(a) => run_diff(a).map_err(|e| match e.downcast_ref::<ExitStatus>() {
             Some(_) => e,
