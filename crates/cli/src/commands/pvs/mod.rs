@@ -2,13 +2,14 @@
 //!
 //! The face: `run` dispatches to one file per subcommand (`bake.rs` with merge, `show.rs`,
 //! `diff.rs`, `compare_q3.rs`); the arguments are in `args.rs`, the bake's cell sources in
-//! `cells.rs`.
+//! `cells.rs`, its GPU caster in `gpu.rs`.
 
 mod args;
 mod bake;
 mod cells;
 mod compare_q3;
 mod diff;
+mod gpu;
 mod show;
 
 use anyhow::Result;
