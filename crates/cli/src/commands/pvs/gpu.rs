@@ -51,8 +51,12 @@ impl GpuCaster {
 pub(super) fn gpu_caster(scene: &Scene, cells: usize) -> Result<GpuCaster> {
     let caster = sightline_gpu::GpuRayCaster::new(scene, Default::default())?;
     let info = caster.adapter_info();
+    let batching = match cells {
+        1 => "each cell's rounds alone".to_string(),
+        n => format!("the rounds of {n} cells at once in one batch"),
+    };
     eprintln!(
-        "casting rays on {} ({:?}), {cells} cells at once",
+        "casting rays on {} ({:?}), {batching}",
         info.name, info.device_type
     );
     if !caster.exact() {
