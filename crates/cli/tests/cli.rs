@@ -519,6 +519,47 @@ fn bench_trace_gpu_measures_the_gpu_caster_beside_the_cpu() {
 }
 
 #[test]
+fn bench_pvs_gpu_repeats_gvspp_on_the_gpu_with_the_same_sets() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = [
+        "bench",
+        "pvs",
+        "--device",
+        "gpu",
+        "--cells",
+        "2",
+        "--viewpoints",
+        "2",
+        "--resolution",
+        "32",
+        "--n-rand",
+        "2000",
+        "--time-budgets",
+        "none",
+        "--ray-budgets",
+        "6000",
+        "--equal-time-only",
+        "--json",
+        "procedural:rooms?seed=2&size=2000",
+    ];
+    let o = sightline(&args, dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let rows = v.as_array().unwrap();
+    let methods: Vec<&str> = rows.iter().map(|r| r["method"].as_str().unwrap()).collect();
+    assert_eq!(methods, ["GVS++", "RAND", "GVS++ GPU"]);
+    let (cpu, gpu) = (&rows[0], &rows[2]);
+    // Bit-identical hits on lavapipe (SHADER_F64): the same rays, the same sets.
+    assert_eq!(gpu["differing_cells"], 0);
+    assert!(cpu.get("differing_cells").is_none());
+    assert_eq!(gpu["budget"], cpu["budget"]);
+    assert_eq!(gpu["mean_rays"], cpu["mean_rays"]);
+    assert_eq!(gpu["pvs_percent"], cpu["pvs_percent"]);
+    assert!(gpu["mean_seconds"].as_f64().unwrap() > 0.0);
+    assert!(stderr(&o).contains("GVS++ GPU rows: "), "{}", stderr(&o));
+}
+
+#[test]
 fn bench_trace_rejects_an_unknown_device() {
     let dir = tempfile::tempdir().unwrap();
     let o = sightline(&["bench", "trace", "--device", "tpu"], dir.path());

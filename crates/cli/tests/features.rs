@@ -81,6 +81,15 @@ fn gpu_trace_bench_needs_the_gpu_feature() {
 }
 
 #[test]
+fn gpu_pvs_bench_needs_the_gpu_feature() {
+    refused_without(
+        "gpu",
+        GPU,
+        &["bench", "pvs", "missing.obj", "--device", "gpu"],
+    );
+}
+
+#[test]
 fn the_viewer_needs_the_viewer_feature() {
     refused_without("viewer", VIEWER, &["view", "missing.obj"]);
 }

@@ -49,23 +49,28 @@ fn cell_triangles(dir: &Path, file: &str) -> Vec<serde_json::Value> {
 fn gpu_bake_equals_cpu_bake() {
     // GVS++ under a ray budget goes through random, border and reverse sampling; the GPU
     // caster's hits are bit-identical to the CPU's (lavapipe has SHADER_F64), so every
-    // decision and the sets are the same.
+    // decision and the sets are the same: with the cells' rounds batched together (the
+    // default, --gpu-cells 16) and with each cell's rounds alone (--gpu-cells 1).
     let dir = tempfile::tempdir().unwrap();
-    for device in ["cpu", "gpu"] {
-        let out = format!("{device}.pvs");
-        let o = bake_two_cells(
-            dir.path(),
-            &[
-                "--rays", "60000", "--seed", "5", "--device", device, "-o", &out,
-            ],
-        );
-        assert!(o.status.success(), "{device}: {}", stderr(&o));
+    let runs: [(&str, &[&str]); 3] = [
+        ("cpu", &["--device", "cpu"]),
+        ("gpu", &["--device", "gpu"]),
+        ("gpu1", &["--device", "gpu", "--gpu-cells", "1"]),
+    ];
+    for (name, device) in runs {
+        let out = format!("{name}.pvs");
+        let budget = ["--rays", "60000", "--seed", "5", "-o", &out];
+        let o = bake_two_cells(dir.path(), &[&budget[..], device].concat());
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        if name == "gpu" {
+            assert!(stderr(&o).contains(" batches ("), "{}", stderr(&o));
+        }
     }
     let cpu = cell_triangles(dir.path(), "cpu.pvs");
-    let gpu = cell_triangles(dir.path(), "gpu.pvs");
     assert_eq!(cpu.len(), 2);
     assert!(cpu.iter().all(|t| t.as_array().unwrap().len() > 10));
-    assert_eq!(cpu, gpu);
+    assert_eq!(cell_triangles(dir.path(), "gpu.pvs"), cpu);
+    assert_eq!(cell_triangles(dir.path(), "gpu1.pvs"), cpu);
 }
 
 #[test]

@@ -3,8 +3,8 @@
 use sightline_core::scene::{self, LoadOptions};
 use sightline_core::{Camera, Scene};
 use sightline_eval::bench::{
-    bench_pvs_scene, bench_raster, bench_share, equal_budget_pairs, BenchError, PvsBenchOptions,
-    ShareBenchOptions, INDEPENDENT, SHARED,
+    bench_pvs_scene, bench_pvs_scene_on, bench_raster, bench_share, equal_budget_pairs, BenchError,
+    PvsBenchOptions, SecondCaster, ShareBenchOptions, INDEPENDENT, SHARED,
 };
 
 fn city(triangles: usize) -> Scene {
@@ -58,6 +58,50 @@ fn pvs_compares_gvspp_and_rand_at_the_same_ray_budget() {
         ("GVS++", "RAND")
     );
     assert_eq!(*messages.borrow(), ["city: cell 1/2", "city: cell 2/2"]);
+}
+
+/// A caster that casts like the BVH but drops every hit on an even triangle: a second caster
+/// whose sets must come out different.
+struct Blind(sightline_core::trace::Bvh);
+
+impl sightline_core::trace::RayCaster for Blind {
+    fn cast(&self, rays: &[sightline_core::Ray], hits: &mut [sightline_core::Hit]) {
+        self.0.cast(rays, hits);
+        for h in hits.iter_mut().filter(|h| h.triangle % 2 == 0) {
+            *h = sightline_core::Hit::MISS;
+        }
+    }
+}
+
+#[test]
+fn pvs_second_caster_repeats_the_gvspp_rows_with_equal_sets() {
+    let scene = city(3000);
+    let options = small_pvs_options();
+    let bvh = sightline_core::trace::Bvh::build(&scene);
+    let second = SecondCaster {
+        method: "GVS++ copy",
+        caster: &bvh,
+    };
+    let report = bench_pvs_scene_on("city", &scene, &options, Some(second), None).unwrap();
+    let rows = &report.rows;
+    let methods: Vec<&str> = rows.iter().map(|r| r.method.as_str()).collect();
+    assert_eq!(methods, ["GVS++", "RAND", "GVS++ copy"]);
+    let (cpu, copy) = (&rows[0], &rows[2]);
+    assert_eq!(copy.budget, cpu.budget);
+    assert_eq!(copy.differing_cells, Some(0));
+    assert_eq!(cpu.differing_cells, None);
+    // The same caster gives the same rays and sets, so the same error and size.
+    assert_eq!(copy.mean_rays, cpu.mean_rays);
+    assert_eq!(copy.pvs_percent, cpu.pvs_percent);
+    assert_eq!(copy.avg_error_pixels, cpu.avg_error_pixels);
+    // A caster that misses half the triangles finds other sets, and is counted.
+    let blind = Blind(sightline_core::trace::Bvh::build(&scene));
+    let second = SecondCaster {
+        method: "GVS++ blind",
+        caster: &blind,
+    };
+    let report = bench_pvs_scene_on("city", &scene, &options, Some(second), None).unwrap();
+    assert_eq!(report.rows[2].differing_cells, Some(2));
 }
 
 /// RAND with `self.0` rays when unlimited (RAND's own default, 10 M rays, takes a minute).

@@ -86,6 +86,12 @@ pub enum GpuError {
     /// A shader or pipeline failed to compile or validate (a bug, or a driver's).
     #[error("GPU shader failed: {0}")]
     Shader(String),
+    /// A cell-batching caster for zero cells at once.
+    #[error("cells batched at once must be at least 1")]
+    ZeroCells,
+    /// Starting the threads of a cell-batching caster failed.
+    #[error("starting the batching threads failed: {0}")]
+    Threads(String),
 }
 
 /// Checks that `info` describes a Vulkan adapter.

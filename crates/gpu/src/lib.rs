@@ -19,6 +19,9 @@
 //!   [`GpuRayCaster::with_device`]; its exactness against the CPU caster, the node width
 //!   chosen and why are in its module documentation. `sightline bench trace --device gpu`
 //!   measures it beside the CPU casters, `sightline pvs bake --device gpu` bakes with it.
+//! - `cell_batching.rs`: [`CellBatchingCaster`], which runs many cells of a bake at once and
+//!   casts their rounds' rays as one batch (any caster inside; the GPU's in `pvs bake
+//!   --device gpu`), with the per-cell bake's results.
 //! - `ray_layout.rs`: the CPU BVH (`sightline_core::trace::bvh::FlatBvh`) and rays in the
 //!   shader's layout; the traversal-stack depth check.
 //!
@@ -57,11 +60,13 @@
 //! ```
 #![deny(missing_docs)]
 
+mod cell_batching;
 mod device;
 mod occlusion_query;
 mod ray_cast;
 mod ray_layout;
 
+pub use cell_batching::{CellBatchingCaster, CellBatchingOptions, CellBatchingStats};
 pub use device::{check_vulkan, pick_adapter, vulkan_device, GpuError};
 pub use occlusion_query::{GpuBackend, GpuFrameStats, MeshId, QueryOutcome};
 pub use ray_cast::{GpuRayCaster, GpuRayCasterOptions, APPROXIMATE_T_ULPS};

@@ -8,6 +8,9 @@ use wgpu::{AdapterInfo, Device, Queue};
 
 /// The adapter is Vulkan, and a missing adapter is a loud failure.
 mod adapter;
+/// A many-cell GVS++ bake through the cell-batching caster over the GPU caster: the per-cell
+/// GPU bake's and the CPU bake's sets, in fewer batches than calls.
+mod cell_batching;
 /// The compute-shader ray caster against the CPU caster: same triangles, same `t` bits (with
 /// `SHADER_F64`), on the bunny, a city and a Quake 3 map; unusable rays, chunks, errors.
 mod ray_cast;

@@ -13,6 +13,7 @@ use glam::Vec3;
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
+use sightline_core::trace::RayCaster;
 use sightline_core::TriangleSet;
 use sightline_region::bake::{cell_stats, BakeSetup};
 use sightline_region::checkpoint::{fingerprint, BakeProgress, ResumableBake};
@@ -24,6 +25,7 @@ use sightline_region::{Budget, CellContext, PvsFile, Sampler, ViewCell};
 
 use crate::cells::PyViewCell;
 use crate::convert::{ids_array, value_error};
+use crate::device::BakeCaster;
 use crate::pvs::PyPvs;
 use crate::run::{progress_callback, run_interruptible, Control, Stopped};
 use crate::scene::{PyScene, SceneData};
@@ -410,7 +412,9 @@ fn bake_batch_py<'py>(
 /// same per-cell statistics in its metadata. `threads`: bake threads (default all cores; far
 /// more than the cores are capped, with a warning). `progress`: see `sightline._progress`
 /// (default: a line on stderr when it is a terminal). Ctrl-C stops the bake (cells under way
-/// finish first) and raises `KeyboardInterrupt`.
+/// finish first) and raises `KeyboardInterrupt`. `device`: `"cpu"` (the default) or `"gpu"`,
+/// as `pvs bake --device` (the same sets for the same seed and rays where the GPU caster is
+/// exact; `crate::device`).
 ///
 /// Incremental rebake (`pvs bake --since OLD.pvs --old-scene OLD --probe-rays N`): with
 /// `since` (an earlier bake of the same cells, method, parameters, seed and budget, by the CLI,
@@ -421,7 +425,7 @@ fn bake_batch_py<'py>(
 #[pyfunction]
 #[pyo3(signature = (scene, cells, method = MethodArg::Name("gvs++".into()), rays = None,
     seed = 1, time_ms = None, threads = None, progress = None, *, since = None,
-    old_scene = None, probe_rays = DEFAULT_PROBE_RAYS))]
+    old_scene = None, probe_rays = DEFAULT_PROBE_RAYS, device = "cpu"))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn bake<'py>(
     py: Python<'py>,
@@ -436,6 +440,7 @@ pub(crate) fn bake<'py>(
     since: Option<&Bound<'py, PyPvs>>,
     old_scene: Option<&Bound<'py, PyScene>>,
     probe_rays: usize,
+    device: &str,
 ) -> PyResult<PyPvs> {
     let since = match (since, old_scene) {
         (Some(pvs), Some(old)) => Some(Since {
@@ -454,8 +459,11 @@ pub(crate) fn bake<'py>(
     let threads = thread_count(py, threads)?;
     let method = method.resolve()?;
     let sampler = method.sampler()?;
+    let data = scene.get().data.clone();
+    let device = BakeCaster::new(py, device, &data.scene)?;
     let job = BakeJob {
-        data: scene.get().data.clone(),
+        caster: device.caster(data.bvh()),
+        data: data.clone(),
         cells: cells.into_iter().map(|c| c.cell).collect(),
         parameters: format!("{:?}", method.params),
         sampler: sampler.as_ref(),
@@ -464,9 +472,11 @@ pub(crate) fn bake<'py>(
     };
     let progress = progress_callback(py, progress)?;
     let file = run_interruptible(py, job.cells.len(), progress.as_ref(), |control| {
-        with_threads(threads, || match &since {
-            None => job.bake_all(control).map(Ok),
-            Some(since) => job.rebake(since, control),
+        with_threads(threads, || {
+            device.install(|| match &since {
+                None => job.bake_all(control).map(Ok),
+                Some(since) => job.rebake(since, control),
+            })
         })
     })?;
     let file = file
@@ -479,6 +489,8 @@ pub(crate) fn bake<'py>(
 /// What `bake` bakes: the scene, its plain cells, the method and its budget and seed.
 struct BakeJob<'a> {
     data: Arc<SceneData>,
+    /// The scene's BVH, or the GPU caster (`device`).
+    caster: &'a dyn RayCaster,
     cells: Vec<ViewCell>,
     /// The method's parameters, as the file records them.
     parameters: String,
@@ -509,7 +521,7 @@ impl BakeJob<'_> {
     fn setup(&self) -> BakeSetup<'_> {
         BakeSetup {
             scene: &self.data.scene,
-            caster: self.data.bvh(),
+            caster: self.caster,
             cells: &self.cells,
             sampler: self.sampler,
             free_space: &anywhere,
@@ -541,7 +553,7 @@ impl BakeJob<'_> {
     ) -> Result<PvsFile, Stopped> {
         sightline_region::bake::try_bake(
             &self.data.scene,
-            self.data.bvh(),
+            self.caster,
             &self.cells,
             self.sampler,
             &|_, _| true,

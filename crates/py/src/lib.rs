@@ -7,8 +7,9 @@
 //! on a thread of their own while the caller's thread watches for Ctrl-C and reports progress
 //! (`run`). Paths are `str` or `os.PathLike`; thread counts are capped by the CLI's rule
 //! (`sightline_core::threads`), with a `RuntimeWarning`. Errors
-//! become `ValueError` (bad input: the Rust message, naming what and where) or `OSError`
-//! (files that cannot be read or written).
+//! become `ValueError` (bad input: the Rust message, naming what and where), `OSError`
+//! (files that cannot be read or written) or `RuntimeError` (`bake(device="gpu")` without the
+//! GPU parts or a Vulkan adapter: `device.rs`).
 //!
 //! Results equal the CLI's: a cell baked here with seed `s` and global index `i` uses
 //! `sightline_region::bake::cell_seed(s, i)`, exactly like `sightline pvs bake`.
@@ -16,6 +17,7 @@
 mod bake;
 mod cells;
 mod convert;
+mod device;
 mod point;
 mod pvs;
 mod report;

@@ -145,6 +145,27 @@ def test_bake_does_not_depend_on_batching_or_threads(city, city_cells):
         np.testing.assert_array_equal(a, b)
 
 
+def test_gpu_bake_equals_cpu_bake(city, city_cells):
+    # As the CLI's `gpu_bake_equals_cpu_bake`: GVS++ under a ray budget goes through random,
+    # border and reverse sampling; the GPU caster's hits are bit-identical to the CPU's
+    # (lavapipe has SHADER_F64), so every decision and every set is the same. A Vulkan adapter
+    # is required (lavapipe in CI): without one this fails, it does not skip.
+    method = sl.Method("gvs++", n_rand=5_000)
+    cpu = sl.bake(city, city_cells, method, rays=30_000, seed=4)
+    gpu = sl.bake(city, city_cells, method, rays=30_000, seed=4, device="gpu")
+    assert len(cpu) == len(gpu) == 6
+    assert all(len(s) > 10 for s in cpu.sets())
+    for a, b in zip(cpu.sets(), gpu.sets()):
+        np.testing.assert_array_equal(a, b)
+    stats = [c["rays"] for c in gpu.metadata["cells"]]
+    assert stats == [c["rays"] for c in cpu.metadata["cells"]]
+
+
+def test_bad_device_is_value_error(city, city_cells):
+    with pytest.raises(ValueError, match='device must be "cpu" or "gpu", not "tpu"'):
+        sl.bake(city, city_cells, "rand", rays=10, device="tpu")
+
+
 def test_bad_bake_arguments_are_value_errors(city, city_cells):
     with pytest.raises(ValueError, match="unknown method 'magic'"):
         sl.bake_cell(city, city_cells[0], "magic")

@@ -37,7 +37,8 @@ enum What {
     /// Reference rasterizer: frame time and triangles per second at a given resolution.
     Raster(RasterArgs),
     /// From-region PVS: the GVS++ paper's table 1 — GVS++ (converged) against RAND at equal
-    /// rays and at equal time, GVS and RASTER at equal rays; pixel error on shared views.
+    /// rays and at equal time, GVS and RASTER at equal rays; pixel error on shared views. With
+    /// `--device gpu`, every GVS++ row again with the GPU ray caster (same cells and seeds).
     Pvs(PvsArgs),
     /// Ray sharing between view cells: a grid of cells baked independently with GVS++ and
     /// with shared rays at several budgets; pixel error on a fixed subset of cells and the
@@ -179,6 +180,11 @@ struct PvsArgs {
     /// Print JSON instead of Markdown.
     #[arg(long)]
     json: bool,
+    /// `gpu` repeats every GVS++ row with the GPU ray caster ("GVS++ GPU": the same cells,
+    /// seeds and budgets; its time per cell and rays/s beside the CPU's, and the cells whose
+    /// set differs from the CPU bake's, 0 expected except at time budgets).
+    #[arg(long, value_enum, default_value_t = Device::Cpu)]
+    device: Device,
     /// Small time budgets (milliseconds, comma-separated) at which GVS++ and RAND are also
     /// compared at equal time, the paper's equal-time comparison (issue 24: GVS++ must start
     /// exploring before such a budget is spent). `none`: no equal-time rows.
@@ -422,6 +428,7 @@ fn raster(args: RasterArgs) -> Result<()> {
 }
 
 fn pvs(args: PvsArgs) -> Result<()> {
+    args.device.check_built()?;
     let options = eval_bench::PvsBenchOptions {
         cells: args.cells,
         cell_size: args.cell_size,
@@ -450,11 +457,42 @@ fn pvs(args: PvsArgs) -> Result<()> {
     };
     let mut all_rows = Vec::new();
     let bar = bench_bar(specs.len(), "scenes");
+    // One device for every scene (acquiring one takes a while on lavapipe).
+    #[cfg(feature = "gpu")]
+    let gpu = match args.device {
+        Device::Gpu => Some(sightline_gpu::vulkan_device()?),
+        Device::Cpu => None,
+    };
     for spec in &specs {
         bar.set_message(spec.clone());
         let scene = load(spec)?;
+        #[cfg(feature = "gpu")]
+        let caster = match &gpu {
+            Some((device, queue, info)) => {
+                let caster = sightline_gpu::GpuRayCaster::with_device(
+                    device,
+                    queue,
+                    info.clone(),
+                    &scene,
+                    Default::default(),
+                )?;
+                let exact = if caster.exact() { "" } else { ", approximate" };
+                let (name, kind) = (&info.name, info.device_type);
+                bar.suspend(|| eprintln!("GVS++ GPU rows: {name} ({kind:?}{exact})"));
+                Some(caster)
+            }
+            None => None,
+        };
+        #[cfg(feature = "gpu")]
+        let second = caster.as_ref().map(|c| eval_bench::SecondCaster {
+            method: "GVS++ GPU",
+            caster: c,
+        });
+        #[cfg(not(feature = "gpu"))]
+        let second = None;
+        let on_progress = |p: &Progress<'_>| print_above(&bar, p);
         let report =
-            eval_bench::bench_pvs_scene(spec, &scene, &options, Some(&|p| print_above(&bar, p)))?;
+            eval_bench::bench_pvs_scene_on(spec, &scene, &options, second, Some(&on_progress))?;
         bar.inc(1);
         if let (Some(dir), Some(convergence)) = (&args.plot, &report.convergence) {
             let path = plot::write_convergence_plot(dir, spec, convergence, args.resolution)?;

@@ -19,7 +19,10 @@ pub use peers::{
     OccluderRow, PeerBenchOptions, PeerError, PeerProcess, RayRow, RaySetCase, Timing,
     HIT_T_TOLERANCE,
 };
-pub use pvs::{bench_pvs_scene, equal_budget_pairs, PvsBenchOptions, PvsRow, PvsSceneReport};
+pub use pvs::{
+    bench_pvs_scene, bench_pvs_scene_on, equal_budget_pairs, PvsBenchOptions, PvsRow,
+    PvsSceneReport, SecondCaster,
+};
 pub use raster::{bench_raster, RasterRow};
 pub use rv::{bench_rv, RvBenchOptions, RvRow};
 pub use share::{

@@ -7,11 +7,17 @@
 //! evaluated together on one set of viewpoints (outside solid geometry), so the rows differ
 //! only by method and budget. Means are over cells. Equal-rays rows are the comparison without
 //! the machine's load in it; equal-time rows measure what a user waiting that long gets.
+//!
+//! With a second ray caster ([`bench_pvs_scene_on`], the GPU caster of `bench pvs --device
+//! gpu`), every GVS++ row is repeated with that caster: the same cells, seeds and budgets, so
+//! the time per cell compares the casters and `differing_cells` counts the cells whose set is
+//! not the first caster's (0 expected where the casters' hits are equal and the budget is in
+//! rays; a time budget casts as many rays as the caster manages, so there it is stated).
 
 use std::time::Duration;
 
 use serde::Serialize;
-use sightline_core::trace::Bvh;
+use sightline_core::trace::{Bvh, RayCaster};
 use sightline_core::{Scene, TriangleSet};
 use sightline_region::cell_sources::{inside_solid, random_free_cells};
 use sightline_region::{
@@ -131,6 +137,19 @@ pub struct PvsRow {
     pub pvs_percent: f64,
     /// False negatives, summed over cells.
     pub false_negatives: usize,
+    /// Rows of the second caster only: cells whose set differs from the first caster's
+    /// GVS++ set at the same budget.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub differing_cells: Option<usize>,
+}
+
+/// A second ray caster whose GVS++ rows [`bench_pvs_scene_on`] adds beside the CPU's.
+#[derive(Clone, Copy)]
+pub struct SecondCaster<'a> {
+    /// What its rows' method is called ("GVS++ GPU").
+    pub method: &'a str,
+    /// The caster, over the same scene.
+    pub caster: &'a dyn RayCaster,
 }
 
 /// The result of one scene.
@@ -198,6 +217,38 @@ impl Methods {
         }
         results
     }
+
+    /// GVS++ with the second caster at the budgets of its rows (the order of
+    /// [`second_rows`]): converged, then the small budgets.
+    fn sample_second(
+        &self,
+        ctx: &CellContext<'_>,
+        small_budgets: &[(String, Budget)],
+        equal_time_only: bool,
+    ) -> Vec<CellResult> {
+        let none = &|_: &ConvergencePoint| {};
+        let converged = (!equal_time_only).then(Budget::default);
+        (converged.iter())
+            .chain(small_budgets.iter().map(|(_, b)| b))
+            .map(|budget| self.gvspp.sample(ctx, budget, none))
+            .collect()
+    }
+}
+
+/// The second caster's rows, in the order [`Methods::sample_second`] returns sets, each with
+/// the index of the first caster's GVS++ row at the same budget among `rows`.
+fn second_rows(rows: &[PvsRow], method: &str) -> Vec<(PvsRow, usize)> {
+    (rows.iter().enumerate())
+        .filter(|(_, r)| r.method == "GVS++")
+        .map(|(i, r)| {
+            let row = PvsRow {
+                method: method.to_string(),
+                differing_cells: Some(0),
+                ..r.clone()
+            };
+            (row, i)
+        })
+        .collect()
 }
 
 /// The empty rows of a scene, in the order [`Methods::sample`] returns sets.
@@ -262,6 +313,17 @@ pub fn bench_pvs_scene(
     options: &PvsBenchOptions,
     progress: OnProgress<'_>,
 ) -> Result<PvsSceneReport, BenchError> {
+    bench_pvs_scene_on(scene_name, scene, options, None, progress)
+}
+
+/// [`bench_pvs_scene`], with the GVS++ rows repeated on `second` (appended after the others).
+pub fn bench_pvs_scene_on(
+    scene_name: &str,
+    scene: &Scene,
+    options: &PvsBenchOptions,
+    second: Option<SecondCaster<'_>>,
+    progress: OnProgress<'_>,
+) -> Result<PvsSceneReport, BenchError> {
     options.validate()?;
     let small_budgets = options.small_budgets();
     let methods = Methods::new(options.n_rand);
@@ -279,6 +341,7 @@ pub fn bench_pvs_scene(
         &small_budgets,
         options.equal_time_only,
     );
+    let mut extra = second.map_or_else(Vec::new, |s| second_rows(&rows, s.method));
     // Viewpoints only outside solid geometry: a view from inside a wall sees what no player
     // can, and both methods fail it alike.
     let free = |p: glam::Vec3| !inside_solid(scene, &bvh, p);
@@ -292,12 +355,30 @@ pub fn bench_pvs_scene(
                 cells: cells.len(),
             },
         );
-        let ctx = context(scene, &bvh, cell, options.seed.wrapping_add(i as u64));
-        let results = methods.sample(&ctx, &small_budgets, options.equal_time_only);
+        let seed = options.seed.wrapping_add(i as u64);
+        let ctx = context(scene, &bvh, cell, seed);
+        let mut results = methods.sample(&ctx, &small_budgets, options.equal_time_only);
+        let first = results.len();
+        if let Some(s) = second {
+            let ctx = CellContext {
+                caster: s.caster,
+                ..context(scene, &bvh, cell, seed)
+            };
+            results.extend(methods.sample_second(&ctx, &small_budgets, options.equal_time_only));
+        }
         let sets: Vec<&TriangleSet> = results.iter().map(|r| &r.visible).collect();
         let evaluations = evaluate_cell_in(scene, cell, &free, &sets, &eval, &|_, _| {});
         accumulate(&mut rows, &results, &evaluations, n);
+        for (k, (row, of)) in extra.iter_mut().enumerate() {
+            let at = first + k;
+            let (result, evaluation) = (&results[at..=at], &evaluations[at..=at]);
+            accumulate(std::slice::from_mut(row), result, evaluation, n);
+            if results[at].visible != results[*of].visible {
+                *row.differing_cells.get_or_insert(0) += 1;
+            }
+        }
     }
+    rows.extend(extra.into_iter().map(|(row, _)| row));
     let convergence = options.convergence.then(|| {
         let ctx = context(scene, &bvh, &cells[0], options.seed);
         let m = &methods;

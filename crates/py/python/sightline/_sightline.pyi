@@ -171,9 +171,16 @@ def bake(
     since: Optional[Pvs] = None,
     old_scene: Optional[Scene] = None,
     probe_rays: int = 16384,
+    device: Literal["cpu", "gpu"] = "cpu",
 ) -> Pvs:
     """Bakes ``cells`` on this machine as ``sightline pvs bake`` does (same cells, sets and
     per-cell statistics).
+
+    ``device="gpu"`` casts the rays with the GPU ray caster, as ``pvs bake --device gpu``
+    (16 cells at once, their rounds cast together): the same sets as on the CPU for the same
+    seed and rays where the adapter has ``SHADER_F64`` (lavapipe, NVIDIA, AMD; else a
+    ``RuntimeWarning``). ``RuntimeError`` when there is no Vulkan adapter or the package was
+    built without the cargo feature ``gpu``; ``ValueError`` for another device name.
 
     Incremental rebake (``pvs bake --since OLD.pvs --old-scene OLD --probe-rays N``): with
     ``since`` (an earlier bake of the same cells, method, parameters, seed and budget, by the

@@ -90,17 +90,23 @@ pub(super) fn raster(rows: &[RasterRow]) -> Result<()> {
 /// `bench pvs`: the rows, then one line per scene and small budget comparing GVS++ with RAND.
 pub(super) fn pvs(rows: &[PvsRow], options: &PvsBenchOptions) -> Result<()> {
     outln!(
-        "| scene | method | budget | mean rays | mean s | avg err px | max err px | avg err regions | max region px | avg snapping px | PVS % | false neg (sum) |"
+        "| scene | method | budget | mean rays | mean s | M rays/s | avg err px | max err px | avg err regions | max region px | avg snapping px | PVS % | false neg (sum) |"
     );
-    outln!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    outln!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in rows {
+        let mrays = if r.mean_seconds > 0.0 {
+            r.mean_rays / r.mean_seconds / 1e6
+        } else {
+            0.0
+        };
         outln!(
-            "| `{}` | {} | {} | {:.3e} | {:.2} | {:.2} | {} | {:.2} | {} | {:.2} | {:.2} | {} |",
+            "| `{}` | {} | {} | {:.3e} | {:.2} | {:.2} | {:.2} | {} | {:.2} | {} | {:.2} | {:.2} | {} |",
             r.scene,
             r.method,
             r.budget,
             r.mean_rays,
             r.mean_seconds,
+            mrays,
             r.avg_error_pixels,
             r.max_error_pixels,
             r.avg_error_regions,
@@ -108,6 +114,29 @@ pub(super) fn pvs(rows: &[PvsRow], options: &PvsBenchOptions) -> Result<()> {
             r.avg_unconfirmed_pixels,
             r.pvs_percent,
             r.false_negatives
+        );
+    }
+    // The second caster's rows: how many cells' sets differ from the CPU's, and its speed.
+    for r in rows.iter().filter(|r| r.differing_cells.is_some()) {
+        let cpu = rows
+            .iter()
+            .find(|x| x.scene == r.scene && x.method == "GVS++" && x.budget == r.budget);
+        let speed = match cpu {
+            Some(c) if r.mean_seconds > 0.0 => {
+                format!(
+                    ", {:.2}x the CPU's time per cell",
+                    r.mean_seconds / c.mean_seconds
+                )
+            }
+            _ => String::new(),
+        };
+        outln!(
+            "`{}` {} {}: {} of {} cells' sets differ from the CPU's{speed}",
+            r.scene,
+            r.method,
+            r.budget,
+            r.differing_cells.unwrap_or(0),
+            r.cells
         );
     }
     // The equal-time comparison in one line per scene and budget: how many times fewer

@@ -140,9 +140,16 @@ pub(crate) struct BakeArgs {
     /// `gpu` casts the bake's rays with the GPU ray caster (wgpu compute shaders; see
     /// `sightline bench trace --device gpu`). Hits are bit-identical to the CPU caster's on
     /// adapters with `SHADER_F64`, so the PVS is the same as a CPU bake's for the same seed and
-    /// ray budget. Cells still run in parallel, each casting its own batches.
+    /// ray budget. `--gpu-cells` cells bake at once and their rays go to the GPU together.
     #[arg(long, value_enum, default_value_t = Device::Cpu)]
     pub(crate) device: Device,
+    /// With `--device gpu`: cells baked at once (on as many threads), whose rounds of rays
+    /// are gathered into one GPU batch, so that many small cells still give the GPU large
+    /// batches (the sets are the same for any value). 1: each cell's rounds go alone, cells
+    /// on the bake's threads (`--threads`).
+    #[arg(long, value_name = "N", default_value_t = 16,
+          value_parser = clap::value_parser!(u16).range(1..=1024))]
+    pub(crate) gpu_cells: u16,
     // The methods' parameters (`--n-rand` to `--raster-resolution`): one list in the region
     // crate, which the Python `Method` takes as keywords too.
     #[command(flatten)]

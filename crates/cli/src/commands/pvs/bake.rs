@@ -29,6 +29,7 @@ use crate::output_lock::OutputLock;
 
 use super::args::{BakeArgs, MergeArgs};
 use super::cells::collect_cells;
+use super::gpu::gpu_caster;
 
 #[derive(Serialize)]
 struct BakeSummary {
@@ -90,27 +91,6 @@ pub(super) fn run_bake(args: BakeArgs) -> Result<()> {
         .build()
         .context("starting the worker threads")?
         .install(|| bake_command(&args))
-}
-
-/// The GPU ray caster for a bake, with a line on stderr naming the adapter.
-#[cfg(feature = "gpu")]
-fn gpu_caster(scene: &sightline_core::Scene) -> Result<Box<dyn RayCaster>> {
-    let caster = sightline_gpu::GpuRayCaster::new(scene, Default::default())?;
-    let info = caster.adapter_info();
-    eprintln!("casting rays on {} ({:?})", info.name, info.device_type);
-    if !caster.exact() {
-        eprintln!(
-            "warning: this adapter has no SHADER_F64: hit distances may differ from the CPU \
-             caster's in the last bits, and the PVS slightly from a CPU bake's"
-        );
-    }
-    Ok(Box::new(caster))
-}
-
-/// A headless build has no GPU caster (`bake_command` refuses `--device gpu` before loading).
-#[cfg(not(feature = "gpu"))]
-fn gpu_caster(_scene: &sightline_core::Scene) -> Result<Box<dyn RayCaster>> {
-    Err(crate::features::not_built("gpu", "--device gpu"))
 }
 
 /// `pvs bake`: resolves the cells, checks the arguments, then bakes them all at once with
@@ -285,15 +265,22 @@ fn bake_cells(
 ) -> Result<()> {
     let gpu = match args.device {
         Device::Cpu => None,
-        Device::Gpu => Some(gpu_caster(inputs.scene)?),
+        Device::Gpu => Some(gpu_caster(inputs.scene, args.gpu_cells.into())?),
     };
     let caster: &dyn RayCaster = match &gpu {
-        Some(g) => g.as_ref(),
+        Some(g) => g.caster(),
         None => inputs.bvh,
     };
     let bake = CellBake::prepare(args, inputs, caster, sampler, shard)?;
     let n = inputs.scene.triangle_count().max(1) as f64;
-    let progress = bake.run_with_progress(n)?;
+    // On the GPU, `--gpu-cells` cells at once, whose rounds are cast together.
+    let progress = match &gpu {
+        Some(g) => g.install(|| bake.run_with_progress(n))?,
+        None => bake.run_with_progress(n)?,
+    };
+    if let Some(g) = &gpu {
+        g.report_batches();
+    }
     bake.job
         .write_output(&args.output, &progress, bake.extra(inputs.record))?;
     let summary = bake.summary(args, inputs, &progress);

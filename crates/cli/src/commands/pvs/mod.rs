@@ -1,14 +1,15 @@
 //! `sightline pvs`: bake, show, diff and compare potentially visible sets.
 //!
 //! The face: `run` dispatches to one file per subcommand (`bake.rs` with merge, `show.rs`,
-//! `diff.rs`, `compare_q3.rs`, `merge_cells.rs`); the arguments are in `args.rs`, the bake's cell sources in
-//! `cells.rs`.
+//! `diff.rs`, `compare_q3.rs`, `merge_cells.rs`); the arguments are in `args.rs`, the bake's
+//! cell sources in `cells.rs`, its GPU caster in `gpu.rs`.
 
 mod args;
 mod bake;
 mod cells;
 mod compare_q3;
 mod diff;
+mod gpu;
 mod merge_cells;
 mod show;
 
