@@ -288,15 +288,22 @@ fn to_python<'py>(py: Python<'py>, value: &serde_json::Value) -> PyResult<Bound<
     py.import("json")?.call_method1("loads", (text,))
 }
 
-/// The seed `sightline pvs bake --seed SEED` gives the cell at `index`.
+/// The seed `sightline pvs bake --seed SEED` gives the cell at `index`: `seed` is the
+/// bake's seed, `index` the cell's position in the whole bake.
 #[pyfunction]
 pub(crate) fn cell_seed(seed: u64, index: usize) -> u64 {
     sightline_region::bake::cell_seed(seed, index)
 }
 
-/// Bakes one cell: the ids of its potentially visible triangles (uint32, increasing).
+/// Bakes one cell: the ids of its potentially visible triangles (uint32, increasing). `cell`:
+/// the `ViewCell`.
 /// `index` is the cell's position in the whole bake (it picks the cell's seed). `threads` and
 /// `progress` as for `bake`.
+///
+/// `scene`: the `Scene`; `method`: a `Method` or a method's name (default `"gvs++"`); `rays`:
+/// the ray budget per cell (`None`: no budget, GVS++ and GVS run until their termination rule
+/// holds); `time_ms`: a time budget per cell in milliseconds (`None`: none); `seed`: the bake's
+/// seed (each cell's own derives from it and the cell's index: `cell_seed`).
 #[pyfunction]
 #[pyo3(signature = (scene, cell, method = MethodArg::Name("gvs++".into()), rays = None,
     seed = 1, index = 0, time_ms = None, threads = None, progress = None))]
@@ -332,11 +339,16 @@ pub(crate) fn bake_cell<'py>(
     Ok(ids_array(py, &set))
 }
 
-/// Bakes a batch of cells: one id array per cell. `indices` are the cells' global indices in
+/// Bakes a batch of cells (`cells`: a list of `ViewCell`): one id array per cell. `indices` are the cells' global indices in
 /// the whole bake (default `0..len(cells)`); they pick each cell's seed. With `stats=True`,
 /// returns `(sets, stats)`: `stats` holds one dict per cell (`rays`, `seconds`, `pvs_size`,
 /// `found_by`, `convergence`, as in a `.pvs` file's `metadata["cells"]`). `threads` and
 /// `progress` as for `bake`.
+///
+/// `scene`: the `Scene`; `method`: a `Method` or a method's name (default `"gvs++"`); `rays`:
+/// the ray budget per cell (`None`: no budget, GVS++ and GVS run until their termination rule
+/// holds); `time_ms`: a time budget per cell in milliseconds (`None`: none); `seed`: the bake's
+/// seed (each cell's own derives from it and the cell's index: `cell_seed`).
 #[pyfunction]
 #[pyo3(signature = (scene, cells, method = MethodArg::Name("gvs++".into()), rays = None,
     seed = 1, indices = None, time_ms = None, threads = None, progress = None, stats = false))]
@@ -422,6 +434,11 @@ fn bake_batch_py<'py>(
 /// `old_scene` to `scene` cannot change keep their sets from `since` and only the others are
 /// baked; `probe_rays` as `--probe-rays` (0 skips the probe). The result equals the CLI's and
 /// its `metadata["incremental"]` counts the kept and rebaked cells.
+///
+/// `scene`: the `Scene`; `method`: a `Method` or a method's name (default `"gvs++"`); `rays`:
+/// the ray budget per cell (`None`: no budget, GVS++ and GVS run until their termination rule
+/// holds); `time_ms`: a time budget per cell in milliseconds (`None`: none); `seed`: the bake's
+/// seed (each cell's own derives from it and the cell's index: `cell_seed`).
 #[pyfunction]
 #[pyo3(signature = (scene, cells, method = MethodArg::Name("gvs++".into()), rays = None,
     seed = 1, time_ms = None, threads = None, progress = None, *, since = None,
@@ -627,14 +644,20 @@ impl BakeJob<'_> {
     }
 }
 
-/// Bakes a Quake 3 map's leaf (`cells="leaves"`, the CLI's `--q3-leaves`) or cluster cells
-/// (`cells="clusters"`, `--q3-clusters`) on this machine: the `Pvs` of `sightline pvs bake`
+/// Bakes a Quake 3 map's leaf (`cells` = `"leaves"`, the CLI's `--q3-leaves`) or cluster
+/// cells (`cells="clusters"`, `--q3-clusters`) on this machine: the `Pvs` of `sightline pvs bake`
 /// with the same options (`clusters`: `--clusters`; `include_unreachable`:
 /// `--include-unreachable`; `reach_step`: `--reach-step`). Ray origins are in the cell's
 /// cluster and, unless `include_unreachable`, in the space reachable from the map's spawn
 /// points; cells without reachable space are left out. `metadata["clusters"]` holds each
 /// cell's cluster and `metadata["reachable"]` the rule and the unreachable counts. A map
 /// without spawn points falls back to the cluster rule with a `RuntimeWarning`.
+///
+/// `scene`: the `Scene`; `method`: a `Method` or a method's name (default `"gvs++"`); `rays`:
+/// the ray budget per cell (`None`: no budget, GVS++ and GVS run until their termination rule
+/// holds); `time_ms`: a time budget per cell in milliseconds (`None`: none); `seed`: the bake's
+/// seed (each cell's own derives from it and the cell's index: `cell_seed`); `threads` and
+/// `progress` as for `bake`.
 #[pyfunction]
 #[pyo3(signature = (scene, cells = "leaves", method = MethodArg::Name("gvs++".into()),
     rays = None, seed = 1, time_ms = None, threads = None, progress = None, *, clusters = None,

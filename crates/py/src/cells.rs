@@ -116,9 +116,9 @@ impl PyViewCell {
     }
 }
 
-/// A regular grid of axis-aligned cells filling the box `[min, max]` (3 floats each): `counts`
-/// is `(nx, ny, nz)`, cells per axis (each at least 1), listed x fastest (the order of the
-/// CLI's `--grid`). Raises `ValueError` for bounds that are not finite or not ordered.
+/// A regular grid of axis-aligned cells filling the box from `min` to `max` (3 floats each):
+/// `counts` is `(nx, ny, nz)`, cells per axis (each at least 1), listed x fastest (the order
+/// of the CLI's `--grid`). Raises `ValueError` for bounds that are not finite or not ordered.
 #[pyfunction]
 pub(crate) fn grid(min: [f32; 3], max: [f32; 3], counts: [u32; 3]) -> PyResult<Vec<PyViewCell>> {
     let (lo, hi) = (vec3(min), vec3(max));

@@ -15,6 +15,12 @@ use crate::scene::PyScene;
 
 /// The PVS of a list of view cells for one scene. Equality (`==`) compares the scene hash,
 /// triangle count, cells and sets, not the metadata (timings differ between runs).
+///
+/// `Pvs(scene, cells, sets, metadata=None)` assembles one (as distributed bakes merge their
+/// batches): `scene` the `Scene` the sets index, `cells` a list of `ViewCell`, `sets` one
+/// integer id array per cell, `metadata` anything `json.dumps` takes. `Pvs.load(path)` and
+/// `Pvs.from_bytes(data)` read a `.pvs` file. A `Pvs` is a sequence of id arrays (`len`,
+/// `pvs[i]`, iteration) and pickles.
 #[pyclass(module = "sightline", name = "Pvs", frozen)]
 pub(crate) struct PyPvs {
     pub file: PvsFile,

@@ -36,7 +36,7 @@ impl From<Failure> for PyErr {
     }
 }
 
-/// Writes the HTML report of `pvs` (made for `scene`) to `out_dir/index.html`, as
+/// Writes the HTML report of `pvs` (made for `scene`) to `index.html` in the folder `out_dir`, as
 /// `sightline report` does, and returns its summary (the CLI's `--json`) as a dict.
 ///
 /// - `views`: viewpoints per cell (default 16); `size`: image size in pixels, square, 1 to

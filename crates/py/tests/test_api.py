@@ -524,3 +524,28 @@ def test_q3_bake_equals_cli_bake_and_leaves_out_unreachable_leaves(tmp_path, cli
         sl.bake_q3(scene, reach_step=0.0)
     with pytest.raises(ValueError, match="leaves"):
         sl.bake_q3(scene, "points")
+
+
+def test_every_parameter_is_documented_in_its_docstring():
+    """Each public function and class of the native module names every parameter of its
+    signature in its own docstring (no "see the CLI's --help")."""
+    import inspect
+
+    from sightline import _sightline as native
+
+    checked = 0
+    for name in dir(native):
+        if name.startswith("_"):
+            continue
+        obj = getattr(native, name)
+        try:
+            signature = inspect.signature(obj)
+        except (TypeError, ValueError):
+            continue
+        doc = obj.__doc__ or ""
+        missing = [p for p in signature.parameters if p != "self" and f"`{p}`" not in doc]
+        assert not missing, f"{name}: {missing} not documented"
+        assert "--help" not in doc, f"{name} sends the reader to --help"
+        checked += 1
+    # bake, bake_cell, bake_cells, bake_q3, grid, report, visible_*, Method, ViewCell, ...
+    assert checked >= 10, checked
