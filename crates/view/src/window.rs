@@ -343,3 +343,46 @@ impl ApplicationHandler for App {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::viewer::{Method, ViewerOptions};
+
+    fn viewer_and_record() -> (Viewer, FrameRecord) {
+        let scene = sightline_core::scene::open("procedural:city?size=200", &Default::default())
+            .expect("the procedural city opens");
+        let record = FrameRecord {
+            frame: 0,
+            method: Method::None,
+            eye: [0.0; 3],
+            forward: [1.0, 0.0, 0.0],
+            cell: None,
+            triangles_drawn: scene.triangle_count(),
+            triangles_total: scene.triangle_count(),
+            objects_drawn: scene.objects.len(),
+            objects_total: scene.objects.len(),
+            popping_pixels: 0,
+            covered_pixels: 0,
+            cull_ms: 0.0,
+        };
+        let viewer = Viewer::new(scene, None, ViewerOptions::default()).expect("no .pvs");
+        (viewer, record)
+    }
+
+    #[test]
+    fn hud_shows_every_control_with_help_on() {
+        let (viewer, record) = viewer_and_record();
+        let lines = hud_lines(&viewer, &record, 59.6, 2.5, true);
+        assert_eq!(lines[4], "60 fps  speed 2.500");
+        assert!(lines.ends_with(&help_lines()));
+    }
+
+    #[test]
+    fn hud_says_how_to_show_help_with_help_off() {
+        let (viewer, record) = viewer_and_record();
+        let lines = hud_lines(&viewer, &record, 0.0, 1.0, false);
+        assert_eq!(lines.last().map(String::as_str), Some("H, F1: keys"));
+        assert_eq!(lines.len(), 6);
+    }
+}

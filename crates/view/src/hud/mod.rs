@@ -122,6 +122,52 @@ mod tests {
         assert_eq!(hud_height(0, 3), 18);
     }
 
+    /// A record of `method` drawing 5 of 10 triangles, in no cell.
+    fn record(method: Method) -> FrameRecord {
+        FrameRecord {
+            frame: 3,
+            method,
+            eye: [0.0; 3],
+            forward: [1.0, 0.0, 0.0],
+            cell: None,
+            triangles_drawn: 5,
+            triangles_total: 10,
+            objects_drawn: 2,
+            objects_total: 4,
+            popping_pixels: 7,
+            covered_pixels: 100,
+            cull_ms: 1.0,
+        }
+    }
+
+    fn viewer(exact_divisor: u32) -> Viewer {
+        let scene = sightline_core::scene::open("procedural:city?size=200", &Default::default())
+            .expect("the procedural city opens");
+        let options = crate::viewer::ViewerOptions {
+            exact_divisor,
+            ..Default::default()
+        };
+        Viewer::new(scene, None, options).expect("no .pvs to check")
+    }
+
+    #[test]
+    fn frame_lines_name_the_numbers() {
+        let lines = frame_lines(&viewer(4), &record(Method::Occlusion));
+        assert_eq!(lines[0], "[3] occlusion");
+        assert_eq!(lines[1], "tris 5/10");
+        assert_eq!(lines[2], "objects 2/4");
+        // The viewer has rendered no frame: its running maximum and mean are 0.
+        assert_eq!(lines[3], "popping 7 px (max 0, mean 0.0)");
+    }
+
+    #[test]
+    fn exact_method_names_its_resolution_unless_full() {
+        let quarter = frame_lines(&viewer(4), &record(Method::Exact));
+        assert_eq!(quarter[0], "[4] exact (set at 1/4 res)");
+        let full = frame_lines(&viewer(1), &record(Method::Exact));
+        assert_eq!(full[0], "[4] exact");
+    }
+
     #[test]
     fn text_scale_grows_with_the_image() {
         assert_eq!(hud_scale(1), 1);
