@@ -67,8 +67,9 @@ enum Command {
     Report(commands::report::Args),
     /// Run the main job on the embedded default scene and write `sightline-report/`.
     Demo(commands::demo::Args),
-    /// Interactive viewer (fly camera, culling methods on keys 1..4, live popping counter), or
-    /// headless with --frames N --out DIR (PNG frames and frames.json).
+    /// Interactive viewer (fly camera, culling methods on keys 1..4, HUD with the live popping
+    /// counter; keys in its --help), or headless with --frames N --out DIR (PNG frames and
+    /// frames.json).
     View(commands::view::Args),
 }
 
@@ -76,7 +77,10 @@ fn main() -> ExitCode {
     // The long version names the optional features built in (a headless build has none);
     // clap wants a 'static text, and this one string lives as long as the process anyway.
     let long_version: &'static str = Box::leak(features::long_version().into_boxed_str());
-    let matches = Cli::command().long_version(long_version).get_matches();
+    let matches = Cli::command()
+        .long_version(long_version)
+        .mut_subcommand("view", commands::view::with_controls_help)
+        .get_matches();
     let cli = match Cli::from_arg_matches(&matches) {
         Ok(cli) => cli,
         Err(e) => e.exit(),

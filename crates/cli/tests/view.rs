@@ -166,3 +166,70 @@ fn headless_run_without_a_session_prints_no_display_errors() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!stderr(&o).contains("XDG_RUNTIME_DIR"), "{}", stderr(&o));
 }
+
+#[cfg(feature = "viewer")]
+#[test]
+fn hud_flag_draws_text_in_the_top_left_band_only() {
+    use sightline_view::{hud_height, HUD_TEXT};
+    let dir = tempfile::tempdir().unwrap();
+    let frame = |out: &str, hud: bool| {
+        let mut args = vec![
+            "view", CITY, "--frames", "1", "--out", out, "--size", "160x120",
+        ];
+        if hud {
+            args.push("--hud");
+        }
+        let o = sightline(&args, dir.path());
+        assert!(o.status.success(), "{}", stderr(&o));
+        image::open(dir.path().join(out).join("frame_0000.png"))
+            .unwrap()
+            .to_rgba8()
+    };
+    let plain = frame("plain", false);
+    let hud = frame("hud", true);
+    // Headless HUD: five lines (method, triangles, objects, popping, frame) at scale 1.
+    let band = hud_height(5, 1);
+    let mut text = 0;
+    for (x, y, p) in hud.enumerate_pixels() {
+        if p != plain.get_pixel(x, y) {
+            assert!(
+                y < band,
+                "pixel ({x}, {y}) changed below the HUD's {band} rows"
+            );
+        }
+        text += usize::from(p.0 == HUD_TEXT);
+    }
+    assert!(text > 400, "only {text} pixels of the HUD's text colour");
+    assert!(plain.pixels().filter(|p| p.0 == HUD_TEXT).count() < 10);
+}
+
+#[cfg(feature = "viewer")]
+#[test]
+fn help_lists_every_control_of_the_window() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = sightline(&["view", "--help"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let help = String::from_utf8(o.stdout).unwrap();
+    // The window's key handler reads the same table (sightline_view::action_of).
+    for control in sightline_view::CONTROLS {
+        let line = help
+            .lines()
+            .find(|l| l.trim_start().starts_with(control.input) && l.ends_with(control.does));
+        assert!(
+            line.is_some(),
+            "{} ({}) not in:\n{help}",
+            control.input,
+            control.does
+        );
+    }
+    for key in ["W", "1", "4", "X", "P", "C", "H, F1", "Esc"] {
+        assert!(
+            sightline_view::CONTROLS.iter().any(|c| c.input == key),
+            "{key} missing from the table"
+        );
+    }
+    assert!(help.contains("--hud"), "{help}");
+    // The short help points to the long one.
+    let o = sightline(&["view", "-h"], dir.path());
+    assert!(String::from_utf8(o.stdout).unwrap().contains("see --help"));
+}

@@ -1,6 +1,8 @@
 //! The headless driver: renders a list of cameras offscreen (no window, no event loop) and
 //! writes `frame_0000.png`, `frame_0001.png`, ... and `frames.json` with the numbers of every
-//! frame (method, triangles drawn, popping pixels) and the popping summary.
+//! frame (method, triangles drawn, popping pixels) and the popping summary. With the HUD on,
+//! each frame carries its numbers in its top-left corner too (see `hud/`), so a recorded
+//! flight explains itself; without it the frames are the renderer's output as is.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -11,6 +13,7 @@ use sightline_core::Camera;
 use wgpu::{Device, Queue, TextureFormat};
 
 use crate::error::ViewError;
+use crate::hud;
 use crate::renderer::{read_texture, Renderer};
 use crate::viewer::{FrameRecord, PoppingStats, Viewer};
 
@@ -101,6 +104,18 @@ impl Offscreen {
         viewer.frame(&mut self.renderer, camera, &self.view)
     }
 
+    /// Blends the HUD of `record`, the last frame of `viewer`, over that frame: the viewer's
+    /// lines (method, cell, triangles, objects, popping) and the frame number. No fps, so
+    /// the same flight gives the same frames.
+    pub fn draw_hud(&mut self, viewer: &Viewer, record: &FrameRecord) {
+        let mut lines = hud::frame_lines(viewer, record);
+        lines.push(format!("frame {}", record.frame));
+        let (w, h) = (self.texture.width(), self.texture.height());
+        let panel = hud::panel(&lines, hud::hud_scale(h), w, h);
+        self.renderer
+            .draw_overlay(&self.view, &panel.pixels, (panel.width, panel.height));
+    }
+
     /// The last frame's colour image.
     pub fn read_rgba(&self) -> Result<image::RgbaImage, ViewError> {
         let raw = read_texture(&self.device, &self.queue, &self.texture, 4)?;
@@ -110,7 +125,8 @@ impl Offscreen {
 }
 
 /// Renders `cameras` (all of one size) with `viewer` on `device` and writes the PNG frames and
-/// `frames.json` into `out_dir` (created if missing). Each file is written atomically.
+/// `frames.json` into `out_dir` (created if missing); with `hud`, each frame has the HUD
+/// ([`Offscreen::draw_hud`]). Each file is written atomically.
 pub fn run_headless(
     device: &Device,
     queue: &Queue,
@@ -118,6 +134,7 @@ pub fn run_headless(
     viewer: &mut Viewer,
     cameras: &[Camera],
     out_dir: &Path,
+    hud: bool,
 ) -> Result<HeadlessReport, ViewError> {
     let (width, height) = cameras.first().map_or((1, 1), |c| (c.width, c.height));
     std::fs::create_dir_all(out_dir).map_err(|source| ViewError::Write {
@@ -141,6 +158,9 @@ pub fn run_headless(
     for camera in cameras {
         let record = offscreen.frame(viewer, camera)?;
         report.popping.add(record.popping_pixels);
+        if hud {
+            offscreen.draw_hud(viewer, &record);
+        }
         let image = offscreen.read_rgba()?;
         let path = out_dir.join(format!("frame_{:04}.png", record.frame));
         write_png(&path, &image)?;

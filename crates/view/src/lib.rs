@@ -12,6 +12,10 @@
 //! - `occlusion.rs`: [`OcclusionCuller`], per-frame occlusion culling of scene chunks with
 //!   `sightline_cull::OcclusionBuffer`.
 //! - `fly_camera.rs`: [`FlyCamera`], the camera controller (keys, mouse, scroll).
+//! - `hud/`: the on-screen numbers (method, cell, triangles, objects, popping, fps) as 8x8
+//!   bitmap text on the CPU (`hud/text.rs`), blended over the frame by the renderer.
+//! - `controls.rs`: [`CONTROLS`], the one table of the window's keys and mouse inputs that the
+//!   key handler, `--help` and the HUD's help lines all read.
 //! - `headless.rs`: [`run_headless`], PNG frames and `frames.json` without a window.
 //! - `window.rs`: [`run_window`], the interactive window (winit).
 //!
@@ -37,18 +41,22 @@
 //! ```
 #![deny(missing_docs)]
 
+mod controls;
 mod error;
 mod fly_camera;
 mod headless;
+mod hud;
 mod occlusion;
 mod renderer;
 mod viewer;
 mod window;
 
 // Camera paths live in core (the culling simulation and headless builds read them too).
+pub use controls::{action_of, help_lines, Action, Control, Direction, CONTROLS};
 pub use error::ViewError;
 pub use fly_camera::{FlyCamera, Movement};
 pub use headless::{run_headless, HeadlessReport, Offscreen, HEADLESS_FORMAT};
+pub use hud::{hud_height, HUD_TEXT};
 pub use occlusion::{OcclusionCuller, OcclusionStats, TRIANGLES_PER_CHUNK};
 pub use renderer::{GpuFrame, IdImage, Renderer, Shading};
 pub use sightline_core::camera_path::{

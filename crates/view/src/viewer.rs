@@ -106,6 +106,10 @@ pub struct FrameRecord {
     pub triangles_drawn: usize,
     /// Triangles in the scene.
     pub triangles_total: usize,
+    /// Objects with at least one triangle drawn.
+    pub objects_drawn: usize,
+    /// Objects in the scene.
+    pub objects_total: usize,
     /// Pixels that differ between the culled and the full image (computed on the GPU).
     pub popping_pixels: u32,
     /// Pixels covered by the full image (counted by the compare pass, so 0 when the method
@@ -205,6 +209,11 @@ impl Viewer {
         self.pvs.as_ref()
     }
 
+    /// The viewer's settings.
+    pub fn options(&self) -> ViewerOptions {
+        self.options
+    }
+
     /// Popping accumulated since the last method change.
     pub fn popping(&self) -> PoppingStats {
         self.popping
@@ -288,6 +297,8 @@ impl Viewer {
         let cull_ms = start.elapsed().as_secs_f64() * 1e3;
         let gpu = renderer.render(camera, drawn.map(|_| &self.drawn), self.shading, target)?;
         self.popping.add(gpu.popping_pixels);
+        let objects_total = self.scene.objects.len();
+        let objects_drawn = drawn.map_or(objects_total, |_| self.objects_drawn());
         let record = FrameRecord {
             frame: self.frames,
             method: self.method,
@@ -296,12 +307,26 @@ impl Viewer {
             cell,
             triangles_drawn: drawn.unwrap_or(self.scene.triangle_count()),
             triangles_total: self.scene.triangle_count(),
+            objects_drawn,
+            objects_total,
             popping_pixels: gpu.popping_pixels,
             covered_pixels: gpu.covered_pixels,
             cull_ms,
         };
         self.frames += 1;
         Ok(record)
+    }
+
+    /// Objects with a triangle in the drawn set (one pass over the drawn triangles).
+    fn objects_drawn(&self) -> usize {
+        let mut seen = fixedbitset::FixedBitSet::with_capacity(self.scene.objects.len());
+        for t in self.drawn.ones() {
+            if let Some(&o) = self.scene.object_of_triangle.get(t) {
+                seen.grow(o as usize + 1);
+                seen.insert(o as usize);
+            }
+        }
+        seen.count_ones(..)
     }
 
     /// The triangles drawn in the last frame of a culling method (empty before any).

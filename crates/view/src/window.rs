@@ -1,11 +1,14 @@
 //! The interactive window (`winit` + `wgpu` on Vulkan): a fly camera over the scene, the
-//! method chosen with the number keys, the popping counter in the window title.
+//! method chosen with the number keys, the frame's numbers in the HUD (top-left) and in the
+//! window title.
 //!
-//! Controls: W/A/S/D move, E/Q up/down, hold the right (or left) mouse button and move the
-//! mouse to look around, scroll to change the speed, 1..4 choose the method (none, pvs,
-//! occlusion, exact), X toggles x-ray, P toggles the popping marks, C the cell wireframe,
-//! Escape quits. The title shows the method, the current cell, triangles drawn and the popping
-//! pixels of the frame with their maximum and mean since the last method change.
+//! The keys and mouse inputs are those of [`CONTROLS`], which
+//! `sightline view --help` prints too. The HUD shows the method, the current cell, triangles
+//! and objects drawn, the popping pixels of the frame with their maximum and mean since the
+//! last method change, and fps. Its help lines (the controls) are shown for the first
+//! [`HELP_AT_START`] seconds and then on H or F1; otherwise one line says which key shows
+//! them. Shown at the start, a first-time user sees the keys without asking; hidden after, they
+//! do not cover the image a designer is judging, and the hint line keeps them one key away.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -18,10 +21,15 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
+use crate::controls::{action_of, help_lines, Action, Direction, CONTROLS};
 use crate::error::ViewError;
 use crate::fly_camera::{FlyCamera, Movement};
+use crate::hud;
 use crate::renderer::Renderer;
-use crate::viewer::{Method, Viewer};
+use crate::viewer::{FrameRecord, Viewer};
+
+/// Seconds the help lines are shown after the window opens.
+const HELP_AT_START: f32 = 8.0;
 
 /// Lens settings of the window's camera.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,6 +62,10 @@ struct App {
     /// The last cursor position in the window, in physical pixels.
     cursor: Option<(f64, f64)>,
     last: Instant,
+    /// When the window opened (the help lines show for [`HELP_AT_START`] seconds).
+    opened: Instant,
+    /// The help lines toggled with H or F1 (`None`: not yet, shown at the start).
+    help: Option<bool>,
     error: Option<ViewError>,
 }
 
@@ -78,6 +90,8 @@ pub fn run_window(
         looking: false,
         cursor: None,
         last: Instant::now(),
+        opened: Instant::now(),
+        help: None,
         error: None,
     };
     event_loop
@@ -148,6 +162,7 @@ impl App {
         let dt = (now - self.last).as_secs_f32().min(0.25);
         self.last = now;
         self.camera.update(&self.keys, dt);
+        let help = self.help_shown();
         let Some(open) = &mut self.open else {
             return Ok(());
         };
@@ -168,9 +183,14 @@ impl App {
             self.lens.near,
         )?;
         let record = self.viewer.frame(&mut open.renderer, &camera, &view)?;
+        let fps = if dt > 0.0 { 1.0 / dt } else { 0.0 };
+        let lines = hud_lines(&self.viewer, &record, fps, self.camera.speed, help);
+        let (w, h) = (open.config.width, open.config.height);
+        let panel = hud::panel(&lines, hud::hud_scale(h), w, h);
+        open.renderer
+            .draw_overlay(&view, &panel.pixels, (panel.width, panel.height));
         open.window.pre_present_notify();
         open.queue.present(frame);
-        let fps = if dt > 0.0 { 1.0 / dt } else { 0.0 };
         open.window.set_title(&format!(
             "sightline view | {} | {:.0} fps | speed {:.3} | {}",
             self.viewer.status(&record),
@@ -181,34 +201,31 @@ impl App {
         Ok(())
     }
 
+    /// Whether the HUD shows the help lines: as toggled, else during the first seconds.
+    fn help_shown(&self) -> bool {
+        self.help
+            .unwrap_or(self.opened.elapsed().as_secs_f32() < HELP_AT_START)
+    }
+
+    /// Acts on key `code` going down (`pressed`) or up, as [`CONTROLS`] says: movement keys
+    /// while held, the others once when pressed.
     fn key(&mut self, code: KeyCode, pressed: bool, event_loop: &ActiveEventLoop) {
-        let k = &mut self.keys;
-        match code {
-            KeyCode::KeyW => k.forward = pressed,
-            KeyCode::KeyS => k.back = pressed,
-            KeyCode::KeyA => k.left = pressed,
-            KeyCode::KeyD => k.right = pressed,
-            KeyCode::KeyE => k.up = pressed,
-            KeyCode::KeyQ => k.down = pressed,
+        let Some(action) = action_of(code) else {
+            return;
+        };
+        match action {
+            Action::Move(direction) => hold(&mut self.keys, direction, pressed),
             _ if !pressed => {}
-            KeyCode::Escape => event_loop.exit(),
-            KeyCode::KeyX => self.viewer.shading.xray = !self.viewer.shading.xray,
-            KeyCode::KeyP => {
+            Action::Method(m) => self.viewer.set_method(m),
+            Action::ToggleXray => self.viewer.shading.xray = !self.viewer.shading.xray,
+            Action::TogglePopping => {
                 self.viewer.shading.mark_popping = !self.viewer.shading.mark_popping;
             }
-            KeyCode::KeyC => self.viewer.show_cells = !self.viewer.show_cells,
-            KeyCode::Digit1 | KeyCode::Digit2 | KeyCode::Digit3 | KeyCode::Digit4 => {
-                let n = match code {
-                    KeyCode::Digit1 => 1,
-                    KeyCode::Digit2 => 2,
-                    KeyCode::Digit3 => 3,
-                    _ => 4,
-                };
-                if let Some(m) = Method::from_key(n) {
-                    self.viewer.set_method(m);
-                }
-            }
-            _ => {}
+            Action::ToggleCells => self.viewer.show_cells = !self.viewer.show_cells,
+            Action::ToggleHelp => self.help = Some(!self.help_shown()),
+            Action::Quit => event_loop.exit(),
+            // Mouse inputs: handled in `window_event`.
+            Action::Look | Action::Speed => {}
         }
     }
 
@@ -216,6 +233,40 @@ impl App {
         self.error = Some(e);
         event_loop.exit();
     }
+}
+
+/// Sets the held state of `direction` in `keys`.
+fn hold(keys: &mut Movement, direction: Direction, pressed: bool) {
+    let held = match direction {
+        Direction::Forward => &mut keys.forward,
+        Direction::Back => &mut keys.back,
+        Direction::Left => &mut keys.left,
+        Direction::Right => &mut keys.right,
+        Direction::Up => &mut keys.up,
+        Direction::Down => &mut keys.down,
+    };
+    *held = pressed;
+}
+
+/// The window's HUD lines: the frame's numbers, fps and fly speed, then the help lines
+/// (`help`) or the line saying how to show them.
+fn hud_lines(
+    viewer: &Viewer,
+    record: &FrameRecord,
+    fps: f32,
+    speed: f32,
+    help: bool,
+) -> Vec<String> {
+    let mut lines = hud::frame_lines(viewer, record);
+    lines.push(format!("{fps:.0} fps  speed {speed:.3}"));
+    if help {
+        lines.push(String::new());
+        lines.extend(help_lines());
+    } else {
+        let toggle = CONTROLS.iter().find(|c| c.action == Action::ToggleHelp);
+        lines.push(format!("{}: keys", toggle.map_or("?", |c| c.input)));
+    }
+    lines
 }
 
 impl ApplicationHandler for App {
@@ -228,6 +279,7 @@ impl ApplicationHandler for App {
                 open.window.request_redraw();
                 self.open = Some(open);
                 self.last = Instant::now();
+                self.opened = self.last;
             }
             Err(e) => self.fail(event_loop, e),
         }
@@ -289,5 +341,48 @@ impl ApplicationHandler for App {
         if let Some(open) = &self.open {
             open.window.request_redraw();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::viewer::{Method, ViewerOptions};
+
+    fn viewer_and_record() -> (Viewer, FrameRecord) {
+        let scene = sightline_core::scene::open("procedural:city?size=200", &Default::default())
+            .expect("the procedural city opens");
+        let record = FrameRecord {
+            frame: 0,
+            method: Method::None,
+            eye: [0.0; 3],
+            forward: [1.0, 0.0, 0.0],
+            cell: None,
+            triangles_drawn: scene.triangle_count(),
+            triangles_total: scene.triangle_count(),
+            objects_drawn: scene.objects.len(),
+            objects_total: scene.objects.len(),
+            popping_pixels: 0,
+            covered_pixels: 0,
+            cull_ms: 0.0,
+        };
+        let viewer = Viewer::new(scene, None, ViewerOptions::default()).expect("no .pvs");
+        (viewer, record)
+    }
+
+    #[test]
+    fn hud_shows_every_control_with_help_on() {
+        let (viewer, record) = viewer_and_record();
+        let lines = hud_lines(&viewer, &record, 59.6, 2.5, true);
+        assert_eq!(lines[4], "60 fps  speed 2.500");
+        assert!(lines.ends_with(&help_lines()));
+    }
+
+    #[test]
+    fn hud_says_how_to_show_help_with_help_off() {
+        let (viewer, record) = viewer_and_record();
+        let lines = hud_lines(&viewer, &record, 0.0, 1.0, false);
+        assert_eq!(lines.last().map(String::as_str), Some("H, F1: keys"));
+        assert_eq!(lines.len(), 6);
     }
 }

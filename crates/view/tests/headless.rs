@@ -21,7 +21,16 @@ fn headless_frames_are_written_non_blank_and_of_the_right_size() {
     viewer.set_method(Method::Occlusion);
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("frames");
-    let report = run_headless(device, queue, &info.name, &mut viewer, &cameras, &out).unwrap();
+    let report = run_headless(
+        device,
+        queue,
+        &info.name,
+        &mut viewer,
+        &cameras,
+        &out,
+        false,
+    )
+    .unwrap();
     assert_eq!(report.frames.len(), 3);
     for (i, path) in report.pngs.iter().enumerate() {
         assert_eq!(path, &out.join(format!("frame_{i:04}.png")));

@@ -151,3 +151,36 @@ fn culling_methods_cull_at_street_level_with_little_popping() {
         );
     }
 }
+
+/// The exact method's set and popping with the set found at 1/`divisor` of the resolution.
+fn exact_at(scene: &Scene, camera: &sightline_core::Camera, divisor: u32) -> (TriangleSet, u32) {
+    let (device, queue, _) = shared_device();
+    let options = ViewerOptions {
+        exact_divisor: divisor,
+        ..Default::default()
+    };
+    let mut viewer = Viewer::new(scene.clone(), None, options).unwrap();
+    viewer.set_method(Method::Exact);
+    let mut off = Offscreen::new(device, queue, &viewer, W, H).unwrap();
+    let r = off.frame(&mut viewer, camera).unwrap();
+    (viewer.last_drawn().clone(), r.popping_pixels)
+}
+
+/// Issue 19 supposed that the exact method's popping comes from its quarter resolution: the
+/// analytic set does not depend on the resolution, so full resolution gives the same set and
+/// the same popping (what remains is the GPU's and the analytic edge and tie rules). The HUD
+/// names the resolution anyway (`hud/mod.rs`).
+#[test]
+fn exact_set_is_the_same_at_quarter_and_full_resolution() {
+    let scene = small_scene("procedural:city?size=3000");
+    for camera in [
+        street_camera(&scene, W, H),
+        super::outside_camera(&scene, W, H),
+    ] {
+        let (quarter, quarter_popping) = exact_at(&scene, &camera, 4);
+        let (full, full_popping) = exact_at(&scene, &camera, 1);
+        assert!(full.count_ones(..) > 10);
+        assert_eq!(quarter, full);
+        assert_eq!(quarter_popping, full_popping);
+    }
+}

@@ -10,6 +10,9 @@ use wgpu::{AdapterInfo, Device, Queue};
 
 /// Headless frames: PNGs of the right size, not blank; `frames.json` with one record a frame.
 mod headless;
+/// The HUD in headless frames: only its top-left panel changes, and it holds text; without it
+/// the frame is the plain render.
+mod hud;
 /// The popping counter: 0 for a PVS that is exactly the visible set, the removed triangle's
 /// pixels when one visible triangle is taken out; the culling methods measured.
 mod popping;

@@ -1,7 +1,8 @@
 //! `sightline view`: the interactive viewer (a window with a fly camera, the visibility methods
-//! on keys 1..4 and the popping counter in the title), or with `--frames N --out DIR` its
-//! headless mode, which renders N frames offscreen along a camera path and writes
-//! `DIR/frame_0000.png`, ... and `DIR/frames.json`. The work is in `sightline-view`.
+//! on keys 1..4 and the frame's numbers in a HUD and the title), or with `--frames N --out DIR`
+//! its headless mode, which renders N frames offscreen along a camera path and writes
+//! `DIR/frame_0000.png`, ... (with the HUD when `--hud`) and `DIR/frames.json`. The window's
+//! keys in `--help` come from the viewer's table of controls. The work is in `sightline-view`.
 
 use std::path::PathBuf;
 
@@ -43,9 +44,36 @@ pub(crate) struct Args {
     /// (keyframes spread over the frames); default: one orbit around the look point.
     #[arg(long, value_name = "FILE", requires = "frames")]
     path: Option<PathBuf>,
+    /// Headless: draw the HUD in each frame's top-left corner (method, cell, triangles and
+    /// objects drawn, popping pixels, frame number), as the window does; without it the
+    /// frames are the plain render.
+    #[arg(long, requires = "frames")]
+    hud: bool,
     /// Headless: print the summary as JSON.
     #[arg(long)]
     json: bool,
+}
+
+/// `sightline view`'s help with the window's controls added to the long help (`--help`),
+/// printed from the viewer's one table of them, so help and key handler cannot differ. A build
+/// without the viewer has no window and lists none.
+pub(crate) fn with_controls_help(cmd: clap::Command) -> clap::Command {
+    #[cfg(feature = "viewer")]
+    {
+        let mut text = String::from(
+            "Window controls (the HUD lists them too, for a few seconds at the start and on H \
+             or F1):\n",
+        );
+        for line in sightline_view::help_lines() {
+            text.push_str("  ");
+            text.push_str(&line);
+            text.push('\n');
+        }
+        cmd.after_help("The window's keys: see --help.")
+            .after_long_help(text)
+    }
+    #[cfg(not(feature = "viewer"))]
+    cmd
 }
 
 /// Runs the viewer, or says that this build has none.
@@ -106,7 +134,15 @@ mod window_or_headless {
         args.camera.warn_if_near_hides(viewer.scene(), &cameras);
         crate::headless::quiet_vulkan_layers();
         let (device, queue, info) = sightline_gpu::vulkan_device()?;
-        let report = run_headless(&device, &queue, &info.name, &mut viewer, &cameras, out)?;
+        let report = run_headless(
+            &device,
+            &queue,
+            &info.name,
+            &mut viewer,
+            &cameras,
+            out,
+            args.hud,
+        )?;
         if args.json {
             return print_json(&report);
         }

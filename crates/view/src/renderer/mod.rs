@@ -17,6 +17,8 @@
 //!    double-sided, a headlight and two fixed lights, a colour per object). Popping pixels are
 //!    magenta; in x-ray mode the full image is shown with culled triangles tinted red.
 //! 5. **Cells**: view-cell edges as lines, depth-tested against the shown image.
+//! 6. **Overlay** (only when asked, [`Renderer::draw_overlay`]): an RGBA image, the HUD,
+//!    blended over the frame's top-left corner in a submission of its own.
 //!
 //! The renderer takes a device and queue from its caller (tests and the window pass theirs).
 //!
@@ -28,6 +30,7 @@
 //! - `targets.rs`: the id images, depth buffers and the bind groups that read them.
 //! - `frame.rs`: the passes of one frame, in order.
 //! - `readback.rs`: blocking buffer and texture readback.
+//! - `overlay.rs` (+ `overlay.wgsl`): the overlay pass.
 
 use sightline_core::{Camera, Hit, Scene, TriangleSet};
 use wgpu::{Device, Queue, TextureFormat};
@@ -36,6 +39,7 @@ use crate::error::ViewError;
 
 mod buffers;
 mod frame;
+mod overlay;
 mod pipelines;
 mod readback;
 mod targets;
@@ -43,6 +47,7 @@ mod types;
 
 use buffers::Buffers;
 use frame::FramePasses;
+use overlay::Overlay;
 use pipelines::{Pipelines, SceneBinds};
 use readback::read_buffer;
 pub(crate) use readback::read_texture;
@@ -85,6 +90,10 @@ pub struct Renderer {
     targets: Targets,
     /// Whether the last frame drew a culled set (else the culled image is the full one).
     culled_last: bool,
+    /// The colour targets' format (the overlay pipeline is made for it).
+    color_format: TextureFormat,
+    /// The overlay pass, made when an overlay is first drawn.
+    overlay: Option<Overlay>,
 }
 
 impl Renderer {
@@ -114,6 +123,8 @@ impl Renderer {
             binds,
             targets,
             culled_last: false,
+            color_format,
+            overlay: None,
         })
     }
 
@@ -200,6 +211,20 @@ impl Renderer {
             popping_pixels: if culled { word(0) } else { 0 },
             covered_pixels: if culled { word(1) } else { 0 },
         })
+    }
+
+    /// Blends `rgba` (`size.0 x size.1` pixels of 8-bit RGBA, straight alpha, row-major with
+    /// the top row first) over the top-left corner of `target`, a colour target as in
+    /// [`Renderer::render`] that holds a rendered frame: the HUD. Opaque pixels replace the
+    /// frame's; what lies outside `target` is clipped. Submits its own pass.
+    ///
+    /// # Panics
+    /// In debug builds, when `rgba` does not hold `size.0 * size.1` pixels.
+    pub fn draw_overlay(&mut self, target: &wgpu::TextureView, rgba: &[u8], size: (u32, u32)) {
+        let overlay = self
+            .overlay
+            .get_or_insert_with(|| Overlay::new(&self.device, self.color_format));
+        overlay.draw(&self.device, &self.queue, target, rgba, size);
     }
 
     /// Reads back an id image of the last frame: per pixel, row-major, top row first, the
