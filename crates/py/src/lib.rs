@@ -18,6 +18,7 @@ mod bake;
 mod cells;
 mod convert;
 mod device;
+mod method;
 mod point;
 mod pvs;
 mod report;
@@ -31,7 +32,7 @@ use pyo3::prelude::*;
 fn _sightline(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<scene::PyScene>()?;
     m.add_class::<cells::PyViewCell>()?;
-    m.add_class::<bake::PyMethod>()?;
+    m.add_class::<method::PyMethod>()?;
     m.add_class::<pvs::PyPvs>()?;
     m.add_function(wrap_pyfunction!(cells::grid, m)?)?;
     m.add_function(wrap_pyfunction!(bake::bake_cell, m)?)?;
