@@ -18,6 +18,7 @@ mod bake;
 mod cells;
 mod convert;
 mod device;
+mod evaluate;
 mod method;
 mod point;
 mod pvs;
@@ -44,6 +45,7 @@ fn _sightline(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(point::visible_exact, m)?)?;
     m.add_function(wrap_pyfunction!(point::visible_conservative, m)?)?;
     m.add_function(wrap_pyfunction!(report::report, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluate::evaluate, m)?)?;
     m.add("METHODS", sightline_region::methods::METHODS.to_vec())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

@@ -1,6 +1,7 @@
 """The Python API: scenes from arrays, view cells, bakes, .pvs files, from-point visibility, and
 the errors bad input raises."""
 
+import json
 import pickle
 import subprocess
 from pathlib import Path
@@ -549,3 +550,29 @@ def test_every_parameter_is_documented_in_its_docstring():
         checked += 1
     # bake, bake_cell, bake_cells, bake_q3, grid, report, visible_*, Method, ViewCell, ...
     assert checked >= 10, checked
+
+
+def test_evaluate_equals_the_cli_eval(tmp_path, city, city_cells, cli):
+    pvs = sl.bake(city, city_cells[:2], "gvs++", rays=20_000, seed=3)
+    path = tmp_path / "e.pvs"
+    pvs.save(str(path))
+    rows = sl.evaluate(city, pvs, views=3, size=48, view_mode="random", seed=2)
+    assert [r["cell"] for r in rows] == [0, 1]
+    out = subprocess.run(
+        [cli, "eval", CITY, str(path), "--views", "3", "--size", "48", "--view-mode", "random",
+         "--seed", "2", "--json"],
+        capture_output=True, check=True, text=True,
+    )
+    expected = json.loads(out.stdout)
+    for mine, theirs in zip(rows, expected):
+        for key, value in mine.items():
+            assert theirs[key] == value, (key, mine, theirs)
+    assert rows[0]["pvs_size"] == len(pvs[0])
+    # Only the cells asked for, and clear errors.
+    assert [r["cell"] for r in sl.evaluate(city, pvs, views=1, size=16, cells=[1])] == [1]
+    with pytest.raises(ValueError, match="cell 5 does not exist"):
+        sl.evaluate(city, pvs, cells=[5])
+    with pytest.raises(ValueError, match="view_mode"):
+        sl.evaluate(city, pvs, view_mode="sideways")
+    with pytest.raises(ValueError, match="size in 1"):
+        sl.evaluate(city, pvs, size=0)

@@ -232,6 +232,21 @@ def visible_conservative(
     memory: int = 268435456,
     guarantee: str = "area",
 ) -> _Ids: ...
+def evaluate(
+    scene: Scene,
+    pvs: Pvs,
+    views: int = 16,
+    size: int = 256,
+    view_mode: Literal["cube", "random"] = "cube",
+    seed: int = 1,
+    cells: Optional[Sequence[int]] = None,
+) -> List[Dict[str, Any]]:
+    """The pixel error of ``pvs`` per cell, as ``sightline eval SCENE PVS --json`` measures it:
+    one dict per cell (``cell``, ``pvs_size``, ``avg_error_pixels``, ``max_error_pixels``,
+    ``false_negatives``, ..., ``rejected_viewpoints``). Raises ``ValueError`` for bad
+    arguments, a missing cell or a ``pvs`` of another scene."""
+    ...
+
 def report(
     scene: Scene,
     pvs: Pvs,
