@@ -38,6 +38,14 @@ pub enum Action {
     TogglePopping,
     /// Toggle the view-cell wireframe.
     ToggleCells,
+    /// Freeze culling at the current camera and fly out, or unfreeze.
+    ToggleFreeze,
+    /// Pick the next (`true`) or previous view cell for the pvs method.
+    StepCell(bool),
+    /// Go back to the eye's cell (drop the picked one).
+    EyeCell,
+    /// Toggle the top-down overview.
+    ToggleOverview,
     /// Toggle the HUD's help lines.
     ToggleHelp,
     /// Close the window.
@@ -165,6 +173,36 @@ pub const CONTROLS: &[Control] = &[
         &[KeyCode::KeyC],
     ),
     key(
+        "F",
+        "freeze culling, fly out",
+        Action::ToggleFreeze,
+        &[KeyCode::KeyF],
+    ),
+    key(
+        "]",
+        "pick next cell for pvs",
+        Action::StepCell(true),
+        &[KeyCode::BracketRight],
+    ),
+    key(
+        "[",
+        "pick previous cell",
+        Action::StepCell(false),
+        &[KeyCode::BracketLeft],
+    ),
+    key(
+        "Backspace",
+        "back to the eye's cell",
+        Action::EyeCell,
+        &[KeyCode::Backspace],
+    ),
+    key(
+        "O",
+        "top-down overview",
+        Action::ToggleOverview,
+        &[KeyCode::KeyO],
+    ),
+    key(
         "H, F1",
         "this help",
         Action::ToggleHelp,
@@ -234,5 +272,24 @@ mod tests {
     fn unhandled_key_has_no_action() {
         assert_eq!(action_of(KeyCode::KeyZ), None);
         assert_eq!(action_of(KeyCode::F1), Some(Action::ToggleHelp));
+    }
+
+    #[test]
+    fn freeze_cell_and_overview_keys_are_listed() {
+        assert_eq!(action_of(KeyCode::KeyF), Some(Action::ToggleFreeze));
+        assert_eq!(
+            action_of(KeyCode::BracketRight),
+            Some(Action::StepCell(true))
+        );
+        assert_eq!(
+            action_of(KeyCode::BracketLeft),
+            Some(Action::StepCell(false))
+        );
+        assert_eq!(action_of(KeyCode::Backspace), Some(Action::EyeCell));
+        assert_eq!(action_of(KeyCode::KeyO), Some(Action::ToggleOverview));
+        let lines = help_lines();
+        for input in ["F ", "] ", "[ ", "Backspace ", "O "] {
+            assert!(lines.iter().any(|l| l.starts_with(input)), "{input}");
+        }
     }
 }

@@ -59,6 +59,14 @@ pub enum ViewError {
         /// The encoder's message.
         message: String,
     },
+    /// A cell index past the `.pvs` file's cells.
+    #[error("there is no cell {cell}: the .pvs has {cells} cells (0 to {})", cells.saturating_sub(1))]
+    NoSuchCell {
+        /// The cell asked for.
+        cell: usize,
+        /// Cells in the `.pvs` (0 without one).
+        cells: usize,
+    },
     /// The window or its surface could not be created.
     #[error("window: {0}")]
     Window(String),

@@ -2,7 +2,9 @@
 //! writes `frame_0000.png`, `frame_0001.png`, ... and `frames.json` with the numbers of every
 //! frame (method, triangles drawn, popping pixels) and the popping summary. With the HUD on,
 //! each frame carries its numbers in its top-left corner too (see `hud/`), so a recorded
-//! flight explains itself; without it the frames are the renderer's output as is.
+//! flight explains itself; without it the frames are the renderer's output as is. Culling can
+//! be frozen at a frame (the later frames fly on with that frame's set) and the frames drawn
+//! from the top-down overview ([`HeadlessOptions`]).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -33,15 +35,28 @@ pub struct HeadlessReport {
     pub adapter: String,
     /// How popping pixels were counted.
     pub popping_measured_by: &'static str,
-    /// Popping over all frames.
+    /// Popping over the frames whose popping is counted (not frozen, not in the overview).
     pub popping: PoppingStats,
-    /// Mean popping pixels per frame.
+    /// Mean popping pixels per counted frame.
     pub popping_mean: f64,
     /// Every frame.
     pub frames: Vec<FrameRecord>,
     /// The PNG files, in frame order.
     #[serde(skip)]
     pub pngs: Vec<PathBuf>,
+}
+
+/// How a headless run draws its frames.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct HeadlessOptions {
+    /// Draw the HUD over each frame ([`Offscreen::draw_hud`]).
+    pub hud: bool,
+    /// Freeze culling at this frame (0-based): it and the frames after it draw the set chosen
+    /// for its camera, while the cameras move on.
+    pub freeze_at: Option<u32>,
+    /// Draw every frame from the top-down overview camera (the set still chosen from the
+    /// frame's camera, or the frozen one).
+    pub overview: bool,
 }
 
 /// An offscreen colour target and its renderer.
@@ -125,8 +140,10 @@ impl Offscreen {
 }
 
 /// Renders `cameras` (all of one size) with `viewer` on `device` and writes the PNG frames and
-/// `frames.json` into `out_dir` (created if missing); with `hud`, each frame has the HUD
-/// ([`Offscreen::draw_hud`]). Each file is written atomically.
+/// `frames.json` into `out_dir` (created if missing), as `options` says (HUD, frozen culling,
+/// overview). Each file is written atomically. The report's popping summary counts only the
+/// frames whose popping is counted ([`FrameRecord::popping_counted`]: not frozen, not in the
+/// overview).
 pub fn run_headless(
     device: &Device,
     queue: &Queue,
@@ -134,7 +151,7 @@ pub fn run_headless(
     viewer: &mut Viewer,
     cameras: &[Camera],
     out_dir: &Path,
-    hud: bool,
+    options: &HeadlessOptions,
 ) -> Result<HeadlessReport, ViewError> {
     let (width, height) = cameras.first().map_or((1, 1), |c| (c.width, c.height));
     std::fs::create_dir_all(out_dir).map_err(|source| ViewError::Write {
@@ -155,10 +172,16 @@ pub fn run_headless(
         frames: Vec::with_capacity(cameras.len()),
         pngs: Vec::with_capacity(cameras.len()),
     };
-    for camera in cameras {
+    viewer.overview = options.overview;
+    for (i, camera) in cameras.iter().enumerate() {
+        if options.freeze_at == Some(i as u32) {
+            viewer.freeze(*camera);
+        }
         let record = offscreen.frame(viewer, camera)?;
-        report.popping.add(record.popping_pixels);
-        if hud {
+        if record.popping_counted {
+            report.popping.add(record.popping_pixels);
+        }
+        if options.hud {
             offscreen.draw_hud(viewer, &record);
         }
         let image = offscreen.read_rgba()?;

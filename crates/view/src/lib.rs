@@ -12,6 +12,13 @@
 //! - `occlusion.rs`: [`OcclusionCuller`], per-frame occlusion culling of scene chunks with
 //!   `sightline_cull::OcclusionBuffer`.
 //! - `fly_camera.rs`: [`FlyCamera`], the camera controller (keys, mouse, scroll).
+//! - `cell_pick.rs`: which cell the pvs method uses (picked with `[` / `]`, or the eye's).
+//! - `frustum.rs`: the frozen camera's frustum as corners and edges, its far plane clamped to
+//!   the scene.
+//! - `overview.rs`: [`OrthoCamera`], the top-down overview's camera, and [`ViewCamera`], the
+//!   camera the renderer draws through.
+//! - `guides.rs`: the lines and quads drawn over the scene (cell wireframe, frozen frustum,
+//!   the overview's cell map coloured as the report's and its eye marker).
 //! - `hud/`: the on-screen numbers (method, cell, triangles, objects, popping, fps) as 8x8
 //!   bitmap text on the CPU (`hud/text.rs`), blended over the frame by the renderer.
 //! - `controls.rs`: [`CONTROLS`], the one table of the window's keys and mouse inputs that the
@@ -41,26 +48,33 @@
 //! ```
 #![deny(missing_docs)]
 
+mod cell_pick;
 mod controls;
 mod error;
 mod fly_camera;
+mod frustum;
+mod guides;
 mod headless;
 mod hud;
 mod occlusion;
+mod overview;
 mod renderer;
 mod viewer;
 mod window;
 
 // Camera paths live in core (the culling simulation and headless builds read them too).
+pub use cell_pick::{cell_in_use, step_cell, CellSource};
 pub use controls::{action_of, help_lines, Action, Control, Direction, CONTROLS};
 pub use error::ViewError;
 pub use fly_camera::{FlyCamera, Movement};
-pub use headless::{run_headless, HeadlessReport, Offscreen, HEADLESS_FORMAT};
+pub use frustum::{clamped_far, frustum_corners, frustum_edges};
+pub use headless::{run_headless, HeadlessOptions, HeadlessReport, Offscreen, HEADLESS_FORMAT};
 pub use hud::{hud_height, HUD_TEXT};
 pub use occlusion::{OcclusionCuller, OcclusionStats, TRIANGLES_PER_CHUNK};
+pub use overview::{OrthoCamera, ViewCamera};
 pub use renderer::{GpuFrame, IdImage, Renderer, Shading};
 pub use sightline_core::camera_path::{
     interpolate, orbit, read_camera_path, CameraPathError, Keyframe,
 };
-pub use viewer::{FrameRecord, Method, PoppingStats, Viewer, ViewerOptions};
+pub use viewer::{FrameRecord, Frozen, Method, PoppingStats, Viewer, ViewerOptions};
 pub use window::{run_window, Lens};

@@ -1,24 +1,36 @@
 // The viewer's passes (renderer/). Camera conventions of sightline_core::camera, as in
 // sightline-gpu's occlusion_query.wgsl: view = (dot(d, right), dot(d, up), dot(d, forward)),
 // NDC = (view.x / (view.z tan_half_x), view.y / (view.z tan_half_y)), reversed-Z with an
-// infinite far plane (depth = near / view.z; Vulkan clips view.z < near).
+// infinite far plane (depth = near / view.z; Vulkan clips view.z < near). The overview's
+// orthographic camera (projection.w = 1) maps view x, y by 1 / half extents and has a far plane.
 
 struct Camera {
     eye: vec4<f32>,
     right: vec4<f32>,
     up: vec4<f32>,
     forward: vec4<f32>,
-    // (1 / tan_half_x, 1 / tan_half_y, near, 0)
+    // (1 / tan_half_x, 1 / tan_half_y, near, 0), orthographic (1 / half_w, 1 / half_h, near, 1)
     projection: vec4<f32>,
-    // (width, height, flags, 0); flags: bit 0 x-ray, bit 1 mark popping pixels
+    // (width, height, flags, far); flags: bit 0 x-ray, bit 1 mark popping pixels; far: ortho only
     screen: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> camera: Camera;
 
+fn is_orthographic() -> bool {
+    return camera.projection.w > 0.5;
+}
+
 fn clip_from_world(p: vec3<f32>) -> vec4<f32> {
     let d = p - camera.eye.xyz;
     let view = vec3<f32>(dot(d, camera.right.xyz), dot(d, camera.up.xyz), dot(d, camera.forward.xyz));
+    if (is_orthographic()) {
+        // The overview: reversed depth, linear from 1 at the near plane to 0 at the far one.
+        let near = camera.projection.z;
+        let far = camera.screen.w;
+        let depth = (far - view.z) / (far - near);
+        return vec4<f32>(view.x * camera.projection.x, view.y * camera.projection.y, depth, 1.0);
+    }
     return vec4<f32>(view.x * camera.projection.x, view.y * camera.projection.y, camera.projection.z, view.z);
 }
 
@@ -122,7 +134,10 @@ fn fs_resolve(in: FullscreenVertex) -> @location(0) vec4<f32> {
     let s = in.position.xy / camera.screen.xy;
     let u = (2.0 * s.x - 1.0) / camera.projection.x;
     let v = (1.0 - 2.0 * s.y) / camera.projection.y;
-    let dir = normalize(camera.forward.xyz + camera.right.xyz * u + camera.up.xyz * v);
+    var dir = normalize(camera.forward.xyz + camera.right.xyz * u + camera.up.xyz * v);
+    if (is_orthographic()) {
+        dir = camera.forward.xyz;
+    }
     if (id == 0u) {
         // Background: a dim gradient, lighter towards the top of the image.
         let g = 0.12 + 0.10 * (1.0 - s.y);
@@ -145,7 +160,8 @@ fn fs_resolve(in: FullscreenVertex) -> @location(0) vec4<f32> {
     return vec4<f32>(colour, 1.0);
 }
 
-// ---- View-cell wireframe: coloured lines, depth-tested against the shown image. ------------
+// ---- Guides: coloured lines and filled quads (cells, frustum, marker), depth-tested against
+// the shown image. -----------------------------------------------------------------------------
 
 struct LineVertex {
     @builtin(position) position: vec4<f32>,

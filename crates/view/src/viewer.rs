@@ -3,7 +3,8 @@
 //!
 //! Methods (keys 1..4 in the window):
 //! 1. `none`: every triangle is drawn.
-//! 2. `pvs`: the set of the `.pvs` cell containing the eye (the first one, in file order);
+//! 2. `pvs`: the set of the `.pvs` cell in use: the picked cell (keys `[` / `]`, `--cell`)
+//!    from any viewpoint, else the cell containing the eye (the first one, in file order);
 //!    outside every cell nothing is known and everything is drawn.
 //! 3. `occlusion`: per-frame occlusion culling of scene chunks with the software occlusion
 //!    buffer ([`OcclusionCuller`]).
@@ -13,6 +14,20 @@
 //!    time: the analytic set does not depend on the resolution beyond its 2^-20-pixel
 //!    snapping, so what popping remains is where the GPU's and the analytic method's edge
 //!    and tie rules differ.
+//!
+//! **Frozen culling** (key F, `--freeze-at`): the visible set stays the one computed for the
+//! camera at the moment of freezing (with whatever method is active; computed again only when
+//! the method or the picked cell changes) while the camera flies on, so the set can be
+//! inspected from outside; the frozen frustum is drawn. **Overview** (key O, `--overview`):
+//! the frame is drawn from above by an orthographic camera ([`OrthoCamera`]), the set still
+//! chosen from the eye (or the frozen camera).
+//!
+//! **Popping while frozen or in the overview**: the frame's `popping_pixels` is still measured,
+//! but it is the number of pixels of the image *shown* (from the moving or overview camera)
+//! that the set misses: how much of the scene lies outside the frozen set, not the method's
+//! popping, which is only defined from the camera the set was chosen for. Those frames are
+//! therefore not added to the popping statistics (the HUD's and `frames.json`'s max and mean),
+//! and their records say `popping_counted: false`.
 
 use std::time::Instant;
 
@@ -22,9 +37,12 @@ use sightline_core::{Camera, Scene, TriangleSet};
 use sightline_point::analytic::{visible_fragments, AnalyticOptions};
 use sightline_region::PvsFile;
 
+use crate::cell_pick::{cell_in_use, step_cell, CellSource};
 use crate::error::ViewError;
+use crate::guides::{guides, GuideInput};
 use crate::occlusion::OcclusionCuller;
-use crate::renderer::{LineVertex, Renderer, Shading};
+use crate::overview::{OrthoCamera, ViewCamera};
+use crate::renderer::{Renderer, Shading};
 
 /// A visibility method of the viewer.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
@@ -100,8 +118,19 @@ pub struct FrameRecord {
     pub eye: [f32; 3],
     /// View direction.
     pub forward: [f32; 3],
-    /// Index of the `.pvs` cell containing the eye, if any.
+    /// Index of the `.pvs` cell in use: the picked cell, else the one containing the eye (of
+    /// the frozen camera while frozen), if any.
     pub cell: Option<usize>,
+    /// Whether `cell` was picked (`[`, `]`, `--cell`) rather than the eye's.
+    pub cell_picked: bool,
+    /// The frame at which culling was frozen, while frozen (the drawn set is that frame's).
+    pub frozen_at: Option<u32>,
+    /// Whether the frame was drawn from the top-down overview camera.
+    pub overview: bool,
+    /// Whether `popping_pixels` went into the popping statistics: not while frozen or in the
+    /// overview, where it counts what the set misses as seen from elsewhere (see the module
+    /// documentation).
+    pub popping_counted: bool,
     /// Triangles drawn by the method.
     pub triangles_drawn: usize,
     /// Triangles in the scene.
@@ -148,9 +177,24 @@ impl PoppingStats {
     }
 }
 
-/// Colours of the cell wireframe: the current cell, the others.
-const CURRENT_CELL: [f32; 4] = [1.0, 0.85, 0.1, 1.0];
-const OTHER_CELL: [f32; 4] = [0.7, 0.8, 1.0, 0.25];
+/// Culling frozen at a camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frozen {
+    /// The camera the set is chosen for.
+    pub camera: Camera,
+    /// The frame number at which culling was frozen (the first frame drawn frozen).
+    pub frame: u32,
+}
+
+/// What the guides were last built for (they are rebuilt only when it changes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct GuidesKey {
+    cell: Option<(usize, CellSource)>,
+    show_cells: bool,
+    frozen: Option<u32>,
+    /// The overview camera and the eye marker's pose, in the overview.
+    overview: Option<(OrthoCamera, Vec3, Vec3)>,
+}
 
 /// The viewer's state. See the module documentation.
 pub struct Viewer {
@@ -163,12 +207,20 @@ pub struct Viewer {
     pub shading: Shading,
     /// Whether the cell wireframe is drawn.
     pub show_cells: bool,
+    /// Whether frames are drawn from the top-down overview camera.
+    pub overview: bool,
     occlusion: Option<OcclusionCuller>,
     drawn: TriangleSet,
     popping: PoppingStats,
     frames: u32,
-    /// The wireframe last given to the renderer: (current cell, shown).
-    lines_for: Option<(Option<usize>, bool)>,
+    frozen: Option<Frozen>,
+    picked: Option<usize>,
+    /// The eye's cell in the last frame (where `[` / `]` start from).
+    last_eye_cell: Option<usize>,
+    /// While frozen: the method and cell the drawn set was chosen with, and its size.
+    frozen_set: Option<(Method, Option<usize>, Option<usize>)>,
+    /// What the guides given to the renderer show.
+    guides_for: Option<GuidesKey>,
 }
 
 impl Viewer {
@@ -191,11 +243,16 @@ impl Viewer {
                 mark_popping: true,
             },
             show_cells: true,
+            overview: false,
             occlusion: None,
             drawn: TriangleSet::new(),
             popping: PoppingStats::default(),
             frames: 0,
-            lines_for: None,
+            frozen: None,
+            picked: None,
+            last_eye_cell: None,
+            frozen_set: None,
+            guides_for: None,
         })
     }
 
@@ -282,21 +339,79 @@ impl Viewer {
         }
     }
 
+    /// Freezes culling at `camera`: the next frames draw the set chosen for it, whatever the
+    /// camera they are drawn from, until [`Viewer::unfreeze`]. Frame numbers count on; the
+    /// next frame is the first frozen one.
+    pub fn freeze(&mut self, camera: Camera) {
+        self.frozen = Some(Frozen {
+            camera,
+            frame: self.frames,
+        });
+        self.frozen_set = None;
+    }
+
+    /// Unfreezes culling: each frame's set is chosen for its own camera again.
+    pub fn unfreeze(&mut self) {
+        self.frozen = None;
+        self.frozen_set = None;
+    }
+
+    /// The frozen camera, while frozen.
+    pub fn frozen(&self) -> Option<&Frozen> {
+        self.frozen.as_ref()
+    }
+
+    /// Picks cell `cell` for the pvs method (from any viewpoint), or the eye's cell again
+    /// with `None`. Fails when the `.pvs` has no such cell (or there is no `.pvs`).
+    pub fn pick_cell(&mut self, cell: Option<usize>) -> Result<(), ViewError> {
+        let cells = self.pvs.as_ref().map_or(0, |p| p.cells.len());
+        if let Some(c) = cell.filter(|&c| c >= cells) {
+            return Err(ViewError::NoSuchCell { cell: c, cells });
+        }
+        self.picked = cell;
+        Ok(())
+    }
+
+    /// The picked cell, if any.
+    pub fn picked_cell(&self) -> Option<usize> {
+        self.picked
+    }
+
+    /// Picks the next cell (`next`) or the previous one, wrapping around; the first step
+    /// starts from the eye's cell of the last frame. Nothing happens without cells.
+    pub fn step_cell(&mut self, next: bool) {
+        let cells = self.pvs.as_ref().map_or(0, |p| p.cells.len());
+        self.picked = step_cell(self.picked, self.last_eye_cell, cells, next);
+    }
+
     /// Culls with the current method, renders with `renderer` into `target` and records the
-    /// frame's numbers (popping is added to [`Viewer::popping`]).
+    /// frame's numbers. `camera` is the eye's; while frozen the set is chosen for the frozen
+    /// camera instead, and in the overview the frame is drawn from above. Popping is added to
+    /// [`Viewer::popping`] only when neither (see the module documentation).
     pub fn frame(
         &mut self,
         renderer: &mut Renderer,
         camera: &Camera,
         target: &wgpu::TextureView,
     ) -> Result<FrameRecord, ViewError> {
-        let cell = self.cell_at(camera.eye);
-        self.update_lines(renderer, cell);
+        let cull_camera = self.frozen.map_or(*camera, |f| f.camera);
+        self.last_eye_cell = self.cell_at(cull_camera.eye);
+        let cell = cell_in_use(self.picked, self.last_eye_cell);
+        let view = if self.overview {
+            let (up, bounds) = (self.scene.up, self.scene.bounds());
+            ViewCamera::Orthographic(OrthoCamera::over(&bounds, up, camera.width, camera.height))
+        } else {
+            ViewCamera::Perspective(*camera)
+        };
+        self.update_guides(renderer, &view, camera, cell);
         let start = Instant::now();
-        let drawn = self.cull(camera, cell)?;
+        let drawn = self.cull_once(&cull_camera, cell.map(|c| c.0))?;
         let cull_ms = start.elapsed().as_secs_f64() * 1e3;
-        let gpu = renderer.render(camera, drawn.map(|_| &self.drawn), self.shading, target)?;
-        self.popping.add(gpu.popping_pixels);
+        let gpu = renderer.render_view(&view, drawn.map(|_| &self.drawn), self.shading, target)?;
+        let popping_counted = self.frozen.is_none() && !self.overview;
+        if popping_counted {
+            self.popping.add(gpu.popping_pixels);
+        }
         let objects_total = self.scene.objects.len();
         let objects_drawn = drawn.map_or(objects_total, |_| self.objects_drawn());
         let record = FrameRecord {
@@ -304,7 +419,11 @@ impl Viewer {
             method: self.method,
             eye: camera.eye.to_array(),
             forward: camera.forward.to_array(),
-            cell,
+            cell: cell.map(|c| c.0),
+            cell_picked: cell.is_some_and(|c| c.1 == CellSource::Picked),
+            frozen_at: self.frozen.map(|f| f.frame),
+            overview: self.overview,
+            popping_counted,
             triangles_drawn: drawn.unwrap_or(self.scene.triangle_count()),
             triangles_total: self.scene.triangle_count(),
             objects_drawn,
@@ -315,6 +434,26 @@ impl Viewer {
         };
         self.frames += 1;
         Ok(record)
+    }
+
+    /// [`Viewer::cull`], except while frozen, where the set of the frozen camera is kept until
+    /// the method or the cell changes (it would come out the same every frame).
+    fn cull_once(
+        &mut self,
+        camera: &Camera,
+        cell: Option<usize>,
+    ) -> Result<Option<usize>, ViewError> {
+        if self.frozen.is_none() {
+            return self.cull(camera, cell);
+        }
+        match self.frozen_set {
+            Some((method, c, drawn)) if method == self.method && c == cell => Ok(drawn),
+            _ => {
+                let drawn = self.cull(camera, cell)?;
+                self.frozen_set = Some((self.method, cell, drawn));
+                Ok(drawn)
+            }
+        }
     }
 
     /// Objects with a triangle in the drawn set (one pass over the drawn triangles).
@@ -338,12 +477,15 @@ impl Viewer {
     pub fn status(&self, r: &FrameRecord) -> String {
         let cell = match (self.pvs.is_some(), r.cell) {
             (false, _) => String::new(),
-            (true, Some(c)) => format!(" | cell {c}"),
+            (true, Some(c)) => format!(" | {}", cell_label(c, r.cell_picked)),
             (true, None) => " | no cell".into(),
         };
         let modes = format!(
-            "{}{}",
+            "{}{}{}{}",
             if self.shading.xray { " x-ray" } else { "" },
+            r.frozen_at
+                .map_or(String::new(), |f| format!(" frozen at frame {f}")),
+            if r.overview { " overview" } else { "" },
             if self.method == Method::Pvs && r.cell.is_none() {
                 " (outside cells: all drawn)"
             } else {
@@ -362,34 +504,49 @@ impl Viewer {
         )
     }
 
-    fn update_lines(&mut self, renderer: &mut Renderer, cell: Option<usize>) {
-        let key = (cell, self.show_cells);
-        if self.lines_for == Some(key) {
+    /// Gives `renderer` the guides of this frame (see `guides.rs`) when they changed.
+    fn update_guides(
+        &mut self,
+        renderer: &mut Renderer,
+        view: &ViewCamera,
+        eye: &Camera,
+        cell: Option<(usize, CellSource)>,
+    ) {
+        let overview = match view {
+            ViewCamera::Orthographic(o) => Some((*o, eye.eye, eye.forward)),
+            ViewCamera::Perspective(_) => None,
+        };
+        let key = GuidesKey {
+            cell,
+            show_cells: self.show_cells,
+            frozen: self.frozen.map(|f| f.frame),
+            overview,
+        };
+        if self.guides_for == Some(key) {
             return;
         }
-        self.lines_for = Some(key);
-        let mut lines = Vec::new();
-        if let (Some(pvs), true) = (&self.pvs, self.show_cells) {
-            for (i, c) in pvs.cells.iter().enumerate() {
-                let colour = if Some(i) == cell {
-                    CURRENT_CELL
-                } else {
-                    OTHER_CELL
-                };
-                for (a, b) in c.cell.edges() {
-                    lines.push(LineVertex {
-                        position: a.to_array(),
-                        colour,
-                    });
-                    lines.push(LineVertex {
-                        position: b.to_array(),
-                        colour,
-                    });
-                }
-            }
-        }
-        renderer.set_lines(&lines);
+        self.guides_for = Some(key);
+        let g = guides(&GuideInput {
+            pvs: self.pvs.as_ref(),
+            show_cells: self.show_cells,
+            cell,
+            frozen: self.frozen.as_ref().map(|f| &f.camera),
+            bounds: self.scene.bounds(),
+            overview: overview.as_ref().map(|o| &o.0),
+            eye: (eye.eye, eye.forward),
+        });
+        renderer.set_guides(&g.lines, &g.fills);
     }
+}
+
+/// `cell 12 (picked)` or `cell 12 (eye)`: the cell in use and where it came from.
+pub(crate) fn cell_label(cell: usize, picked: bool) -> String {
+    let source = if picked {
+        CellSource::Picked
+    } else {
+        CellSource::Eye
+    };
+    format!("cell {cell} ({})", source.name())
 }
 
 #[cfg(test)]

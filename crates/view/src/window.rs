@@ -222,10 +222,34 @@ impl App {
                 self.viewer.shading.mark_popping = !self.viewer.shading.mark_popping;
             }
             Action::ToggleCells => self.viewer.show_cells = !self.viewer.show_cells,
+            Action::ToggleFreeze => self.toggle_freeze(),
+            Action::StepCell(next) => self.viewer.step_cell(next),
+            // Picking none always succeeds.
+            Action::EyeCell => self.viewer.pick_cell(None).unwrap_or_default(),
+            Action::ToggleOverview => self.viewer.overview = !self.viewer.overview,
             Action::ToggleHelp => self.help = Some(!self.help_shown()),
             Action::Quit => event_loop.exit(),
             // Mouse inputs: handled in `window_event`.
             Action::Look | Action::Speed => {}
+        }
+    }
+
+    /// Freezes culling at the camera of the current pose and window size, or unfreezes.
+    fn toggle_freeze(&mut self) {
+        if self.viewer.frozen().is_some() {
+            self.viewer.unfreeze();
+            return;
+        }
+        let Some(open) = &self.open else {
+            return;
+        };
+        let (w, h) = (open.config.width, open.config.height);
+        // A pose without a camera (cannot happen with the pitch limit) leaves culling live.
+        if let Ok(camera) = self
+            .camera
+            .camera(self.lens.fov_y_deg, w, h, self.lens.near)
+        {
+            self.viewer.freeze(camera);
         }
     }
 
@@ -358,6 +382,10 @@ mod tests {
             eye: [0.0; 3],
             forward: [1.0, 0.0, 0.0],
             cell: None,
+            cell_picked: false,
+            frozen_at: None,
+            overview: false,
+            popping_counted: true,
             triangles_drawn: scene.triangle_count(),
             triangles_total: scene.triangle_count(),
             objects_drawn: scene.objects.len(),

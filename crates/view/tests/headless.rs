@@ -1,6 +1,6 @@
 //! The headless driver writes the frames and their numbers.
 
-use sightline_view::{orbit, run_headless, Method, Viewer, ViewerOptions};
+use sightline_view::{orbit, run_headless, HeadlessOptions, Method, Viewer, ViewerOptions};
 
 use super::{outside_camera, shared_device, small_scene};
 
@@ -28,7 +28,7 @@ fn headless_frames_are_written_non_blank_and_of_the_right_size() {
         &mut viewer,
         &cameras,
         &out,
-        false,
+        &HeadlessOptions::default(),
     )
     .unwrap();
     assert_eq!(report.frames.len(), 3);

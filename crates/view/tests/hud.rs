@@ -1,7 +1,7 @@
 //! The HUD in headless frames: drawn only when asked, only in its top-left panel, with text.
 
 use sightline_view::{
-    hud_height, run_headless, Method, Offscreen, Viewer, ViewerOptions, HUD_TEXT,
+    hud_height, run_headless, HeadlessOptions, Method, Offscreen, Viewer, ViewerOptions, HUD_TEXT,
 };
 
 use super::{outside_camera, shared_device, small_scene};
@@ -42,7 +42,10 @@ fn hud_changes_only_its_panel_and_the_plain_frame_is_the_render() {
             &mut viewer(),
             &[camera],
             &out,
-            hud,
+            &HeadlessOptions {
+                hud,
+                ..Default::default()
+            },
         )
         .unwrap();
         image::open(&report.pngs[0]).unwrap().to_rgba8()

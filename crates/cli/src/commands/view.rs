@@ -1,7 +1,9 @@
 //! `sightline view`: the interactive viewer (a window with a fly camera, the visibility methods
 //! on keys 1..4 and the frame's numbers in a HUD and the title), or with `--frames N --out DIR`
 //! its headless mode, which renders N frames offscreen along a camera path and writes
-//! `DIR/frame_0000.png`, ... (with the HUD when `--hud`) and `DIR/frames.json`. The window's
+//! `DIR/frame_0000.png`, ... (with the HUD when `--hud`) and `DIR/frames.json`. `--cell`,
+//! `--freeze-at` and `--overview` start with a picked cell, frozen culling and the top-down
+//! overview (keys `[` `]`, F and O in the window). The window's
 //! keys in `--help` come from the viewer's table of controls. The work is in `sightline-view`.
 
 use std::path::PathBuf;
@@ -17,7 +19,7 @@ pub(crate) struct Args {
     #[command(flatten)]
     camera: CameraArgs,
     /// A .pvs file of the scene: its cells are drawn, the `pvs` method uses the set of the cell
-    /// containing the eye.
+    /// containing the eye (or of the cell picked with --cell).
     #[arg(long, value_name = "FILE")]
     pvs: Option<PathBuf>,
     /// The visibility method: none, pvs, occlusion or exact (default: pvs with --pvs, else
@@ -49,6 +51,23 @@ pub(crate) struct Args {
     /// frames are the plain render.
     #[arg(long, requires = "frames")]
     hud: bool,
+    /// Use cell I's set for the pvs method from any viewpoint instead of the set of the cell
+    /// containing the eye (in the window, [ and ] step through the cells and Backspace goes
+    /// back to the eye's cell). The cell is highlighted and the HUD names it "(picked)".
+    #[arg(long, value_name = "I", requires = "pvs")]
+    cell: Option<usize>,
+    /// Headless: freeze culling at frame K (0-based; key F in the window): frame K and the
+    /// frames after it draw the set chosen for frame K's camera while the camera flies on
+    /// along the path, with that camera's frustum drawn in orange. Frozen frames' popping is
+    /// not counted in the summary (it measures what the set misses from elsewhere).
+    #[arg(long, value_name = "K", requires = "frames")]
+    freeze_at: Option<u32>,
+    /// Draw the scene from above (key O in the window): an orthographic camera over the whole
+    /// scene down its up axis, with the cells filled in the report map's colours for their
+    /// PVS size and the eye marked (white; a frozen camera orange). The set is still chosen
+    /// from the eye. Its popping is not counted in the summary.
+    #[arg(long)]
+    overview: bool,
     /// Headless: print the summary as JSON.
     #[arg(long)]
     json: bool,
@@ -95,8 +114,8 @@ mod window_or_headless {
     use sightline_core::{Camera, NearPlaneRule};
     use sightline_region::PvsFile;
     use sightline_view::{
-        interpolate, orbit, read_camera_path, run_headless, run_window, FlyCamera, HeadlessReport,
-        Lens, Method, Viewer, ViewerOptions,
+        interpolate, orbit, read_camera_path, run_headless, run_window, FlyCamera, HeadlessOptions,
+        HeadlessReport, Lens, Method, Viewer, ViewerOptions,
     };
 
     use super::Args;
@@ -130,6 +149,12 @@ mod window_or_headless {
         if frames == 0 {
             bail!("--frames must be at least 1");
         }
+        if let Some(k) = args.freeze_at.filter(|&k| k >= frames) {
+            bail!(
+                "--freeze-at {k} is past the last frame (--frames {frames}: frames 0 to {})",
+                frames - 1
+            );
+        }
         let cameras = path_cameras(&args, &viewer, &start, frames as usize)?;
         args.camera.warn_if_near_hides(viewer.scene(), &cameras);
         crate::headless::quiet_vulkan_layers();
@@ -141,7 +166,11 @@ mod window_or_headless {
             &mut viewer,
             &cameras,
             out,
-            args.hud,
+            &HeadlessOptions {
+                hud: args.hud,
+                freeze_at: args.freeze_at,
+                overview: args.overview,
+            },
         )?;
         if args.json {
             return print_json(&report);
@@ -196,6 +225,10 @@ mod window_or_headless {
         })?;
         viewer.set_method(method);
         viewer.shading.xray = args.xray;
+        viewer.overview = args.overview;
+        viewer
+            .pick_cell(args.cell)
+            .with_context(|| format!("--cell {}", args.cell.unwrap_or_default()))?;
         Ok((viewer, method))
     }
 

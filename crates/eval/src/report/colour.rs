@@ -1,6 +1,7 @@
 //! The colour scale of the map: values to colours along a perceptually ordered ramp (dark
 //! purple for the smallest PVS, yellow for the largest, after matplotlib's viridis, sampled at
-//! five stops and interpolated linearly), and its legend as SVG.
+//! five stops and interpolated linearly), and its legend as SVG. Public so that other views
+//! of the cells (the viewer's top-down overview) colour them exactly as the report's map does.
 
 use std::fmt::Write as _;
 
@@ -16,7 +17,7 @@ const STOPS: [[u8; 3]; 5] = [
 ];
 
 /// The ramp's colour at `t` in [0, 1] (clamped; NaN gives the low end).
-pub(crate) fn ramp(t: f64) -> [u8; 3] {
+pub fn ramp(t: f64) -> [u8; 3] {
     let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
     let x = t * (STOPS.len() - 1) as f64;
     let i = (x.floor() as usize).min(STOPS.len() - 2);
@@ -32,7 +33,7 @@ pub fn hex(c: [u8; 3]) -> String {
 
 /// A linear scale from `[min, max]` onto the ramp.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct ColourScale {
+pub struct ColourScale {
     /// Value at the low end.
     pub min: f64,
     /// Value at the high end.
@@ -41,7 +42,7 @@ pub(crate) struct ColourScale {
 
 impl ColourScale {
     /// The scale spanning `values` (0..1 when empty).
-    pub(crate) fn spanning(values: impl IntoIterator<Item = f64>) -> Self {
+    pub fn spanning(values: impl IntoIterator<Item = f64>) -> Self {
         let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
         for v in values.into_iter().filter(|v| v.is_finite()) {
             min = min.min(v);
@@ -54,7 +55,7 @@ impl ColourScale {
     }
 
     /// Position of `v` on the scale in [0, 1]; the middle when the range is one value.
-    pub(crate) fn position(&self, v: f64) -> f64 {
+    pub fn position(&self, v: f64) -> f64 {
         if self.max - self.min <= f64::EPSILON * self.max.abs().max(1.0) {
             return 0.5;
         }
@@ -62,7 +63,7 @@ impl ColourScale {
     }
 
     /// The colour of `v`.
-    pub(crate) fn colour(&self, v: f64) -> [u8; 3] {
+    pub fn colour(&self, v: f64) -> [u8; 3] {
         ramp(self.position(v))
     }
 

@@ -17,7 +17,7 @@ use super::html::{escape, png_data_uri};
 use super::plan::{MapFrame, Plan};
 
 /// Convex hull of 2D points (Andrew's monotone chain), counter-clockwise, without repeats.
-pub(crate) fn convex_hull(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
+pub fn convex_hull(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
     let mut p: Vec<(f64, f64)> = points
         .iter()
         .copied()

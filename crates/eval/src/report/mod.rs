@@ -18,7 +18,7 @@ pub(crate) mod growth;
 pub mod html;
 pub(crate) mod map;
 pub(crate) mod metadata;
-pub(crate) mod plan;
+pub mod plan;
 pub mod plot;
 pub(crate) mod sections;
 pub mod shading;
@@ -31,6 +31,8 @@ pub use budgets::{BudgetBakes, BudgetOptions, BudgetSummary};
 pub use error::ReportError;
 pub use evaluate::CellOutcome;
 pub use html::Section;
+pub use map::convex_hull;
+pub use plan::Plan;
 
 /// How a PVS is judged and shown.
 #[derive(Clone, Copy, Debug)]

@@ -10,7 +10,7 @@ use sightline_region::ViewCell;
 /// The projection onto the ground plane: `(right, forward)` coordinates seen from above with
 /// right to the right and forward up the page, and the height along the scene's up axis.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct Plan {
+pub struct Plan {
     right: Vec3,
     forward: Vec3,
     up: Vec3,
@@ -19,7 +19,7 @@ pub(crate) struct Plan {
 impl Plan {
     /// Seen from above along `up`: Z-up scenes show (x, y); Y-up scenes show (x, -z) (looking
     /// down -Y with +X to the right, -Z points up the page); X-up scenes show (y, z).
-    pub(crate) fn new(up: UpAxis) -> Self {
+    pub fn new(up: UpAxis) -> Self {
         match up {
             UpAxis::X => Self {
                 right: Vec3::Y,
@@ -40,13 +40,18 @@ impl Plan {
     }
 
     /// Ground-plane coordinates of `p`.
-    pub(crate) fn project(&self, p: Vec3) -> [f64; 2] {
+    pub fn project(&self, p: Vec3) -> [f64; 2] {
         [p.dot(self.right) as f64, p.dot(self.forward) as f64]
     }
 
     /// Height of `p`.
-    pub(crate) fn height(&self, p: Vec3) -> f64 {
+    pub fn height(&self, p: Vec3) -> f64 {
         p.dot(self.up) as f64
+    }
+
+    /// The unit axes `[right, forward, up]`: right and up the page, and up out of it.
+    pub fn axes(&self) -> [Vec3; 3] {
+        [self.right, self.forward, self.up]
     }
 }
 

@@ -12,7 +12,7 @@ pub(crate) mod text;
 
 use text::{text_width, Canvas, GLYPH_SIZE};
 
-use crate::viewer::{FrameRecord, Method, Viewer};
+use crate::viewer::{cell_label, FrameRecord, Method, Viewer};
 
 /// Colour of the HUD's text: opaque, so its pixels keep exactly this colour in a frame (the
 /// tests find the text by it), and a warm yellow that few shaded faces have.
@@ -55,13 +55,13 @@ pub(crate) fn frame_lines(viewer: &Viewer, r: &FrameRecord) -> Vec<String> {
     }
     if viewer.pvs().is_some() {
         match r.cell {
-            Some(c) => method.push_str(&format!("  cell {c}")),
+            Some(c) => method.push_str(&format!("  {}", cell_label(c, r.cell_picked))),
             None if r.method == Method::Pvs => method.push_str("  no cell: all drawn"),
             None => method.push_str("  no cell"),
         }
     }
     let popping = viewer.popping();
-    vec![
+    let mut lines = vec![
         method,
         format!("tris {}/{}", r.triangles_drawn, r.triangles_total),
         format!("objects {}/{}", r.objects_drawn, r.objects_total),
@@ -71,7 +71,32 @@ pub(crate) fn frame_lines(viewer: &Viewer, r: &FrameRecord) -> Vec<String> {
             popping.max,
             popping.mean()
         ),
-    ]
+    ];
+    if let Some(modes) = mode_line(r) {
+        lines.push(modes);
+    }
+    lines
+}
+
+/// The line naming the frozen culling and the overview, when either is on; it says that the
+/// frame's popping is not counted then (see `viewer.rs`).
+fn mode_line(r: &FrameRecord) -> Option<String> {
+    let mut modes = Vec::new();
+    if let Some(f) = r.frozen_at {
+        modes.push(format!("frozen at frame {f}"));
+    }
+    if r.overview {
+        modes.push("overview".to_string());
+    }
+    if modes.is_empty() {
+        return None;
+    }
+    let counted = if r.popping_counted {
+        ""
+    } else {
+        " (popping not counted)"
+    };
+    Some(format!("{}{counted}", modes.join(", ")))
 }
 
 /// The panel of `lines` at `scale`: text on the translucent background, as wide as the
@@ -130,6 +155,10 @@ mod tests {
             eye: [0.0; 3],
             forward: [1.0, 0.0, 0.0],
             cell: None,
+            cell_picked: false,
+            frozen_at: None,
+            overview: false,
+            popping_counted: true,
             triangles_drawn: 5,
             triangles_total: 10,
             objects_drawn: 2,
@@ -166,6 +195,29 @@ mod tests {
         assert_eq!(quarter[0], "[4] exact (set at 1/4 res)");
         let full = frame_lines(&viewer(1), &record(Method::Exact));
         assert_eq!(full[0], "[4] exact");
+    }
+
+    #[test]
+    fn frozen_and_overview_frames_say_so_and_that_popping_is_not_counted() {
+        let plain = frame_lines(&viewer(4), &record(Method::Pvs));
+        assert_eq!(plain.len(), 4);
+        let mut r = record(Method::Pvs);
+        r.frozen_at = Some(12);
+        r.popping_counted = false;
+        let lines = frame_lines(&viewer(4), &r);
+        assert_eq!(lines[4], "frozen at frame 12 (popping not counted)");
+        r.overview = true;
+        let lines = frame_lines(&viewer(4), &r);
+        assert_eq!(
+            lines[4],
+            "frozen at frame 12, overview (popping not counted)"
+        );
+    }
+
+    #[test]
+    fn cell_label_names_where_the_cell_came_from() {
+        assert_eq!(cell_label(12, true), "cell 12 (picked)");
+        assert_eq!(cell_label(12, false), "cell 12 (eye)");
     }
 
     #[test]

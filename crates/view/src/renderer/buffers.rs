@@ -1,7 +1,7 @@
 //! The renderer's buffers: the scene's vertices and per-triangle shading data (uploaded once,
 //! after checking that they fit the device), the camera uniform, the popping counters and
-//! their readback copy, and the drawn set (bits and index list) and wireframe, written each
-//! frame.
+//! their readback copy, and the drawn set (bits and index list) and the guides (lines and
+//! filled triangles), written when they change.
 
 use sightline_core::{Scene, TriangleSet};
 use wgpu::{Device, Queue};
@@ -26,8 +26,10 @@ pub(super) struct Buffers {
     pub(super) counters_read: wgpu::Buffer,
     /// Index list of the drawn triangles (the culled id pass); grows.
     pub(super) indices: wgpu::Buffer,
-    /// The cell wireframe's [`LineVertex`] pairs; grows.
+    /// The guides' [`LineVertex`] pairs; grows.
     pub(super) lines: wgpu::Buffer,
+    /// The guides' filled triangles, three [`LineVertex`] each; grows.
+    pub(super) fills: wgpu::Buffer,
 }
 
 impl Buffers {
@@ -84,7 +86,12 @@ impl Buffers {
             counters_read: empty("view counters readback", 16, U::MAP_READ | U::COPY_DST),
             indices: empty("view culled indices", 4, U::INDEX | U::COPY_DST),
             lines: empty(
-                "view cell lines",
+                "view guide lines",
+                std::mem::size_of::<LineVertex>() as u64,
+                U::VERTEX | U::COPY_DST,
+            ),
+            fills: empty(
+                "view guide fills",
                 std::mem::size_of::<LineVertex>() as u64,
                 U::VERTEX | U::COPY_DST,
             ),
@@ -142,21 +149,39 @@ impl Buffers {
         }
     }
 
-    /// Writes the wireframe's `lines`, first growing the buffer (to the next power of two)
-    /// when it is too small.
-    pub(super) fn write_lines(&mut self, device: &Device, queue: &Queue, lines: &[LineVertex]) {
-        let bytes = std::mem::size_of_val(lines) as u64;
-        if bytes > self.lines.size() {
-            self.lines = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("view cell lines"),
-                size: bytes.next_power_of_two(),
-                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
-        }
-        if !lines.is_empty() {
-            queue.write_buffer(&self.lines, 0, bytemuck::cast_slice(lines));
-        }
+    /// Writes the guides' `lines` and filled triangles `fills`.
+    pub(super) fn write_guides(
+        &mut self,
+        device: &Device,
+        queue: &Queue,
+        lines: &[LineVertex],
+        fills: &[LineVertex],
+    ) {
+        write_vertices(device, queue, &mut self.lines, "view guide lines", lines);
+        write_vertices(device, queue, &mut self.fills, "view guide fills", fills);
+    }
+}
+
+/// Writes `data` into the vertex buffer `buffer`, first growing it (to the next power of two)
+/// when it is too small.
+fn write_vertices(
+    device: &Device,
+    queue: &Queue,
+    buffer: &mut wgpu::Buffer,
+    label: &str,
+    data: &[LineVertex],
+) {
+    let bytes = std::mem::size_of_val(data) as u64;
+    if bytes > buffer.size() {
+        *buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: bytes.next_power_of_two(),
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+    }
+    if !data.is_empty() {
+        queue.write_buffer(buffer, 0, bytemuck::cast_slice(data));
     }
 }
 

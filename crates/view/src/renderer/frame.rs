@@ -1,6 +1,6 @@
 //! Encoding the passes of one frame, in the order of the module documentation: the full id
 //! pass, then (when the method culls) the culled id pass and the compare pass, then the resolve
-//! pass with the cell lines on top.
+//! pass with the guides (filled triangles, then lines) on top.
 
 use super::buffers::Buffers;
 use super::pipelines::{Pipelines, SceneBinds};
@@ -16,8 +16,10 @@ pub(super) struct FramePasses<'a> {
     pub(super) triangle_count: u32,
     /// Indices of the culled pass.
     pub(super) index_count: u32,
-    /// Vertices of the cell wireframe (0: no line draw).
+    /// Vertices of the guides' lines (0: no line draw).
     pub(super) line_count: u32,
+    /// Vertices of the guides' filled triangles (0: no fill draw).
+    pub(super) fill_count: u32,
 }
 
 impl FramePasses<'_> {
@@ -111,8 +113,7 @@ impl FramePasses<'_> {
     }
 
     /// Passes 4 and 5: shades `target` from the culled (`culled`) or full id image, keeping the
-    /// depth buffer of the image shown (`show_full`: the full one) for the cell lines drawn on
-    /// top.
+    /// depth buffer of the image shown (`show_full`: the full one) for the guides drawn on top.
     fn resolve_pass(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -160,6 +161,12 @@ impl FramePasses<'_> {
         );
         pass.set_bind_group(1, &self.binds.resolve_scene, &[]);
         pass.draw(0..3, 0..1);
+        if self.fill_count > 0 {
+            pass.set_pipeline(&self.pipelines.fill);
+            pass.set_bind_group(0, &self.binds.fill, &[]);
+            pass.set_vertex_buffer(0, self.buffers.fills.slice(..));
+            pass.draw(0..self.fill_count, 0..1);
+        }
         if self.line_count > 0 {
             pass.set_pipeline(&self.pipelines.line);
             pass.set_bind_group(0, &self.binds.line, &[]);

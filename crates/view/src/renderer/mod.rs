@@ -16,11 +16,13 @@
 //! 4. **Resolve**: a full-screen pass shading each pixel's triangle (flat: its face normal,
 //!    double-sided, a headlight and two fixed lights, a colour per object). Popping pixels are
 //!    magenta; in x-ray mode the full image is shown with culled triangles tinted red.
-//! 5. **Cells**: view-cell edges as lines, depth-tested against the shown image.
+//! 5. **Guides**: filled triangles, then lines (view cells, the frozen camera's frustum, the
+//!    overview's cell map and eye marker), depth-tested against the shown image.
 //! 6. **Overlay** (only when asked, [`Renderer::draw_overlay`]): an RGBA image, the HUD,
 //!    blended over the frame's top-left corner in a submission of its own.
 //!
 //! The renderer takes a device and queue from its caller (tests and the window pass theirs).
+//! It draws through a perspective camera or the overview's orthographic one ([`ViewCamera`]).
 //!
 //! # Layout
 //! - `types.rs`: formats, [`Shading`], the wireframe's vertices, the camera uniform (a leaf
@@ -36,6 +38,7 @@ use sightline_core::{Camera, Hit, Scene, TriangleSet};
 use wgpu::{Device, Queue, TextureFormat};
 
 use crate::error::ViewError;
+use crate::overview::ViewCamera;
 
 mod buffers;
 mod frame;
@@ -83,8 +86,10 @@ pub struct Renderer {
     buffers: Buffers,
     /// Indices of the drawn set in `buffers.indices`.
     index_count: u32,
-    /// Vertices of the wireframe in `buffers.lines`.
+    /// Vertices of the guides' lines in `buffers.lines`.
     line_count: u32,
+    /// Vertices of the guides' triangles in `buffers.fills`.
+    fill_count: u32,
     pipelines: Pipelines,
     binds: SceneBinds,
     targets: Targets,
@@ -119,6 +124,7 @@ impl Renderer {
             buffers,
             index_count: 0,
             line_count: 0,
+            fill_count: 0,
             pipelines,
             binds,
             targets,
@@ -142,10 +148,13 @@ impl Renderer {
         self.culled_last = false;
     }
 
-    /// Sets the view-cell wireframe: pairs of line endpoints with their colours.
-    pub(crate) fn set_lines(&mut self, lines: &[LineVertex]) {
-        self.buffers.write_lines(&self.device, &self.queue, lines);
+    /// Sets the guides: `lines`, pairs of line endpoints, and `fills`, triples of triangle
+    /// corners, with their colours.
+    pub(crate) fn set_guides(&mut self, lines: &[LineVertex], fills: &[LineVertex]) {
+        self.buffers
+            .write_guides(&self.device, &self.queue, lines, fills);
         self.line_count = lines.len() as u32;
+        self.fill_count = (fills.len() - fills.len() % 3) as u32;
     }
 
     /// Renders one frame from `camera` (whose size must be the renderer's) into `target`, a
@@ -162,9 +171,21 @@ impl Renderer {
         shading: Shading,
         target: &wgpu::TextureView,
     ) -> Result<GpuFrame, ViewError> {
-        if (camera.width, camera.height) != self.size() {
+        self.render_view(&ViewCamera::Perspective(*camera), drawn, shading, target)
+    }
+
+    /// [`Renderer::render`] through either camera: the overview draws through its
+    /// orthographic one. The popping count compares the two id images of that camera.
+    pub fn render_view(
+        &mut self,
+        camera: &ViewCamera,
+        drawn: Option<&TriangleSet>,
+        shading: Shading,
+        target: &wgpu::TextureView,
+    ) -> Result<GpuFrame, ViewError> {
+        if camera.size() != self.size() {
             return Err(ViewError::SizeMismatch {
-                camera: (camera.width, camera.height),
+                camera: camera.size(),
                 renderer: self.size(),
             });
         }
@@ -196,6 +217,7 @@ impl Renderer {
             triangle_count: self.triangle_count,
             index_count: self.index_count,
             line_count: self.line_count,
+            fill_count: self.fill_count,
         };
         passes.encode(&mut encoder, target, culled, shading.xray);
         let buffers = &self.buffers;

@@ -1,4 +1,5 @@
-//! The renderer's pipelines, one per pass of a frame (id images, compare, resolve, cell lines),
+//! The renderer's pipelines, one per pass of a frame (id images, compare, resolve, guides as
+//! lines and as filled triangles),
 //! compiled from `renderer.wgsl` with layouts derived from the shader, and the bind groups that
 //! do not depend on the image size.
 
@@ -7,7 +8,7 @@ use wgpu::{Device, TextureFormat};
 use super::buffers::Buffers;
 use super::types::{LineVertex, DEPTH_FORMAT, ID_FORMAT};
 
-/// The four pipelines of a frame.
+/// The pipelines of a frame.
 pub(super) struct Pipelines {
     /// Passes 1 and 2: triangles into an id image and a depth buffer.
     pub(super) id: wgpu::RenderPipeline,
@@ -15,12 +16,15 @@ pub(super) struct Pipelines {
     pub(super) compare: wgpu::ComputePipeline,
     /// Pass 4: a full-screen triangle shading each pixel's triangle.
     pub(super) resolve: wgpu::RenderPipeline,
-    /// Pass 5: the cell wireframe, depth-tested against the shown image.
+    /// Pass 5: the guides' lines (cell wireframe, frustum, marker), depth-tested against the
+    /// shown image.
     pub(super) line: wgpu::RenderPipeline,
+    /// Pass 5, before the lines: the guides' filled triangles (the overview's cells).
+    pub(super) fill: wgpu::RenderPipeline,
 }
 
 impl Pipelines {
-    /// Compiles `renderer.wgsl` and makes the four pipelines; the resolve and line passes draw
+    /// Compiles `renderer.wgsl` and makes the pipelines; the resolve and guide passes draw
     /// into colour targets of `color_format`.
     pub(super) fn new(device: &Device, color_format: TextureFormat) -> Self {
         let shader = device.create_shader_module(wgpu::include_wgsl!("../renderer.wgsl"));
@@ -34,12 +38,24 @@ impl Pipelines {
             cache: None,
         });
         let resolve = resolve_pipeline(device, &shader, color_format);
-        let line = line_pipeline(device, &shader, color_format);
+        let line = guide_pipeline(
+            device,
+            &shader,
+            color_format,
+            wgpu::PrimitiveTopology::LineList,
+        );
+        let fill = guide_pipeline(
+            device,
+            &shader,
+            color_format,
+            wgpu::PrimitiveTopology::TriangleList,
+        );
         Self {
             id,
             compare,
             resolve,
             line,
+            fill,
         }
     }
 }
@@ -125,12 +141,14 @@ fn resolve_pipeline(
     })
 }
 
-/// The line pipeline: [`LineVertex`] pairs as a line list, alpha-blended into `color_format`,
-/// depth-tested (`GreaterEqual`, no writes) against the shown image.
-fn line_pipeline(
+/// A guide pipeline: [`LineVertex`] as a line list (pairs) or triangle list (`topology`),
+/// alpha-blended into `color_format`, depth-tested (`GreaterEqual`, no writes) against the
+/// shown image, double-sided.
+fn guide_pipeline(
     device: &Device,
     shader: &wgpu::ShaderModule,
     color_format: TextureFormat,
+    topology: wgpu::PrimitiveTopology,
 ) -> wgpu::RenderPipeline {
     let line_attrs = [
         wgpu::VertexAttribute {
@@ -145,7 +163,7 @@ fn line_pipeline(
         },
     ];
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some("view cells"),
+        label: Some("view guides"),
         layout: None,
         vertex: wgpu::VertexState {
             module: shader,
@@ -158,7 +176,8 @@ fn line_pipeline(
             })],
         },
         primitive: wgpu::PrimitiveState {
-            topology: wgpu::PrimitiveTopology::LineList,
+            topology,
+            cull_mode: None,
             ..Default::default()
         },
         depth_stencil: depth(false, wgpu::CompareFunction::GreaterEqual),
@@ -184,6 +203,8 @@ pub(super) struct SceneBinds {
     pub(super) id: wgpu::BindGroup,
     /// Group 0 of the line pipeline: the camera.
     pub(super) line: wgpu::BindGroup,
+    /// Group 0 of the fill pipeline: the camera (automatic layouts are not shared).
+    pub(super) fill: wgpu::BindGroup,
     /// Group 1 of the resolve pipeline: per-triangle shading data and the drawn bits.
     pub(super) resolve_scene: wgpu::BindGroup,
 }
@@ -202,7 +223,8 @@ impl SceneBinds {
             })
         };
         let id = camera_only(pipelines.id.get_bind_group_layout(0), "view ids");
-        let line = camera_only(pipelines.line.get_bind_group_layout(0), "view cells");
+        let line = camera_only(pipelines.line.get_bind_group_layout(0), "view guide lines");
+        let fill = camera_only(pipelines.fill.get_bind_group_layout(0), "view guide fills");
         let resolve_scene = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("view resolve scene"),
             layout: &pipelines.resolve.get_bind_group_layout(1),
@@ -220,6 +242,7 @@ impl SceneBinds {
         Self {
             id,
             line,
+            fill,
             resolve_scene,
         }
     }
