@@ -66,6 +66,8 @@ pub(crate) enum Phase {
     Rs,
     /// Another cell's ray (ray sharing).
     Shared,
+    /// Neighbour sampling (ours, GVS++ under a budget: `gvspp/neighbours.rs`).
+    Adjacent,
 }
 
 /// Triangles first found by each phase, in total and in the round under way.
@@ -79,6 +81,8 @@ pub(crate) struct Found {
     pub rs: usize,
     /// By other cells' rays.
     pub shared: usize,
+    /// By neighbour sampling.
+    pub adjacent: usize,
     /// By any phase since the round began.
     pub this_round: usize,
 }
@@ -91,6 +95,7 @@ impl Found {
             Phase::Abs => self.abs += n,
             Phase::Rs => self.rs += n,
             Phase::Shared => self.shared += n,
+            Phase::Adjacent => self.adjacent += n,
         }
         self.this_round += n;
     }
@@ -100,9 +105,14 @@ impl Found {
         std::mem::take(&mut self.this_round)
     }
 
-    /// The `found_by` of a cell's result: "random", "abs", "rs".
+    /// The `found_by` of a cell's result: "random", "abs", "rs", and "adjacent" where
+    /// neighbour sampling found some.
     pub fn found_by(&self) -> Vec<(&'static str, usize)> {
-        vec![("random", self.random), ("abs", self.abs), ("rs", self.rs)]
+        let mut list = vec![("random", self.random), ("abs", self.abs), ("rs", self.rs)];
+        if self.adjacent > 0 {
+            list.push(("adjacent", self.adjacent));
+        }
+        list
     }
 
     /// [`Found::found_by`] and "shared".

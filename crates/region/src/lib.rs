@@ -2,6 +2,7 @@
 //! potentially visible set (PVS) for a cell, and the `.pvs` file format.
 #![deny(missing_docs)]
 
+pub mod adjacency;
 pub mod bake;
 mod border;
 pub mod cell_sources;

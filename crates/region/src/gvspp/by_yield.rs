@@ -24,12 +24,17 @@
 //! triangle that got fewer than 20 somewhere joins a refinement queue, whose batches (a fourth
 //! kind) cast the paper's edge samples when their yield is the best. At 1M rays the dragon's
 //! cells are then 18x better than RAND.
+//!
+//! A fifth kind, neighbour sampling (`neighbours.rs`), aims from spread origins at the corners
+//! of triangles that touch a found one and are not found yet: slivers that border sampling
+//! passes by. On fan at 7M rays it took the six cells' missed pixels from 5 to 1.
 
 use crate::guided::Phase;
 use crate::rays::{cast, discover};
 use crate::sampler::{CellContext, ConvergencePoint, Tally};
 
 use super::cell::{fitting, GvsppCell};
+use super::neighbours::NeighbourSampling;
 use super::params::YIELD_BATCH;
 
 /// The kinds of GVS++ rays a batch can be.
@@ -44,9 +49,17 @@ pub(crate) enum Kind {
     Reverse = 2,
     /// The rest of the paper's edge samples of coarsely sampled triangles (4.2).
     Refine = 3,
+    /// Rays at the corners of found triangles' unfound neighbours (ours: `neighbours.rs`).
+    Neighbour = 4,
 }
 
-const KINDS: [Kind; 4] = [Kind::Random, Kind::Border, Kind::Reverse, Kind::Refine];
+const KINDS: [Kind; 5] = [
+    Kind::Random,
+    Kind::Border,
+    Kind::Reverse,
+    Kind::Refine,
+    Kind::Neighbour,
+];
 
 /// Each kind casts at least this share of the rays while it has work.
 pub(crate) const FLOOR_SHARE: f64 = 0.1;
@@ -57,16 +70,16 @@ const SMOOTHING: f64 = 0.3;
 /// The yield estimates and ray counts of the kinds.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct YieldScheduler {
-    rays: [u64; 4],
+    rays: [u64; 5],
     /// Estimated new triangles per ray; `None` before the kind's first batch.
-    estimate: [Option<f64>; 4],
+    estimate: [Option<f64>; 5],
 }
 
 impl YieldScheduler {
     /// The kind the next batch casts, among those with work (`has_work[kind as usize]`):
     /// an untried kind first, then one below its floor share, then the best estimate (the
     /// first of equals); `None` when no kind has work.
-    pub fn choose(&self, has_work: [bool; 4]) -> Option<Kind> {
+    pub fn choose(&self, has_work: [bool; 5]) -> Option<Kind> {
         let total: u64 = self.rays.iter().sum();
         let ready = || KINDS.into_iter().filter(|k| has_work[*k as usize]);
         ready()
@@ -117,17 +130,18 @@ pub(crate) fn sample_by_yield(
 ) -> bool {
     let mut scheduler = YieldScheduler::default();
     let mut rule_held = false;
-    // Border, reverse and refinement work waiting (random rays always have work).
+    // Border, reverse, refinement and neighbour work waiting (random rays always have work).
     let waiting = |c: &GvsppCell| {
         [
             !c.queue.is_empty(),
             !c.pending.is_empty(),
             !c.refine.is_empty(),
+            c.neighbours.as_ref().is_some_and(|n| n.has_work()),
         ]
     };
     while !tally.exhausted() {
-        let [border, reverse, refine] = waiting(cell);
-        let has_work = [true, border, reverse, refine];
+        let [border, reverse, refine, neighbour] = waiting(cell);
+        let has_work = [true, border, reverse, refine, neighbour];
         let Some(kind) = scheduler.choose(has_work) else {
             break;
         };
@@ -140,6 +154,7 @@ pub(crate) fn sample_by_yield(
             Kind::Border => border_batch(ctx, cell, tally, progress),
             Kind::Reverse => reverse_batch(ctx, cell, tally, progress),
             Kind::Refine => refine_batch(ctx, cell, tally, progress),
+            Kind::Neighbour => neighbour_batch(ctx, cell, tally, progress),
         };
         scheduler.record(kind, (tally.rays - before) as usize, new);
         let idle = !waiting(cell).contains(&true);
@@ -160,7 +175,7 @@ fn random_batch(
         .random
         .sample_round(ctx, tally, YIELD_BATCH as u64, progress)?;
     let n = new.len();
-    cell.found_new(Phase::Random, new);
+    cell.found_new(ctx, Phase::Random, new);
     Some(n)
 }
 
@@ -208,6 +223,22 @@ fn reverse_batch(
     cast_and_credit(ctx, cell, tally, &rays, Phase::Rs, progress).1
 }
 
+/// Neighbour sampling of the next waiting neighbours, about one batch of rays and no more than
+/// the budget allows. The number of new triangles.
+fn neighbour_batch(
+    ctx: &CellContext<'_>,
+    cell: &mut GvsppCell,
+    tally: &mut Tally,
+    progress: &(dyn Fn(&ConvergencePoint) + Sync),
+) -> usize {
+    let take = batch_items(NeighbourSampling::rays_per_triangle(), tally.rays_left());
+    let Some(neighbours) = cell.neighbours.as_mut() else {
+        return 0;
+    };
+    let rays = neighbours.rays(ctx, take, |id| tally.pvs.contains(id));
+    cast_and_credit(ctx, cell, tally, &rays, Phase::Adjacent, progress).1
+}
+
 /// How many items costing up to `per_item` rays each make about one batch, and no more than
 /// `rays_left` allow (at least one, so a batch always makes progress).
 fn batch_items(per_item: usize, rays_left: u64) -> usize {
@@ -230,7 +261,7 @@ fn cast_and_credit(
     let hits = cast(ctx.caster, rays);
     let new = discover(&tally.pvs, rays, &hits);
     let n = new.len();
-    cell.found_new(phase, new);
+    cell.found_new(ctx, phase, new);
     tally.batch_done(rays.len(), progress);
     (hits, n)
 }
@@ -239,7 +270,7 @@ fn cast_and_credit(
 mod tests {
     use super::*;
 
-    const ALL: [bool; 4] = [true, true, true, false];
+    const ALL: [bool; 5] = [true, true, true, false, false];
 
     #[test]
     fn untried_kinds_go_first_then_the_best_yield() {
@@ -248,14 +279,26 @@ mod tests {
         s.record(Kind::Random, 1000, 10);
         assert_eq!(s.choose(ALL), Some(Kind::Border));
         // No border work yet: reverse sampling is the untried kind with work.
-        assert_eq!(s.choose([true, false, true, false]), Some(Kind::Reverse));
+        assert_eq!(
+            s.choose([true, false, true, false, false]),
+            Some(Kind::Reverse)
+        );
         s.record(Kind::Border, 1000, 50);
         s.record(Kind::Reverse, 1000, 1);
         assert_eq!(s.choose(ALL), Some(Kind::Border));
-        assert_eq!(s.choose([true, false, true, false]), Some(Kind::Random));
-        assert_eq!(s.choose([false; 4]), None);
+        assert_eq!(
+            s.choose([true, false, true, false, false]),
+            Some(Kind::Random)
+        );
+        assert_eq!(s.choose([false; 5]), None);
         // Refinement work appears: untried, it goes next.
-        assert_eq!(s.choose([true; 4]), Some(Kind::Refine));
+        assert_eq!(
+            s.choose([true, true, true, true, false]),
+            Some(Kind::Refine)
+        );
+        s.record(Kind::Refine, 1000, 5);
+        // Then neighbour work.
+        assert_eq!(s.choose([true; 5]), Some(Kind::Neighbour));
     }
 
     #[test]

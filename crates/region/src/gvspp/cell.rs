@@ -17,6 +17,7 @@ use sightline_core::{Hit, Ray};
 use super::guided_rays::{
     abs_rays, find_discontinuities, Discontinuity, EdgeSamples, ReverseOrigins,
 };
+use super::neighbours::NeighbourSampling;
 use super::params::ABS_ANGLE_STEP;
 use super::params::{GvsPlusPlusParams, ABS_CHUNK, EXPLORE_RAYS_PER_TRIANGLE, TERMINATION_WINDOW};
 use crate::guided::{ExploreQueue, Found, Phase, Termination};
@@ -54,6 +55,8 @@ pub(crate) struct GvsppCell {
     /// Discontinuities waiting for reverse sampling (scheduled by yield only: the paper's
     /// rounds reverse-sample them as soon as border sampling finds them).
     pub pending: VecDeque<Discontinuity>,
+    /// Neighbours of found triangles waiting to be aimed at (scheduled by yield only).
+    pub neighbours: Option<NeighbourSampling>,
     /// Triangles found by each phase.
     pub found: Found,
     termination: Termination,
@@ -80,6 +83,7 @@ impl GvsppCell {
             queue: ExploreQueue::default(),
             refine: ExploreQueue::default(),
             pending: VecDeque::new(),
+            neighbours: (rounds == Rounds::ByYield).then(|| NeighbourSampling::new(ctx)),
             found: Found::default(),
             termination,
             n_rand: p.n_rand,
@@ -94,9 +98,13 @@ impl GvsppCell {
         self.n_rand
     }
 
-    /// Credits the triangles `phase` found to it and queues them for exploration.
-    pub fn found_new(&mut self, phase: Phase, new: Vec<Discovery>) {
+    /// Credits the triangles `phase` found to it and queues them for exploration (and, under
+    /// a budget, their neighbours for neighbour sampling).
+    pub fn found_new(&mut self, ctx: &CellContext<'_>, phase: Phase, new: Vec<Discovery>) {
         self.found.credit(phase, new.len());
+        if let Some(n) = &mut self.neighbours {
+            n.found(ctx, new.iter().map(|d| d.triangle));
+        }
         self.queue.extend(new);
     }
 

@@ -30,7 +30,8 @@
 //! triangles per ray in its recent batches, each kind keeping at least a tenth of the rays while
 //! it has work; border sampling first spaces its edge samples 3 mrad apart and refines to the
 //! paper's 20 per edge later, as a kind of its own (`by_yield.rs` says why and what it
-//! measured). `fixed_rounds` restores the
+//! measured); a fifth kind aims at the corners of found triangles' unfound neighbours, for
+//! triangles that show only a sliver (`neighbours.rs`). `fixed_rounds` restores the
 //! paper's rounds. A bake without a budget (to convergence) keeps the paper's rounds: its
 //! termination rule needs them. That rule is the paper's (T = 10 new triangles in a 10^7-ray
 //! round) over a window of at least [`TERMINATION_WINDOW`] rays instead of one round, so that a
@@ -41,7 +42,8 @@
 //! 1 km scene), so the defaults work on a bunny and on a city alike.
 //!
 //! # Layout
-//! `params.rs` the parameters and the schedule's constants; `cell.rs` one cell's state (random
+//! `params.rs` the parameters and the schedule's constants; `neighbours.rs` neighbour
+//! sampling (ours) over `crate::adjacency`; `cell.rs` one cell's state (random
 //! sequence, reverse origins, queue, waiting discontinuities, counters, termination), stepped by
 //! the drivers: `sampler.rs`, the per-cell sampler in the paper's rounds, `by_yield.rs`, the
 //! per-cell sampler under a budget, and the shared-ray bake (`ray_sharing/`); `guided_rays.rs`
@@ -51,6 +53,7 @@
 mod by_yield;
 mod cell;
 mod guided_rays;
+mod neighbours;
 mod params;
 mod sampler;
 

@@ -49,7 +49,7 @@ impl Sampler for GvsPlusPlus {
             else {
                 break;
             };
-            cell.found_new(Phase::Random, new);
+            cell.found_new(ctx, Phase::Random, new);
             // Exploration (4.2, 4.3): drain the queue, FIFO, within the budget.
             while !cell.queue.is_empty() && !tally.exhausted() {
                 let take = cell.explore_take(tally.rays_left());
@@ -77,7 +77,7 @@ fn explore_step(
 ) {
     let (rays, targets) = cell.abs_rays(ctx, take);
     let hits = cast(ctx.caster, &rays);
-    cell.found_new(Phase::Abs, discover(&tally.pvs, &rays, &hits));
+    cell.found_new(ctx, Phase::Abs, discover(&tally.pvs, &rays, &hits));
     tally.batch_done(rays.len(), progress);
     let discontinuities = cell.discontinuities(&rays, &hits, &targets);
     let mut rest = &discontinuities[..];
@@ -86,7 +86,11 @@ fn explore_step(
         let (group, after) = rest.split_at(size.min(rest.len()));
         rest = after;
         let rs = cell.rs_rays(ctx, group);
-        cell.found_new(Phase::Rs, discover(&tally.pvs, &rs, &cast(ctx.caster, &rs)));
+        cell.found_new(
+            ctx,
+            Phase::Rs,
+            discover(&tally.pvs, &rs, &cast(ctx.caster, &rs)),
+        );
         tally.batch_done(rs.len(), progress);
     }
 }
