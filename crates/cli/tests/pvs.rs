@@ -782,3 +782,86 @@ fn merge_cells_joins_neighbours_into_their_union() {
         "outside 0..=1",
     );
 }
+
+/// An OBJ of a closed block (outward normals) filling x in [0.5, 10], and a wall at x = -20
+/// facing it, for the free-space tests of mesh cells.
+fn block_scene(dir: &Path) -> &'static str {
+    let mut obj = String::new();
+    for i in 0..8 {
+        let x = if i & 1 != 0 { 10.0 } else { 0.5 };
+        let y = if i & 2 != 0 { 50.0 } else { -50.0 };
+        let z = if i & 4 != 0 { 50.0 } else { -50.0 };
+        obj.push_str(&format!("v {x} {y} {z}\n"));
+    }
+    for [a, b, c, d] in [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ] {
+        obj.push_str(&format!("f {} {} {}\n", a + 1, b + 1, c + 1));
+        obj.push_str(&format!("f {} {} {}\n", a + 1, c + 1, d + 1));
+    }
+    obj.push_str("v -20 -30 -30\nv -20 30 -30\nv -20 0 30\nf 9 10 11\n");
+    std::fs::write(dir.join("block.obj"), obj).unwrap();
+    "block.obj"
+}
+
+#[test]
+fn mesh_cells_take_no_origins_inside_closed_geometry() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = block_scene(dir.path());
+    // Cell 0 reaches from free space into the block; cell 1 lies wholly inside it.
+    let bake = |extra: &[&str]| {
+        let args = [
+            &[
+                "pvs",
+                "bake",
+                scene,
+                "--cell",
+                "box:-4,-1,-1,4,1,1",
+                "--cell",
+                "box:2,-1,-1,8,1,1",
+                "--rays",
+                "20000",
+                "--json",
+            ][..],
+            extra,
+        ]
+        .concat();
+        sightline(&args, dir.path())
+    };
+    let o = bake(&["-o", "open.pvs"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["solid"]["tested"], 2, "{v}");
+    assert_eq!(v["solid"]["partly_closed"], 1, "{v}");
+    assert_eq!(v["solid"]["all_closed"], serde_json::json!([1]), "{v}");
+    let err = stderr(&o);
+    assert!(
+        err.contains("1 of 2 cells reach into closed geometry"),
+        "{err}"
+    );
+    assert!(
+        err.contains("wholly inside closed geometry") && err.contains("cells 1"),
+        "{err}"
+    );
+    let sets = cell_triangles(dir.path(), "open.pvs");
+    // Cell 0 sees the wall (triangle 12) and the block's face towards it; cell 1 nothing.
+    assert!(
+        sets[0].as_array().unwrap().contains(&serde_json::json!(12)),
+        "{sets:?}"
+    );
+    assert_eq!(sets[1].as_array().unwrap().len(), 0, "{sets:?}");
+
+    // --origins-anywhere: the old rule, no test; origins inside the block see its inside.
+    let o = bake(&["-o", "anywhere.pvs", "--origins-anywhere"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["solid"].is_null(), "{v}");
+    assert!(!stderr(&o).contains("closed geometry"), "{}", stderr(&o));
+    let sets = cell_triangles(dir.path(), "anywhere.pvs");
+    assert!(!sets[1].as_array().unwrap().is_empty(), "{sets:?}");
+}

@@ -16,6 +16,7 @@ use sightline_core::trace::RayCaster;
 use sightline_core::TriangleSet;
 use sightline_region::bake::{cell_stats, BakeSetup};
 use sightline_region::checkpoint::{fingerprint, BakeProgress, ResumableBake};
+use sightline_region::occupancy::{BakeOccupancy, CellOccupancy};
 
 use sightline_region::rebake::{
     plan_incremental_bake, IncrementalBakeError, OldBake, DEFAULT_PROBE_RAYS,
@@ -91,13 +92,14 @@ fn bake_batch(
     control: &Control,
 ) -> Result<Vec<(TriangleSet, serde_json::Value)>, Stopped> {
     let bvh = data.bvh();
-    // The CLI's free-space test for plain (non-Quake-3-leaf) cells: the whole cell.
-    let inside = |_: Vec3| true;
     let mut out = Vec::with_capacity(cells.len());
     for (cell, &index) in cells.iter().zip(indices) {
         if control.stopped() {
             return Err(Stopped);
         }
+        // The CLI's free-space test for plain (non-Quake-3) cells: their open voxels.
+        let grid = CellOccupancy::of(&data.scene, bvh, cell);
+        let inside = |p: Vec3| grid.allows(p);
         let ctx = CellContext {
             scene: &data.scene,
             caster: bvh,
@@ -252,7 +254,8 @@ fn bake_batch_py<'py>(
 
 /// Bakes `cells` on this machine with the bake driver of `sightline pvs bake`: a `Pvs` whose
 /// cells and sets equal the CLI's for the same scene, cells, method, budget and seed, with the
-/// same per-cell statistics in its metadata. `threads`: bake threads (default all cores; far
+/// same per-cell statistics in its metadata (ray origins skip the cells' voxels inside closed
+/// geometry, the CLI's default). `threads`: bake threads (default all cores; far
 /// more than the cores are capped, with a warning). `progress`: see `sightline._progress`
 /// (default: a line on stderr when it is a terminal). Ctrl-C stops the bake (cells under way
 /// finish first) and raises `KeyboardInterrupt`. `device`: `"cpu"` (the default) or `"gpu"`,
@@ -309,10 +312,17 @@ pub(crate) fn bake<'py>(
     let sampler = method.sampler()?;
     let data = scene.get().data.clone();
     let device = BakeCaster::new(py, device, &data.scene)?;
+    let caster = device.caster(data.bvh());
+    let cells: Vec<ViewCell> = cells.into_iter().map(|c| c.cell).collect();
+    // The CLI's free-space test for plain cells: their open voxels, each cell's tested when
+    // it is baked (a rebake tests only the cells it does not keep).
+    let grids = BakeOccupancy::new(&data.scene, caster, &cells);
+    let free_space = |cell: usize, p: Vec3| grids.allows(cell, p);
     let job = BakeJob {
-        caster: device.caster(data.bvh()),
+        caster,
         data: data.clone(),
-        cells: cells.into_iter().map(|c| c.cell).collect(),
+        cells: &cells,
+        free_space: &free_space,
         parameters: format!("{:?}", method.params),
         sampler: sampler.as_ref(),
         budget: budget(rays, time_ms)?,
@@ -339,7 +349,9 @@ struct BakeJob<'a> {
     data: Arc<SceneData>,
     /// The scene's BVH, or the GPU caster (`device`).
     caster: &'a dyn RayCaster,
-    cells: Vec<ViewCell>,
+    cells: &'a [ViewCell],
+    /// Where each cell's ray origins may be (its open voxels).
+    free_space: &'a (dyn Fn(usize, Vec3) -> bool + Sync),
     /// The method's parameters, as the file records them.
     parameters: String,
     sampler: &'a dyn Sampler,
@@ -354,25 +366,21 @@ struct Since<'a> {
     probe_rays: usize,
 }
 
-/// The fingerprint's part about plain cells (not Quake 3 leaves): the CLI's for them.
+/// The fingerprint's part about plain cells (not Quake 3 leaves): the CLI's for them, whose
+/// origins keep to their open voxels by default.
 fn plain_cells_key() -> serde_json::Value {
-    serde_json::json!({ "clusters": null })
-}
-
-/// Every point of a plain cell may be a ray origin.
-fn anywhere(_: usize, _: Vec3) -> bool {
-    true
+    sightline_region::occupancy::plain_cells_key(true)
 }
 
 impl BakeJob<'_> {
-    /// The bake driver's view of this job (plain cells: origins anywhere in them).
+    /// The bake driver's view of this job (plain cells: origins in their open voxels).
     fn setup(&self) -> BakeSetup<'_> {
         BakeSetup {
             scene: &self.data.scene,
             caster: self.caster,
-            cells: &self.cells,
+            cells: self.cells,
             sampler: self.sampler,
-            free_space: &anywhere,
+            free_space: self.free_space,
             budget: self.budget,
             seed: self.seed,
         }
@@ -402,9 +410,9 @@ impl BakeJob<'_> {
         sightline_region::bake::try_bake(
             &self.data.scene,
             self.caster,
-            &self.cells,
+            self.cells,
             self.sampler,
-            &|_, _| true,
+            self.free_space,
             &self.budget,
             self.seed,
             extra,

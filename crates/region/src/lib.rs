@@ -14,6 +14,7 @@ pub mod hull_box;
 pub mod incremental;
 pub mod merge_similar;
 pub mod methods;
+pub mod occupancy;
 pub mod pvs_file;
 pub mod pvs_objects;
 pub mod rand;

@@ -174,7 +174,8 @@ def bake(
     device: Literal["cpu", "gpu"] = "cpu",
 ) -> Pvs:
     """Bakes ``cells`` on this machine as ``sightline pvs bake`` does (same cells, sets and
-    per-cell statistics).
+    per-cell statistics). As the CLI's default, ray origins skip the parts of a cell that lie
+    inside closed geometry (8x8x8 voxels a cell; ``pvs bake --help``, ``--origins-anywhere``).
 
     ``device="gpu"`` casts the rays with the GPU ray caster, as ``pvs bake --device gpu``
     (16 cells at once, their rounds cast together): the same sets as on the CPU for the same

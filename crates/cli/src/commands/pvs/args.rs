@@ -106,6 +106,14 @@ pub(crate) struct CellArgs {
     /// lattice is capped at 2^28 points.
     #[arg(long, value_name = "UNITS", default_value_t = DEFAULT_STEP, allow_hyphen_values = true)]
     pub(crate) reach_step: f32,
+    /// Mesh scenes: let ray origins lie anywhere in the cells. By default each cell is split
+    /// into 8x8x8 voxels, and voxels lying wholly inside closed geometry (their centre and
+    /// corners all inside: most axis rays from them hit the back of a triangle) give no
+    /// origins, so rays from inside walls and sealed rooms do not add triangles no camera sees.
+    /// The bake reports cells that reach into solid geometry. Quake 3 cells use their BSP
+    /// instead (see --include-unreachable).
+    #[arg(long)]
+    pub(crate) origins_anywhere: bool,
 }
 
 #[derive(clap::Args, Debug)]

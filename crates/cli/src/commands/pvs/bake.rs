@@ -14,6 +14,7 @@ use sightline_region::bake::BakeSetup;
 use sightline_region::cell_sources::{write_cells_file, Q3Cells, Q3OriginsSummary, Q3_ORIGINS_KEY};
 use sightline_region::checkpoint::{checkpoint_path, fingerprint, BakeProgress, ResumableBake};
 use sightline_region::methods::{sampler, MethodParams};
+use sightline_region::occupancy::{plain_cells_key, BakeOccupancy, OccupancySummary};
 use sightline_region::pvs_file::EncodedPvsFile;
 use sightline_region::rebake::{
     plan_incremental_bake, IncrementalBake, IncrementalBakeError, OldBake,
@@ -59,6 +60,10 @@ struct BakeSummary {
     /// Methods with a termination rule (GVS, GVS++): cells the budget stopped before the rule
     /// held (`converged: false` in their statistics). `None` for RAND and RASTER.
     unconverged_cells: Option<usize>,
+    /// Mesh cells: how many of the baked cells reach into closed geometry (their origins there
+    /// were skipped) and which lie wholly inside it (no origins: an empty set). `None` for
+    /// Quake 3 cells and with --origins-anywhere.
+    solid: Option<OccupancySummary>,
 }
 
 /// Of cells' `converged` flags (`None` where a cell has none): how many are `false`, `None`
@@ -78,6 +83,35 @@ fn warn_unconverged(summary: &BakeSummary) {
              statistics). Raise --rays / --time, or bake without a budget to run each cell to \
              convergence.",
             summary.cells, summary.method
+        );
+    }
+}
+
+/// Says on stderr how many mesh cells reach into closed geometry, and warns about cells that lie
+/// wholly inside it (their sets are empty).
+fn warn_solid_cells(summary: &BakeSummary) {
+    let Some(s) = &summary.solid else { return };
+    if s.partly_closed > 0 {
+        eprintln!(
+            "{} of {} cells reach into closed geometry: their origins there were skipped \
+             (--origins-anywhere keeps them)",
+            s.partly_closed, s.tested
+        );
+    }
+    if !s.all_closed.is_empty() {
+        let shown: Vec<String> = s
+            .all_closed
+            .iter()
+            .take(10)
+            .map(|i| i.to_string())
+            .collect();
+        let more = if s.all_closed.len() > 10 { ", ..." } else { "" };
+        eprintln!(
+            "warning: {} cells lie wholly inside closed geometry and got no ray origins (empty \
+             sets): cells {}{more}. Move them into free space, or, if the mesh is open or wound \
+             inward (which the solid test takes for closed), bake with --origins-anywhere.",
+            s.all_closed.len(),
+            shown.join(", ")
         );
     }
 }
@@ -114,14 +148,20 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
             path.display()
         );
     }
-    let record = CellRecord::of(q3.as_ref());
+    let record = CellRecord::of(q3.as_ref(), !args.cells.origins_anywhere);
     let params = args.method_overrides.params();
     let sampler = sampler(&args.method, &params)?;
     let (shard, budget) = check_bake_args(args, &params)?;
     // Quake 3 leaf boxes are bounding boxes of convex leaves and reach into solid space: only
     // points whose BSP cluster is the leaf's own serve as origins, and by default only those a
-    // player can reach.
-    let free_space = |cell: usize, p: Vec3| q3.as_ref().is_none_or(|q| q.rule.allows(cell, p));
+    // player can reach. Mesh cells skip their voxels inside closed geometry.
+    let occupancy = (q3.is_none() && !args.cells.origins_anywhere)
+        .then(|| BakeOccupancy::new(&scene, &bvh, &cells));
+    let free_space = |cell: usize, p: Vec3| match (&q3, &occupancy) {
+        (Some(q), _) => q.rule.allows(cell, p),
+        (None, Some(grids)) => grids.allows(cell, p),
+        (None, None) => true,
+    };
     let inputs = BakeInputs {
         scene: &scene,
         bvh: &bvh,
@@ -129,6 +169,7 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
         params: &params,
         budget,
         free_space: &free_space,
+        occupancy: occupancy.as_ref(),
         record: &record,
     };
     if args.share_rays {
@@ -210,13 +251,13 @@ struct CellRecord {
 }
 
 impl CellRecord {
-    /// The record of the cells `collect_cells` found (`q3` for Quake 3 leaves and clusters).
-    fn of(q3: Option<&Q3Cells<'_>>) -> Self {
+    /// The record of the cells `collect_cells` found (`q3` for Quake 3 leaves and clusters;
+    /// `open_voxels`: mesh cells' origins only in their open voxels).
+    fn of(q3: Option<&Q3Cells<'_>>, open_voxels: bool) -> Self {
         let clusters = q3.map(|q| q.rule.clusters.clone());
-        // Plain cells keep `{"clusters": null}`, the value the Python bindings' fingerprint
-        // uses for them.
+        // Plain cells' key is the one the Python bindings' fingerprint uses for them.
         let key = match q3 {
-            None => serde_json::json!({ "clusters": null }),
+            None => plain_cells_key(open_voxels),
             Some(q) => serde_json::json!({
                 "clusters": clusters,
                 "origins": q.origins().fingerprint(),
@@ -252,6 +293,8 @@ struct BakeInputs<'a> {
     params: &'a MethodParams,
     budget: Budget,
     free_space: &'a (dyn Fn(usize, Vec3) -> bool + Sync),
+    /// Mesh cells' free space (`None` for Quake 3 cells and with --origins-anywhere).
+    occupancy: Option<&'a BakeOccupancy<'a>>,
     record: &'a CellRecord,
 }
 
@@ -285,6 +328,7 @@ fn bake_cells(
         .write_output(&args.output, &progress, bake.extra(inputs.record))?;
     let summary = bake.summary(args, inputs, &progress);
     warn_unconverged(&summary);
+    warn_solid_cells(&summary);
     if args.json {
         return print_json(&summary);
     }
@@ -466,6 +510,7 @@ impl<'a> CellBake<'a> {
                 / sizes.len().max(1) as f64,
             reachable: inputs.record.origins.as_ref().map(|r| serde_json::json!(r)),
             unconverged_cells: count_unconverged(progress.done.values().map(|c| c.converged)),
+            solid: inputs.occupancy.map(BakeOccupancy::summary),
         }
     }
 
@@ -662,8 +707,10 @@ fn bake_with_shared_rays(args: &BakeArgs, inputs: &BakeInputs<'_>) -> Result<()>
         file_bytes_per_cell: per_cell(file_bytes as f64),
         reachable,
         unconverged_cells: count_unconverged(result.cells.iter().map(|c| c.converged)),
+        solid: inputs.occupancy.map(BakeOccupancy::summary),
     };
     warn_unconverged(&summary);
+    warn_solid_cells(&summary);
     if args.json {
         return print_json(&summary);
     }
