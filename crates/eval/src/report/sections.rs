@@ -317,6 +317,23 @@ pub(crate) fn worst_views(images: &[WorstImage], shown: usize) -> Result<Section
 
 /// Cells up to which the convergence plot draws one line per cell; beyond, the distribution.
 const CURVES_PER_CELL_UP_TO: usize = 12;
+/// Why a file has no convergence plot: its cells carry statistics without curves, or no
+/// per-cell statistics at all. Names what is absent; does not guess which tool wrote it.
+fn no_convergence_note(metadata: &serde_json::Value) -> String {
+    let why = if metadata["cells"].as_array().is_some_and(|c| !c.is_empty()) {
+        "its cells' statistics (<code>metadata.cells</code>) have no <code>convergence</code> \
+         curves"
+    } else {
+        "it has no per-cell statistics (<code>metadata.cells</code>): e.g. a file written by \
+         another tool, or by a sightline bake before they were recorded"
+    };
+    format!(
+        "<p class=\"note\" id=\"no-convergence\">No convergence plot: {why}. Bakes by \
+         <code>sightline pvs bake</code>, the Python bindings and the Ray driver record \
+         them.</p>\n"
+    )
+}
+
 /// Worst cells drawn as lines over the distribution.
 const WORST_LINES: usize = 5;
 
@@ -329,10 +346,7 @@ pub(crate) fn convergence(file: &PvsFile, worst: &[usize]) -> Result<Section, Re
         .filter_map(|i| Some((i, cell_bake(&file.metadata, i).convergence?)))
         .collect();
     let mut body = if curves.is_empty() {
-        "<p class=\"note\" id=\"no-convergence\">This .pvs file has no convergence data \
-         (<code>metadata.cells[i].convergence</code> is absent: it was baked by a version that \
-         did not record it), so there is no convergence plot.</p>\n"
-            .to_string()
+        no_convergence_note(&file.metadata)
     } else if curves.len() <= CURVES_PER_CELL_UP_TO {
         let series: Vec<Series> = curves
             .iter()
@@ -571,5 +585,10 @@ mod tests {
         file.metadata = serde_json::Value::Null;
         let s = convergence(&file, &[0, 1]).unwrap().body;
         assert!(s.contains("id=\"no-convergence\""));
+        assert!(s.contains("no per-cell statistics"), "{s}");
+        // Statistics without curves are named as such, not blamed on an old version.
+        file.metadata = serde_json::json!({"cells": [{"rays": 5}, {"rays": 7}]});
+        let s = convergence(&file, &[0, 1]).unwrap().body;
+        assert!(s.contains("have no <code>convergence</code>"), "{s}");
     }
 }
