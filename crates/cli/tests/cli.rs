@@ -865,3 +865,47 @@ fn commands_share_one_vocabulary_and_keep_the_old_spellings() {
     let o = sightline(&["info", "procedural:grid?size=5000"], dir.path());
     assert_fails_with(&o, "above the maximum of 1000");
 }
+
+/// `bench share --grid` takes `N` (N x N over the ground) or `pvs bake`'s `NX,NY,NZ`, which
+/// must be one cell high along the scene's up axis.
+#[test]
+fn bench_share_takes_the_grid_as_pvs_bake_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let share = |grid: &str| {
+        sightline(
+            &[
+                "bench",
+                "share",
+                "procedural:city?size=1500",
+                "--grid",
+                grid,
+                "--budgets",
+                "2000",
+                "--share-budgets",
+                "2000",
+                "--n-rand",
+                "1000",
+                "--eval-cells",
+                "1",
+                "--views",
+                "1",
+                "--size",
+                "16",
+                "--json",
+            ],
+            dir.path(),
+        )
+    };
+    let cells = |o: &std::process::Output| {
+        assert!(o.status.success(), "{}", stderr(o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        v["cells"].as_u64().unwrap()
+    };
+    // The procedural city is Z-up: "2" is 2 x 2 x 1, the same as "2,2,1".
+    assert_eq!(cells(&share("2")), 4);
+    assert_eq!(cells(&share("2,2,1")), 4);
+    assert_eq!(cells(&share("3,2,1")), 6);
+    assert_fails_with(&share("2,2,2"), "must be 1");
+    assert_fails_with(&share("2,x"), "expected N or NX,NY,NZ");
+    assert_fails_with(&share("2000"), "not in 1..=1024");
+}

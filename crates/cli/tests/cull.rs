@@ -150,3 +150,48 @@ fn gpu_backend_runs_on_vulkan_and_never_draws_more_than_frustum() {
         "{summaries:?}"
     );
 }
+
+/// `--eye` and `--look` (with `--fov`) hold the camera still, as in `render`: looking away from
+/// the whole scene nothing is drawn, looking at it something is.
+#[test]
+fn a_still_camera_is_given_as_in_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |extra: &[&str]| {
+        let mut args = vec!["cull", "procedural:grid?seed=2&size=2", "--json"];
+        args.extend(SMALL);
+        args.extend(extra);
+        sightline(&args, dir.path())
+    };
+    let frustum_drawn = |o: &std::process::Output| {
+        assert!(o.status.success(), "{}", stderr(o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let s = v["summaries"].as_array().unwrap();
+        let row = s.iter().find(|r| r["method"] == "frustum").unwrap();
+        (
+            row["drawn_mean"].as_f64().unwrap(),
+            row["drawn_max"].as_u64().unwrap(),
+        )
+    };
+    // The Grid spans 0..120 x 0..180 x 0..12: from high above one side, looking up and away,
+    // the frustum holds nothing; looking down at its middle, something.
+    let away = run(&["--eye", "-300,-300,600", "--look", "-600,-600,1200"]);
+    assert_eq!(frustum_drawn(&away), (0.0, 0));
+    let down = run(&["--eye", "-300,-300,600", "--look", "60,90,0", "--fov", "90"]);
+    let (mean, max) = frustum_drawn(&down);
+    assert!(mean > 0.0 && max > 0, "{mean} {max}");
+    // A usage error (clap's exit status 2).
+    let o = run(&["--eye", "0,0,1000"]);
+    assert!(
+        o.status.code() == Some(2) && stderr(&o).contains("--look"),
+        "{}",
+        stderr(&o)
+    );
+    assert_fails_with(
+        &run(&["--eye", "0,0,1000", "--look", "0,0,0"]),
+        "looking along the scene's up axis",
+    );
+    assert_fails_with(
+        &run(&["--eye", "0,0,1", "--look", "1,0,1", "--fov", "0"]),
+        "--fov",
+    );
+}

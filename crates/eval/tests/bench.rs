@@ -191,7 +191,7 @@ fn pvs_budgets_out_of_range_are_typed_errors() {
 fn share_reports_both_bakes_and_a_speedup_per_independent_bake() {
     let scene = city(2000);
     let options = ShareBenchOptions {
-        grid: 3,
+        grid: [3, 3, 1],
         layer: (0.5, 10.0),
         budgets: vec![3000],
         share_budgets: vec![1000, 3000],
@@ -224,6 +224,15 @@ fn share_reports_both_bakes_and_a_speedup_per_independent_bake() {
         .all(|r| r.total_rays >= 9 * r.budget_per_cell));
     assert_eq!(report.speedups.len(), 1);
     assert_eq!(report.speedups[0].budget_per_cell, 3000);
+    // The grid is one layer: two cells along the city's up axis (z) is refused.
+    let tall = ShareBenchOptions {
+        grid: [3, 3, 2],
+        ..options.clone()
+    };
+    assert!(matches!(
+        bench_share("city", &scene, &tall, None),
+        Err(BenchError::GridHeight(2))
+    ));
     let bad = ShareBenchOptions {
         layer: (2.0, 1.0),
         ..options

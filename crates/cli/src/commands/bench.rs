@@ -87,9 +87,11 @@ struct ShareArgs {
     /// Scene.
     #[arg(value_name = "SCENE", default_value = "procedural:city")]
     scene: String,
-    /// Cells per side of the grid over the scene's ground plane.
-    #[arg(long, default_value_t = 16)]
-    grid: u32,
+    /// The grid of cells: `N` (N x N over the scene's ground plane, one cell high) or
+    /// `NX,NY,NZ` as in `pvs bake --grid`, with 1 along the scene's up axis (the cells form one
+    /// layer, --layer). At most 1024 per axis.
+    #[arg(long, value_name = "N|NX,NY,NZ", default_value = "16")]
+    grid: String,
     /// Bottom and top of the cell layer above the scene's lowest point along its up axis, in
     /// scene units.
     #[arg(long, value_name = "BOTTOM,TOP", default_value = "0.5,10")]
@@ -512,6 +514,31 @@ fn pvs(args: PvsArgs) -> Result<()> {
     tables::pvs(&all_rows, &options)
 }
 
+/// `bench share --grid`: `N` is N x N over the ground of `scene` (1 along its up axis);
+/// `NX,NY,NZ` is taken as given (the library refuses more than 1 along the up axis).
+fn share_grid(text: &str, scene: &sightline_core::Scene) -> Result<[u32; 3]> {
+    let bad = || anyhow::anyhow!("--grid '{text}': expected N or NX,NY,NZ (whole numbers)");
+    let counts: Vec<u32> = text
+        .split(',')
+        .map(|v| v.trim().parse::<u32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| bad())?;
+    match counts[..] {
+        [n] => {
+            let mut grid = [n; 3];
+            let up = if scene.up.vector() == glam::Vec3::Z {
+                2
+            } else {
+                1
+            };
+            grid[up] = 1;
+            Ok(grid)
+        }
+        [x, y, z] => Ok([x, y, z]),
+        _ => Err(bad()),
+    }
+}
+
 fn share(args: ShareArgs) -> Result<()> {
     let bad_layer = || {
         let layer = &args.layer;
@@ -526,8 +553,9 @@ fn share(args: ShareArgs) -> Result<()> {
     let [bottom, top] = layer[..] else {
         return Err(bad_layer());
     };
+    let scene = load(&args.scene)?;
     let options = eval_bench::ShareBenchOptions {
-        grid: args.grid,
+        grid: share_grid(&args.grid, &scene)?,
         layer: (bottom, top),
         budgets: args.budgets.clone(),
         share_budgets: args.share_budgets.clone(),
@@ -543,13 +571,14 @@ fn share(args: ShareArgs) -> Result<()> {
     };
     options.validate().map_err(|e| match e {
         eval_bench::BenchError::Layer(..) => bad_layer(),
-        eval_bench::BenchError::Grid(grid) => anyhow::anyhow!("--grid {grid} must be in 1..=1024"),
+        eval_bench::BenchError::Grid(n) => {
+            anyhow::anyhow!("--grid {}: {n} cells is not in 1..=1024", args.grid)
+        }
         eval_bench::BenchError::Zero { .. } => {
             anyhow::anyhow!("budgets and --n-rand must be positive")
         }
         e => e.into(),
     })?;
-    let scene = load(&args.scene)?;
     let bar = crate::progress::bar(0, "{spinner} bench share [{elapsed_precise}]");
     let report = eval_bench::bench_share(
         &args.scene,

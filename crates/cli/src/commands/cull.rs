@@ -13,7 +13,8 @@
 //! other command (no triangles, bad indices or NaN coordinates are an error). `--path
 //! camera.json` replaces the path:
 //! `{"frames": [{"eye": [x, y, z], "look": [x, y, z]}, ...]}`, interpolated linearly when it
-//! has fewer keyframes than frames.
+//! has fewer keyframes than frames; `--eye X,Y,Z --look X,Y,Z` (and `--fov`, as in `render`)
+//! hold the camera still instead.
 
 use std::path::{Path, PathBuf};
 
@@ -29,7 +30,7 @@ use sightline_cull::{
     simulate_methods_with_cameras, FrameStats, Method, SimConfig, SimReport, SoftwareBackend,
 };
 
-use crate::args::{parse_size, print_load_warnings, LoadLimitArgs};
+use crate::args::{parse_size, parse_vec3, print_load_warnings, LoadLimitArgs};
 use crate::output::print_json;
 
 /// Arguments of `sightline cull`.
@@ -39,8 +40,20 @@ pub(crate) struct Args {
     #[arg(value_name = "SCENE", default_value = "procedural:grid")]
     scene: String,
     /// Camera path JSON: `{"frames": [{"eye": [x,y,z], "look": [x,y,z]}, ...]}`.
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", conflicts_with = "eye")]
     path: Option<PathBuf>,
+    /// A camera standing still at `x,y,z` for every frame (with --look), as in `render`; the
+    /// objects still move. Default: the scene's own path, or a walk through its bounds.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true,
+        requires = "look")]
+    eye: Option<Vec3>,
+    /// The point the --eye camera looks at.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true,
+        requires = "eye")]
+    look: Option<Vec3>,
+    /// Vertical field of view in degrees.
+    #[arg(long, value_name = "DEG", default_value_t = SimConfig::default().fov_y_deg)]
+    fov: f32,
     /// Occlusion backend: `sw` (the software occlusion buffer) or `gpu` (wgpu, Vulkan hardware
     /// occlusion queries; needs a Vulkan driver such as Mesa's lavapipe).
     #[arg(long, default_value = "sw")]
@@ -109,6 +122,9 @@ pub(crate) fn run(args: Args) -> Result<()> {
     if args.frames == 0 {
         bail!("--frames must be at least 1");
     }
+    if !(args.fov.is_finite() && args.fov > 0.0 && args.fov < 180.0) {
+        bail!("--fov {}: expected degrees between 0 and 180", args.fov);
+    }
     crate::limits::check_frames(u64::from(args.frames), "--frames")?;
     if let Some(plot) = &args.plot {
         let mut inputs = vec![std::path::Path::new(&args.scene)];
@@ -129,9 +145,15 @@ pub(crate) fn run(args: Args) -> Result<()> {
         // The software backend answers at once, but the thesis' design reads results a frame
         // later (as hardware queries must); keep its latency so the popping is the design's.
         latency: 1,
+        fov_y_deg: args.fov,
         ..SimConfig::default()
     };
-    let cameras = cameras(&args.scene, args.path.as_deref(), &scene, &config)?;
+    let source = match (&args.path, args.eye.zip(args.look)) {
+        (Some(path), _) => CameraSource::Path(path),
+        (None, Some(pose)) => CameraSource::Fixed(pose),
+        (None, None) => CameraSource::Default,
+    };
+    let cameras = cameras(&args.scene, source, &scene, &config)?;
     // On the GPU every stop-and-wait query is its own submission (hundreds of ms per frame on
     // a software Vulkan driver), so the GPU run has the grid method and frustum culling only.
     let (mut backend, methods): (Box<dyn sightline_cull::OcclusionBackend>, &[Method]) =
@@ -260,10 +282,21 @@ fn gpu_backend() -> Result<Box<dyn sightline_cull::OcclusionBackend>> {
     Err(crate::features::not_built("gpu", "--backend gpu"))
 }
 
+/// Where `cull`'s cameras come from.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum CameraSource<'a> {
+    /// A camera path file (`--path`).
+    Path(&'a Path),
+    /// One camera for every frame (`--eye`, `--look`).
+    Fixed((Vec3, Vec3)),
+    /// The procedural scene's own path, else a walk through the bounds.
+    Default,
+}
+
 /// (`sightline bench peers` takes the same cameras for its real occluder sets.)
 pub(crate) fn cameras(
     spec: &str,
-    path: Option<&Path>,
+    source: CameraSource<'_>,
     scene: &CullScene,
     config: &SimConfig,
 ) -> Result<Vec<Camera>> {
@@ -272,7 +305,9 @@ pub(crate) fn cameras(
     let bounds = scene.scene.bounds();
     let n = config.frames as usize;
     // (eye, look) per frame.
-    let poses: Vec<(Vec3, Vec3)> = if let Some(path) = path {
+    let poses: Vec<(Vec3, Vec3)> = if let CameraSource::Fixed(pose) = source {
+        vec![pose; n]
+    } else if let CameraSource::Path(path) = source {
         // The viewer reads the same path files (`sightline view --path`).
         let keys = read_camera_path(path)?;
         (0..n).map(|f| interpolate(&keys, f, n)).collect()
@@ -317,13 +352,17 @@ pub(crate) fn cameras(
         .into_iter()
         .enumerate()
         .map(|(f, (eye, look))| {
-            Camera::look_at(eye, look, up, fov, w, h, near).with_context(|| match path {
-                Some(path) => format!(
+            Camera::look_at(eye, look, up, fov, w, h, near).with_context(|| match source {
+                CameraSource::Path(path) => format!(
                     "{}: frame {f}: no camera from eye {eye} looking at {look} (eye equal to \
                      look, or looking along the up axis?)",
                     path.display()
                 ),
-                None => "default camera path".to_string(),
+                CameraSource::Fixed(_) => format!(
+                    "--eye {eye} --look {look}: no camera (the same point, or looking along the \
+                     scene's up axis?)"
+                ),
+                CameraSource::Default => "default camera path".to_string(),
             })
         })
         .collect()

@@ -30,6 +30,9 @@ pub enum BenchError {
     /// A cell grid outside 1..=1024 cells per side.
     #[error("a grid of {0} cells per side is not in 1..=1024")]
     Grid(u32),
+    /// A `bench share` grid more than one cell high (its cells form one layer).
+    #[error("the grid has {0} cells along the scene's up axis: `bench share` bakes one layer of cells (--layer), so that count must be 1")]
+    GridHeight(u32),
     /// A cell layer that is not finite or whose bottom is not below its top.
     #[error("the cell layer {0}..{1} is not finite with bottom below top")]
     Layer(f32, f32),

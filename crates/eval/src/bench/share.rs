@@ -28,8 +28,9 @@ pub const SHARED: &str = "GVS++ shared";
 /// What `bench share` measures.
 #[derive(Clone, Debug)]
 pub struct ShareBenchOptions {
-    /// Cells per side of the grid over the scene's ground plane (1..=1024).
-    pub grid: u32,
+    /// Cells along x, y and z (1..=1024 each), as `pvs bake --grid NX,NY,NZ`; the count along
+    /// the scene's up axis must be 1 (the cells form one layer, `layer`).
+    pub grid: [u32; 3],
     /// Bottom and top of the cell layer above the scene's lowest point along its up axis.
     pub layer: (f32, f32),
     /// Per-cell ray budgets of the independent GVS++ bakes.
@@ -63,8 +64,8 @@ impl ShareBenchOptions {
         if !(bottom.is_finite() && top.is_finite() && bottom < top) {
             return Err(BenchError::Layer(bottom, top));
         }
-        if self.grid == 0 || self.grid > 1024 {
-            return Err(BenchError::Grid(self.grid));
+        if let Some(&n) = self.grid.iter().find(|&&n| n == 0 || n > 1024) {
+            return Err(BenchError::Grid(n));
         }
         if self.budgets.contains(&0) || self.share_budgets.contains(&0) || self.n_rand == 0 {
             return Err(BenchError::Zero {
@@ -164,7 +165,7 @@ pub fn cost_at_error(shared: &[ShareRow], error: f64) -> (Option<(f64, f64)>, &'
     (None, "not reached")
 }
 
-/// The grid of cells: `grid` x `grid` over the ground, one cell high, in the layer.
+/// The grid of cells over the ground, one cell high, in the layer.
 fn grid_cells(scene: &Scene, options: &ShareBenchOptions) -> Result<Vec<ViewCell>, BenchError> {
     let b = scene.bounds();
     let up_axis = if scene.up.vector() == glam::Vec3::Z {
@@ -175,9 +176,10 @@ fn grid_cells(scene: &Scene, options: &ShareBenchOptions) -> Result<Vec<ViewCell
     let (mut min, mut max) = (b.min, b.max);
     min[up_axis] = b.min[up_axis] + options.layer.0;
     max[up_axis] = b.min[up_axis] + options.layer.1;
-    let mut n = [options.grid; 3];
-    n[up_axis] = 1;
-    Ok(ViewCell::grid(min, max, n)?)
+    if options.grid[up_axis] != 1 {
+        return Err(BenchError::GridHeight(options.grid[up_axis]));
+    }
+    Ok(ViewCell::grid(min, max, options.grid)?)
 }
 
 /// `count` of `0..cells`, a fixed random choice by `seed`, ascending.

@@ -153,7 +153,12 @@ fn occluders(args: &PeersArgs, options: &PeerBenchOptions, dir: &Path) -> Result
             height: bench_sets::HEIGHT,
             ..SimConfig::default()
         };
-        let cameras = super::super::cull::cameras(spec, None, &scene, &config)?;
+        let cameras = super::super::cull::cameras(
+            spec,
+            super::super::cull::CameraSource::Default,
+            &scene,
+            &config,
+        )?;
         let mid = args.frames / 2;
         let camera = cameras[mid as usize];
         let camera_of = |f: u32| cameras.get(f as usize).copied();

@@ -169,12 +169,13 @@ pub(super) fn pvs(rows: &[PvsRow], options: &PvsBenchOptions) -> Result<()> {
 /// `bench share`: the bakes, then the speed-ups at equal error. `layer` as the user gave it.
 pub(super) fn share(report: &ShareReport, o: &ShareBenchOptions, layer: &str) -> Result<()> {
     outln!(
-        "`{}` ({} triangles), {} cells ({}x{} over the ground, layer {}), pixel error on {} cells x {} viewpoints x 6 faces at {}²",
+        "`{}` ({} triangles), {} cells (grid {}x{}x{}, one layer {}), pixel error on {} cells x {} viewpoints x 6 faces at {}²",
         report.scene,
         report.triangles,
         report.cells,
-        o.grid,
-        o.grid,
+        o.grid[0],
+        o.grid[1],
+        o.grid[2],
         layer,
         report.evaluated_cells.len(),
         o.viewpoints,
