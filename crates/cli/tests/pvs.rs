@@ -865,3 +865,68 @@ fn mesh_cells_take_no_origins_inside_closed_geometry() {
     let sets = cell_triangles(dir.path(), "anywhere.pvs");
     assert!(!sets[1].as_array().unwrap().is_empty(), "{sets:?}");
 }
+
+#[test]
+fn conservative_bake_contains_the_sampled_set_and_misses_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = bake_two_cells(dir.path(), &["--rays", "200000", "-o", "g.pvs"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = bake_two_cells(
+        dir.path(),
+        &[
+            "--method",
+            "conservative",
+            "--rays",
+            "5",
+            "-o",
+            "c.pvs",
+            "--json",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("--rays and --time are ignored"),
+        "{}",
+        stderr(&o)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(
+        (v["method"].as_str(), v["total_rays"].as_u64()),
+        (Some("conservative"), Some(0))
+    );
+    let sampled = cell_triangles(dir.path(), "g.pvs");
+    let bound = cell_triangles(dir.path(), "c.pvs");
+    for (g, c) in sampled.iter().zip(&bound) {
+        let (g, c) = (g.as_array().unwrap(), c.as_array().unwrap());
+        assert!(
+            g.iter().all(|t| c.contains(t)),
+            "a sampled triangle is outside the bound"
+        );
+        assert!(
+            c.len() > g.len() && !g.is_empty(),
+            "{} {}",
+            g.len(),
+            c.len()
+        );
+    }
+    // Dense views from inside the cells see nothing outside the conservative sets.
+    let o = sightline(
+        &[
+            "eval", SCENE, "c.pvs", "--views", "6", "--size", "96", "--json",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for r in rows.as_array().unwrap() {
+        assert!(r["ground_truth_size"].as_u64().unwrap() > 0, "{r}");
+        assert_eq!(r["false_negatives"], 0, "{r}");
+        assert_eq!(r["avg_error_pixels"].as_f64(), Some(0.0), "{r}");
+    }
+    // It casts no rays, so the GPU does not apply.
+    let o = bake_two_cells(
+        dir.path(),
+        &["--method", "conservative", "--device", "gpu", "-o", "d.pvs"],
+    );
+    assert_fails_with(&o, "casts no rays");
+}

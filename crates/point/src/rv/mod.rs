@@ -82,6 +82,7 @@ mod pass;
 mod pipeline;
 mod producer;
 mod projection;
+mod region_sampler;
 mod source;
 mod test_hooks;
 mod types;
@@ -91,6 +92,7 @@ use sightline_core::Camera;
 
 pub use city_stream::StreamingCity;
 pub use from_region::{conservative_from_region, RegionOptions, RegionResult, RegionStats};
+pub use region_sampler::ConservativeSampler;
 pub use source::{SceneSource, SourceTriangle, TriangleSource};
 pub use types::{Guarantee, HiddenOccluders, RvError, RvOptions, RvResult, RvStats};
 

@@ -7,6 +7,9 @@ use sightline_region::methods::{MethodOverrides, METHODS};
 use sightline_region::reachable::DEFAULT_STEP;
 
 use crate::args::SceneArgs;
+
+/// `pvs bake --method conservative`: RV's from-region set (`sightline_point::rv`).
+pub(crate) const CONSERVATIVE: &str = "conservative";
 use crate::commands::bench::Device;
 
 /// Arguments of `sightline pvs`.
@@ -122,8 +125,13 @@ pub(crate) struct BakeArgs {
     pub(crate) scene: SceneArgs,
     #[command(flatten)]
     pub(crate) cells: CellArgs,
-    /// Sampling method.
-    #[arg(long, default_value = "gvs++", value_parser = clap::builder::PossibleValuesParser::new(METHODS))]
+    /// The method: `gvs++` (the default), `gvs`, `rand` and `raster` sample the cell with rays
+    /// and give aggressive sets (small; what they miss is measured by `eval`); `conservative`
+    /// casts no rays and gives RV's from-region set: every triangle that no single large convex
+    /// occluder hides from the whole cell (never misses a visible triangle, typically several
+    /// times larger; --rays and --time do not apply).
+    #[arg(long, default_value = "gvs++",
+        value_parser = clap::builder::PossibleValuesParser::new(METHODS.iter().copied().chain([CONSERVATIVE])))]
     pub(crate) method: String,
     /// Ray budget per cell (RASTER counts 6 R² per cube map). Under --rays or --time, GVS++
     /// casts batches of 16,384 rays, each of the kind (random, border or reverse sampling)

@@ -28,7 +28,7 @@ use crate::commands::bench::Device;
 use crate::output::{print_json, refuse_overwriting_inputs};
 use crate::output_lock::OutputLock;
 
-use super::args::{BakeArgs, MergeArgs};
+use super::args::{BakeArgs, MergeArgs, CONSERVATIVE};
 use super::cells::collect_cells;
 use super::gpu::gpu_caster;
 
@@ -150,7 +150,20 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
     }
     let record = CellRecord::of(q3.as_ref(), !args.cells.origins_anywhere);
     let params = args.method_overrides.params();
-    let sampler = sampler(&args.method, &params)?;
+    let sampler: Box<dyn Sampler> = if args.method == CONSERVATIVE {
+        if args.device == Device::Gpu {
+            bail!("--method conservative casts no rays: --device gpu does not apply");
+        }
+        if args.rays.is_some() || args.time.is_some() {
+            eprintln!(
+                "warning: --method conservative casts no rays and has no budget: --rays and \
+                 --time are ignored"
+            );
+        }
+        Box::new(sightline_point::rv::ConservativeSampler::default())
+    } else {
+        sampler(&args.method, &params)?
+    };
     let (shard, budget) = check_bake_args(args, &params)?;
     // Quake 3 leaf boxes are bounding boxes of convex leaves and reach into solid space: only
     // points whose BSP cluster is the leaf's own serve as origins, and by default only those a

@@ -1,0 +1,69 @@
+//! The conservative from-region set as a bake method (`pvs bake --method conservative`): RV's
+//! from-region extension (`from_region.rs`) behind the samplers' interface, so the bake driver,
+//! its checkpoints, shards and files take it like GVS++.
+//!
+//! Based on: Ivanchenko. Massively Parallel Analytic Visibility for Streaming Virtual Reality.
+//! 2021, chapter 8 (from-region visibility as future work); see `from_region.rs`.
+//!
+//! It casts no rays and has no budget: its set is every triangle that no single large convex
+//! occluder hides from the whole cell, a superset of what can be seen from the cell (no false
+//! negatives, by construction), typically several times the aggressive set.
+
+use sightline_core::TriangleSet;
+use sightline_region::{Budget, CellContext, CellResult, ConvergencePoint, Sampler};
+
+use super::from_region::{conservative_from_region, RegionOptions};
+use super::source::SceneSource;
+
+/// The conservative from-region sampler.
+#[derive(Clone, Debug, Default)]
+pub struct ConservativeSampler {
+    /// Occluders and batch size of [`conservative_from_region`].
+    pub options: RegionOptions,
+}
+
+impl Sampler for ConservativeSampler {
+    fn name(&self) -> &'static str {
+        "conservative"
+    }
+
+    /// The cell's conservative set. The budget and the free-space predicate do not apply (the
+    /// set holds for every point of the cell). Should the computation refuse (only for options
+    /// that make no sense), the set is every triangle, which is conservative too.
+    fn sample(
+        &self,
+        ctx: &CellContext<'_>,
+        _budget: &Budget,
+        progress: &(dyn Fn(&ConvergencePoint) + Sync),
+    ) -> CellResult {
+        let start = std::time::Instant::now();
+        let n = ctx.scene.triangle_count();
+        let visible = conservative_from_region(
+            &mut SceneSource::new(ctx.scene),
+            &ctx.cell.corners(),
+            &self.options,
+        )
+        .map_or_else(
+            |_| {
+                let mut all = TriangleSet::with_capacity(n);
+                all.insert_range(..);
+                all
+            },
+            |r| r.visible,
+        );
+        let point = ConvergencePoint {
+            rays: 0,
+            seconds: start.elapsed().as_secs_f64(),
+            pvs_size: visible.count_ones(..),
+        };
+        progress(&point);
+        CellResult {
+            visible,
+            rays: 0,
+            seconds: start.elapsed().as_secs_f64(),
+            convergence: Vec::new(),
+            found_by: Vec::new(),
+            converged: None,
+        }
+    }
+}
