@@ -39,30 +39,7 @@ fn headless_orbit_writes_frames_and_json() {
 #[test]
 fn pvs_file_drives_the_pvs_method_along_a_path() {
     let dir = tempfile::tempdir().unwrap();
-    let bake = sightline(
-        &[
-            "pvs",
-            "bake",
-            CITY,
-            "--grid",
-            "2,2,1",
-            "--bounds=-150,-150,1,140,140,4",
-            "--method",
-            "rand",
-            "--rays",
-            "20000",
-            "-o",
-            "city.pvs",
-        ],
-        dir.path(),
-    );
-    assert!(bake.status.success(), "{}", stderr(&bake));
-    std::fs::write(
-        dir.path().join("path.json"),
-        r#"{"frames": [{"eye": [-100, -100, 2], "look": [100, -100, 10]},
-                       {"eye": [100, 100, 2], "look": [200, 100, 10]}]}"#,
-    )
-    .unwrap();
+    bake_city_and_path(dir.path());
     let o = sightline(
         &[
             "view",

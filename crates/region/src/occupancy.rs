@@ -206,40 +206,11 @@ mod tests {
     use sightline_core::scene::SceneBuilder;
     use sightline_core::trace::Bvh;
 
-    /// A closed box from `min` to `max`, wound with outward normals.
-    fn closed_box(b: &mut SceneBuilder, min: Vec3, max: Vec3) {
-        let c: Vec<u32> = (0..8)
-            .map(|i| {
-                b.add_vertex(Vec3::new(
-                    if i & 1 != 0 { max.x } else { min.x },
-                    if i & 2 != 0 { max.y } else { min.y },
-                    if i & 4 != 0 { max.z } else { min.z },
-                ))
-            })
-            .collect();
-        // Faces as (a, b, c, d) counter-clockwise seen from outside.
-        let faces = [
-            [0, 2, 3, 1], // -z
-            [4, 5, 7, 6], // +z
-            [0, 1, 5, 4], // -y
-            [2, 6, 7, 3], // +y
-            [0, 4, 6, 2], // -x
-            [1, 3, 7, 5], // +x
-        ];
-        for [p, q, r, s] in faces {
-            b.add_triangle([c[p], c[q], c[r]]);
-            b.add_triangle([c[p], c[r], c[s]]);
-        }
-    }
-
     fn scene_with_block() -> Scene {
         let mut b = SceneBuilder::new("block");
-        // A solid block filling x in [0.5, 10] (and far beyond the cells in y and z).
-        closed_box(
-            &mut b,
-            Vec3::new(0.5, -50.0, -50.0),
-            Vec3::new(10.0, 50.0, 50.0),
-        );
+        // A solid block filling x in [0.5, 10] (and far beyond the cells in y and z), wound
+        // with outward normals.
+        b.add_box(Vec3::new(0.5, -50.0, -50.0), Vec3::new(10.0, 50.0, 50.0));
         b.finish()
     }
 
