@@ -4,7 +4,8 @@
 
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
-use sightline_region::methods::{sampler, MethodOverrides, MethodParams};
+use sightline_point::rv::bake_sampler;
+use sightline_region::methods::{MethodOverrides, MethodParams};
 use sightline_region::Sampler;
 
 use crate::convert::value_error;
@@ -17,8 +18,9 @@ use crate::convert::value_error;
 /// are `sightline pvs bake`'s flags of the same names.
 ///
 /// `name`: `"gvs++"` (Guided Visibility Sampling++, the default), `"gvs"` (the original
-/// GVS), `"rand"` (random rays only) or `"raster"` (cube-map rasterization from sample
-/// points). Parameters:
+/// GVS), `"rand"` (random rays only), `"raster"` (cube-map rasterization from sample
+/// points) or `"conservative"` (RV's from-region set: no rays, no budget, never misses a
+/// visible triangle, several times larger; it reads none of the parameters). Parameters:
 ///
 /// - `n_rand`: GVS++/GVS random rays per round (paper: 10,000,000). Under a ray or time
 ///   budget GVS++ has no rounds: each batch of 16,384 rays goes to random, border or
@@ -47,7 +49,7 @@ impl PyMethod {
     fn from_options(name: &str, options: MethodOverrides) -> PyResult<Self> {
         let params = options.params();
         // Validate now so that a bad method fails where it is made, not in a worker.
-        sampler(name, &params).map_err(value_error)?;
+        bake_sampler(name, &params).map_err(value_error)?;
         Ok(Self {
             name: name.to_string(),
             options,
@@ -57,7 +59,7 @@ impl PyMethod {
 
     /// A sampler of this method with its parameters.
     pub(crate) fn sampler(&self) -> PyResult<Box<dyn Sampler>> {
-        sampler(&self.name, &self.params).map_err(value_error)
+        bake_sampler(&self.name, &self.params).map_err(value_error)
     }
 }
 

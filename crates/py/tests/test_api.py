@@ -162,13 +162,23 @@ def test_gpu_bake_equals_cpu_bake(city, city_cells):
     assert stats == [c["rays"] for c in cpu.metadata["cells"]]
 
 
+def test_conservative_bake_contains_the_sampled_sets(city, city_cells):
+    sampled = sl.bake(city, city_cells, sl.Method("gvs++", n_rand=5_000), rays=50_000)
+    bound = sl.bake(city, city_cells, sl.Method("conservative"))
+    assert bound.metadata["method"] == "conservative"
+    assert all(c["rays"] == 0 for c in bound.metadata["cells"])
+    for g, c in zip(sampled.sets(), bound.sets()):
+        assert len(g) > 0 and len(c) > len(g)
+        assert np.isin(g, c).all()
+
+
 def test_bad_device_is_value_error(city, city_cells):
     with pytest.raises(ValueError, match='device must be "cpu" or "gpu", not "tpu"'):
         sl.bake(city, city_cells, "rand", rays=10, device="tpu")
 
 
 def test_bad_bake_arguments_are_value_errors(city, city_cells):
-    with pytest.raises(ValueError, match="unknown method 'magic'"):
+    with pytest.raises(ValueError, match="unknown method 'magic'.*raster, conservative"):
         sl.bake_cell(city, city_cells[0], "magic")
     with pytest.raises(ValueError, match="must be positive"):
         sl.bake_cell(city, city_cells[0], "rand", rays=0)
@@ -188,6 +198,7 @@ def test_bad_bake_arguments_are_value_errors(city, city_cells):
             ["--n-rand", "5000", "--fixed-rounds"],
             sl.Method("gvs++", n_rand=5000, fixed_rounds=True),
         ),
+        ("conservative", [], "conservative"),
     ],
 )
 def test_local_bake_equals_cli_bake(tmp_path, cli, city, method, options, python_method):

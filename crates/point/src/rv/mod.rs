@@ -92,7 +92,9 @@ use sightline_core::Camera;
 
 pub use city_stream::StreamingCity;
 pub use from_region::{conservative_from_region, RegionOptions, RegionResult, RegionStats};
-pub use region_sampler::ConservativeSampler;
+pub use region_sampler::{
+    bake_sampler, BakeMethodError, ConservativeSampler, BAKE_METHODS, CONSERVATIVE,
+};
 pub use source::{SceneSource, SourceTriangle, TriangleSource};
 pub use types::{Guarantee, HiddenOccluders, RvError, RvOptions, RvResult, RvStats};
 

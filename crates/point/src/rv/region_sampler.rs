@@ -10,10 +10,51 @@
 //! negatives, by construction), typically several times the aggressive set.
 
 use sightline_core::TriangleSet;
+use sightline_region::methods::{sampler, MethodError, MethodParams, METHODS};
 use sightline_region::{Budget, CellContext, CellResult, ConvergencePoint, Sampler};
 
 use super::from_region::{conservative_from_region, RegionOptions};
 use super::source::SceneSource;
+
+/// The name of [`ConservativeSampler`] as a bake method.
+pub const CONSERVATIVE: &str = "conservative";
+
+/// Every bake method's name: the ray samplers' (`sightline_region::methods::METHODS`) and
+/// [`CONSERVATIVE`].
+pub const BAKE_METHODS: [&str; 5] = [METHODS[0], METHODS[1], METHODS[2], METHODS[3], CONSERVATIVE];
+
+/// Why [`bake_sampler`] cannot make a sampler.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum BakeMethodError {
+    /// The name is none of [`BAKE_METHODS`].
+    #[error("unknown method '{name}' (known: {known})", known = BAKE_METHODS.join(", "))]
+    Unknown {
+        /// The name as given.
+        name: String,
+    },
+    /// The ray sampler's parameters make no sense.
+    #[error(transparent)]
+    Method(MethodError),
+}
+
+/// The bake method called `name` with `params` (which `conservative` does not read): what
+/// `pvs bake --method` and the Python bindings' bakes run.
+///
+/// # Errors
+/// [`BakeMethodError`] for an unknown name or parameters out of range.
+pub fn bake_sampler(
+    name: &str,
+    params: &MethodParams,
+) -> Result<Box<dyn Sampler>, BakeMethodError> {
+    if name == CONSERVATIVE {
+        return Ok(Box::new(ConservativeSampler::default()));
+    }
+    sampler(name, params).map_err(|e| match e {
+        MethodError::Unknown { name } => BakeMethodError::Unknown { name },
+        e => BakeMethodError::Method(e),
+    })
+}
 
 /// The conservative from-region sampler.
 #[derive(Clone, Debug, Default)]
@@ -24,7 +65,7 @@ pub struct ConservativeSampler {
 
 impl Sampler for ConservativeSampler {
     fn name(&self) -> &'static str {
-        "conservative"
+        CONSERVATIVE
     }
 
     /// The cell's conservative set. The budget and the free-space predicate do not apply (the
@@ -65,5 +106,24 @@ impl Sampler for ConservativeSampler {
             found_by: Vec::new(),
             converged: None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bake_methods_name_their_samplers() {
+        let params = MethodParams::default();
+        for name in BAKE_METHODS {
+            assert_eq!(bake_sampler(name, &params).unwrap().name(), name);
+        }
+        let e = bake_sampler("nope", &params).err().unwrap();
+        assert!(
+            e.to_string()
+                .contains("known: gvs++, gvs, rand, raster, conservative"),
+            "{e}"
+        );
     }
 }

@@ -3,13 +3,11 @@
 
 use std::path::PathBuf;
 
-use sightline_region::methods::{MethodOverrides, METHODS};
+use sightline_point::rv::BAKE_METHODS;
+use sightline_region::methods::MethodOverrides;
 use sightline_region::reachable::DEFAULT_STEP;
 
 use crate::args::SceneArgs;
-
-/// `pvs bake --method conservative`: RV's from-region set (`sightline_point::rv`).
-pub(crate) const CONSERVATIVE: &str = "conservative";
 use crate::commands::bench::Device;
 
 /// Arguments of `sightline pvs`.
@@ -131,7 +129,7 @@ pub(crate) struct BakeArgs {
     /// occluder hides from the whole cell (never misses a visible triangle, typically several
     /// times larger; --rays and --time do not apply).
     #[arg(long, default_value = "gvs++",
-        value_parser = clap::builder::PossibleValuesParser::new(METHODS.iter().copied().chain([CONSERVATIVE])))]
+        value_parser = clap::builder::PossibleValuesParser::new(BAKE_METHODS))]
     pub(crate) method: String,
     /// Ray budget per cell (RASTER counts 6 R² per cube map). Under --rays or --time, GVS++
     /// casts batches of 16,384 rays, each of the kind (random, border or reverse sampling)

@@ -10,10 +10,11 @@ use glam::Vec3;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use serde::Serialize;
 use sightline_core::trace::{Bvh, RayCaster};
+use sightline_point::rv::{bake_sampler, CONSERVATIVE};
 use sightline_region::bake::BakeSetup;
 use sightline_region::cell_sources::{write_cells_file, Q3Cells, Q3OriginsSummary, Q3_ORIGINS_KEY};
 use sightline_region::checkpoint::{checkpoint_path, fingerprint, BakeProgress, ResumableBake};
-use sightline_region::methods::{sampler, MethodParams};
+use sightline_region::methods::MethodParams;
 use sightline_region::occupancy::{plain_cells_key, BakeOccupancy, OccupancySummary};
 use sightline_region::pvs_file::EncodedPvsFile;
 use sightline_region::rebake::{
@@ -28,7 +29,7 @@ use crate::commands::bench::Device;
 use crate::output::{print_json, refuse_overwriting_inputs};
 use crate::output_lock::OutputLock;
 
-use super::args::{BakeArgs, MergeArgs, CONSERVATIVE};
+use super::args::{BakeArgs, MergeArgs};
 use super::cells::collect_cells;
 use super::gpu::gpu_caster;
 
@@ -150,7 +151,7 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
     }
     let record = CellRecord::of(q3.as_ref(), !args.cells.origins_anywhere);
     let params = args.method_overrides.params();
-    let sampler: Box<dyn Sampler> = if args.method == CONSERVATIVE {
+    if args.method == CONSERVATIVE {
         if args.device == Device::Gpu {
             bail!("--method conservative casts no rays: --device gpu does not apply");
         }
@@ -160,10 +161,8 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
                  --time are ignored"
             );
         }
-        Box::new(sightline_point::rv::ConservativeSampler::default())
-    } else {
-        sampler(&args.method, &params)?
-    };
+    }
+    let sampler = bake_sampler(&args.method, &params)?;
     let (shard, budget) = check_bake_args(args, &params)?;
     // Quake 3 leaf boxes are bounding boxes of convex leaves and reach into solid space: only
     // points whose BSP cluster is the leaf's own serve as origins, and by default only those a
