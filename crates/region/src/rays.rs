@@ -94,6 +94,10 @@ impl RandomRays {
     }
 }
 
+/// The smallest batch of random rays whose origins, all outside the cell's free space, tell
+/// that the cell has none.
+const FREE_SPACE_PROBE: usize = 256;
+
 impl RandomRays {
     /// The next `count` rays of the sequence whose origins `ctx` allows; the sequence moves on
     /// by `count` (allowed or not).
@@ -120,7 +124,13 @@ impl RandomRays {
             let rays = self.next_batch(ctx, n);
             remaining -= n as u64;
             if rays.is_empty() {
-                return None;
+                // No allowed origin in a batch of [`FREE_SPACE_PROBE`] or more: the cell has
+                // no free space. A smaller batch (the last rays of a budget) may just have
+                // drawn its few origins in the cell's closed part: the sequence moves on.
+                if n >= FREE_SPACE_PROBE {
+                    return None;
+                }
+                continue;
             }
             found.extend(discover(&tally.pvs, &rays, &cast(ctx.caster, &rays)));
             tally.batch_done(rays.len(), progress);
