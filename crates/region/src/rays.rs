@@ -189,6 +189,33 @@ mod tests {
     }
 
     #[test]
+    fn only_a_full_probe_without_free_origins_means_no_free_space() {
+        let scene = far_box_scene();
+        let bvh = sightline_core::trace::Bvh::build(&scene);
+        let cell = ViewCell::aabb(Vec3::ZERO, Vec3::ONE).unwrap();
+        let round = |free: &(dyn Fn(Vec3) -> bool + Sync), n: u64| {
+            let ctx = CellContext {
+                scene: &scene,
+                caster: &bvh,
+                cell: &cell,
+                seed: 1,
+                free_space: Some(free),
+            };
+            let mut rays = RandomRays::new(&cell, &scene, 1);
+            let mut tally = Tally::new(scene.triangle_count(), crate::Budget::rays(n));
+            let found = rays.sample_round(&ctx, &mut tally, n, &|_| {});
+            (found.is_some(), tally.rays, rays.next)
+        };
+        // The first origin of the sequence lies in the closed part: a one-ray remainder of a
+        // budget moves the sequence on instead of giving up on the cell.
+        let first = RandomRays::new(&cell, &scene, 1).ray(0).origin;
+        assert_eq!(round(&|p| p != first, 1), (true, 0, 1));
+        // No origin allowed at all: a probe of 256 rays tells the cell has no free space.
+        assert_eq!(round(&|_| false, FREE_SPACE_PROBE as u64), (false, 0, 256));
+        assert_eq!(round(&|_| true, 300), (true, 300, 300));
+    }
+
+    #[test]
     fn box_cell_rays_leave_through_their_face() {
         let scene = far_box_scene();
         let cell = ViewCell::aabb(Vec3::ZERO, Vec3::ONE).unwrap();
