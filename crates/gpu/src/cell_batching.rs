@@ -253,12 +253,14 @@ fn dispatch_loop(
         queue.oldest = None;
         queue.expected = batch.len().clamp(1, options.cells);
         drop(queue);
-        let cast = cast_batch(inner, work, batch);
+        // Counted before any caller is answered, so a caller that reads the statistics after
+        // its call sees its batch.
         shared.batches.fetch_add(1, Ordering::Relaxed);
-        queue = shared.lock();
-        if let Some(rays) = cast {
+        let cast = cast_batch(inner, work, batch, |rays| {
             shared.rays.fetch_add(rays, Ordering::Relaxed);
-        } else {
+        });
+        queue = shared.lock();
+        if cast.is_none() {
             // Every caller of the batch was answered with a dropped sender; fail the rest.
             queue.failed = true;
             queue.pending.clear();
@@ -267,15 +269,22 @@ fn dispatch_loop(
     }
 }
 
-/// Casts `batch` as one call of `inner` on `work`'s threads and sends each caller its hits;
-/// the rays cast, or `None` when `inner` panicked (the callers' senders are dropped).
-fn cast_batch(inner: &dyn RayCaster, work: &rayon::ThreadPool, batch: Vec<Request>) -> Option<u64> {
+/// Casts `batch` as one call of `inner` on `work`'s threads, reports the rays cast to
+/// `counted`, then sends each caller its hits; the rays cast, or `None` when `inner` panicked
+/// (the callers' senders are dropped).
+fn cast_batch(
+    inner: &dyn RayCaster,
+    work: &rayon::ThreadPool,
+    batch: Vec<Request>,
+    counted: impl FnOnce(u64),
+) -> Option<u64> {
     let rays: Vec<Ray> = batch.iter().flat_map(|r| r.rays.iter().copied()).collect();
     let mut hits = vec![Hit::MISS; rays.len()];
     let cast = catch_unwind(AssertUnwindSafe(|| {
         work.install(|| inner.cast(&rays, &mut hits))
     }));
     cast.ok()?;
+    counted(rays.len() as u64);
     let mut rest = &hits[..];
     for request in batch {
         let (mine, after) = rest.split_at(request.rays.len());
