@@ -29,6 +29,19 @@ impl Aabb {
         Self { min, max }
     }
 
+    /// The eight corners; corner `i` takes `max` on x where bit 1 of `i` is set, on y for bit
+    /// 2, on z for bit 4.
+    pub fn corners(&self) -> [Vec3; 8] {
+        std::array::from_fn(|i| {
+            let pick = |bit: usize, lo: f32, hi: f32| if i & bit != 0 { hi } else { lo };
+            Vec3::new(
+                pick(1, self.min.x, self.max.x),
+                pick(2, self.min.y, self.max.y),
+                pick(4, self.min.z, self.max.z),
+            )
+        })
+    }
+
     /// The smallest box holding all `points` (empty for no points).
     pub fn from_points(points: impl IntoIterator<Item = Vec3>) -> Self {
         let mut b = Self::EMPTY;

@@ -517,12 +517,7 @@ enum Verdict {
 /// within the image's edges).
 pub(crate) fn inside_view(aabb: &Aabb, camera: &Camera) -> bool {
     let (tx, ty) = (camera.tan_half_x(), camera.tan_half_y());
-    (0..8).all(|i| {
-        let c = Vec3::new(
-            if i & 1 != 0 { aabb.max.x } else { aabb.min.x },
-            if i & 2 != 0 { aabb.max.y } else { aabb.min.y },
-            if i & 4 != 0 { aabb.max.z } else { aabb.min.z },
-        );
+    aabb.corners().into_iter().all(|c| {
         let v = camera.to_view(c);
         v.z >= camera.near && v.x.abs() <= v.z * tx && v.y.abs() <= v.z * ty
     })

@@ -32,16 +32,10 @@ pub fn clamped_far(camera: &Camera, bounds: &Aabb) -> f32 {
     if bounds.is_empty() {
         return floor;
     }
-    (0..8)
-        .map(|i| {
-            let pick = |bit: usize, lo: f32, hi: f32| if i & bit != 0 { hi } else { lo };
-            let p = Vec3::new(
-                pick(1, bounds.min.x, bounds.max.x),
-                pick(2, bounds.min.y, bounds.max.y),
-                pick(4, bounds.min.z, bounds.max.z),
-            );
-            (p - camera.eye).dot(camera.forward)
-        })
+    bounds
+        .corners()
+        .into_iter()
+        .map(|p| (p - camera.eye).dot(camera.forward))
         .fold(floor, f32::max)
 }
 

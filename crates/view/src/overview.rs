@@ -125,16 +125,7 @@ mod tests {
     use super::*;
 
     fn corners(b: &Aabb) -> Vec<Vec3> {
-        (0..8)
-            .map(|i| {
-                let pick = |bit: usize, lo: f32, hi: f32| if i & bit != 0 { hi } else { lo };
-                Vec3::new(
-                    pick(1, b.min.x, b.max.x),
-                    pick(2, b.min.y, b.max.y),
-                    pick(4, b.min.z, b.max.z),
-                )
-            })
-            .collect()
+        b.corners().to_vec()
     }
 
     fn assert_contains(cam: &OrthoCamera, b: &Aabb) {

@@ -526,12 +526,7 @@ fn share_grid(text: &str, scene: &sightline_core::Scene) -> Result<[u32; 3]> {
     match counts[..] {
         [n] => {
             let mut grid = [n; 3];
-            let up = if scene.up.vector() == glam::Vec3::Z {
-                2
-            } else {
-                1
-            };
-            grid[up] = 1;
+            grid[scene.up.index()] = 1;
             Ok(grid)
         }
         [x, y, z] => Ok([x, y, z]),

@@ -194,14 +194,9 @@ impl BoxView {
     pub(crate) fn new(aabb: &Aabb, near: f32, to_view: impl Fn(Vec3) -> Vec3) -> Self {
         let mut zmin = f32::INFINITY;
         let mut zmax = f32::NEG_INFINITY;
-        let mut corners = [Vec3::ZERO; 8];
-        for (i, v) in corners.iter_mut().enumerate() {
-            let c = Vec3::new(
-                if i & 1 != 0 { aabb.max.x } else { aabb.min.x },
-                if i & 2 != 0 { aabb.max.y } else { aabb.min.y },
-                if i & 4 != 0 { aabb.max.z } else { aabb.min.z },
-            );
-            *v = to_view(c);
+        let mut corners = aabb.corners();
+        for v in corners.iter_mut() {
+            *v = to_view(*v);
             zmin = zmin.min(v.z);
             zmax = zmax.max(v.z);
         }

@@ -168,11 +168,7 @@ pub fn cost_at_error(shared: &[ShareRow], error: f64) -> (Option<(f64, f64)>, &'
 /// The grid of cells over the ground, one cell high, in the layer.
 fn grid_cells(scene: &Scene, options: &ShareBenchOptions) -> Result<Vec<ViewCell>, BenchError> {
     let b = scene.bounds();
-    let up_axis = if scene.up.vector() == glam::Vec3::Z {
-        2
-    } else {
-        1
-    };
+    let up_axis = scene.up.index();
     let (mut min, mut max) = (b.min, b.max);
     min[up_axis] = b.min[up_axis] + options.layer.0;
     max[up_axis] = b.min[up_axis] + options.layer.1;

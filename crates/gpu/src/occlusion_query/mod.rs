@@ -367,12 +367,7 @@ impl OcclusionBackend for GpuBackend {
             return;
         };
         let (mut zmin, mut zmax) = (f32::INFINITY, f32::NEG_INFINITY);
-        for i in 0..8 {
-            let c = Vec3::new(
-                if i & 1 != 0 { aabb.max.x } else { aabb.min.x },
-                if i & 2 != 0 { aabb.max.y } else { aabb.min.y },
-                if i & 4 != 0 { aabb.max.z } else { aabb.min.z },
-            );
+        for c in aabb.corners() {
             let z = (c - camera.eye).dot(camera.forward);
             zmin = zmin.min(z);
             zmax = zmax.max(z);
