@@ -202,7 +202,7 @@ mod tests {
                 free_space: Some(free),
             };
             let mut rays = RandomRays::new(&cell, &scene, 1);
-            let mut tally = Tally::new(scene.triangle_count(), crate::Budget::rays(n));
+            let mut tally = Tally::new(scene.triangle_count(), crate::sampler::Budget::rays(n));
             let found = rays.sample_round(&ctx, &mut tally, n, &|_| {});
             (found.is_some(), tally.rays, rays.next)
         };
