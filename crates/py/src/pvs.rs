@@ -80,21 +80,30 @@ impl PyPvs {
 
 #[pymethods]
 impl PyPvs {
-    /// A PVS for `scene` from cells and one id array per cell.
+    /// A PVS for `scene` from cells and one id array per cell; `bounds`, one id array per
+    /// cell, gives each cell a conservative bound (a superset of its set).
     #[new]
-    #[pyo3(signature = (scene, cells, sets, metadata = None))]
+    #[pyo3(signature = (scene, cells, sets, metadata = None, bounds = None))]
     fn new(
         py: Python<'_>,
         scene: &Bound<'_, PyScene>,
         cells: Vec<PyViewCell>,
         sets: Vec<Bound<'_, PyAny>>,
         metadata: Option<&Bound<'_, PyAny>>,
+        bounds: Option<Vec<Bound<'_, PyAny>>>,
     ) -> PyResult<Self> {
         if cells.len() != sets.len() {
             return Err(value_error(format!(
                 "{} cells but {} sets",
                 cells.len(),
                 sets.len()
+            )));
+        }
+        if let Some(b) = bounds.as_ref().filter(|b| b.len() != cells.len()) {
+            return Err(value_error(format!(
+                "{} cells but {} bounds",
+                cells.len(),
+                b.len()
             )));
         }
         let metadata = match metadata {
@@ -109,9 +118,23 @@ impl PyPvs {
         let n = data.scene.triangle_count();
         for (i, (cell, ids)) in cells.into_iter().zip(&sets).enumerate() {
             let visible = set_from_ids(ids, n, &format!("set of cell {i}"))?;
+            let bound = match &bounds {
+                Some(b) => {
+                    let bound = set_from_ids(&b[i], n, &format!("bound of cell {i}"))?;
+                    if !visible.is_subset(&bound) {
+                        return Err(value_error(format!(
+                            "the bound of cell {i} lacks triangles of its set: a bound is a \
+                             superset"
+                        )));
+                    }
+                    Some(bound)
+                }
+                None => None,
+            };
             file.cells.push(CellPvs {
                 cell: cell.cell,
                 visible,
+                bound,
             });
         }
         Ok(Self { file, path: None })
@@ -191,6 +214,27 @@ impl PyPvs {
             ))
         })?;
         Ok(ids_array(py, &c.visible))
+    }
+
+    /// Whether every cell carries a conservative bound (`pvs bake --bound`, `bake(bound=True)`).
+    #[getter]
+    fn has_bounds(&self) -> bool {
+        self.file.has_bounds()
+    }
+
+    /// The conservative bound of cell `i` (uint32, increasing): a superset of `visible(i)`
+    /// that misses no visible triangle. Raises `ValueError` when the file has no bounds.
+    fn bound<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyArray1<u32>>> {
+        let c = self.file.cells.get(i).ok_or_else(|| {
+            value_error(format!(
+                "cell {i} does not exist (the file has {})",
+                self.file.cells.len()
+            ))
+        })?;
+        let bound = c.bound.as_ref().ok_or_else(|| {
+            value_error("this .pvs file has no conservative bounds; bake it with bound=True")
+        })?;
+        Ok(ids_array(py, bound))
     }
 
     /// Number of objects in the object table (0 for a version-1 file, which has none).

@@ -312,10 +312,7 @@ pub fn try_bake<E: Send>(
     bake_cells::<E>(&setup, &all, None, on_progress, &mut |baked, result| {
         on_cell(baked.index, result)?;
         results[baked.index] = Some((
-            CellPvs {
-                cell: cells[baked.index],
-                visible: result.visible.clone(),
-            },
+            CellPvs::new(cells[baked.index], result.visible.clone()),
             baked.stats(),
             result.rays,
         ));

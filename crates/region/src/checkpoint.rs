@@ -465,10 +465,10 @@ impl ResumableBake<'_> {
             self.output_metadata(&cells, progress, extra),
         );
         for c in &cells {
-            file.cells.push(CellPvs {
-                cell: self.setup.cells[c.index],
-                visible: c.set.decode(n).map_err(PvsError::from)?,
-            });
+            file.cells.push(CellPvs::new(
+                self.setup.cells[c.index],
+                c.set.decode(n).map_err(PvsError::from)?,
+            ));
         }
         Ok(file)
     }

@@ -411,7 +411,7 @@ mod tests {
                 }
             }
             let mut file = PvsFile::for_scene(&old, serde_json::Value::Null);
-            file.cells.push(CellPvs { cell, visible });
+            file.cells.push(CellPvs::new(cell, visible));
             // No old triangle lies behind the tower: the old sets alone cannot see it.
             assert_eq!(plan(&old, &new, &file).reasons, vec![None], "room: {room}");
             let bvh = Bvh::build(&old);
@@ -468,23 +468,11 @@ mod tests {
             .filter(|&t| old.triangle(t as u32).iter().all(|p| p.x == 1.0))
             .collect();
         assert_eq!(minus_x.len(), 2);
-        file.cells.push(CellPvs {
-            cell: left,
-            visible: set(&minus_x),
-        });
-        file.cells.push(CellPvs {
-            cell: right,
-            visible: set(&[plus_x_far.clone(), plus_x_near.clone()].concat()),
-        });
-        file.cells.push(CellPvs {
-            cell: inside,
-            visible: set(&plus_x_far),
-        });
+        file.cells.push(CellPvs::new(left, set(&minus_x)));
+        file.cells.push(CellPvs::new(right, set(&[plus_x_far.clone(), plus_x_near.clone()].concat())));
+        file.cells.push(CellPvs::new(inside, set(&plus_x_far)));
         // A cell that sees only box 1's +x face from the right: the new box is behind it.
-        file.cells.push(CellPvs {
-            cell: right,
-            visible: set(&plus_x_near),
-        });
+        file.cells.push(CellPvs::new(right, set(&plus_x_near)));
         let p = plan(&old, &new, &file);
         assert_eq!(
             p.reasons,

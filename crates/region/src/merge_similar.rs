@@ -114,6 +114,8 @@ struct Group {
     aabb: Option<([f32; 3], [f32; 3])>,
     cell: ViewCell,
     visible: TriangleSet,
+    /// The union of the members' conservative bounds (the union of supersets is one).
+    bound: Option<TriangleSet>,
     members: Vec<usize>,
 }
 
@@ -163,6 +165,7 @@ pub fn merge_similar_cells(
             aabb: aligned_box(&c.cell),
             cell: c.cell,
             visible: c.visible.clone(),
+            bound: c.bound.clone(),
             members: vec![i],
         })
         .collect();
@@ -175,6 +178,9 @@ pub fn merge_similar_cells(
         a.aabb = Some((lo, hi));
         a.cell = ViewCell::aabb(lo.into(), hi.into()).expect("the union of two valid boxes");
         a.visible.union_with(&b.visible);
+        if let (Some(bound), Some(other)) = (&mut a.bound, &b.bound) {
+            bound.union_with(other);
+        }
         a.members.extend(b.members);
     }
     // The original order of the first member of each group.
@@ -209,6 +215,7 @@ pub fn merge_similar_cells(
         merged.cells.push(CellPvs {
             cell: g.cell,
             visible: g.visible,
+            bound: g.bound,
         });
     }
     Ok((merged, report))
@@ -303,6 +310,7 @@ mod tests {
                 .map(|(&(lo, hi), ids)| CellPvs {
                     cell: ViewCell::aabb(lo, hi).unwrap(),
                     visible: set(100, ids),
+                    bound: None,
                 })
                 .collect(),
         }

@@ -29,8 +29,8 @@ use glam::Vec3;
 use sightline_core::atomic_file::write_atomic;
 use sightline_core::{Scene, TriangleSet};
 use sightline_runtime::format::{
-    decode_set, SetError, SetRef, CELL_RECORD_BYTES_V1, ENCODING_BITSET, ENCODING_DELTA_VARINT,
-    MAGIC, NO_INDEX,
+    decode_set, SetError, SetRef, CELL_RECORD_BYTES_BOUND, CELL_RECORD_BYTES_V1, ENCODING_BITSET,
+    ENCODING_DELTA_VARINT, FLAG_BOUND, MAGIC, NO_INDEX,
 };
 use sightline_runtime::Pvs;
 
@@ -82,6 +82,13 @@ pub enum PvsError {
     /// An encoded set to write does not decode.
     #[error("cannot write: {0}")]
     Set(#[from] EncodedSetError),
+    /// The file holds conservative bounds and the operation would drop them.
+    #[error(
+        "this .pvs file holds conservative bounds (baked with --bound), which this operation \
+         does not carry yet; use files baked without --bound and add the bounds afterwards \
+         with `pvs bound`"
+    )]
+    BoundsNotCarried,
 }
 
 /// Why an [`EncodedSet`] does not decode.
@@ -110,6 +117,20 @@ pub struct CellPvs {
     pub cell: ViewCell,
     /// Triangle ids potentially visible from the cell.
     pub visible: TriangleSet,
+    /// The cell's conservative bound (`pvs bake --bound`): a superset of `visible` that
+    /// misses no visible triangle. Either every cell of a file has one or none has.
+    pub bound: Option<TriangleSet>,
+}
+
+impl CellPvs {
+    /// A cell with its set and no bound.
+    pub fn new(cell: ViewCell, visible: TriangleSet) -> Self {
+        Self {
+            cell,
+            visible,
+            bound: None,
+        }
+    }
 }
 
 /// A whole `.pvs` file in memory.
@@ -150,11 +171,17 @@ impl PvsFile {
         Some(self.objects.as_ref()?.visible_objects(&cell.visible))
     }
 
+    /// Whether the cells carry conservative bounds (checked to be all or none on write).
+    pub fn has_bounds(&self) -> bool {
+        self.cells.first().is_some_and(|c| c.bound.is_some())
+    }
+
     /// Serialises the file.
     pub fn write(&self, w: &mut impl Write) -> Result<(), PvsError> {
         let n = self.triangle_count as usize;
         // The table is checked before it maps any set (its ids index the sets' bits).
         check_object_table(self.objects.as_ref(), self.triangle_count)?;
+        let bounds = self.has_bounds();
         let mut cells = Vec::with_capacity(self.cells.len());
         for (i, c) in self.cells.iter().enumerate() {
             if c.visible.ones().any(|id| id >= n) {
@@ -166,7 +193,24 @@ impl PvsFile {
             let objects = self.objects.as_ref().map(|table| {
                 EncodedSet::encode(&table.visible_objects(&c.visible), table.objects.len())
             });
-            cells.push((c.cell, EncodedSet::encode(&c.visible, n), objects));
+            let extra = match (&c.bound, bounds) {
+                (None, false) => None,
+                (Some(bound), true) => Some(self.encode_bound_extra(i, &c.visible, bound)?),
+                _ => {
+                    return Err(PvsError::Invalid(format!(
+                        "cell {i} {} a conservative bound and cell 0 {}: a file has bounds \
+                         for every cell or for none",
+                        if bounds { "lacks" } else { "has" },
+                        if bounds { "has" } else { "lacks" },
+                    )))
+                }
+            };
+            cells.push(CellRecord {
+                cell: c.cell,
+                triangles: EncodedSet::encode(&c.visible, n),
+                objects,
+                bound_extra: extra,
+            });
         }
         write_cells(
             w,
@@ -176,6 +220,40 @@ impl PvsFile {
             &self.metadata,
             cells,
         )
+    }
+
+    /// What the bound of cell `index` adds to `visible`, as encoded triangle and object
+    /// sets; refuses a bound that is not a superset, or one past the scene.
+    fn encode_bound_extra(
+        &self,
+        index: usize,
+        visible: &TriangleSet,
+        bound: &TriangleSet,
+    ) -> Result<(EncodedSet, EncodedSet), PvsError> {
+        let n = self.triangle_count as usize;
+        let Some(table) = &self.objects else {
+            return Err(PvsError::Invalid(
+                "conservative bounds need the object table (a version-2 file)".into(),
+            ));
+        };
+        if bound.ones().any(|id| id >= n) {
+            return Err(PvsError::Invalid(format!(
+                "the bound of cell {index} names a triangle id >= the scene's {n} triangles"
+            )));
+        }
+        if let Some(id) = visible.ones().find(|&id| !bound.contains(id)) {
+            return Err(PvsError::Invalid(format!(
+                "the bound of cell {index} lacks triangle {id} of its set: a bound is a superset"
+            )));
+        }
+        let mut extra = bound.clone();
+        extra.difference_with(visible);
+        let mut extra_objects = table.visible_objects(bound);
+        extra_objects.difference_with(&table.visible_objects(visible));
+        Ok((
+            EncodedSet::encode(&extra, n),
+            EncodedSet::encode(&extra_objects, table.objects.len()),
+        ))
     }
 
     /// Writes the file to `path` atomically (an existing file is replaced only on success).
@@ -200,8 +278,12 @@ impl PvsFile {
 
     fn from_runtime(pvs: &Pvs) -> Result<Self, PvsError> {
         let mut cells = Vec::with_capacity(pvs.cell_count() as usize);
-        let (metadata, objects) = parse(pvs, &mut |cell, _, visible| {
-            cells.push(CellPvs { cell, visible })
+        let (metadata, objects) = parse(pvs, &mut |cell, _, visible, bound| {
+            cells.push(CellPvs {
+                cell,
+                visible,
+                bound,
+            })
         })?;
         Ok(Self {
             scene_hash: pvs.scene_hash(),
@@ -254,8 +336,12 @@ impl EncodedPvsFile {
     }
 
     fn from_runtime(pvs: &Pvs) -> Result<Self, PvsError> {
+        if pvs.has_bound() {
+            // This form keeps one set per cell: dropping the bounds would lose them silently.
+            return Err(PvsError::BoundsNotCarried);
+        }
         let mut cells = Vec::with_capacity(pvs.cell_count() as usize);
-        let (metadata, objects) = parse(pvs, &mut |cell, set, _| cells.push((cell, set)))?;
+        let (metadata, objects) = parse(pvs, &mut |cell, set, _, _| cells.push((cell, set)))?;
         Ok(Self {
             scene_hash: pvs.scene_hash(),
             triangle_count: pvs.triangle_count(),
@@ -278,13 +364,16 @@ impl EncodedPvsFile {
     }
 }
 
+/// What [`parse`] hands every cell to: the cell, its encoded and decoded set, and its bound.
+type CellKeeper<'a> = dyn FnMut(ViewCell, EncodedSet, TriangleSet, Option<TriangleSet>) + 'a;
+
 /// Checks everything the runtime's open does not (metadata JSON, every set decoded, every
-/// object set equal to the one its triangles give) and
-/// hands every cell to `keep` (its cell, encoded set and decoded set); returns the metadata
-/// and object table.
+/// object set equal to the one its triangles give, every bound's extra sets disjoint from the
+/// cell's and its objects those of its triangles) and hands every cell to `keep`; returns the
+/// metadata and object table.
 fn parse(
     pvs: &Pvs,
-    keep: &mut dyn FnMut(ViewCell, EncodedSet, TriangleSet),
+    keep: &mut CellKeeper<'_>,
 ) -> Result<(serde_json::Value, Option<ObjectTable>), PvsError> {
     let bytes = pvs.as_bytes();
     let metadata = serde_json::from_str(pvs.metadata_json())
@@ -311,14 +400,55 @@ fn parse(
                 ));
             }
         }
+        let bound = match (&objects, pvs.raw_bound_sets(i)?) {
+            (Some(table), Some(extra)) => Some(read_bound(bytes, table, &visible, extra, i)?),
+            _ => None,
+        };
         let encoded = EncodedSet {
             encoding: triangles.encoding,
             size: triangles.size,
             payload: triangles.payload(bytes).to_vec(),
         };
-        keep(cell, encoded, visible);
+        keep(cell, encoded, visible, bound);
     }
     Ok((metadata, objects))
+}
+
+/// The bound of cell `i`: its set with the bound's extra triangles, checked against the
+/// extra objects.
+fn read_bound(
+    bytes: &[u8],
+    table: &ObjectTable,
+    visible: &TriangleSet,
+    (extra_triangles, extra_objects): (SetRef, SetRef),
+    i: u32,
+) -> Result<TriangleSet, PvsError> {
+    let n = visible.len() as u32;
+    let extra = decode_bits(bytes, extra_triangles, n, i, "bound triangles")?;
+    if let Some(id) = extra.intersection(visible).next() {
+        return Err(corrupt(
+            extra_triangles.offset,
+            format!("cell {i}: its bound adds triangle {id}, which its set already holds"),
+        ));
+    }
+    let objects = decode_bits(
+        bytes,
+        extra_objects,
+        table.objects.len() as u32,
+        i,
+        "bound objects",
+    )?;
+    let mut bound = visible.clone();
+    bound.union_with(&extra);
+    let mut expected = table.visible_objects(&bound);
+    expected.difference_with(&table.visible_objects(visible));
+    if objects != expected {
+        return Err(corrupt(
+            extra_objects.offset,
+            format!("cell {i}: the objects its bound adds are not those of its triangles"),
+        ));
+    }
+    Ok(bound)
 }
 
 fn decode_bits(
@@ -432,7 +562,12 @@ pub fn write_encoded<'a>(
             }
             None => None,
         };
-        with_objects.push((*cell, set, object_set));
+        with_objects.push(CellRecord {
+            cell: *cell,
+            triangles: set,
+            objects: object_set,
+            bound_extra: None,
+        });
     }
     write_cells(
         w,
@@ -451,30 +586,48 @@ fn check_object_table(objects: Option<&ObjectTable>, triangle_count: u32) -> Res
     }
 }
 
+/// One cell as the writer lays it out.
+struct CellRecord<S> {
+    cell: ViewCell,
+    triangles: S,
+    /// Given exactly when the file has an object table.
+    objects: Option<EncodedSet>,
+    /// What the bound adds (triangles, objects), in a file with bounds.
+    bound_extra: Option<(EncodedSet, EncodedSet)>,
+}
+
 /// The writer: each cell with its encoded triangle set and, exactly when `objects` is given,
-/// its encoded object set.
+/// its encoded object set; and, when the cells carry them, their bounds' extra sets.
 fn write_cells<S: std::borrow::Borrow<EncodedSet>>(
     w: &mut impl Write,
     scene_hash: u64,
     triangle_count: u32,
     objects: Option<&ObjectTable>,
     metadata: &serde_json::Value,
-    cells: Vec<(ViewCell, S, Option<EncodedSet>)>,
+    cells: Vec<CellRecord<S>>,
 ) -> Result<(), PvsError> {
     check_object_table(objects, triangle_count)?;
-    if cells.iter().any(|c| c.2.is_some() != objects.is_some()) {
+    if cells.iter().any(|c| c.objects.is_some() != objects.is_some()) {
         return Err(PvsError::Invalid(
             "object sets are given exactly when there is an object table".into(),
         ));
     }
+    let bounds = cells.first().is_some_and(|c| c.bound_extra.is_some());
+    if cells.iter().any(|c| c.bound_extra.is_some() != bounds) || (bounds && objects.is_none())
+    {
+        return Err(PvsError::Invalid(
+            "bounds are given for every cell or none, and only with an object table".into(),
+        ));
+    }
     let version: u32 = if objects.is_some() { VERSION } else { 1 };
+    let flags = if bounds { FLAG_BOUND } else { 0 };
     let metadata =
         serde_json::to_vec(metadata).map_err(|e| PvsError::Invalid(format!("metadata: {e}")))?;
     let cell_count = cells.len();
     let mut header = Vec::with_capacity(44 + metadata.len());
     header.extend_from_slice(&MAGIC);
     header.extend_from_slice(&version.to_le_bytes());
-    header.extend_from_slice(&0u32.to_le_bytes());
+    header.extend_from_slice(&flags.to_le_bytes());
     header.extend_from_slice(&scene_hash.to_le_bytes());
     header.extend_from_slice(&triangle_count.to_le_bytes());
     header.extend_from_slice(&(cell_count as u32).to_le_bytes());
@@ -488,11 +641,12 @@ fn write_cells<S: std::borrow::Borrow<EncodedSet>>(
         header.extend_from_slice(&object_section(table));
     }
 
-    let mut records = Vec::with_capacity(cell_count * 84);
+    let mut records = Vec::with_capacity(cell_count * CELL_RECORD_BYTES_BOUND);
     let mut payloads: Vec<u8> = Vec::new();
-    for (cell, set, object_set) in &cells {
-        let set: &EncodedSet = set.borrow();
-        let mut record = Vec::with_capacity(84);
+    for c in &cells {
+        let (cell, object_set) = (&c.cell, &c.objects);
+        let set: &EncodedSet = c.triangles.borrow();
+        let mut record = Vec::with_capacity(CELL_RECORD_BYTES_BOUND);
         let floats = [cell.center, cell.axes[0], cell.axes[1], cell.axes[2]]
             .into_iter()
             .chain([cell.half_extents])
@@ -501,23 +655,25 @@ fn write_cells<S: std::borrow::Borrow<EncodedSet>>(
             record.extend_from_slice(&f.to_le_bytes());
         }
         record.push(set.encoding);
-        match &object_set {
-            Some(o) => record.extend_from_slice(&[o.encoding, 0, 0]),
-            None => record.extend_from_slice(&[0; 3]),
+        record.push(object_set.as_ref().map_or(0, |o| o.encoding));
+        match &c.bound_extra {
+            Some((t, o)) => record.extend_from_slice(&[t.encoding, o.encoding]),
+            None => record.extend_from_slice(&[0; 2]),
         }
-        record.extend_from_slice(&set.size.to_le_bytes());
-        record.extend_from_slice(&(set.payload.len() as u32).to_le_bytes());
-        if let Some(o) = &object_set {
-            record.extend_from_slice(&o.size.to_le_bytes());
-            record.extend_from_slice(&(o.payload.len() as u32).to_le_bytes());
+        // Size and payload length of each set, in payload order.
+        let sets: Vec<&EncodedSet> = std::iter::once(set)
+            .chain(object_set)
+            .chain(c.bound_extra.iter().flat_map(|(t, o)| [t, o]))
+            .collect();
+        for s in &sets {
+            record.extend_from_slice(&s.size.to_le_bytes());
+            record.extend_from_slice(&(s.payload.len() as u32).to_le_bytes());
         }
         let mut crc = crc32fast::Hasher::new();
         crc.update(&record);
-        crc.update(&set.payload);
-        payloads.extend_from_slice(&set.payload);
-        if let Some(o) = &object_set {
-            crc.update(&o.payload);
-            payloads.extend_from_slice(&o.payload);
+        for s in &sets {
+            crc.update(&s.payload);
+            payloads.extend_from_slice(&s.payload);
         }
         record.extend_from_slice(&crc.finalize().to_le_bytes());
         records.extend_from_slice(&record);
@@ -652,18 +808,9 @@ mod tests {
         let mut f = PvsFile::for_scene(&scene, serde_json::json!({"method": "test"}));
         let cell = ViewCell::aabb(Vec3::splat(-2.0), Vec3::splat(-1.0)).unwrap();
         // A sparse set (varint wins) and a dense one (bitset wins).
-        f.cells.push(CellPvs {
-            cell,
-            visible: set(24, &[0, 5, 23]),
-        });
-        f.cells.push(CellPvs {
-            cell,
-            visible: set(24, &(0..20).collect::<Vec<_>>()),
-        });
-        f.cells.push(CellPvs {
-            cell,
-            visible: set(24, &[]),
-        });
+        f.cells.push(CellPvs::new(cell, set(24, &[0, 5, 23])));
+        f.cells.push(CellPvs::new(cell, set(24, &(0..20).collect::<Vec<_>>())));
+        f.cells.push(CellPvs::new(cell, set(24, &[])));
         f
     }
 
@@ -885,6 +1032,112 @@ mod tests {
                 mapped: 23,
                 triangles: 24
             }))
+        ));
+    }
+
+    /// The sample file with a bound per cell: cell 0 adds a triangle of the second box
+    /// (a new object), cell 1 one of the first box (no new object), cell 2 adds nothing.
+    fn sample_file_with_bounds() -> PvsFile {
+        let mut f = sample_file();
+        let extra: [&[usize]; 3] = [&[1, 13], &[21], &[]];
+        for (c, extra) in f.cells.iter_mut().zip(extra) {
+            let mut bound = c.visible.clone();
+            extra.iter().for_each(|&i| bound.insert(i));
+            c.bound = Some(bound);
+        }
+        f
+    }
+
+    #[test]
+    fn bounds_round_trip_and_the_runtime_reads_both_sides() {
+        let f = sample_file_with_bounds();
+        let b = bytes_of(&f);
+        assert_eq!(u32::from_le_bytes([b[12], b[13], b[14], b[15]]), FLAG_BOUND);
+        assert_eq!(PvsFile::read(&b).unwrap(), f);
+        let pvs = Pvs::from_bytes(b).unwrap();
+        assert!(pvs.has_bound());
+        pvs.verify_sets().unwrap();
+        let mut out = Vec::new();
+        pvs.bound_triangles_into(0, &mut out).unwrap();
+        assert_eq!(out, [0, 1, 5, 13, 23]);
+        pvs.bound_extra_triangles_into(0, &mut out).unwrap();
+        assert_eq!(out, [1, 13]);
+        assert_eq!(pvs.bound_triangle_count(0).unwrap(), 5);
+        // Cell 1's set holds 0..20: the bound adds 21 and no object (both boxes are in).
+        pvs.bound_triangles_into(1, &mut out).unwrap();
+        assert_eq!(out, (0..20).chain([21]).collect::<Vec<u32>>());
+        pvs.bound_extra_objects_into(1, &mut out).unwrap();
+        assert!(out.is_empty());
+        // Cell 2 sees nothing and its bound adds nothing.
+        pvs.bound_objects_into(2, &mut out).unwrap();
+        assert!(out.is_empty());
+        assert_eq!(pvs.bound_object_count(0).unwrap(), 2);
+        // A file without bounds says so.
+        let plain = Pvs::from_bytes(bytes_of(&sample_file())).unwrap();
+        assert!(!plain.has_bound());
+        assert!(matches!(
+            plain.bound_triangles_into(0, &mut out),
+            Err(sightline_runtime::Error::NoBound)
+        ));
+    }
+
+    #[test]
+    fn every_damage_to_a_file_with_bounds_is_refused() {
+        let b = bytes_of(&sample_file_with_bounds());
+        assert_every_truncation_refused(&b);
+        assert_every_flip_refused(&b);
+    }
+
+    #[test]
+    fn bounds_that_are_not_supersets_or_not_everywhere_cannot_be_written() {
+        let mut f = sample_file_with_bounds();
+        f.cells[0].bound = Some(set(24, &[0]));
+        let e = f.write(&mut Vec::new()).unwrap_err().to_string();
+        assert!(e.contains("lacks triangle 5"), "{e}");
+        let mut f = sample_file_with_bounds();
+        f.cells[2].bound = None;
+        let e = f.write(&mut Vec::new()).unwrap_err().to_string();
+        assert!(e.contains("cell 2 lacks a conservative bound"), "{e}");
+        let mut f = sample_file_with_bounds();
+        f.objects = None;
+        let e = f.write(&mut Vec::new()).unwrap_err().to_string();
+        assert!(e.contains("object table"), "{e}");
+    }
+
+    #[test]
+    fn a_bound_repeating_the_set_or_with_wrong_objects_is_refused() {
+        let f = sample_file_with_bounds();
+        let table = f.objects.as_ref().unwrap();
+        let write = |extra: &[usize], extra_objects: &[usize]| {
+            let cells = vec![CellRecord {
+                cell: f.cells[0].cell,
+                triangles: EncodedSet::encode(&f.cells[0].visible, 24),
+                objects: Some(EncodedSet::encode(
+                    &table.visible_objects(&f.cells[0].visible),
+                    2,
+                )),
+                bound_extra: Some((
+                    EncodedSet::encode(&set(24, extra), 24),
+                    EncodedSet::encode(&set(2, extra_objects), 2),
+                )),
+            }];
+            let mut b = Vec::new();
+            write_cells(&mut b, f.scene_hash, 24, Some(table), &f.metadata, cells).unwrap();
+            b
+        };
+        assert!(PvsFile::read(&write(&[1], &[])).is_ok());
+        let e = PvsFile::read(&write(&[1, 5], &[])).unwrap_err().to_string();
+        assert!(e.contains("adds triangle 5, which its set already holds"), "{e}");
+        let e = PvsFile::read(&write(&[1], &[1])).unwrap_err().to_string();
+        assert!(e.contains("objects its bound adds"), "{e}");
+    }
+
+    #[test]
+    fn encoded_reading_refuses_to_drop_bounds() {
+        let b = bytes_of(&sample_file_with_bounds());
+        assert!(matches!(
+            EncodedPvsFile::read(&b),
+            Err(PvsError::BoundsNotCarried)
         ));
     }
 }

@@ -229,10 +229,7 @@ mod tests {
         let mut f = PvsFile::for_scene(scene, metadata);
         f.cells = cells
             .iter()
-            .map(|&cell| CellPvs {
-                cell,
-                visible: all.clone(),
-            })
+            .map(|&cell| CellPvs::new(cell, all.clone()))
             .collect();
         f
     }

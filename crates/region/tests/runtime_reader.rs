@@ -41,7 +41,7 @@ fn fixture() -> (Scene, PvsFile) {
                 visible.insert(t);
             }
         }
-        file.cells.push(CellPvs { cell, visible });
+        file.cells.push(CellPvs::new(cell, visible));
     }
     (scene, file)
 }

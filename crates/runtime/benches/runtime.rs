@@ -100,6 +100,7 @@ fn ten_thousand_objects(scene: &Scene) -> Pvs {
     file.cells.push(CellPvs {
         cell: grid(scene, [1, 1, 1])[0],
         visible,
+        bound: None,
     });
     let mut bytes = Vec::new();
     file.write(&mut bytes).unwrap();

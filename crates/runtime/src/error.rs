@@ -51,6 +51,12 @@ pub enum Error {
         "this .pvs file has no object table (version {0}); bake it again to get per-object sets"
     )]
     NoObjects(u32),
+    /// The file holds no conservative bounds (bake with `--bound` to get them).
+    #[error(
+        "this .pvs file holds no conservative bounds; bake it with `pvs bake --bound` (or add \
+         them with `pvs bound`) to get the per-cell superset"
+    )]
+    NoBound,
     /// A cell index past the file's cells.
     #[error("cell {cell} does not exist (the file has {count} cells)")]
     NoSuchCell {

@@ -18,6 +18,11 @@ pub const VERSION: u32 = 2;
 pub const CELL_RECORD_BYTES_V1: usize = 76;
 /// Bytes of a version-2 cell record.
 pub const CELL_RECORD_BYTES_V2: usize = 84;
+/// Bytes of a version-2 cell record in a file with [`FLAG_BOUND`].
+pub const CELL_RECORD_BYTES_BOUND: usize = 100;
+/// Header flag: every cell also holds a conservative bound, stored as the triangles and
+/// objects it adds to the cell's set ("might be visible"). Only in version 2.
+pub const FLAG_BOUND: u32 = 1;
 /// Bytes of a version-2 object record.
 pub const OBJECT_RECORD_BYTES: usize = 40;
 /// Set encoding: ascending ids as LEB128 varints of the gaps.
@@ -64,6 +69,8 @@ pub(crate) struct ObjectRecord {
 #[derive(Clone, Debug)]
 pub(crate) struct Layout {
     pub version: u32,
+    /// Whether every cell holds a conservative bound ([`FLAG_BOUND`]).
+    pub bound: bool,
     pub scene_hash: u64,
     pub triangle_count: u32,
     pub metadata: Range<usize>,
@@ -86,6 +93,30 @@ impl Layout {
     pub fn record<'a>(&self, file: &'a [u8], i: u32) -> &'a [u8] {
         let start = self.cell_table + i as usize * self.cell_record_bytes;
         &file[start..start + self.cell_record_bytes]
+    }
+
+    /// The triangles and objects the conservative bound of cell `i` (< cell_count) adds to
+    /// its sets, in a file with [`FLAG_BOUND`].
+    pub fn bound_extra(&self, file: &[u8], i: u32) -> Option<(SetRef, SetRef)> {
+        if !self.bound {
+            return None;
+        }
+        let record = self.record(file, i);
+        let (triangles, objects) = self.sets(file, i);
+        let start = objects.map_or(triangles.offset + triangles.len, |o| o.offset + o.len);
+        let extra_triangles = SetRef {
+            encoding: record[62],
+            size: read_u32(record, 80),
+            offset: start,
+            len: read_u32(record, 84) as usize,
+        };
+        let extra_objects = SetRef {
+            encoding: record[63],
+            size: read_u32(record, 88),
+            offset: start + extra_triangles.len,
+            len: read_u32(record, 92) as usize,
+        };
+        Some((extra_triangles, extra_objects))
     }
 
     /// The triangle set and (version 2) object set of cell `i` (< cell_count).
@@ -196,8 +227,15 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Layout, Error> {
     if crc32fast::hash(&bytes[..header_end]) != header_crc {
         return Err(Error::corrupt(header_end, "header checksum"));
     }
-    if flags != 0 {
+    if flags & !FLAG_BOUND != 0 {
         return Err(Error::corrupt(12, format!("unknown flags {flags:#x}")));
+    }
+    let bound = flags & FLAG_BOUND != 0;
+    if bound && version < 2 {
+        return Err(Error::corrupt(
+            12,
+            "a version-1 file cannot hold conservative bounds (flag 1)",
+        ));
     }
     if std::str::from_utf8(metadata_bytes).is_err() {
         return Err(Error::corrupt(metadata_start, "metadata is not UTF-8"));
@@ -209,7 +247,9 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Layout, Error> {
         (Vec::new(), vec![0], Vec::new(), Vec::new())
     };
 
-    let cell_record_bytes = if version >= 2 {
+    let cell_record_bytes = if bound {
+        CELL_RECORD_BYTES_BOUND
+    } else if version >= 2 {
         CELL_RECORD_BYTES_V2
     } else {
         CELL_RECORD_BYTES_V1
@@ -229,16 +269,21 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Layout, Error> {
         check_cell_geometry(read_vec3(record, 0), axes, read_vec3(record, 48))
             .map_err(|e| Error::corrupt(record_offset, format!("cell {i}: {e}")))?;
         let crc_at = cell_record_bytes - 4;
-        let mut payload_len = read_u32(record, 68) as usize;
+        let mut payload_len = u64::from(read_u32(record, 68));
         if version >= 2 {
-            if record[62] != 0 || record[63] != 0 {
+            if !bound && (record[62] != 0 || record[63] != 0) {
                 return Err(Error::corrupt(
                     record_offset + 62,
                     format!("cell {i}: reserved bytes are not 0"),
                 ));
             }
-            payload_len += read_u32(record, 76) as usize;
+            payload_len += u64::from(read_u32(record, 76));
         }
+        if bound {
+            payload_len += u64::from(read_u32(record, 84)) + u64::from(read_u32(record, 92));
+        }
+        // Four lengths below 2^32 sum below 2^34; `take` refuses a sum past the file.
+        let payload_len = usize::try_from(payload_len).unwrap_or(usize::MAX);
         payload_start.push(r.pos);
         let payload = r.take(payload_len, &format!("payload of cell {i}"))?;
         let mut hasher = crc32fast::Hasher::new();
@@ -260,6 +305,7 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Layout, Error> {
     }
     Ok(Layout {
         version,
+        bound,
         scene_hash,
         triangle_count,
         metadata: metadata_start..header_end,

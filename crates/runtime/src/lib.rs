@@ -287,6 +287,69 @@ impl Pvs {
         Ok(out)
     }
 
+    /// Whether every cell also holds a conservative bound: a superset of its set that is
+    /// never missing a visible triangle (`pvs bake --bound`). The cell's own set is the
+    /// aggressive one (sampled: every triangle in it is visible, a few visible ones may be
+    /// absent); the bound adds the triangles that might be visible.
+    pub fn has_bound(&self) -> bool {
+        self.layout.bound
+    }
+
+    /// Number of triangles in the conservative bound of `cell` (its set and what the bound
+    /// adds).
+    pub fn bound_triangle_count(&self, cell: u32) -> Result<u32, Error> {
+        let (extra, _) = self.bound_extra(cell)?;
+        Ok(self.visible_triangle_count(cell)?.saturating_add(extra.size))
+    }
+
+    /// Number of objects in the conservative bound of `cell`.
+    pub fn bound_object_count(&self, cell: u32) -> Result<u32, Error> {
+        let (_, extra) = self.bound_extra(cell)?;
+        Ok(self.visible_object_count(cell)?.saturating_add(extra.size))
+    }
+
+    /// Replaces `out` with the triangles the bound of `cell` adds to its set (ascending):
+    /// the triangles that might be visible from the cell but were not found visible — the
+    /// gap between the two sides. Draw them after the set when a frame must be complete.
+    pub fn bound_extra_triangles_into(&self, cell: u32, out: &mut Vec<u32>) -> Result<(), Error> {
+        let (extra, _) = self.bound_extra(cell)?;
+        self.decode(cell, extra, self.layout.triangle_count, "bound triangles", out)
+    }
+
+    /// Replaces `out` with the objects the bound of `cell` adds to its object set
+    /// (ascending): objects that own a triangle of the bound and none of the set.
+    pub fn bound_extra_objects_into(&self, cell: u32, out: &mut Vec<u32>) -> Result<(), Error> {
+        let (_, extra) = self.bound_extra(cell)?;
+        self.decode(cell, extra, self.object_count(), "bound objects", out)
+    }
+
+    /// Replaces `out` with the conservative bound of `cell`: its triangle set and what the
+    /// bound adds, ascending.
+    pub fn bound_triangles_into(&self, cell: u32, out: &mut Vec<u32>) -> Result<(), Error> {
+        let mut extra = Vec::new();
+        self.bound_extra_triangles_into(cell, &mut extra)?;
+        self.visible_triangles_into(cell, out)?;
+        merge_ascending(out, &extra);
+        Ok(())
+    }
+
+    /// Replaces `out` with the objects of the conservative bound of `cell`, ascending.
+    pub fn bound_objects_into(&self, cell: u32, out: &mut Vec<u32>) -> Result<(), Error> {
+        let mut extra = Vec::new();
+        self.bound_extra_objects_into(cell, &mut extra)?;
+        self.visible_objects_into(cell, out)?;
+        merge_ascending(out, &extra);
+        Ok(())
+    }
+
+    /// The extra sets of `cell`'s bound, or why there are none.
+    fn bound_extra(&self, cell: u32) -> Result<(format::SetRef, format::SetRef), Error> {
+        self.check_cell(cell)?;
+        self.layout
+            .bound_extra(self.bytes.get(), cell)
+            .ok_or(Error::NoBound)
+    }
+
     /// Decodes every set of every cell once: the complete check beyond what opening does.
     /// Sets are otherwise checked as they are decoded.
     pub fn verify_sets(&self) -> Result<(), Error> {
@@ -295,6 +358,10 @@ impl Pvs {
             self.visible_triangles_into(cell, &mut scratch)?;
             if self.layout.version >= 2 {
                 self.visible_objects_into(cell, &mut scratch)?;
+            }
+            if self.layout.bound {
+                self.bound_extra_triangles_into(cell, &mut scratch)?;
+                self.bound_extra_objects_into(cell, &mut scratch)?;
             }
         }
         Ok(())
@@ -314,6 +381,16 @@ impl Pvs {
     /// The file's bytes.
     pub fn as_bytes(&self) -> &[u8] {
         self.bytes.get()
+    }
+
+    /// Where the extra triangle and object sets of cell `cell`'s bound lie in
+    /// [`Pvs::as_bytes`] (`None` in a file without bounds).
+    pub fn raw_bound_sets(
+        &self,
+        cell: u32,
+    ) -> Result<Option<(format::SetRef, format::SetRef)>, Error> {
+        self.check_cell(cell)?;
+        Ok(self.layout.bound_extra(self.bytes.get(), cell))
     }
 
     /// Where cell `cell`'s sets lie in [`Pvs::as_bytes`] (for tools that copy encoded sets).
@@ -353,6 +430,32 @@ impl Pvs {
     }
 }
 
+/// Merges the ascending ids `extra` into the ascending ids `out`, in place from the back (the
+/// two are disjoint in a valid file; a shared id is kept once).
+fn merge_ascending(out: &mut Vec<u32>, extra: &[u32]) {
+    let mut a = out.len();
+    let mut b = extra.len();
+    out.resize(a + b, 0);
+    let mut w = out.len();
+    while b > 0 {
+        w -= 1;
+        if a > 0 && out[a - 1] > extra[b - 1] {
+            out[w] = out[a - 1];
+            a -= 1;
+        } else {
+            if a > 0 && out[a - 1] == extra[b - 1] {
+                a -= 1;
+            }
+            out[w] = extra[b - 1];
+            b -= 1;
+        }
+    }
+    // Ids kept once leave a gap at the front: close it.
+    if w > a {
+        out.drain(a..w);
+    }
+}
+
 fn read_cell(record: &[u8]) -> Cell {
     Cell {
         center: read_vec3(record, 0),
@@ -362,5 +465,26 @@ fn read_cell(record: &[u8]) -> Cell {
             read_vec3(record, 36),
         ],
         half_extents: read_vec3(record, 48),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::merge_ascending;
+
+    #[test]
+    fn merging_ascending_ids_keeps_order_and_shared_ids_once() {
+        let cases: [(&[u32], &[u32], &[u32]); 5] = [
+            (&[], &[], &[]),
+            (&[1, 5, 9], &[], &[1, 5, 9]),
+            (&[], &[2, 3], &[2, 3]),
+            (&[1, 5, 9], &[0, 6, 10], &[0, 1, 5, 6, 9, 10]),
+            (&[1, 5, 9], &[5, 9, 11], &[1, 5, 9, 11]),
+        ];
+        for (set, extra, merged) in cases {
+            let mut out = set.to_vec();
+            merge_ascending(&mut out, extra);
+            assert_eq!(out, merged, "{set:?} + {extra:?}");
+        }
     }
 }

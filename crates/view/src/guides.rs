@@ -209,6 +209,7 @@ mod tests {
             CellPvs {
                 cell: ViewCell::aabb(Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 1.0, 1.0)).unwrap(),
                 visible,
+                bound: None,
             }
         };
         PvsFile {

@@ -17,6 +17,7 @@ fn pvs_around(scene: &Scene, eye: Vec3, set: TriangleSet) -> PvsFile {
     pvs.cells.push(CellPvs {
         cell: ViewCell::aabb(eye - Vec3::ONE, eye + Vec3::ONE).unwrap(),
         visible: set,
+        bound: None,
     });
     pvs
 }

@@ -550,6 +550,7 @@ mod tests {
             file.cells.push(CellPvs {
                 cell: ViewCell::aabb(Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 1.0, 1.0)).unwrap(),
                 visible: sightline_core::TriangleSet::with_capacity(scene.triangle_count()),
+                bound: None,
             });
         }
         file

@@ -81,10 +81,7 @@ impl SharedBake {
         file.cells = cells
             .iter()
             .zip(&self.cells)
-            .map(|(cell, r)| CellPvs {
-                cell: *cell,
-                visible: r.visible.clone(),
-            })
+            .map(|(cell, r)| CellPvs::new(*cell, r.visible.clone()))
             .collect();
         let stats: Vec<serde_json::Value> = self
             .cells
