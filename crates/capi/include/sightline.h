@@ -72,6 +72,10 @@ enum SlStatus
      * Any other failure; the message says what.
      */
     SL_STATUS_FAILED = -7,
+    /**
+     * A conservative bound was asked of a file that holds none (bake with `--bound`).
+     */
+    SL_STATUS_NO_BOUND = -8,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -285,6 +289,43 @@ SlStatus sl_pvs_visible_triangles(const struct SlPvs *pvs,
                                   uint32_t *out,
                                   size_t capacity,
                                   size_t *out_count);
+
+/**
+ * 1 when every cell of the file also holds a conservative bound (`pvs bake --bound`): a
+ * superset of its set that misses no visible triangle; 0 when not (or `pvs` is `NULL`).
+ * The cell's own set is sampled: every id in it is visible, but a few visible ones may be
+ * absent. Draw the bound where a frame must never show a hole.
+ */
+uint32_t sl_pvs_has_bound(const struct SlPvs *pvs);
+
+/**
+ * Copies the ids of the objects in the conservative bound of cell `cell` (ascending: the
+ * visible objects and those the bound adds) to `out`, as `sl_pvs_visible_objects` does;
+ * `SL_STATUS_NO_BOUND` when the file holds no bounds.
+ *
+ * # Safety
+ * `out` must be `NULL` or point to `capacity` writable `uint32_t`s; `out_count` must be
+ * `NULL` or point to a writable `size_t`.
+ */
+SlStatus sl_pvs_bound_objects(const struct SlPvs *pvs,
+                              uint32_t cell,
+                              uint32_t *out,
+                              size_t capacity,
+                              size_t *out_count);
+
+/**
+ * Copies the ids of the triangles in the conservative bound of cell `cell` (ascending) to
+ * `out`, as `sl_pvs_bound_objects` does with objects.
+ *
+ * # Safety
+ * `out` must be `NULL` or point to `capacity` writable `uint32_t`s; `out_count` must be
+ * `NULL` or point to a writable `size_t`.
+ */
+SlStatus sl_pvs_bound_triangles(const struct SlPvs *pvs,
+                                uint32_t cell,
+                                uint32_t *out,
+                                size_t capacity,
+                                size_t *out_count);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -42,6 +42,7 @@ impl From<sightline_runtime::Error> for Failure {
         let status = match &e {
             E::NoSuchCell { .. } | E::NoSuchObject { .. } => SlStatus::OutOfRange,
             E::NoObjects(_) => SlStatus::NoObjects,
+            E::NoBound => SlStatus::NoBound,
             E::BadMagic | E::UnsupportedVersion(_) | E::Truncated { .. } | E::Corrupt { .. } => {
                 SlStatus::Corrupt
             }

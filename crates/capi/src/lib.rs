@@ -331,6 +331,8 @@ pub extern "C" fn sl_pvs_object(
 enum Set {
     Objects,
     Triangles,
+    BoundObjects,
+    BoundTriangles,
 }
 
 /// The body of `sl_pvs_visible_objects` and `sl_pvs_visible_triangles`.
@@ -353,6 +355,8 @@ unsafe fn copy_visible(
         let n = match set {
             Set::Objects => pvs.visible_object_count(cell)?,
             Set::Triangles => pvs.visible_triangle_count(cell)?,
+            Set::BoundObjects => pvs.bound_object_count(cell)?,
+            Set::BoundTriangles => pvs.bound_triangle_count(cell)?,
         } as usize;
         *out_count = n;
         return Ok(if n == 0 {
@@ -374,6 +378,8 @@ unsafe fn copy_visible(
         match set {
             Set::Objects => pvs.visible_objects_into(cell, ids)?,
             Set::Triangles => pvs.visible_triangles_into(cell, ids)?,
+            Set::BoundObjects => pvs.bound_objects_into(cell, ids)?,
+            Set::BoundTriangles => pvs.bound_triangles_into(cell, ids)?,
         }
         let n = ids.len().min(capacity);
         // SAFETY: `out` is non-null, aligned and has room for `capacity` >= n ids by the
@@ -436,5 +442,57 @@ pub unsafe extern "C" fn sl_pvs_visible_triangles(
     // SAFETY: the caller's contract is copy_visible's.
     guard_status("sl_pvs_visible_triangles", || unsafe {
         copy_visible(pvs, cell, out, capacity, out_count, Set::Triangles)
+    })
+}
+
+/// 1 when every cell of the file also holds a conservative bound (`pvs bake --bound`): a
+/// superset of its set that misses no visible triangle; 0 when not (or `pvs` is `NULL`).
+/// The cell's own set is sampled: every id in it is visible, but a few visible ones may be
+/// absent. Draw the bound where a frame must never show a hole.
+#[no_mangle]
+pub extern "C" fn sl_pvs_has_bound(pvs: Option<&SlPvs>) -> u32 {
+    guard_value("sl_pvs_has_bound", 0, || {
+        Ok(u32::from(handle(pvs)?.pvs.has_bound()))
+    })
+}
+
+/// Copies the ids of the objects in the conservative bound of cell `cell` (ascending: the
+/// visible objects and those the bound adds) to `out`, as `sl_pvs_visible_objects` does;
+/// `SL_STATUS_NO_BOUND` when the file holds no bounds.
+///
+/// # Safety
+/// `out` must be `NULL` or point to `capacity` writable `uint32_t`s; `out_count` must be
+/// `NULL` or point to a writable `size_t`.
+#[no_mangle]
+pub unsafe extern "C" fn sl_pvs_bound_objects(
+    pvs: Option<&SlPvs>,
+    cell: u32,
+    out: *mut u32,
+    capacity: usize,
+    out_count: Option<&mut usize>,
+) -> SlStatus {
+    // SAFETY: the caller's contract is copy_visible's.
+    guard_status("sl_pvs_bound_objects", || unsafe {
+        copy_visible(pvs, cell, out, capacity, out_count, Set::BoundObjects)
+    })
+}
+
+/// Copies the ids of the triangles in the conservative bound of cell `cell` (ascending) to
+/// `out`, as `sl_pvs_bound_objects` does with objects.
+///
+/// # Safety
+/// `out` must be `NULL` or point to `capacity` writable `uint32_t`s; `out_count` must be
+/// `NULL` or point to a writable `size_t`.
+#[no_mangle]
+pub unsafe extern "C" fn sl_pvs_bound_triangles(
+    pvs: Option<&SlPvs>,
+    cell: u32,
+    out: *mut u32,
+    capacity: usize,
+    out_count: Option<&mut usize>,
+) -> SlStatus {
+    // SAFETY: the caller's contract is copy_visible's.
+    guard_status("sl_pvs_bound_triangles", || unsafe {
+        copy_visible(pvs, cell, out, capacity, out_count, Set::BoundTriangles)
     })
 }

@@ -28,4 +28,6 @@ pub enum SlStatus {
     Internal = -6,
     /// Any other failure; the message says what.
     Failed = -7,
+    /// A conservative bound was asked of a file that holds none (bake with `--bound`).
+    NoBound = -8,
 }

@@ -488,3 +488,66 @@ fn one_handle_answers_many_threads_at_once() {
         }
     });
 }
+
+/// The test file with a conservative bound per cell: its set and every triangle of the
+/// hidden box (in no cell's set: a bound may hold what is not visible).
+fn bytes_with_bounds() -> Vec<u8> {
+    let mut file = sightline_region::PvsFile::read(bytes()).unwrap();
+    let hidden: Vec<u32> = Pvs::from_bytes(bytes().to_vec())
+        .unwrap()
+        .object_triangles(common::HIDDEN)
+        .unwrap()
+        .flatten()
+        .collect();
+    for c in &mut file.cells {
+        let mut bound = c.visible.clone();
+        hidden.iter().for_each(|&t| bound.insert(t as usize));
+        c.bound = Some(bound);
+    }
+    let mut out = Vec::new();
+    file.write(&mut out).unwrap();
+    out
+}
+
+type BoundFn =
+    unsafe extern "C" fn(Option<&SlPvs>, u32, *mut u32, usize, Option<&mut usize>) -> SlStatus;
+
+fn call(f: BoundFn, h: Option<&SlPvs>, cell: u32, out: &mut [u32]) -> (SlStatus, usize) {
+    let mut count = usize::MAX;
+    // SAFETY: `out` has room for its length; `count` is writable.
+    let status = unsafe { f(h, cell, out.as_mut_ptr(), out.len(), Some(&mut count)) };
+    (status, count)
+}
+
+#[test]
+fn bounds_are_the_runtimes_and_their_absence_is_an_error() {
+    let bytes = bytes_with_bounds();
+    let pvs = Pvs::from_bytes(bytes.clone()).unwrap();
+    let h = Handle::of(&bytes);
+    assert_eq!(sl_pvs_has_bound(h.get()), 1);
+    for cell in 0..pvs.cell_count() {
+        let mut want = Vec::new();
+        pvs.bound_triangles_into(cell, &mut want).unwrap();
+        assert!(want.len() > pvs.visible_triangle_count(cell).unwrap() as usize);
+        // A sizing call, then the copy.
+        assert_eq!(
+            call(sl_pvs_bound_triangles, h.get(), cell, &mut []),
+            (SlStatus::Incomplete, want.len())
+        );
+        let mut out = vec![u32::MAX; want.len()];
+        let (status, n) = call(sl_pvs_bound_triangles, h.get(), cell, &mut out);
+        assert_eq!((status, n, &out), (SlStatus::Ok, want.len(), &want));
+        // The hidden box's object is in every cell's bound and in no cell's set.
+        let mut objects = vec![0; 16];
+        let (status, n) = call(sl_pvs_bound_objects, h.get(), cell, &mut objects);
+        assert_eq!(status, SlStatus::Ok);
+        assert!(objects[..n].contains(&common::HIDDEN));
+        assert!(!pvs.visible_objects(cell).unwrap().contains(&common::HIDDEN));
+    }
+    let plain = Handle::of(self::bytes());
+    assert_eq!(sl_pvs_has_bound(plain.get()), 0);
+    assert_eq!(sl_pvs_has_bound(None), 0);
+    let (status, n) = call(sl_pvs_bound_triangles, plain.get(), 0, &mut [0; 8]);
+    assert_eq!((status, n), (SlStatus::NoBound, 0));
+    assert_error("sl_pvs_bound_triangles", "no conservative bounds");
+}

@@ -930,3 +930,87 @@ fn conservative_bake_contains_the_sampled_set_and_misses_nothing() {
     );
     assert_fails_with(&o, "casts no rays");
 }
+
+#[test]
+fn two_sided_bake_stores_both_sides_and_its_bound_misses_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let budget = ["--rays", "200000"];
+    let o = bake_two_cells(
+        dir.path(),
+        &[&budget[..], &["--bound", "-o", "b.pvs", "--json"]].concat(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["bound"]["method"], "conservative", "{v}");
+    assert_eq!(v["bound"]["cells_not_contained"], 0, "{v}");
+    assert!(v["bound"]["mean_ratio"].as_f64().unwrap() > 1.0, "{v}");
+    // `pvs show` gives each cell's set and the gap: disjoint, and together the bound.
+    let o = sightline(&["pvs", "show", "b.pvs", "--json"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let shown: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for c in shown["cells"].as_array().unwrap() {
+        let (set, gap) = (
+            c["triangles"].as_array().unwrap(),
+            c["gap"].as_array().unwrap(),
+        );
+        assert!(!set.is_empty() && !gap.is_empty(), "{c}");
+        assert!(gap.iter().all(|t| !set.contains(t)));
+        assert_eq!(
+            c["bound_size"].as_u64().unwrap() as usize,
+            set.len() + gap.len()
+        );
+    }
+    let o = sightline(&["pvs", "show", "b.pvs"], dir.path());
+    assert!(String::from_utf8_lossy(&o.stdout).contains("gap"));
+    // `pvs bound` on the same bake without --bound adds the same bounds.
+    let o = bake_two_cells(dir.path(), &[&budget[..], &["-o", "plain.pvs"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = sightline(
+        &["pvs", "bound", SCENE, "plain.pvs", "-o", "later.pvs"],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = sightline(&["pvs", "show", "later.pvs", "--json"], dir.path());
+    let later: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for (a, b) in shown["cells"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(later["cells"].as_array().unwrap())
+    {
+        assert_eq!(a["gap"], b["gap"]);
+    }
+    // Dense views from inside the cells see nothing outside the bounds.
+    let eval = |file: &str, side: &str| {
+        let args = [
+            "eval", SCENE, file, "--views", "6", "--size", "96", "--side", side, "--json",
+        ];
+        sightline(&args, dir.path())
+    };
+    let o = eval("b.pvs", "bound");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for r in rows.as_array().unwrap() {
+        assert!(r["ground_truth_size"].as_u64().unwrap() > 0, "{r}");
+        assert_eq!(r["false_negatives"], 0, "{r}");
+    }
+    assert_fails_with(&eval("plain.pvs", "bound"), "holds no conservative bounds");
+    // What does not combine says so, and what cannot carry bounds refuses them.
+    let refused = [
+        (
+            &["--method", "conservative", "--bound", "-o", "x.pvs"][..],
+            "already is the bound",
+        ),
+        (
+            &["--bound", "--shard", "0/2", "-o", "x.pvs"][..],
+            "`pvs bound`",
+        ),
+    ];
+    for (args, needle) in refused {
+        assert_fails_with(&bake_two_cells(dir.path(), args), needle);
+    }
+    let o = sightline(&["pvs", "merge", "b.pvs", "-o", "m.pvs"], dir.path());
+    assert_fails_with(&o, "holds conservative bounds");
+    let o = sightline(&["pvs", "bound", SCENE, "b.pvs", "-o", "b.pvs"], dir.path());
+    assert_fails_with(&o, "refusing to overwrite an input");
+}

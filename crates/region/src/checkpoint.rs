@@ -492,12 +492,25 @@ impl ResumableBake<'_> {
             &metadata,
             cells.iter().map(|c| (&self.setup.cells[c.index], &c.set)),
         )?;
+        self.remove_checkpoint();
+        Ok(())
+    }
+
+    /// Writes `file`, the finished bake as [`ResumableBake::to_pvs_file`] gave it and a front
+    /// end completed (e.g. with conservative bounds), to `output` atomically, then removes the
+    /// checkpoint.
+    pub fn write_file(&self, output: &Path, file: &PvsFile) -> Result<(), BakeError> {
+        file.save(output)?;
+        self.remove_checkpoint();
+        Ok(())
+    }
+
+    fn remove_checkpoint(&self) {
         if let Some(p) = &self.checkpoint {
             // The output is complete; a leftover checkpoint would only be refused or resumed
             // into the same result, so failing to delete it is not an error.
             let _ = std::fs::remove_file(p);
         }
-        Ok(())
     }
 }
 

@@ -469,7 +469,10 @@ mod tests {
             .collect();
         assert_eq!(minus_x.len(), 2);
         file.cells.push(CellPvs::new(left, set(&minus_x)));
-        file.cells.push(CellPvs::new(right, set(&[plus_x_far.clone(), plus_x_near.clone()].concat())));
+        file.cells.push(CellPvs::new(
+            right,
+            set(&[plus_x_far.clone(), plus_x_near.clone()].concat()),
+        ));
         file.cells.push(CellPvs::new(inside, set(&plus_x_far)));
         // A cell that sees only box 1's +x face from the right: the new box is behind it.
         file.cells.push(CellPvs::new(right, set(&plus_x_near)));

@@ -5,6 +5,7 @@
 pub mod adjacency;
 pub mod bake;
 mod border;
+pub mod bound;
 pub mod cell_sources;
 pub mod checkpoint;
 mod guided;

@@ -607,14 +607,16 @@ fn write_cells<S: std::borrow::Borrow<EncodedSet>>(
     cells: Vec<CellRecord<S>>,
 ) -> Result<(), PvsError> {
     check_object_table(objects, triangle_count)?;
-    if cells.iter().any(|c| c.objects.is_some() != objects.is_some()) {
+    if cells
+        .iter()
+        .any(|c| c.objects.is_some() != objects.is_some())
+    {
         return Err(PvsError::Invalid(
             "object sets are given exactly when there is an object table".into(),
         ));
     }
     let bounds = cells.first().is_some_and(|c| c.bound_extra.is_some());
-    if cells.iter().any(|c| c.bound_extra.is_some() != bounds) || (bounds && objects.is_none())
-    {
+    if cells.iter().any(|c| c.bound_extra.is_some() != bounds) || (bounds && objects.is_none()) {
         return Err(PvsError::Invalid(
             "bounds are given for every cell or none, and only with an object table".into(),
         ));
@@ -809,7 +811,8 @@ mod tests {
         let cell = ViewCell::aabb(Vec3::splat(-2.0), Vec3::splat(-1.0)).unwrap();
         // A sparse set (varint wins) and a dense one (bitset wins).
         f.cells.push(CellPvs::new(cell, set(24, &[0, 5, 23])));
-        f.cells.push(CellPvs::new(cell, set(24, &(0..20).collect::<Vec<_>>())));
+        f.cells
+            .push(CellPvs::new(cell, set(24, &(0..20).collect::<Vec<_>>())));
         f.cells.push(CellPvs::new(cell, set(24, &[])));
         f
     }
@@ -1127,7 +1130,10 @@ mod tests {
         };
         assert!(PvsFile::read(&write(&[1], &[])).is_ok());
         let e = PvsFile::read(&write(&[1, 5], &[])).unwrap_err().to_string();
-        assert!(e.contains("adds triangle 5, which its set already holds"), "{e}");
+        assert!(
+            e.contains("adds triangle 5, which its set already holds"),
+            "{e}"
+        );
         let e = PvsFile::read(&write(&[1], &[1])).unwrap_err().to_string();
         assert!(e.contains("objects its bound adds"), "{e}");
     }

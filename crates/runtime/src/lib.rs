@@ -299,7 +299,9 @@ impl Pvs {
     /// adds).
     pub fn bound_triangle_count(&self, cell: u32) -> Result<u32, Error> {
         let (extra, _) = self.bound_extra(cell)?;
-        Ok(self.visible_triangle_count(cell)?.saturating_add(extra.size))
+        Ok(self
+            .visible_triangle_count(cell)?
+            .saturating_add(extra.size))
     }
 
     /// Number of objects in the conservative bound of `cell`.
@@ -313,7 +315,13 @@ impl Pvs {
     /// gap between the two sides. Draw them after the set when a frame must be complete.
     pub fn bound_extra_triangles_into(&self, cell: u32, out: &mut Vec<u32>) -> Result<(), Error> {
         let (extra, _) = self.bound_extra(cell)?;
-        self.decode(cell, extra, self.layout.triangle_count, "bound triangles", out)
+        self.decode(
+            cell,
+            extra,
+            self.layout.triangle_count,
+            "bound triangles",
+            out,
+        )
     }
 
     /// Replaces `out` with the objects the bound of `cell` adds to its object set

@@ -65,6 +65,11 @@ pub(crate) struct Args {
     /// an --include-unreachable bake from the viewpoints of a default one.
     #[arg(long, value_name = "UNITS", num_args = 0..=1, default_missing_value = "16")]
     reachable_viewpoints: Option<f32>,
+    /// Which side of a two-sided file (`pvs bake --bound`) to evaluate: `set`, the sampled
+    /// set, or `bound`, the conservative bound (its false negatives must be 0; its "extra"
+    /// triangles measure how loose it is).
+    #[arg(long, value_name = "SIDE", value_parser = ["set", "bound"], default_value = "set")]
+    side: String,
     /// Print JSON.
     #[arg(long)]
     json: bool,
@@ -162,7 +167,19 @@ pub(crate) fn run(args: Args) -> Result<()> {
         )?;
     }
     let scene = args.scene.load()?;
-    let file = load_pvs_of(&scene, args.pvs()?)?;
+    let mut file = load_pvs_of(&scene, args.pvs()?)?;
+    if args.side == "bound" {
+        if !file.has_bounds() {
+            bail!(
+                "{} holds no conservative bounds to evaluate (bake with --bound, or add them \
+                 with `pvs bound`)",
+                args.pvs()?.display()
+            );
+        }
+        for c in &mut file.cells {
+            c.visible = c.bound.take().unwrap_or_default();
+        }
+    }
     let plan = plan(&args, &file)?;
     let rows = evaluate_cells(&args, &scene, &file, &plan)?;
     if args.json {

@@ -33,6 +33,10 @@ pub(crate) enum What {
     /// --max-growth. Per-cell statistics are summed; `metadata.cells[i].merged_from` lists the
     /// original cells.
     MergeCells(MergeCellsArgs),
+    /// Give every cell of a baked .pvs a conservative bound (what `pvs bake --bound` does
+    /// after sampling): the file then carries, per cell, the sampled set (surely visible) and a
+    /// superset that misses no visible triangle; the gap between them is printed per cell.
+    Bound(BoundArgs),
     /// Compare two .pvs files of the same scene cell by cell. Exit status as `diff`: 0 when
     /// every cell's set is equal, 1 when some differ (with a summary line: cells differing,
     /// triangles only in the second file = added, only in the first = removed), 2 on errors.
@@ -208,6 +212,47 @@ pub(crate) struct BakeArgs {
     /// crosses (ray sharing); --rays and --time stay per cell.
     #[arg(long)]
     pub(crate) share_rays: bool,
+    /// Two-sided bake: after the sampled sets, give every cell a conservative bound (RV's
+    /// from-region set, as `--method conservative`, joined with the sampled set) and store both
+    /// (docs/pvs-format.md, "Two-sided files"). The file then says per cell which triangles are
+    /// surely visible (the set) and which might be (the bound): the gap is the set's error bar,
+    /// shown by `pvs show` and the report, and a renderer can draw either side. Takes about as
+    /// long per cell as `--method conservative`. A shard's bounds are added after `pvs merge`,
+    /// with `pvs bound`.
+    #[arg(long)]
+    pub(crate) bound: bool,
+    #[command(flatten)]
+    pub(crate) bound_options: BoundOptionArgs,
+}
+
+/// How the conservative bound is computed (`pvs bake --bound`, `pvs bound`).
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub(crate) struct BoundOptionArgs {
+    /// Occluders of the conservative bound: the largest convex ones by solid angle from the
+    /// cell's centre. More give a tighter bound and cost time roughly in proportion.
+    #[arg(long, value_name = "N", default_value_t = 1024)]
+    pub(crate) bound_occluders: usize,
+}
+
+/// Arguments of `pvs bound`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct BoundArgs {
+    #[command(flatten)]
+    pub(crate) scene: SceneArgs,
+    /// The .pvs file baked for SCENE (required; SCENE comes first, as in `eval`).
+    #[arg(value_name = "PVS")]
+    pub(crate) file: Option<PathBuf>,
+    /// Output .pvs file (written atomically; never the input).
+    #[arg(short, long)]
+    pub(crate) output: PathBuf,
+    #[command(flatten)]
+    pub(crate) options: BoundOptionArgs,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub(crate) threads: Option<usize>,
+    /// Print a JSON summary.
+    #[arg(long)]
+    pub(crate) json: bool,
 }
 
 #[derive(clap::Args, Debug)]

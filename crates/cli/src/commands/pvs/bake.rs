@@ -10,7 +10,7 @@ use glam::Vec3;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use serde::Serialize;
 use sightline_core::trace::{Bvh, RayCaster};
-use sightline_point::rv::{bake_sampler, CONSERVATIVE};
+use sightline_point::rv::{bake_sampler, ConservativeSampler, CONSERVATIVE};
 use sightline_region::bake::BakeSetup;
 use sightline_region::cell_sources::{write_cells_file, Q3Cells, Q3OriginsSummary, Q3_ORIGINS_KEY};
 use sightline_region::checkpoint::{checkpoint_path, fingerprint, BakeProgress, ResumableBake};
@@ -30,6 +30,7 @@ use crate::output::{print_json, refuse_overwriting_inputs};
 use crate::output_lock::OutputLock;
 
 use super::args::{BakeArgs, MergeArgs};
+use super::bound::{bound_sampler, bound_with_progress};
 use super::cells::collect_cells;
 use super::gpu::gpu_caster;
 
@@ -65,6 +66,10 @@ struct BakeSummary {
     /// were skipped) and which lie wholly inside it (no origins: an empty set). `None` for
     /// Quake 3 cells and with --origins-anywhere.
     solid: Option<OccupancySummary>,
+    /// With --bound: the conservative bounds' method, time, mean bound size over mean set
+    /// size, and cells whose set the conservative method did not contain (as the file's
+    /// `metadata.bound`).
+    bound: Option<serde_json::Value>,
 }
 
 /// Of cells' `converged` flags (`None` where a cell has none): how many are `false`, `None`
@@ -164,6 +169,18 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
     }
     let sampler = bake_sampler(&args.method, &params)?;
     let (shard, budget) = check_bake_args(args, &params)?;
+    let bound = args
+        .bound
+        .then(|| bound_sampler(args.bound_options))
+        .transpose()?;
+    if bound.is_some() {
+        if args.method == CONSERVATIVE {
+            bail!("--bound adds the conservative set to a sampled one: --method conservative already is the bound");
+        }
+        if shard.is_some() {
+            bail!("--bound with --shard: bake the shards without it, join them with `pvs merge`, then add the bounds with `pvs bound`");
+        }
+    }
     // Quake 3 leaf boxes are bounding boxes of convex leaves and reach into solid space: only
     // points whose BSP cluster is the leaf's own serve as origins, and by default only those a
     // player can reach. Mesh cells skip their voxels inside closed geometry.
@@ -183,6 +200,7 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
         free_space: &free_space,
         occupancy: occupancy.as_ref(),
         record: &record,
+        bound: bound.as_ref(),
     };
     if args.share_rays {
         // All cells are baked together, so the per-cell machinery (shards, checkpoints,
@@ -308,6 +326,8 @@ struct BakeInputs<'a> {
     /// Mesh cells' free space (`None` for Quake 3 cells and with --origins-anywhere).
     occupancy: Option<&'a BakeOccupancy<'a>>,
     record: &'a CellRecord,
+    /// With --bound: the sampler of the conservative bounds added after sampling.
+    bound: Option<&'a ConservativeSampler>,
 }
 
 /// The cell-by-cell bake: plans it ([`CellBake::prepare`]), runs it with progress bars,
@@ -336,9 +356,23 @@ fn bake_cells(
     if let Some(g) = &gpu {
         g.report_batches();
     }
-    bake.job
-        .write_output(&args.output, &progress, bake.extra(inputs.record))?;
-    let summary = bake.summary(args, inputs, &progress);
+    let extra = bake.extra(inputs.record);
+    let bound_metadata = match inputs.bound {
+        // Two-sided: the sets decoded, bounded, then written (the checkpoint keeps the sampled
+        // sets, so an interrupted bound step resumes with no ray cast again).
+        Some(conservative) => {
+            let mut file = bake.job.to_pvs_file(&progress, extra)?;
+            bound_with_progress(inputs.scene, inputs.bvh, &mut file, conservative)?;
+            bake.job.write_file(&args.output, &file)?;
+            file.metadata.get("bound").cloned()
+        }
+        None => {
+            bake.job.write_output(&args.output, &progress, extra)?;
+            None
+        }
+    };
+    let mut summary = bake.summary(args, inputs, &progress);
+    summary.bound = bound_metadata;
     warn_unconverged(&summary);
     warn_solid_cells(&summary);
     if args.json {
@@ -523,6 +557,7 @@ impl<'a> CellBake<'a> {
             reachable: inputs.record.origins.as_ref().map(|r| serde_json::json!(r)),
             unconverged_cells: count_unconverged(progress.done.values().map(|c| c.converged)),
             solid: inputs.occupancy.map(BakeOccupancy::summary),
+            bound: None,
         }
     }
 
@@ -556,8 +591,22 @@ impl<'a> CellBake<'a> {
             summary.memory_bytes_per_cell,
             summary.output.display()
         );
-        Ok(())
+        print_bound_line(summary)
     }
+}
+
+/// With --bound: how the two sides compare, from the file's `metadata.bound`.
+fn print_bound_line(summary: &BakeSummary) -> Result<()> {
+    let Some(b) = &summary.bound else {
+        return Ok(());
+    };
+    outln!(
+        "two-sided: conservative bounds in {:.2} s, on average {:.2}x the sampled sets; the gap \
+         (might be visible, not found) is per cell in `pvs show`",
+        b["seconds"].as_f64().unwrap_or(0.0),
+        b["mean_ratio"].as_f64().unwrap_or(1.0),
+    );
+    Ok(())
 }
 
 /// `--since OLD.pvs --old-scene OLD`: loads the old scene (with this bake's loading options)
@@ -684,7 +733,10 @@ fn bake_with_shared_rays(args: &BakeArgs, inputs: &BakeInputs<'_>) -> Result<()>
         },
     );
     bar.finish_and_clear();
-    let file = result.to_pvs_file(scene, cells, &share, budget, args.seed, extra);
+    let mut file = result.to_pvs_file(scene, cells, &share, budget, args.seed, extra);
+    if let Some(conservative) = inputs.bound {
+        bound_with_progress(scene, inputs.bvh, &mut file, conservative)?;
+    }
     file.save(&args.output)?;
     let n = scene.triangle_count().max(1) as f64;
     let mean = file
@@ -720,6 +772,7 @@ fn bake_with_shared_rays(args: &BakeArgs, inputs: &BakeInputs<'_>) -> Result<()>
         reachable,
         unconverged_cells: count_unconverged(result.cells.iter().map(|c| c.converged)),
         solid: inputs.occupancy.map(BakeOccupancy::summary),
+        bound: file.metadata.get("bound").cloned(),
     };
     warn_unconverged(&summary);
     warn_solid_cells(&summary);
@@ -737,5 +790,5 @@ fn bake_with_shared_rays(args: &BakeArgs, inputs: &BakeInputs<'_>) -> Result<()>
         scene.triangle_count(),
         summary.output.display()
     );
-    Ok(())
+    print_bound_line(&summary)
 }

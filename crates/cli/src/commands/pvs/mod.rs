@@ -1,11 +1,12 @@
 //! `sightline pvs`: bake, show, diff and compare potentially visible sets.
 //!
-//! The face: `run` dispatches to one file per subcommand (`bake.rs` with merge, `show.rs`,
-//! `diff.rs`, `compare_q3.rs`, `merge_cells.rs`); the arguments are in `args.rs`, the bake's
+//! The face: `run` dispatches to one file per subcommand (`bake.rs` with merge, `bound.rs`,
+//! `show.rs`, `diff.rs`, `compare_q3.rs`, `merge_cells.rs`); the arguments are in `args.rs`, the bake's
 //! cell sources in `cells.rs`, its GPU caster in `gpu.rs`.
 
 mod args;
 mod bake;
+mod bound;
 mod cells;
 mod compare_q3;
 mod diff;
@@ -18,6 +19,7 @@ use anyhow::Result;
 pub(crate) use args::Args;
 use args::What;
 use bake::{run_bake, run_merge};
+use bound::run_bound;
 use compare_q3::run_compare_q3;
 use diff::run_diff;
 use merge_cells::run_merge_cells;
@@ -31,6 +33,7 @@ pub(crate) fn run(args: Args) -> Result<()> {
         What::Show(a) => run_show(a),
         What::Merge(a) => run_merge(a),
         What::MergeCells(a) => run_merge_cells(a),
+        What::Bound(a) => run_bound(a),
         // As `diff`: 0 same sets, 1 different, 2 trouble (unreadable or unrelated files).
         What::Diff(a) => run_diff(a).map_err(|e| match e.downcast_ref::<ExitStatus>() {
             Some(_) => e,

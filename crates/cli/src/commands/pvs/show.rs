@@ -17,6 +17,10 @@ struct CellJson {
     triangles: Vec<usize>,
     /// Visible objects (version 2 files).
     objects: Option<Vec<usize>>,
+    /// Two-sided files: the conservative bound's size and the triangles it adds to the set
+    /// (those the set might be missing).
+    bound_size: Option<usize>,
+    gap: Option<Vec<usize>>,
 }
 
 #[derive(Serialize)]
@@ -77,6 +81,8 @@ pub(super) fn run_show(args: ShowArgs) -> Result<()> {
                 pvs_size: c.visible.count_ones(..),
                 triangles: c.visible.ones().collect(),
                 objects: file.visible_objects(i).map(|o| o.ones().collect()),
+                bound_size: c.bound.as_ref().map(|b| b.count_ones(..)),
+                gap: c.bound.as_ref().map(|b| b.difference(&c.visible).collect()),
             })
             .collect();
         return print_json(&Out {
@@ -120,6 +126,12 @@ pub(super) fn run_show(args: ShowArgs) -> Result<()> {
         }
     }
     outln!("cells      {}", file.cells.len());
+    if file.has_bounds() {
+        outln!(
+            "sides      two: each cell's set (sampled: surely visible) and its conservative \
+             bound; gap = triangles the set might miss"
+        );
+    }
     let objects_total = file.objects.as_ref().map_or(0, |t| t.objects.len().max(1)) as f64;
     for (i, c) in file.cells.iter().enumerate() {
         let size = c.visible.count_ones(..);
@@ -130,8 +142,12 @@ pub(super) fn run_show(args: ShowArgs) -> Result<()> {
                 100.0 * k as f64 / objects_total
             )
         });
+        let bound = c.bound.as_ref().map_or(String::new(), |b| {
+            let bound = b.count_ones(..);
+            format!("  bound {bound:>8}  gap {:>8}", bound - size)
+        });
         outln!(
-            "  cell {i:>4}  centre {:>28}  half extents {:>24}  PVS {size:>8} ({:.2}%){objects}",
+            "  cell {i:>4}  centre {:>28}  half extents {:>24}  PVS {size:>8} ({:.2}%){objects}{bound}",
             format!("{:.2?}", c.cell.center.to_array()),
             format!("{:.2?}", c.cell.half_extents.to_array()),
             100.0 * size as f64 / n

@@ -1,0 +1,127 @@
+//! Two-sided files: `sightline pvs bound` and the last step of `pvs bake --bound` give every
+//! cell a conservative bound (`sightline_region::bound` over RV's from-region method) and
+//! report the gap between the two sides.
+
+use anyhow::{bail, Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+use sightline_core::trace::Bvh;
+use sightline_core::Scene;
+use sightline_point::rv::{ConservativeSampler, RegionOptions};
+use sightline_region::bound::{add_bounds, BoundSummary};
+use sightline_region::PvsFile;
+
+use super::args::{BoundArgs, BoundOptionArgs};
+use crate::args::thread_count;
+use crate::output::{print_json, refuse_overwriting_inputs};
+
+/// Most occluders `--bound-occluders` takes: each costs a few hundred bytes per cell under
+/// way and time in proportion; a million is far past any useful bound.
+const MAX_BOUND_OCCLUDERS: usize = 1 << 20;
+
+/// The conservative sampler of `--bound-occluders`.
+pub(super) fn bound_sampler(options: BoundOptionArgs) -> Result<ConservativeSampler> {
+    if !(1..=MAX_BOUND_OCCLUDERS).contains(&options.bound_occluders) {
+        bail!(
+            "--bound-occluders must be 1 to {MAX_BOUND_OCCLUDERS} (got {})",
+            options.bound_occluders
+        );
+    }
+    Ok(ConservativeSampler {
+        options: RegionOptions {
+            max_occluders: options.bound_occluders,
+            ..RegionOptions::default()
+        },
+    })
+}
+
+/// Adds the bounds to `file` with a progress bar, warns about cells whose sampled set the
+/// conservative method did not contain, and returns the summary.
+pub(super) fn bound_with_progress(
+    scene: &Scene,
+    bvh: &Bvh,
+    file: &mut PvsFile,
+    sampler: &ConservativeSampler,
+) -> Result<BoundSummary> {
+    let bar = ProgressBar::new(file.cells.len() as u64).with_style(
+        ProgressStyle::with_template("bounds {bar:30} {pos}/{len} [{elapsed_precise} < {eta}]")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let summary = add_bounds(scene, bvh, file, sampler, &|done| {
+        bar.set_position(done as u64)
+    })?;
+    bar.finish_and_clear();
+    let not_contained = summary.cells_not_contained();
+    if not_contained > 0 {
+        eprintln!(
+            "warning: in {not_contained} cells the conservative set lacks triangles the rays \
+             found visible (kept in the bound; `metadata.cells[i].not_in_conservative` counts \
+             them): please report this with the scene"
+        );
+    }
+    Ok(summary)
+}
+
+/// The per-cell figures `pvs bound` prints and `--json` gives.
+#[derive(Serialize)]
+struct Report<'a> {
+    output: &'a std::path::Path,
+    mean_ratio: f64,
+    #[serde(flatten)]
+    summary: &'a BoundSummary,
+}
+
+/// One line for the two sides of a bake: mean set and bound sizes and their ratio.
+pub(super) fn bound_line(summary: &BoundSummary) -> String {
+    let cells = summary.cells.len().max(1) as f64;
+    let mean = |f: fn(&sightline_region::bound::CellBound) -> usize| {
+        summary.cells.iter().map(f).sum::<usize>() as f64 / cells
+    };
+    format!(
+        "bounds ({}) in {:.2} s: mean set {:.0}, mean bound {:.0} triangles ({:.2}x), mean gap \
+         {:.0}",
+        summary.method,
+        summary.seconds,
+        mean(|c| c.set_size),
+        mean(|c| c.bound_size),
+        summary.mean_ratio(),
+        mean(|c| c.gap),
+    )
+}
+
+pub(super) fn run_bound(args: BoundArgs) -> Result<()> {
+    let threads = thread_count(args.threads)?;
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("starting the worker threads")?
+        .install(|| bound_command(&args))
+}
+
+fn bound_command(args: &BoundArgs) -> Result<()> {
+    let Some(path) = &args.file else {
+        bail!("no .pvs file to bound: sightline pvs bound SCENE PVS -o OUTPUT");
+    };
+    refuse_overwriting_inputs(&[&args.output], &[path])?;
+    let sampler = bound_sampler(args.options)?;
+    let scene = args.scene.load()?;
+    let mut file = PvsFile::load(path).with_context(|| format!("reading {}", path.display()))?;
+    file.check_scene(&scene)
+        .with_context(|| format!("{} and {}", path.display(), args.scene.scene))?;
+    let bvh = Bvh::build(&scene);
+    let summary = bound_with_progress(&scene, &bvh, &mut file, &sampler)?;
+    file.save(&args.output)?;
+    if args.json {
+        return print_json(&Report {
+            output: &args.output,
+            mean_ratio: summary.mean_ratio(),
+            summary: &summary,
+        });
+    }
+    outln!("cell  set  bound  gap");
+    for (i, c) in summary.cells.iter().enumerate() {
+        outln!("{i} {} {} {}", c.set_size, c.bound_size, c.gap);
+    }
+    outln!("{}, wrote {}", bound_line(&summary), args.output.display());
+    Ok(())
+}
