@@ -24,12 +24,29 @@ pub struct SightlineCamera {
     pub pvs: Handle<PvsAsset>,
     /// When false the camera does not take part (as if it did not have the component).
     pub enabled: bool,
+    /// Cull with the cells' conservative bounds (files baked with `pvs bake --bound`)
+    /// instead of their sampled sets: a few more objects are drawn, and none that can be
+    /// seen is ever missing. A file without bounds then draws everything (and says so in
+    /// [`SightlineStats::last_error`]).
+    pub use_bound: bool,
 }
 
 impl SightlineCamera {
-    /// A camera culling with `pvs`.
+    /// A camera culling with `pvs`'s sampled sets.
     pub fn new(pvs: Handle<PvsAsset>) -> Self {
-        Self { pvs, enabled: true }
+        Self {
+            pvs,
+            enabled: true,
+            use_bound: false,
+        }
+    }
+
+    /// This camera culling with the conservative bounds instead ([`Self::use_bound`]).
+    pub fn with_bound(self) -> Self {
+        Self {
+            use_bound: true,
+            ..self
+        }
     }
 }
 
@@ -87,7 +104,8 @@ impl CullState {
 
 /// A taking-part camera, its file and its cell (`None`: outside every cell, or the file is
 /// not loaded).
-type CameraKey = (Entity, AssetId<PvsAsset>, Option<u32>);
+/// A taking-part camera: its entity, file, cell and whether it uses the bounds.
+type CameraKey = (Entity, AssetId<PvsAsset>, Option<u32>, bool);
 
 /// The culling system: see the crate documentation for the policy. One frame in four steps:
 /// the cameras' cells ([`camera_cells`]), the union of their sets when it may have changed
@@ -155,9 +173,9 @@ fn camera_cells(
         let cell = assets
             .get(&camera.pvs)
             .and_then(|pvs| pvs.cell_at(position.to_array()));
-        key.push((entity, camera.pvs.id(), cell));
+        key.push((entity, camera.pvs.id(), cell, camera.use_bound));
     }
-    key.sort_unstable_by_key(|&(e, _, _)| e);
+    key.sort_unstable_by_key(|&(e, _, _, _)| e);
     key
 }
 
@@ -176,7 +194,7 @@ impl CullState {
         self.draw_all = self.key.is_empty();
         self.object_count = 0;
         let mut len = 0;
-        for &(_, id, _) in &self.key {
+        for &(_, id, _, _) in &self.key {
             if let Some(pvs) = assets.get(id) {
                 len = len.max(pvs.object_count());
             }
@@ -185,13 +203,18 @@ impl CullState {
         self.object_count = len;
         self.bits.clear();
         self.bits.resize(len.div_ceil(64) as usize, 0);
-        for &(_, id, cell) in &self.key {
+        for &(_, id, cell, use_bound) in &self.key {
             let (Some(pvs), Some(cell)) = (assets.get(id), cell) else {
                 // Outside every cell, or the file is not loaded: this camera sees everything.
                 self.draw_all = true;
                 continue;
             };
-            if let Err(e) = pvs.visible_objects_into(cell, &mut self.scratch) {
+            let set = if use_bound {
+                pvs.bound_objects_into(cell, &mut self.scratch)
+            } else {
+                pvs.visible_objects_into(cell, &mut self.scratch)
+            };
+            if let Err(e) = set {
                 let message = format!("sightline: cell {cell}: {e}; drawing everything");
                 if !self.warned.contains(&id) {
                     self.warned.push(id);
@@ -288,6 +311,6 @@ impl SightlineStats {
         self.draw_all = state.draw_all;
         self.cameras.clear();
         self.cameras
-            .extend(state.key.iter().map(|&(e, _, cell)| (e, cell)));
+            .extend(state.key.iter().map(|&(e, _, cell, _)| (e, cell)));
     }
 }

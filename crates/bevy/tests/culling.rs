@@ -383,3 +383,73 @@ fn bad_files_fail_to_load_and_version_1_draws_everything() {
         "{stats:?}"
     );
 }
+
+/// A camera with `with_bound` culls with the cells' conservative bounds; on a file without
+/// bounds it draws everything and says why.
+#[test]
+fn a_camera_may_cull_with_the_conservative_bounds() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = corridor();
+    let mut file = bake(&scene, &cells());
+    file.save(&dir.path().join("plain.pvs")).unwrap();
+    // Each cell's bound: its set and the last room's crate (in no set of the first room).
+    let last_crate = scene
+        .objects
+        .iter()
+        .position(|o| o.name == format!("Level/Room{}/Crate", ROOMS - 1))
+        .unwrap();
+    let table = file.objects.clone().unwrap();
+    for c in &mut file.cells {
+        let mut bound = c.visible.clone();
+        for (t, &o) in table.object_of_triangle.iter().enumerate() {
+            if o as usize == last_crate {
+                bound.insert(t);
+            }
+        }
+        c.bound = Some(bound);
+    }
+    file.save(&dir.path().join("bound.pvs")).unwrap();
+    let pvs = Pvs::open(dir.path().join("bound.pvs")).unwrap();
+    assert!(!pvs
+        .visible_objects(0)
+        .unwrap()
+        .contains(&(last_crate as u32)));
+
+    let mut app = app(dir.path());
+    let tied: Vec<Tied> = (0..pvs.object_count())
+        .map(|o| spawn_tied(&mut app, o, Visibility::Inherited))
+        .collect();
+    let room_0 = Transform::from_xyz(5.0, 1.7, 5.0);
+    let bound: Handle<PvsAsset> = app.world().resource::<AssetServer>().load("bound.pvs");
+    assert!(matches!(wait_for(&mut app, &bound), LoadState::Loaded));
+    let camera = app
+        .world_mut()
+        .spawn((SightlineCamera::new(bound.clone()).with_bound(), room_0))
+        .id();
+    app.update();
+    let mut want = vec![false; pvs.object_count() as usize];
+    for o in pvs.bound_objects(0).unwrap() {
+        want[o as usize] = true;
+    }
+    assert!(want[last_crate]);
+    check_frame(&app, &tied, Some(&want), "bound of cell 0");
+    // The same camera on its sampled set hides the crate again.
+    app.world_mut()
+        .get_mut::<SightlineCamera>(camera)
+        .unwrap()
+        .use_bound = false;
+    app.update();
+    let sampled = union(&pvs, &[Some(0)]).unwrap();
+    assert!(!sampled[last_crate]);
+    check_frame(&app, &tied, Some(&sampled), "set of cell 0");
+    // A file without bounds draws everything.
+    let plain: Handle<PvsAsset> = app.world().resource::<AssetServer>().load("plain.pvs");
+    assert!(matches!(wait_for(&mut app, &plain), LoadState::Loaded));
+    *app.world_mut().get_mut::<SightlineCamera>(camera).unwrap() =
+        SightlineCamera::new(plain).with_bound();
+    app.update();
+    check_frame(&app, &tied, None, "bound asked of a file without");
+    let stats = app.world().resource::<SightlineStats>();
+    let error = stats.last_error.as_deref().unwrap_or("");
+    assert!(error.contains("no conservative bounds"), "{stats:?}");
+}

@@ -234,6 +234,19 @@ fn check_outputs(dir: &Path, runs: &[(String, String, String)]) {
         page.contains("GVS++ against RAND"),
         "the equal-budget section"
     );
+    // Section 5: the two-sided file; its bounds miss no pixel of any view.
+    let (out, _) = output_of(runs, "--side bound");
+    assert!(out.contains("bounds (conservative)"), "{out}");
+    assert!(
+        out.contains("mean over 16 cells: 0.00 erroneous pixels") && out.contains("max 0,"),
+        "{out}"
+    );
+    let two_sided = show(dir, "level-two-sided.pvs");
+    let cells = two_sided["cells"].as_array().unwrap();
+    assert!(
+        cells.iter().all(|c| c["gap"].is_array()),
+        "every cell has a bound"
+    );
     // Section 6: the incremental rebake kept some cells.
     let (out, _) = output_of(runs, "--since level.pvs");
     assert!(

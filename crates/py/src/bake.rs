@@ -15,6 +15,7 @@ use pyo3::prelude::*;
 use sightline_core::trace::RayCaster;
 use sightline_core::TriangleSet;
 use sightline_region::bake::{cell_stats, BakeSetup};
+use sightline_region::bound::add_bounds;
 use sightline_region::checkpoint::{fingerprint, BakeProgress, ResumableBake};
 use sightline_region::occupancy::{BakeOccupancy, CellOccupancy};
 
@@ -269,6 +270,10 @@ fn bake_batch_py<'py>(
 /// baked; `probe_rays` as `--probe-rays` (0 skips the probe). The result equals the CLI's and
 /// its `metadata["incremental"]` counts the kept and rebaked cells.
 ///
+/// Two-sided bake (`pvs bake --bound`): with `bound=True` every cell also gets RV's
+/// conservative from-region set joined with its sampled set (`Pvs.bound(i)`; the file's
+/// `metadata["bound"]` and `metadata["cells"][i]["gap"]` say how far apart the sides are).
+///
 /// `scene`: the `Scene`; `method`: a `Method` or a method's name (default `"gvs++"`); `rays`:
 /// the ray budget per cell (`None`: no budget, GVS++ and GVS run until their termination rule
 /// holds); `time_ms`: a time budget per cell in milliseconds (`None`: none); `seed`: the bake's
@@ -276,7 +281,7 @@ fn bake_batch_py<'py>(
 #[pyfunction]
 #[pyo3(signature = (scene, cells, method = MethodArg::Name("gvs++".into()), rays = None,
     seed = 1, time_ms = None, threads = None, progress = None, *, since = None,
-    old_scene = None, probe_rays = DEFAULT_PROBE_RAYS, device = "cpu"))]
+    old_scene = None, probe_rays = DEFAULT_PROBE_RAYS, device = "cpu", bound = false))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn bake<'py>(
     py: Python<'py>,
@@ -292,6 +297,7 @@ pub(crate) fn bake<'py>(
     old_scene: Option<&Bound<'py, PyScene>>,
     probe_rays: usize,
     device: &str,
+    bound: bool,
 ) -> PyResult<PyPvs> {
     let since = match (since, old_scene) {
         (Some(pvs), Some(old)) => Some(Since {
@@ -309,6 +315,12 @@ pub(crate) fn bake<'py>(
     };
     let threads = thread_count(py, threads)?;
     let method = method.resolve()?;
+    if bound && method.name == sightline_point::rv::CONSERVATIVE {
+        return Err(value_error(
+            "bound=True adds the conservative set to a sampled one: the conservative method \
+             already is the bound",
+        ));
+    }
     let sampler = method.sampler()?;
     let data = scene.get().data.clone();
     let device = BakeCaster::new(py, device, &data.scene)?;
@@ -337,10 +349,21 @@ pub(crate) fn bake<'py>(
             })
         })
     })?;
-    let file = file
+    let mut file = file
         .map_err(value_error)?
         .map_err(|Stopped| value_error("internal: the bake stopped without a reason"))?
         .map_err(value_error)?;
+    if bound {
+        // As `pvs bake --bound`: RV's from-region set beside each sampled one.
+        let conservative = sightline_point::rv::ConservativeSampler::default();
+        py.detach(|| {
+            with_threads(threads, || {
+                add_bounds(&data.scene, data.bvh(), &mut file, &conservative, &|_| {})
+            })
+        })
+        .map_err(value_error)?
+        .map_err(value_error)?;
+    }
     Ok(PyPvs { file, path: None })
 }
 

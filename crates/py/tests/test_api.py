@@ -587,3 +587,23 @@ def test_evaluate_equals_the_cli_eval(tmp_path, city, city_cells, cli):
         sl.evaluate(city, pvs, view_mode="sideways")
     with pytest.raises(ValueError, match="size in 1"):
         sl.evaluate(city, pvs, size=0)
+
+
+def test_two_sided_bake_keeps_the_sampled_set_inside_its_bound(city, city_cells):
+    method = sl.Method("gvs++", n_rand=5_000)
+    pvs = sl.bake(city, city_cells, method, rays=50_000, bound=True)
+    plain = sl.bake(city, city_cells, method, rays=50_000)
+    assert pvs.has_bounds and not plain.has_bounds
+    assert pvs.metadata["bound"]["cells_not_contained"] == 0
+    for i, (s, p) in enumerate(zip(pvs.sets(), plain.sets())):
+        np.testing.assert_array_equal(s, p)
+        b = pvs.bound(i)
+        assert len(b) > len(s) and np.isin(s, b).all()
+        assert pvs.metadata["cells"][i]["gap"] == len(b) - len(s)
+    again = sl.Pvs.from_bytes(pvs.to_bytes())
+    assert again == pvs and again.has_bounds
+    np.testing.assert_array_equal(again.bound(0), pvs.bound(0))
+    with pytest.raises(ValueError, match="no conservative bounds"):
+        plain.bound(0)
+    with pytest.raises(ValueError, match="already is the bound"):
+        sl.bake(city, city_cells, "conservative", bound=True)

@@ -126,12 +126,27 @@ pub fn cell_stats(result: &CellResult) -> serde_json::Value {
     stats
 }
 
+/// Asks `free_space` about cell `index` once, at its centre, so that a test that prepares
+/// itself lazily per cell (`occupancy::BakeOccupancy` tests a cell's voxels on first use, in
+/// parallel, under a `OnceLock`) does so here, outside the sampler's parallel batches. Prepared
+/// from inside a batch, the preparing thread can steal a sibling task of the same batch while
+/// it waits for its own parallel work, and that task then waits on the lock the thread itself
+/// holds: a deadlock (seen in a GPU bake from Python, possible on the CPU).
+pub fn touch_free_space(
+    free_space: &(dyn Fn(usize, Vec3) -> bool + Sync),
+    index: usize,
+    cell: &ViewCell,
+) {
+    let _ = free_space(index, cell.center);
+}
+
 /// Samples cell `index` of `setup`.
 pub fn bake_one(
     setup: &BakeSetup<'_>,
     index: usize,
     on_progress: &(dyn Fn(usize, &ConvergencePoint) + Sync),
 ) -> CellResult {
+    touch_free_space(setup.free_space, index, &setup.cells[index]);
     let inside = |p: Vec3| (setup.free_space)(index, p);
     let ctx = CellContext {
         scene: setup.scene,
@@ -367,6 +382,52 @@ mod tests {
         assert_eq!(*c.last().unwrap(), [10_000, 333]);
         assert!(c.windows(2).all(|w| w[0][0] < w[1][0]));
         assert_eq!(subsample_convergence(&points[..5], 64).len(), 5);
+    }
+
+    /// The free-space test of every cell is first asked at the cell's centre, before the
+    /// sampler's parallel batches ask it (what keeps a lazily prepared test from deadlocking:
+    /// `touch_free_space`).
+    #[test]
+    fn each_cell_free_space_is_first_asked_before_sampling() {
+        let mut b = SceneBuilder::new("box");
+        b.add_box(Vec3::ZERO, Vec3::ONE);
+        let scene = b.finish();
+        let bvh = Bvh::build(&scene);
+        let cells: Vec<ViewCell> = (0..4)
+            .map(|i| {
+                let x = 3.0 + i as f32;
+                ViewCell::aabb(Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 1.0, 1.0)).unwrap()
+            })
+            .collect();
+        let first: Vec<std::sync::OnceLock<Vec3>> =
+            cells.iter().map(|_| std::sync::OnceLock::new()).collect();
+        let calls = AtomicUsize::new(0);
+        let free_space = |cell: usize, p: Vec3| {
+            first[cell].get_or_init(|| p);
+            calls.fetch_add(1, Ordering::Relaxed);
+            true
+        };
+        let sampler = crate::GvsPlusPlus::default();
+        let f = bake(
+            &scene,
+            &bvh,
+            &cells,
+            &sampler,
+            &free_space,
+            &Budget::rays(20_000),
+            3,
+            serde_json::Value::Null,
+            &|_, _| {},
+            &mut |_, _| {},
+        );
+        assert_eq!(f.cells.len(), 4);
+        assert!(
+            calls.load(Ordering::Relaxed) > 1000,
+            "the sampler asks per origin"
+        );
+        for (c, p) in cells.iter().zip(&first) {
+            assert_eq!(p.get(), Some(&c.center));
+        }
     }
 
     #[test]

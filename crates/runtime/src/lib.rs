@@ -350,6 +350,20 @@ impl Pvs {
         Ok(())
     }
 
+    /// The objects of the conservative bound of `cell`, ascending.
+    pub fn bound_objects(&self, cell: u32) -> Result<Vec<u32>, Error> {
+        let mut out = Vec::new();
+        self.bound_objects_into(cell, &mut out)?;
+        Ok(out)
+    }
+
+    /// The triangles of the conservative bound of `cell`, ascending.
+    pub fn bound_triangles(&self, cell: u32) -> Result<Vec<u32>, Error> {
+        let mut out = Vec::new();
+        self.bound_triangles_into(cell, &mut out)?;
+        Ok(out)
+    }
+
     /// The extra sets of `cell`'s bound, or why there are none.
     fn bound_extra(&self, cell: u32) -> Result<(format::SetRef, format::SetRef), Error> {
         self.check_cell(cell)?;

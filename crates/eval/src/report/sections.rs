@@ -81,6 +81,7 @@ pub(crate) fn summary(
             ),
         ),
         ("mean visible objects", mean_visible_objects(file)),
+        ("two sides", two_sides(file)),
         ("viewpoints not evaluated", rejected_viewpoints(outcomes)),
         (
             "mean erroneous pixels per view",
@@ -109,6 +110,32 @@ pub(crate) fn summary(
         "summary",
         "Summary",
         key_value_table("summary-table", &rows),
+    )
+}
+
+/// A two-sided file's mean bound and gap, or that the file has one side.
+fn two_sides(file: &PvsFile) -> String {
+    if !file.has_bounds() {
+        return "one: the sampled set (bake with --bound for a conservative bound per cell)".into();
+    }
+    let k = file.cells.len().max(1) as f64;
+    let set = file
+        .cells
+        .iter()
+        .map(|c| c.visible.count_ones(..))
+        .sum::<usize>() as f64;
+    let bound = file
+        .cells
+        .iter()
+        .filter_map(|c| c.bound.as_ref())
+        .map(|b| b.count_ones(..))
+        .sum::<usize>() as f64;
+    format!(
+        "set and conservative bound: mean bound {:.1} triangles ({:.2}x the set), mean gap \
+         {:.1} triangles that the set might be missing (per cell in the table)",
+        bound / k,
+        bound / set.max(1.0),
+        (bound - set) / k
     )
 }
 
@@ -178,14 +205,18 @@ pub(crate) fn cell_table(
     shown: usize,
 ) -> Section {
     let n = scene.triangle_count().max(1) as f64;
-    let mut t = Table::new(
-        "cell-table",
-        &[
-            "cell",
-            "centre",
-            "half extents",
-            "PVS triangles",
-            "PVS %",
+    let two_sided = file.has_bounds();
+    // Two-sided files: the bound and the gap (triangles the set might be missing) after the
+    // set's columns.
+    let bound_headers: &[&str] = if two_sided {
+        &["bound triangles", "gap: might be missing"]
+    } else {
+        &[]
+    };
+    let headers: Vec<&str> = ["cell", "centre", "half extents", "PVS triangles", "PVS %"]
+        .into_iter()
+        .chain(bound_headers.iter().copied())
+        .chain([
             "PVS objects",
             "rays",
             "bake s",
@@ -199,8 +230,9 @@ pub(crate) fn cell_table(
             "seen but missing",
             "views",
             "eval s",
-        ],
-    );
+        ])
+        .collect();
+    let mut t = Table::new("cell-table", &headers);
     for (rank, &i) in worst_first(outcomes).iter().enumerate() {
         let (c, o) = (&file.cells[i], &outcomes[i]);
         let bake = cell_bake(&file.metadata, i);
@@ -213,13 +245,30 @@ pub(crate) fn cell_table(
         if rank >= shown {
             attrs.push(("class", "rest"));
         }
+        let bound = c.bound.as_ref().map(|b| b.count_ones(..));
+        let bound_cells = bound
+            .into_iter()
+            .flat_map(|b| [Cell::Num(b.to_string()), Cell::Num((b - pvs).to_string())]);
+        let mut data = vec![
+            ("cell", i.to_string()),
+            ("pvs", pvs.to_string()),
+            ("max-error", e.max_error_pixels.to_string()),
+            ("rank", rank.to_string()),
+        ];
+        if let Some(b) = bound {
+            data.push(("gap", (b - pvs).to_string()));
+        }
         t.row_with(
-            vec![
+            [
                 Cell::Num(i.to_string()),
                 Cell::Text(v3(c.cell.center)),
                 Cell::Text(v3(c.cell.half_extents)),
                 Cell::Num(pvs.to_string()),
                 Cell::Num(format!("{:.3}", 100.0 * pvs as f64 / n)),
+            ]
+            .into_iter()
+            .chain(bound_cells)
+            .chain([
                 Cell::Num(or_missing(objects.map(|k| k.to_string()))),
                 Cell::Num(or_missing(bake.rays.map(|r| r.to_string()))),
                 Cell::Num(or_missing(bake.seconds.map(|s| format!("{s:.3}")))),
@@ -236,13 +285,9 @@ pub(crate) fn cell_table(
                 Cell::Num(e.false_negatives.to_string()),
                 Cell::Num(e.images.to_string()),
                 Cell::Num(format!("{:.2}", o.seconds)),
-            ],
-            &[
-                ("cell", i.to_string()),
-                ("pvs", pvs.to_string()),
-                ("max-error", e.max_error_pixels.to_string()),
-                ("rank", rank.to_string()),
-            ],
+            ])
+            .collect(),
+            &data,
             &attrs,
         );
     }
@@ -591,5 +636,54 @@ mod tests {
         file.metadata = serde_json::json!({"cells": [{"rays": 5}, {"rays": 7}]});
         let s = convergence(&file, &[0, 1]).unwrap().body;
         assert!(s.contains("have no <code>convergence</code>"), "{s}");
+    }
+
+    #[test]
+    fn two_sided_files_show_the_bound_and_the_gap_per_cell() {
+        let mut file = file_with_curves(2);
+        let scene = {
+            let mut b = sightline_core::scene::SceneBuilder::new("box");
+            b.add_box(Vec3::ZERO, Vec3::ONE);
+            b.finish()
+        };
+        let outcome = || CellOutcome {
+            eval: crate::CellEvaluation {
+                images: 1,
+                resolution: 8,
+                avg_error_pixels: 0.0,
+                avg_unconfirmed_pixels: 0.0,
+                max_error_pixels: 0,
+                avg_error_regions: 0.0,
+                max_error_region_size: 0,
+                pvs_size: 0,
+                ground_truth_size: 0,
+                false_negatives: 0,
+                false_positives: 0,
+                worst_view: None,
+            },
+            extra: Vec::new(),
+            seconds: 0.0,
+            rejected: Default::default(),
+        };
+        let outcomes = [outcome(), outcome()];
+        let one_sided = cell_table(&scene, &file, &outcomes, 10).body;
+        assert!(!one_sided.contains("might be missing"));
+        assert!(two_sides(&file).starts_with("one:"));
+        // Cell 0: set {0, 1}, bound adds 3; cell 1: empty set, bound adds 7 triangles.
+        for (c, (set, extra)) in file.cells.iter_mut().zip([(&[0, 1][..], 3), (&[][..], 7)]) {
+            set.iter().for_each(|&t| c.visible.insert(t));
+            let mut bound = c.visible.clone();
+            (4..4 + extra).for_each(|t| bound.insert(t));
+            c.bound = Some(bound);
+        }
+        let table = cell_table(&scene, &file, &outcomes, 10).body;
+        assert!(table.contains("<th>gap: might be missing</th>"), "{table}");
+        assert!(table.contains("data-gap=\"3\"") && table.contains("data-gap=\"7\""));
+        let summary = two_sides(&file);
+        // Mean bound (5 + 7) / 2 = 6, 6x the mean set of 1, mean gap 5.
+        assert!(
+            summary.contains("mean bound 6.0 triangles (6.00x the set), mean gap 5.0"),
+            "{summary}"
+        );
     }
 }

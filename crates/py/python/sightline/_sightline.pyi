@@ -80,6 +80,7 @@ class Pvs:
         cells: Sequence[ViewCell],
         sets: Sequence[npt.ArrayLike],
         metadata: Any = None,
+        bounds: Optional[Sequence[npt.ArrayLike]] = None,
     ) -> None: ...
     @staticmethod
     def load(path: Union[str, PathLike]) -> Pvs: ...
@@ -98,6 +99,9 @@ class Pvs:
     def cells(self) -> List[ViewCell]: ...
     def visible(self, i: int) -> _Ids: ...
     def sets(self) -> List[_Ids]: ...
+    @property
+    def has_bounds(self) -> bool: ...
+    def bound(self, i: int) -> _Ids: ...
     @property
     def object_count(self) -> int: ...
     @property
@@ -172,6 +176,7 @@ def bake(
     old_scene: Optional[Scene] = None,
     probe_rays: int = 16384,
     device: Literal["cpu", "gpu"] = "cpu",
+    bound: bool = False,
 ) -> Pvs:
     """Bakes ``cells`` on this machine as ``sightline pvs bake`` does (same cells, sets and
     per-cell statistics). As the CLI's default, ray origins skip the parts of a cell that lie
@@ -188,6 +193,11 @@ def bake(
     CLI, the Ray driver or this function) and ``old_scene`` (the scene it was baked for), the cells the edit
     from ``old_scene`` to ``scene`` cannot change keep their sets from ``since`` and only the
     others are baked; ``probe_rays`` as ``--probe-rays`` (its default; 0 skips the probe).
+
+    ``bound=True`` is ``pvs bake --bound``: every cell also gets a conservative bound, RV's
+    from-region set joined with the sampled set (``Pvs.bound(i)``), so the file says per
+    cell what is surely visible and what might be; ``metadata["cells"][i]["gap"]`` counts
+    the triangles between the two.
     Pass both or neither. The result equals the CLI's, and ``metadata["incremental"]`` counts
     the ``kept_cells`` and ``rebaked_cells``. A ``since`` that cannot serve (baked
     differently, a shard, without a fingerprint, or for another scene than ``old_scene``)

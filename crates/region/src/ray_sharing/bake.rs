@@ -14,7 +14,7 @@ use sightline_core::{Hit, Ray, Scene, TriangleSet};
 
 use super::free_segment::{ray_contributions, Contribution};
 use super::types::{ShareParams, SharedBake, SharedProgress};
-use crate::bake::cell_seed;
+use crate::bake::{cell_seed, touch_free_space};
 use crate::guided::Phase;
 use crate::gvspp::{GvsppCell, Rounds};
 use crate::rays::{cast, BATCH};
@@ -87,6 +87,11 @@ pub fn bake_shared(
     progress: &(dyn Fn(&SharedProgress) + Sync),
 ) -> SharedBake {
     let start = Instant::now();
+    // Each cell's free-space test is touched once here, one cell after the other, before any
+    // parallel loop asks it: see `bake::touch_free_space`.
+    for (i, cell) in cells.iter().enumerate() {
+        touch_free_space(free_space, i, cell);
+    }
     let inside: Vec<_> = (0..cells.len())
         .map(|i| move |p: Vec3| free_space(i, p))
         .collect();
