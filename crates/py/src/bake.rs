@@ -270,7 +270,7 @@ fn bake_batch_py<'py>(
 /// baked; `probe_rays` as `--probe-rays` (0 skips the probe). The result equals the CLI's and
 /// its `metadata["incremental"]` counts the kept and rebaked cells.
 ///
-/// Two-sided bake (`pvs bake --bound`): with `bound=True` every cell also gets RV's
+/// Two-sided bake (`pvs bake --bound`): with `bound` true every cell also gets RV's
 /// conservative from-region set joined with its sampled set (`Pvs.bound(i)`; the file's
 /// `metadata["bound"]` and `metadata["cells"][i]["gap"]` say how far apart the sides are).
 ///

@@ -14,11 +14,14 @@ use crate::convert::{ids_array, io_error, value_error};
 use crate::scene::PyScene;
 
 /// The PVS of a list of view cells for one scene. Equality (`==`) compares the scene hash,
-/// triangle count, cells and sets, not the metadata (timings differ between runs).
+/// triangle count, cells and sets (and bounds), not the metadata (timings differ between runs).
 ///
-/// `Pvs(scene, cells, sets, metadata=None)` assembles one (as distributed bakes merge their
-/// batches): `scene` the `Scene` the sets index, `cells` a list of `ViewCell`, `sets` one
-/// integer id array per cell, `metadata` anything `json.dumps` takes. `Pvs.load(path)` and
+/// `Pvs(scene, cells, sets, metadata=None, bounds=None)` assembles one (as distributed bakes
+/// merge their batches): `scene` the `Scene` the sets index, `cells` a list of `ViewCell`,
+/// `sets` one integer id array per cell, `metadata` anything `json.dumps` takes, `bounds`
+/// (optional) one id array per cell, each a superset of its set: a two-sided file whose
+/// cells carry a conservative bound (`Pvs.bound(i)`). Equality also compares the bounds.
+/// `Pvs.load(path)` and
 /// `Pvs.from_bytes(data)` read a `.pvs` file. A `Pvs` is a sequence of id arrays (`len`,
 /// `pvs[i]`, iteration) and pickles.
 #[pyclass(module = "sightline", name = "Pvs", frozen)]
