@@ -77,7 +77,7 @@ pub(crate) struct Args {
     )]
     cell: Option<String>,
     /// With --cell: convex occluders kept (the largest by solid angle from the cell).
-    #[arg(long, default_value_t = 1024, requires = "cell")]
+    #[arg(long, default_value_t = sightline_point::rv::DEFAULT_MAX_OCCLUDERS, requires = "cell")]
     max_occluders: usize,
     /// With --exact: write the visible polygons (coloured by triangle) as SVG.
     #[arg(long, requires = "exact")]

@@ -91,7 +91,9 @@ mod visibility_stage;
 use sightline_core::Camera;
 
 pub use city_stream::StreamingCity;
-pub use from_region::{conservative_from_region, RegionOptions, RegionResult, RegionStats};
+pub use from_region::{
+    conservative_from_region, RegionOptions, RegionResult, RegionStats, DEFAULT_MAX_OCCLUDERS,
+};
 pub use region_sampler::{
     bake_sampler, BakeMethodError, ConservativeSampler, BAKE_METHODS, CONSERVATIVE,
 };

@@ -230,7 +230,7 @@ pub(crate) struct BakeArgs {
 pub(crate) struct BoundOptionArgs {
     /// Occluders of the conservative bound: the largest convex ones by solid angle from the
     /// cell's centre. More give a tighter bound and cost time roughly in proportion.
-    #[arg(long, value_name = "N", default_value_t = 1024)]
+    #[arg(long, value_name = "N", default_value_t = sightline_point::rv::DEFAULT_MAX_OCCLUDERS)]
     pub(crate) bound_occluders: usize,
 }
 
