@@ -269,21 +269,8 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Layout, Error> {
         check_cell_geometry(read_vec3(record, 0), axes, read_vec3(record, 48))
             .map_err(|e| Error::corrupt(record_offset, format!("cell {i}: {e}")))?;
         let crc_at = cell_record_bytes - 4;
-        let mut payload_len = u64::from(read_u32(record, 68));
-        if version >= 2 {
-            if !bound && (record[62] != 0 || record[63] != 0) {
-                return Err(Error::corrupt(
-                    record_offset + 62,
-                    format!("cell {i}: reserved bytes are not 0"),
-                ));
-            }
-            payload_len += u64::from(read_u32(record, 76));
-        }
-        if bound {
-            payload_len += u64::from(read_u32(record, 84)) + u64::from(read_u32(record, 92));
-        }
-        // Four lengths below 2^32 sum below 2^34; `take` refuses a sum past the file.
-        let payload_len = usize::try_from(payload_len).unwrap_or(usize::MAX);
+        let payload_len = record_payload_len(record, version, bound)
+            .map_err(|what| Error::corrupt(record_offset + 62, format!("cell {i}: {what}")))?;
         payload_start.push(r.pos);
         let payload = r.take(payload_len, &format!("payload of cell {i}"))?;
         let mut hasher = crc32fast::Hasher::new();
@@ -318,6 +305,23 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Layout, Error> {
         cell_count,
         payload_start,
     })
+}
+
+/// The bytes of all payloads of a cell `record`: its triangle set, (version 2) its object
+/// set and (with bounds) the bound's two extra sets; or why the record is wrong.
+fn record_payload_len(record: &[u8], version: u32, bound: bool) -> Result<usize, &'static str> {
+    let mut len = u64::from(read_u32(record, 68));
+    if version >= 2 {
+        if !bound && (record[62] != 0 || record[63] != 0) {
+            return Err("reserved bytes are not 0");
+        }
+        len += u64::from(read_u32(record, 76));
+    }
+    if bound {
+        len += u64::from(read_u32(record, 84)) + u64::from(read_u32(record, 92));
+    }
+    // Four lengths below 2^32 sum below 2^34; `take` refuses a sum past the file.
+    Ok(usize::try_from(len).unwrap_or(usize::MAX))
 }
 
 type ObjectTables = (
