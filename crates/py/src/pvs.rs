@@ -74,6 +74,16 @@ fn set_from_ids(
 }
 
 impl PyPvs {
+    /// Cell `i`, or a `ValueError` naming the cell count.
+    fn cell(&self, i: usize) -> PyResult<&CellPvs> {
+        self.file.cells.get(i).ok_or_else(|| {
+            value_error(format!(
+                "cell {i} does not exist (the file has {})",
+                self.file.cells.len()
+            ))
+        })
+    }
+
     fn object_table(&self) -> PyResult<&sightline_region::ObjectTable> {
         self.file.objects.as_ref().ok_or_else(|| {
             value_error("this .pvs file has no object table (version 1); bake it again")
@@ -210,12 +220,7 @@ impl PyPvs {
 
     /// The triangle ids of cell `i` (uint32, increasing).
     fn visible<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyArray1<u32>>> {
-        let c = self.file.cells.get(i).ok_or_else(|| {
-            value_error(format!(
-                "cell {i} does not exist (the file has {})",
-                self.file.cells.len()
-            ))
-        })?;
+        let c = self.cell(i)?;
         Ok(ids_array(py, &c.visible))
     }
 
@@ -228,12 +233,7 @@ impl PyPvs {
     /// The conservative bound of cell `i` (uint32, increasing): a superset of `visible(i)`
     /// that misses no visible triangle. Raises `ValueError` when the file has no bounds.
     fn bound<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyArray1<u32>>> {
-        let c = self.file.cells.get(i).ok_or_else(|| {
-            value_error(format!(
-                "cell {i} does not exist (the file has {})",
-                self.file.cells.len()
-            ))
-        })?;
+        let c = self.cell(i)?;
         let bound = c.bound.as_ref().ok_or_else(|| {
             value_error("this .pvs file has no conservative bounds; bake it with bound=True")
         })?;

@@ -361,6 +361,15 @@ mod tests {
     use sightline_core::scene::SceneBuilder;
     use sightline_core::trace::Bvh;
 
+    /// A unit box and its BVH.
+    fn unit_box() -> (Scene, Bvh) {
+        let mut b = SceneBuilder::new("box");
+        b.add_box(Vec3::ZERO, Vec3::ONE);
+        let scene = b.finish();
+        let bvh = Bvh::build(&scene);
+        (scene, bvh)
+    }
+
     #[test]
     fn cell_seeds_differ_and_repeat() {
         assert_ne!(cell_seed(1, 0), cell_seed(1, 1));
@@ -389,10 +398,7 @@ mod tests {
     /// `touch_free_space`).
     #[test]
     fn each_cell_free_space_is_first_asked_before_sampling() {
-        let mut b = SceneBuilder::new("box");
-        b.add_box(Vec3::ZERO, Vec3::ONE);
-        let scene = b.finish();
-        let bvh = Bvh::build(&scene);
+        let (scene, bvh) = unit_box();
         let cells: Vec<ViewCell> = (0..4)
             .map(|i| {
                 let x = 3.0 + i as f32;
@@ -432,10 +438,7 @@ mod tests {
 
     #[test]
     fn bake_of_no_cells_is_empty_file() {
-        let mut b = SceneBuilder::new("box");
-        b.add_box(Vec3::ZERO, Vec3::ONE);
-        let scene = b.finish();
-        let bvh = Bvh::build(&scene);
+        let (scene, bvh) = unit_box();
         let f = bake_plain(&scene, &bvh, &[], &RandomSampler, &Budget::rays(10), 1);
         assert!(f.cells.is_empty());
         assert!(f.check_scene(&scene).is_ok());
@@ -444,10 +447,7 @@ mod tests {
 
     #[test]
     fn a_cell_beside_a_box_sees_part_of_it_and_results_repeat() {
-        let mut b = SceneBuilder::new("box");
-        b.add_box(Vec3::ZERO, Vec3::ONE);
-        let scene = b.finish();
-        let bvh = Bvh::build(&scene);
+        let (scene, bvh) = unit_box();
         let cells = [ViewCell::aabb(Vec3::new(3.0, 0.0, 0.0), Vec3::new(4.0, 1.0, 1.0)).unwrap()];
         let run = || {
             bake(
@@ -476,10 +476,7 @@ mod tests {
 
     #[test]
     fn an_error_from_on_cell_stops_the_bake() {
-        let mut b = SceneBuilder::new("box");
-        b.add_box(Vec3::ZERO, Vec3::ONE);
-        let scene = b.finish();
-        let bvh = Bvh::build(&scene);
+        let (scene, bvh) = unit_box();
         let cell = ViewCell::aabb(Vec3::new(3.0, 0.0, 0.0), Vec3::new(4.0, 1.0, 1.0)).unwrap();
         let cells = vec![cell; 64];
         let mut finished = 0;
