@@ -49,6 +49,10 @@ fn pvs_compares_gvspp_and_rand_at_the_same_ray_budget() {
         let rays = r.mean_rays;
         assert!((4000.0..5000.0).contains(&rays), "{} cast {rays}", r.method);
         assert!(r.pvs_percent > 0.0 && r.pvs_percent <= 100.0);
+        // One error per cell, whose mean is the row's.
+        assert_eq!(r.cell_error_pixels.len(), 2);
+        let mean = r.cell_error_pixels.iter().sum::<f64>() / 2.0;
+        assert!((mean - r.avg_error_pixels).abs() < 1e-9, "{r:?}");
     }
     assert!(report.convergence.is_none());
     let pairs = equal_budget_pairs(rows, &options);

@@ -141,6 +141,9 @@ pub struct PvsRow {
     /// GVS++ set at the same budget.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub differing_cells: Option<usize>,
+    /// Each cell's mean erroneous pixels per view, in cell order (the JSON's per-cell view:
+    /// whether a method wins on every cell, not only on the mean).
+    pub cell_error_pixels: Vec<f64>,
 }
 
 /// A second ray caster whose GVS++ rows [`bench_pvs_scene_on`] adds beside the CPU's.
@@ -284,6 +287,7 @@ fn accumulate(rows: &mut [PvsRow], results: &[CellResult], evaluations: &[CellEv
         row.mean_rays += r.rays as f64;
         row.mean_seconds += r.seconds;
         row.avg_error_pixels += e.avg_error_pixels;
+        row.cell_error_pixels.push(e.avg_error_pixels);
         row.avg_unconfirmed_pixels += e.avg_unconfirmed_pixels;
         row.max_error_pixels = row.max_error_pixels.max(e.max_error_pixels);
         row.avg_error_regions += e.avg_error_regions;
