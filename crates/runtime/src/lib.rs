@@ -332,22 +332,19 @@ impl Pvs {
     }
 
     /// Replaces `out` with the conservative bound of `cell`: its triangle set and what the
-    /// bound adds, ascending.
+    /// bound adds, ascending. Allocates only when `out` must grow.
     pub fn bound_triangles_into(&self, cell: u32, out: &mut Vec<u32>) -> Result<(), Error> {
-        let mut extra = Vec::new();
-        self.bound_extra_triangles_into(cell, &mut extra)?;
+        let (extra, _) = self.bound_extra(cell)?;
         self.visible_triangles_into(cell, out)?;
-        merge_ascending(out, &extra);
-        Ok(())
+        self.append(cell, extra, self.layout.triangle_count, "bound triangles", out)
     }
 
     /// Replaces `out` with the objects of the conservative bound of `cell`, ascending.
+    /// Allocates only when `out` must grow.
     pub fn bound_objects_into(&self, cell: u32, out: &mut Vec<u32>) -> Result<(), Error> {
-        let mut extra = Vec::new();
-        self.bound_extra_objects_into(cell, &mut extra)?;
+        let (_, extra) = self.bound_extra(cell)?;
         self.visible_objects_into(cell, out)?;
-        merge_ascending(out, &extra);
-        Ok(())
+        self.append(cell, extra, self.object_count(), "bound objects", out)
     }
 
     /// The objects of the conservative bound of `cell`, ascending.
@@ -440,6 +437,36 @@ impl Pvs {
         out: &mut Vec<u32>,
     ) -> Result<(), Error> {
         out.clear();
+        self.decode_after(cell, set, capacity, what, out)
+    }
+
+    /// Adds the ids of `set` to the ascending ids in `out`, keeping them ascending (a bound's
+    /// extra set after the cell's own; the two are disjoint in a valid file, and an id in both
+    /// is kept once).
+    fn append(
+        &self,
+        cell: u32,
+        set: format::SetRef,
+        capacity: u32,
+        what: &str,
+        out: &mut Vec<u32>,
+    ) -> Result<(), Error> {
+        self.decode_after(cell, set, capacity, what, out)?;
+        // Two ascending runs: an unstable sort needs no buffer.
+        out.sort_unstable();
+        out.dedup();
+        Ok(())
+    }
+
+    /// Decodes `set`'s ids after those already in `out`.
+    fn decode_after(
+        &self,
+        cell: u32,
+        set: format::SetRef,
+        capacity: u32,
+        what: &str,
+        out: &mut Vec<u32>,
+    ) -> Result<(), Error> {
         out.reserve(set.size.min(capacity) as usize);
         decode_set(
             set.encoding,
@@ -452,32 +479,6 @@ impl Pvs {
     }
 }
 
-/// Merges the ascending ids `extra` into the ascending ids `out`, in place from the back (the
-/// two are disjoint in a valid file; a shared id is kept once).
-fn merge_ascending(out: &mut Vec<u32>, extra: &[u32]) {
-    let mut a = out.len();
-    let mut b = extra.len();
-    out.resize(a + b, 0);
-    let mut w = out.len();
-    while b > 0 {
-        w -= 1;
-        if a > 0 && out[a - 1] > extra[b - 1] {
-            out[w] = out[a - 1];
-            a -= 1;
-        } else {
-            if a > 0 && out[a - 1] == extra[b - 1] {
-                a -= 1;
-            }
-            out[w] = extra[b - 1];
-            b -= 1;
-        }
-    }
-    // Ids kept once leave a gap at the front: close it.
-    if w > a {
-        out.drain(a..w);
-    }
-}
-
 fn read_cell(record: &[u8]) -> Cell {
     Cell {
         center: read_vec3(record, 0),
@@ -487,26 +488,5 @@ fn read_cell(record: &[u8]) -> Cell {
             read_vec3(record, 36),
         ],
         half_extents: read_vec3(record, 48),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::merge_ascending;
-
-    #[test]
-    fn merging_ascending_ids_keeps_order_and_shared_ids_once() {
-        let cases: [(&[u32], &[u32], &[u32]); 5] = [
-            (&[], &[], &[]),
-            (&[1, 5, 9], &[], &[1, 5, 9]),
-            (&[], &[2, 3], &[2, 3]),
-            (&[1, 5, 9], &[0, 6, 10], &[0, 1, 5, 6, 9, 10]),
-            (&[1, 5, 9], &[5, 9, 11], &[1, 5, 9, 11]),
-        ];
-        for (set, extra, merged) in cases {
-            let mut out = set.to_vec();
-            merge_ascending(&mut out, extra);
-            assert_eq!(out, merged, "{set:?} + {extra:?}");
-        }
     }
 }
