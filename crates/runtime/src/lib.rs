@@ -336,7 +336,13 @@ impl Pvs {
     pub fn bound_triangles_into(&self, cell: u32, out: &mut Vec<u32>) -> Result<(), Error> {
         let (extra, _) = self.bound_extra(cell)?;
         self.visible_triangles_into(cell, out)?;
-        self.append(cell, extra, self.layout.triangle_count, "bound triangles", out)
+        self.append(
+            cell,
+            extra,
+            self.layout.triangle_count,
+            "bound triangles",
+            out,
+        )
     }
 
     /// Replaces `out` with the objects of the conservative bound of `cell`, ascending.
