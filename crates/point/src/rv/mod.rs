@@ -95,7 +95,7 @@ pub use from_region::{
     conservative_from_region, RegionOptions, RegionResult, RegionStats, DEFAULT_MAX_OCCLUDERS,
 };
 pub use region_sampler::{
-    bake_sampler, BakeMethodError, ConservativeSampler, BAKE_METHODS, CONSERVATIVE,
+    bake_sampler, BakeMethodError, ConservativeSampler, BAKE_METHODS, CONSERVATIVE, REFUSED,
 };
 pub use source::{SceneSource, SourceTriangle, TriangleSource};
 pub use types::{Guarantee, HiddenOccluders, RvError, RvOptions, RvResult, RvStats};

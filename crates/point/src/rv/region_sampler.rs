@@ -16,6 +16,10 @@ use sightline_region::{Budget, CellContext, CellResult, ConvergencePoint, Sample
 use super::from_region::{conservative_from_region, RegionOptions};
 use super::source::SceneSource;
 
+/// `found_by` of a cell whose conservative set could not be computed (options that make no
+/// sense): the set is every triangle.
+pub const REFUSED: &str = "refused: every triangle";
+
 /// The name of [`ConservativeSampler`] as a bake method.
 pub const CONSERVATIVE: &str = "conservative";
 
@@ -70,7 +74,8 @@ impl Sampler for ConservativeSampler {
 
     /// The cell's conservative set. The budget and the free-space predicate do not apply (the
     /// set holds for every point of the cell). Should the computation refuse (only for options
-    /// that make no sense), the set is every triangle, which is conservative too.
+    /// that make no sense), the set is every triangle, which is conservative too, and
+    /// `found_by` says so ([`REFUSED`], which the file's statistics keep).
     fn sample(
         &self,
         ctx: &CellContext<'_>,
@@ -79,19 +84,18 @@ impl Sampler for ConservativeSampler {
     ) -> CellResult {
         let start = std::time::Instant::now();
         let n = ctx.scene.triangle_count();
-        let visible = conservative_from_region(
+        let (visible, found_by) = match conservative_from_region(
             &mut SceneSource::new(ctx.scene),
             &ctx.cell.corners(),
             &self.options,
-        )
-        .map_or_else(
-            |_| {
+        ) {
+            Ok(r) => (r.visible, Vec::new()),
+            Err(_) => {
                 let mut all = TriangleSet::with_capacity(n);
                 all.insert_range(..);
-                all
-            },
-            |r| r.visible,
-        );
+                (all, vec![(REFUSED, n)])
+            }
+        };
         let point = ConvergencePoint {
             rays: 0,
             seconds: start.elapsed().as_secs_f64(),
@@ -103,7 +107,7 @@ impl Sampler for ConservativeSampler {
             rays: 0,
             seconds: start.elapsed().as_secs_f64(),
             convergence: Vec::new(),
-            found_by: Vec::new(),
+            found_by,
             converged: None,
         }
     }
@@ -128,5 +132,41 @@ mod tests {
                 .contains("known: gvs++, gvs, rand, raster, conservative"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn a_refused_computation_gives_every_triangle_and_says_so() {
+        let mut b = sightline_core::scene::SceneBuilder::new("box");
+        b.add_box(glam::Vec3::ZERO, glam::Vec3::ONE);
+        let scene = b.finish();
+        let bvh = sightline_core::trace::Bvh::build(&scene);
+        let cell = sightline_region::ViewCell::aabb(
+            glam::Vec3::new(3.0, 0.0, 0.0),
+            glam::Vec3::new(4.0, 1.0, 1.0),
+        )
+        .unwrap();
+        let ctx = CellContext {
+            scene: &scene,
+            caster: &bvh,
+            cell: &cell,
+            seed: 1,
+            free_space: None,
+        };
+        let sample = |max_occluders| {
+            let sampler = ConservativeSampler {
+                options: RegionOptions {
+                    max_occluders,
+                    ..RegionOptions::default()
+                },
+            };
+            sampler.sample(&ctx, &Budget::default(), &|_| {})
+        };
+        let refused = sample(0);
+        assert_eq!(refused.visible.count_ones(..), 12);
+        assert_eq!(refused.found_by, [(REFUSED, 12)]);
+        let computed = sample(16);
+        // Computed, not refused: the box's face towards the cell is in the set.
+        assert!(computed.found_by.is_empty());
+        assert!(computed.visible.count_ones(..) > 0);
     }
 }
