@@ -995,22 +995,40 @@ fn two_sided_bake_stores_both_sides_and_its_bound_misses_nothing() {
         assert_eq!(r["false_negatives"], 0, "{r}");
     }
     assert_fails_with(&eval("plain.pvs", "bound"), "holds no conservative bounds");
-    // What does not combine says so, and what cannot carry bounds refuses them.
-    let refused = [
-        (
-            &["--method", "conservative", "--bound", "-o", "x.pvs"][..],
-            "already is the bound",
-        ),
-        (
-            &["--bound", "--shard", "0/2", "-o", "x.pvs"][..],
-            "`pvs bound`",
-        ),
-    ];
-    for (args, needle) in refused {
-        assert_fails_with(&bake_two_cells(dir.path(), args), needle);
+    // Two-sided shards join into the same file as the whole bake; mixed ones are refused.
+    for (shard, file) in [("0/2", "s0.pvs"), ("1/2", "s1.pvs")] {
+        let args = [&budget[..], &["--bound", "--shard", shard, "-o", file]].concat();
+        let o = bake_two_cells(dir.path(), &args);
+        assert!(o.status.success(), "{}", stderr(&o));
     }
-    let o = sightline(&["pvs", "merge", "b.pvs", "-o", "m.pvs"], dir.path());
-    assert_fails_with(&o, "holds conservative bounds");
+    let o = sightline(
+        &["pvs", "merge", "s0.pvs", "s1.pvs", "-o", "m.pvs"],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = sightline(&["pvs", "show", "m.pvs", "--json"], dir.path());
+    let merged: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let cells = |v: &serde_json::Value| v["cells"].as_array().unwrap().clone();
+    for (a, b) in cells(&shown).iter().zip(&cells(&merged)) {
+        assert_eq!((&a["triangles"], &a["gap"]), (&b["triangles"], &b["gap"]));
+    }
+    assert_eq!(
+        merged["metadata"]["bound"]["mean_ratio"],
+        shown["metadata"]["bound"]["mean_ratio"]
+    );
+    let args = [&budget[..], &["--shard", "1/2", "-o", "one-sided.pvs"]].concat();
+    assert!(bake_two_cells(dir.path(), &args).status.success());
+    let o = sightline(
+        &["pvs", "merge", "s0.pvs", "one-sided.pvs", "-o", "x.pvs"],
+        dir.path(),
+    );
+    assert_fails_with(&o, "some of these .pvs files hold conservative bounds");
+    // What does not combine says so.
+    let o = bake_two_cells(
+        dir.path(),
+        &["--method", "conservative", "--bound", "-o", "x.pvs"],
+    );
+    assert_fails_with(&o, "already is the bound");
     let o = sightline(&["pvs", "bound", SCENE, "b.pvs", "-o", "b.pvs"], dir.path());
     assert_fails_with(&o, "refusing to overwrite an input");
 }

@@ -82,13 +82,6 @@ pub enum PvsError {
     /// An encoded set to write does not decode.
     #[error("cannot write: {0}")]
     Set(#[from] EncodedSetError),
-    /// The file holds conservative bounds and the operation would drop them.
-    #[error(
-        "this .pvs file holds conservative bounds (baked with --bound), which this operation \
-         does not carry yet; use files baked without --bound and add the bounds afterwards \
-         with `pvs bound`"
-    )]
-    BoundsNotCarried,
 }
 
 /// Why an [`EncodedSet`] does not decode.
@@ -322,6 +315,9 @@ pub struct EncodedPvsFile {
     pub metadata: serde_json::Value,
     /// One entry per view cell (the triangle sets; object sets are derived when written).
     pub cells: Vec<(ViewCell, EncodedSet)>,
+    /// A two-sided file's bounds: per cell, the triangles its bound adds to its set (their
+    /// objects are derived when written); empty for a file without bounds.
+    pub bound_extras: Vec<EncodedSet>,
 }
 
 impl EncodedPvsFile {
@@ -336,31 +332,68 @@ impl EncodedPvsFile {
     }
 
     fn from_runtime(pvs: &Pvs) -> Result<Self, PvsError> {
-        if pvs.has_bound() {
-            // This form keeps one set per cell: dropping the bounds would lose them silently.
-            return Err(PvsError::BoundsNotCarried);
-        }
         let mut cells = Vec::with_capacity(pvs.cell_count() as usize);
         let (metadata, objects) = parse(pvs, &mut |cell, set, _, _| cells.push((cell, set)))?;
+        // `parse` checked every bound; their extra triangle sets are kept as they are encoded.
+        let mut bound_extras = Vec::new();
+        for i in 0..pvs.cell_count() {
+            if let Some((extra, _)) = pvs.raw_bound_sets(i)? {
+                bound_extras.push(EncodedSet {
+                    encoding: extra.encoding,
+                    size: extra.size,
+                    payload: extra.payload(pvs.as_bytes()).to_vec(),
+                });
+            }
+        }
         Ok(Self {
             scene_hash: pvs.scene_hash(),
             triangle_count: pvs.triangle_count(),
             objects,
             metadata,
             cells,
+            bound_extras,
         })
     }
 
     /// Writes the file to `path` atomically.
     pub fn save(&self, path: &Path) -> Result<(), PvsError> {
-        save_encoded(
-            path,
-            self.scene_hash,
-            self.triangle_count,
-            self.objects.as_ref(),
-            &self.metadata,
-            self.cells.iter().map(|(c, s)| (c, s)),
-        )
+        if self.bound_extras.is_empty() {
+            return save_encoded(
+                path,
+                self.scene_hash,
+                self.triangle_count,
+                self.objects.as_ref(),
+                &self.metadata,
+                self.cells.iter().map(|(c, s)| (c, s)),
+            );
+        }
+        // Two-sided: decoded one cell at a time, as a file in memory would be written.
+        if self.bound_extras.len() != self.cells.len() {
+            return Err(PvsError::Invalid(format!(
+                "{} bounds for {} cells",
+                self.bound_extras.len(),
+                self.cells.len()
+            )));
+        }
+        let n = self.triangle_count as usize;
+        let mut file = PvsFile {
+            scene_hash: self.scene_hash,
+            triangle_count: self.triangle_count,
+            objects: self.objects.clone(),
+            metadata: self.metadata.clone(),
+            cells: Vec::with_capacity(self.cells.len()),
+        };
+        for ((cell, set), extra) in self.cells.iter().zip(&self.bound_extras) {
+            let visible = set.decode(n)?;
+            let mut bound = extra.decode(n)?;
+            bound.union_with(&visible);
+            file.cells.push(CellPvs {
+                cell: *cell,
+                visible,
+                bound: Some(bound),
+            });
+        }
+        file.save(path)
     }
 }
 
@@ -1139,11 +1172,16 @@ mod tests {
     }
 
     #[test]
-    fn encoded_reading_refuses_to_drop_bounds() {
-        let b = bytes_of(&sample_file_with_bounds());
-        assert!(matches!(
-            EncodedPvsFile::read(&b),
-            Err(PvsError::BoundsNotCarried)
-        ));
+    fn encoded_files_carry_bounds_unchanged() {
+        let dir = tempfile::tempdir().unwrap();
+        let f = sample_file_with_bounds();
+        let encoded = EncodedPvsFile::read(&bytes_of(&f)).unwrap();
+        assert_eq!(encoded.bound_extras.len(), 3);
+        assert_eq!(encoded.bound_extras[0].len(), 2);
+        encoded.save(&dir.path().join("b.pvs")).unwrap();
+        assert_eq!(PvsFile::load(&dir.path().join("b.pvs")).unwrap(), f);
+        // One side only: no bounds read, none written.
+        let plain = EncodedPvsFile::read(&bytes_of(&sample_file())).unwrap();
+        assert!(plain.bound_extras.is_empty());
     }
 }

@@ -60,6 +60,12 @@ pub enum MergeError {
     /// Nothing to merge.
     #[error("no files to merge")]
     Empty,
+    /// Some files hold conservative bounds and some do not.
+    #[error(
+        "some of these .pvs files hold conservative bounds (baked with --bound) and some do \
+         not: bake them alike, or add the bounds after joining them with `pvs bound`"
+    )]
+    BoundsMixed,
     /// Two files index different scenes.
     #[error("{a} and {b} were baked for different scenes (hash {ha:016x} vs {hb:016x})")]
     DifferentScenes {
@@ -168,6 +174,13 @@ pub fn merge(
     }
     let total = gathered.total.unwrap_or(0);
     gathered.check_complete(total, allow_partial)?;
+    let two_sided = !first.bound_extras.is_empty();
+    if files
+        .iter()
+        .any(|(_, f)| f.bound_extras.is_empty() == two_sided)
+    {
+        return Err(MergeError::BoundsMixed);
+    }
     let metadata = merged_metadata(files, &gathered, total)?;
     Ok(EncodedPvsFile {
         scene_hash: first.scene_hash,
@@ -175,6 +188,9 @@ pub fn merge(
         objects: first.objects.clone(),
         metadata,
         cells: gathered.cells.values().map(|c| c.cell.clone()).collect(),
+        bound_extras: (gathered.cells.values())
+            .filter_map(|c| c.bound_extra.cloned())
+            .collect(),
     })
 }
 
@@ -222,6 +238,8 @@ fn check_same_bake(
 struct MergedCell<'a> {
     file: usize,
     cell: &'a (ViewCell, EncodedSet),
+    /// The triangles its bound adds, in a two-sided file.
+    bound_extra: Option<&'a EncodedSet>,
     meta: &'a serde_json::Value,
 }
 
@@ -261,6 +279,7 @@ impl<'a> Gathered<'a> {
                 MergedCell {
                     file: k,
                     cell,
+                    bound_extra: file.bound_extras.get(j),
                     meta,
                 },
             );
@@ -324,6 +343,31 @@ fn merged_metadata(
                 .map(|c| c.meta.clone())
                 .collect::<Vec<_>>()),
         );
+        if let Some(bound) = m.get_mut("bound").and_then(|b| b.as_object_mut()) {
+            // Two-sided shards: the bounds' totals over every cell, from the cells' own
+            // statistics (`bound::add_bounds` writes them).
+            let count = |key: &str| -> Vec<u64> {
+                let cells = by_index.values();
+                cells.map(|c| c.meta[key].as_u64().unwrap_or(0)).collect()
+            };
+            let set: u64 = count("pvs_size").iter().sum();
+            let bounds: u64 = count("bound_size").iter().sum();
+            let ratio = if set == 0 {
+                1.0
+            } else {
+                bounds as f64 / set as f64
+            };
+            let seconds: f64 = (files.iter())
+                .map(|(_, f)| f.metadata["bound"]["seconds"].as_f64().unwrap_or(0.0))
+                .sum();
+            bound.insert("mean_ratio".into(), json!(ratio));
+            bound.insert("seconds".into(), json!(seconds));
+            let not_contained = count("not_in_conservative")
+                .iter()
+                .filter(|&&n| n > 0)
+                .count();
+            bound.insert("cells_not_contained".into(), json!(not_contained));
+        }
         m.insert(
             "merged_from".into(),
             json!(files
@@ -372,6 +416,7 @@ mod tests {
             scene_hash: 7,
             triangle_count: 4,
             objects: None,
+            bound_extras: Vec::new(),
             metadata: json!({
                 "fingerprint": {"seed": 1},
                 "total_cells": 4,

@@ -217,8 +217,8 @@ pub(crate) struct BakeArgs {
     /// (docs/pvs-format.md, "Two-sided files"). The file then says per cell which triangles are
     /// surely visible (the set) and which might be (the bound): the gap is the set's error bar,
     /// shown by `pvs show` and the report, and a renderer can draw either side. Takes about as
-    /// long per cell as `--method conservative`. A shard's bounds are added after `pvs merge`,
-    /// with `pvs bound`.
+    /// long per cell as `--method conservative`. Shards baked with --bound join with
+    /// `pvs merge` as they are (all of them with --bound, or none).
     #[arg(long)]
     pub(crate) bound: bool,
     #[command(flatten)]

@@ -173,13 +173,8 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
         .bound
         .then(|| bound_sampler(args.bound_options))
         .transpose()?;
-    if bound.is_some() {
-        if args.method == CONSERVATIVE {
-            bail!("--bound adds the conservative set to a sampled one: --method conservative already is the bound");
-        }
-        if shard.is_some() {
-            bail!("--bound with --shard: bake the shards without it, join them with `pvs merge`, then add the bounds with `pvs bound`");
-        }
+    if bound.is_some() && args.method == CONSERVATIVE {
+        bail!("--bound adds the conservative set to a sampled one: --method conservative already is the bound");
     }
     // Quake 3 leaf boxes are bounding boxes of convex leaves and reach into solid space: only
     // points whose BSP cluster is the leaf's own serve as origins, and by default only those a
