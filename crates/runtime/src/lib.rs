@@ -314,43 +314,54 @@ impl Pvs {
     /// the triangles that might be visible from the cell but were not found visible — the
     /// gap between the two sides. Draw them after the set when a frame must be complete.
     pub fn bound_extra_triangles_into(&self, cell: u32, out: &mut Vec<u32>) -> Result<(), Error> {
-        let (extra, _) = self.bound_extra(cell)?;
-        self.decode(
-            cell,
-            extra,
-            self.layout.triangle_count,
-            "bound triangles",
-            out,
-        )
+        self.bound_into(cell, Ids::Triangles, false, out)
     }
 
     /// Replaces `out` with the objects the bound of `cell` adds to its object set
     /// (ascending): objects that own a triangle of the bound and none of the set.
     pub fn bound_extra_objects_into(&self, cell: u32, out: &mut Vec<u32>) -> Result<(), Error> {
-        let (_, extra) = self.bound_extra(cell)?;
-        self.decode(cell, extra, self.object_count(), "bound objects", out)
+        self.bound_into(cell, Ids::Objects, false, out)
     }
 
     /// Replaces `out` with the conservative bound of `cell`: its triangle set and what the
     /// bound adds, ascending. Allocates only when `out` must grow.
     pub fn bound_triangles_into(&self, cell: u32, out: &mut Vec<u32>) -> Result<(), Error> {
-        let (extra, _) = self.bound_extra(cell)?;
-        self.visible_triangles_into(cell, out)?;
-        self.append(
-            cell,
-            extra,
-            self.layout.triangle_count,
-            "bound triangles",
-            out,
-        )
+        self.bound_into(cell, Ids::Triangles, true, out)
     }
 
     /// Replaces `out` with the objects of the conservative bound of `cell`, ascending.
     /// Allocates only when `out` must grow.
     pub fn bound_objects_into(&self, cell: u32, out: &mut Vec<u32>) -> Result<(), Error> {
-        let (_, extra) = self.bound_extra(cell)?;
-        self.visible_objects_into(cell, out)?;
-        self.append(cell, extra, self.object_count(), "bound objects", out)
+        self.bound_into(cell, Ids::Objects, true, out)
+    }
+
+    /// The bound's extra `ids` of `cell` into `out`, after the cell's own set of them when
+    /// `whole` (ascending either way).
+    fn bound_into(
+        &self,
+        cell: u32,
+        ids: Ids,
+        whole: bool,
+        out: &mut Vec<u32>,
+    ) -> Result<(), Error> {
+        let (triangles, objects) = self.bound_extra(cell)?;
+        let (extra, capacity, what) = match ids {
+            Ids::Triangles => (triangles, self.layout.triangle_count, "bound triangles"),
+            Ids::Objects => (objects, self.object_count(), "bound objects"),
+        };
+        if !whole {
+            return self.decode(cell, extra, capacity, what, out);
+        }
+        match ids {
+            Ids::Triangles => self.visible_triangles_into(cell, out)?,
+            Ids::Objects => self.visible_objects_into(cell, out)?,
+        }
+        self.decode_after(cell, extra, capacity, what, out)?;
+        // Two ascending runs (disjoint in a valid file; a shared id is kept once): an unstable
+        // sort needs no buffer.
+        out.sort_unstable();
+        out.dedup();
+        Ok(())
     }
 
     /// The objects of the conservative bound of `cell`, ascending.
@@ -446,24 +457,6 @@ impl Pvs {
         self.decode_after(cell, set, capacity, what, out)
     }
 
-    /// Adds the ids of `set` to the ascending ids in `out`, keeping them ascending (a bound's
-    /// extra set after the cell's own; the two are disjoint in a valid file, and an id in both
-    /// is kept once).
-    fn append(
-        &self,
-        cell: u32,
-        set: format::SetRef,
-        capacity: u32,
-        what: &str,
-        out: &mut Vec<u32>,
-    ) -> Result<(), Error> {
-        self.decode_after(cell, set, capacity, what, out)?;
-        // Two ascending runs: an unstable sort needs no buffer.
-        out.sort_unstable();
-        out.dedup();
-        Ok(())
-    }
-
     /// Decodes `set`'s ids after those already in `out`.
     fn decode_after(
         &self,
@@ -483,6 +476,13 @@ impl Pvs {
         )
         .map_err(|e| Error::corrupt(set.offset, format!("cell {cell}, visible {what}: {e}")))
     }
+}
+
+/// Which ids of a cell: its triangles or its objects.
+#[derive(Clone, Copy)]
+enum Ids {
+    Triangles,
+    Objects,
 }
 
 fn read_cell(record: &[u8]) -> Cell {
