@@ -241,8 +241,7 @@ impl PvsFile {
         }
         let mut extra = bound.clone();
         extra.difference_with(visible);
-        let mut extra_objects = table.visible_objects(bound);
-        extra_objects.difference_with(&table.visible_objects(visible));
+        let extra_objects = table.objects_added(&table.visible_objects(visible), bound);
         Ok((
             EncodedSet::encode(&extra, n),
             EncodedSet::encode(&extra_objects, table.objects.len()),
@@ -355,45 +354,33 @@ impl EncodedPvsFile {
         })
     }
 
-    /// Writes the file to `path` atomically.
+    /// Writes the file to `path` atomically (a two-sided file's object sets and bounds' extra
+    /// objects are derived one cell at a time, as for its sets).
     pub fn save(&self, path: &Path) -> Result<(), PvsError> {
-        if self.bound_extras.is_empty() {
-            return save_encoded(
-                path,
-                self.scene_hash,
-                self.triangle_count,
-                self.objects.as_ref(),
-                &self.metadata,
-                self.cells.iter().map(|(c, s)| (c, s)),
-            );
-        }
-        // Two-sided: decoded one cell at a time, as a file in memory would be written.
-        if self.bound_extras.len() != self.cells.len() {
+        let extras: Vec<Option<&EncodedSet>> = if self.bound_extras.is_empty() {
+            vec![None; self.cells.len()]
+        } else if self.bound_extras.len() == self.cells.len() {
+            self.bound_extras.iter().map(Some).collect()
+        } else {
             return Err(PvsError::Invalid(format!(
                 "{} bounds for {} cells",
                 self.bound_extras.len(),
                 self.cells.len()
             )));
-        }
-        let n = self.triangle_count as usize;
-        let mut file = PvsFile {
-            scene_hash: self.scene_hash,
-            triangle_count: self.triangle_count,
-            objects: self.objects.clone(),
-            metadata: self.metadata.clone(),
-            cells: Vec::with_capacity(self.cells.len()),
         };
-        for ((cell, set), extra) in self.cells.iter().zip(&self.bound_extras) {
-            let visible = set.decode(n)?;
-            let mut bound = extra.decode(n)?;
-            bound.union_with(&visible);
-            file.cells.push(CellPvs {
-                cell: *cell,
-                visible,
-                bound: Some(bound),
-            });
-        }
-        file.save(path)
+        let mut bytes = Vec::new();
+        write_encoded_sides(
+            &mut bytes,
+            self.scene_hash,
+            self.triangle_count,
+            self.objects.as_ref(),
+            &self.metadata,
+            self.cells.iter().zip(extras).map(|((c, s), e)| (c, s, e)),
+        )?;
+        write_atomic(path, |w| w.write_all(&bytes)).map_err(|source| PvsError::Io {
+            path: path.to_path_buf(),
+            source,
+        })
     }
 }
 
@@ -473,9 +460,7 @@ fn read_bound(
     )?;
     let mut bound = visible.clone();
     bound.union_with(&extra);
-    let mut expected = table.visible_objects(&bound);
-    expected.difference_with(&table.visible_objects(visible));
-    if objects != expected {
+    if objects != table.objects_added(&table.visible_objects(visible), &bound) {
         return Err(corrupt(
             extra_objects.offset,
             format!("cell {i}: the objects its bound adds are not those of its triangles"),
@@ -582,34 +567,70 @@ pub fn write_encoded<'a>(
     metadata: &serde_json::Value,
     cells: impl ExactSizeIterator<Item = (&'a ViewCell, &'a EncodedSet)>,
 ) -> Result<(), PvsError> {
-    check_object_table(objects, triangle_count)?;
-    let mut with_objects = Vec::with_capacity(cells.len());
-    for (cell, set) in cells {
-        let object_set = match objects {
-            Some(table) => {
-                let triangles = set.decode(triangle_count as usize)?;
-                Some(EncodedSet::encode(
-                    &table.visible_objects(&triangles),
-                    table.objects.len(),
-                ))
-            }
-            None => None,
-        };
-        with_objects.push(CellRecord {
-            cell: *cell,
-            triangles: set,
-            objects: object_set,
-            bound_extra: None,
-        });
-    }
-    write_cells(
+    write_encoded_sides(
         w,
         scene_hash,
         triangle_count,
         objects,
         metadata,
-        with_objects,
+        cells.map(|(cell, set)| (cell, set, None)),
     )
+}
+
+/// [`write_encoded`] of cells that may carry the triangles their bound adds: each cell's object
+/// set and, with a bound, the objects the bound adds are derived from the decoded sets, one
+/// cell at a time.
+fn write_encoded_sides<'a>(
+    w: &mut impl Write,
+    scene_hash: u64,
+    triangle_count: u32,
+    objects: Option<&ObjectTable>,
+    metadata: &serde_json::Value,
+    cells: impl ExactSizeIterator<Item = (&'a ViewCell, &'a EncodedSet, Option<&'a EncodedSet>)>,
+) -> Result<(), PvsError> {
+    check_object_table(objects, triangle_count)?;
+    let n = triangle_count as usize;
+    let mut records = Vec::with_capacity(cells.len());
+    for (i, (cell, set, extra)) in cells.enumerate() {
+        let (object_set, bound_extra) = match (objects, extra) {
+            (Some(table), extra) => {
+                let triangles = set.decode(n)?;
+                let visible_objects = table.visible_objects(&triangles);
+                let bound_extra = match extra {
+                    None => None,
+                    Some(extra) => {
+                        let mut bound = extra.decode(n)?;
+                        if let Some(id) = bound.intersection(&triangles).next() {
+                            return Err(PvsError::Invalid(format!(
+                                "the bound of cell {i} adds triangle {id}, which its set holds"
+                            )));
+                        }
+                        bound.union_with(&triangles);
+                        let added = table.objects_added(&visible_objects, &bound);
+                        Some((
+                            extra.clone(),
+                            EncodedSet::encode(&added, table.objects.len()),
+                        ))
+                    }
+                };
+                let object_set = EncodedSet::encode(&visible_objects, table.objects.len());
+                (Some(object_set), bound_extra)
+            }
+            (None, None) => (None, None),
+            (None, Some(_)) => {
+                return Err(PvsError::Invalid(
+                    "conservative bounds need the object table (a version-2 file)".into(),
+                ))
+            }
+        };
+        records.push(CellRecord {
+            cell: *cell,
+            triangles: set,
+            objects: object_set,
+            bound_extra,
+        });
+    }
+    write_cells(w, scene_hash, triangle_count, objects, metadata, records)
 }
 
 fn check_object_table(objects: Option<&ObjectTable>, triangle_count: u32) -> Result<(), PvsError> {

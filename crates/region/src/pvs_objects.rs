@@ -131,6 +131,14 @@ impl ObjectTable {
         objects
     }
 
+    /// The objects that own a triangle of `bound` and are not in `objects` (a cell's visible
+    /// objects): what a conservative bound adds to the cell's object set.
+    pub fn objects_added(&self, objects: &TriangleSet, bound: &TriangleSet) -> TriangleSet {
+        let mut added = self.visible_objects(bound);
+        added.difference_with(objects);
+        added
+    }
+
     /// The triangle runs in id order, as (object, number of consecutive triangles).
     pub fn runs(&self) -> Vec<(u32, u32)> {
         let mut runs: Vec<(u32, u32)> = Vec::new();
