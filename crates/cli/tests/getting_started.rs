@@ -236,7 +236,7 @@ fn check_outputs(dir: &Path, runs: &[(String, String, String)]) {
     );
     // Section 5: the two-sided file; its bounds miss no pixel of any view.
     let (out, _) = output_of(runs, "--side bound");
-    assert!(out.contains("bounds (conservative)"), "{out}");
+    assert!(out.contains("two-sided: conservative bounds"), "{out}");
     assert!(
         out.contains("mean over 16 cells: 0.00 erroneous pixels") && out.contains("max 0,"),
         "{out}"

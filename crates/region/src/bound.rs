@@ -49,7 +49,30 @@ pub struct CellBound {
     pub not_in_conservative: usize,
 }
 
+/// A two-sided file's bounds in total: the file's `metadata.bound`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct BoundTotals {
+    /// The sampler that gave the bounds.
+    pub method: String,
+    /// Seconds spent.
+    pub seconds: f64,
+    /// Bound triangles over set triangles, summed over the cells.
+    pub mean_ratio: f64,
+    /// Cells whose set the conservative method did not contain.
+    pub cells_not_contained: usize,
+}
+
 impl BoundSummary {
+    /// The totals the file's metadata keeps.
+    pub fn totals(&self) -> BoundTotals {
+        BoundTotals {
+            method: self.method.clone(),
+            seconds: self.seconds,
+            mean_ratio: self.mean_ratio(),
+            cells_not_contained: self.cells_not_contained(),
+        }
+    }
+
     /// Mean bound size over mean set size (1 when the sets are empty).
     pub fn mean_ratio(&self) -> f64 {
         let set: usize = self.cells.iter().map(|c| c.set_size).sum();
@@ -133,15 +156,7 @@ pub fn add_bounds(
     }
     summary.seconds = start.elapsed().as_secs_f64();
     if let Some(m) = file.metadata.as_object_mut() {
-        m.insert(
-            "bound".into(),
-            json!({
-                "method": summary.method,
-                "seconds": summary.seconds,
-                "mean_ratio": summary.mean_ratio(),
-                "cells_not_contained": summary.cells_not_contained(),
-            }),
-        );
+        m.insert("bound".into(), json!(summary.totals()));
     }
     Ok(summary)
 }

@@ -12,6 +12,7 @@ use serde::Serialize;
 use sightline_core::trace::{Bvh, RayCaster};
 use sightline_point::rv::{bake_sampler, ConservativeSampler, CONSERVATIVE};
 use sightline_region::bake::BakeSetup;
+use sightline_region::bound::BoundTotals;
 use sightline_region::cell_sources::{write_cells_file, Q3Cells, Q3OriginsSummary, Q3_ORIGINS_KEY};
 use sightline_region::checkpoint::{checkpoint_path, fingerprint, BakeProgress, ResumableBake};
 use sightline_region::methods::MethodParams;
@@ -30,7 +31,7 @@ use crate::output::{print_json, refuse_overwriting_inputs};
 use crate::output_lock::OutputLock;
 
 use super::args::{BakeArgs, MergeArgs};
-use super::bound::{bound_sampler, bound_with_progress};
+use super::bound::{bound_line, bound_sampler, bound_with_progress};
 use super::cells::collect_cells;
 use super::gpu::gpu_caster;
 
@@ -69,7 +70,7 @@ struct BakeSummary {
     /// With --bound: the conservative bounds' method, time, mean bound size over mean set
     /// size, and cells whose set the conservative method did not contain (as the file's
     /// `metadata.bound`).
-    bound: Option<serde_json::Value>,
+    bound: Option<BoundTotals>,
 }
 
 /// Of cells' `converged` flags (`None` where a cell has none): how many are `false`, `None`
@@ -352,14 +353,14 @@ fn bake_cells(
         g.report_batches();
     }
     let extra = bake.extra(inputs.record);
-    let bound_metadata = match inputs.bound {
+    let bound = match inputs.bound {
         // Two-sided: the sets decoded, bounded, then written (the checkpoint keeps the sampled
         // sets, so an interrupted bound step resumes with no ray cast again).
         Some(conservative) => {
             let mut file = bake.job.to_pvs_file(&progress, extra)?;
-            bound_with_progress(inputs.scene, inputs.bvh, &mut file, conservative)?;
+            let summary = bound_with_progress(inputs.scene, inputs.bvh, &mut file, conservative)?;
             bake.job.write_file(&args.output, &file)?;
-            file.metadata.get("bound").cloned()
+            Some(summary.totals())
         }
         None => {
             bake.job.write_output(&args.output, &progress, extra)?;
@@ -367,7 +368,7 @@ fn bake_cells(
         }
     };
     let mut summary = bake.summary(args, inputs, &progress);
-    summary.bound = bound_metadata;
+    summary.bound = bound;
     warn_unconverged(&summary);
     warn_solid_cells(&summary);
     if args.json {
@@ -590,17 +591,14 @@ impl<'a> CellBake<'a> {
     }
 }
 
-/// With --bound: how the two sides compare, from the file's `metadata.bound`.
+/// With --bound: how the two sides compare.
 fn print_bound_line(summary: &BakeSummary) -> Result<()> {
-    let Some(b) = &summary.bound else {
-        return Ok(());
-    };
-    outln!(
-        "two-sided: conservative bounds in {:.2} s, on average {:.2}x the sampled sets; the gap \
-         (might be visible, not found) is per cell in `pvs show`",
-        b["seconds"].as_f64().unwrap_or(0.0),
-        b["mean_ratio"].as_f64().unwrap_or(1.0),
-    );
+    if let Some(totals) = &summary.bound {
+        outln!(
+            "{}; the gap (might be visible, not found) is per cell in `pvs show`",
+            bound_line(totals)
+        );
+    }
     Ok(())
 }
 
@@ -729,9 +727,12 @@ fn bake_with_shared_rays(args: &BakeArgs, inputs: &BakeInputs<'_>) -> Result<()>
     );
     bar.finish_and_clear();
     let mut file = result.to_pvs_file(scene, cells, &share, budget, args.seed, extra);
-    if let Some(conservative) = inputs.bound {
-        bound_with_progress(scene, inputs.bvh, &mut file, conservative)?;
-    }
+    let bound = match inputs.bound {
+        Some(conservative) => {
+            Some(bound_with_progress(scene, inputs.bvh, &mut file, conservative)?.totals())
+        }
+        None => None,
+    };
     file.save(&args.output)?;
     let n = scene.triangle_count().max(1) as f64;
     let mean = file
@@ -767,7 +768,7 @@ fn bake_with_shared_rays(args: &BakeArgs, inputs: &BakeInputs<'_>) -> Result<()>
         reachable,
         unconverged_cells: count_unconverged(result.cells.iter().map(|c| c.converged)),
         solid: inputs.occupancy.map(BakeOccupancy::summary),
-        bound: file.metadata.get("bound").cloned(),
+        bound,
     };
     warn_unconverged(&summary);
     warn_solid_cells(&summary);

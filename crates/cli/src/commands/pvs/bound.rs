@@ -8,7 +8,7 @@ use serde::Serialize;
 use sightline_core::trace::Bvh;
 use sightline_core::Scene;
 use sightline_point::rv::{ConservativeSampler, RegionOptions};
-use sightline_region::bound::{add_bounds, BoundSummary};
+use sightline_region::bound::{add_bounds, BoundSummary, BoundTotals, CellBound};
 use sightline_region::PvsFile;
 
 use super::args::{BoundArgs, BoundOptionArgs};
@@ -62,30 +62,21 @@ pub(super) fn bound_with_progress(
     Ok(summary)
 }
 
-/// The per-cell figures `pvs bound` prints and `--json` gives.
+/// What `pvs bound --json` prints: the output, the file's `metadata.bound` totals and the
+/// cells' sizes.
 #[derive(Serialize)]
 struct Report<'a> {
     output: &'a std::path::Path,
-    mean_ratio: f64,
     #[serde(flatten)]
-    summary: &'a BoundSummary,
+    totals: BoundTotals,
+    cells: &'a [CellBound],
 }
 
-/// One line for the two sides of a bake: mean set and bound sizes and their ratio.
-pub(super) fn bound_line(summary: &BoundSummary) -> String {
-    let cells = summary.cells.len().max(1) as f64;
-    let mean = |f: fn(&sightline_region::bound::CellBound) -> usize| {
-        summary.cells.iter().map(f).sum::<usize>() as f64 / cells
-    };
+/// One line for the two sides of a bake (the file's `metadata.bound`).
+pub(super) fn bound_line(totals: &BoundTotals) -> String {
     format!(
-        "bounds ({}) in {:.2} s: mean set {:.0}, mean bound {:.0} triangles ({:.2}x), mean gap \
-         {:.0}",
-        summary.method,
-        summary.seconds,
-        mean(|c| c.set_size),
-        mean(|c| c.bound_size),
-        summary.mean_ratio(),
-        mean(|c| c.gap),
+        "two-sided: {} bounds in {:.2} s, on average {:.2}x the sampled sets",
+        totals.method, totals.seconds, totals.mean_ratio
     )
 }
 
@@ -114,14 +105,18 @@ fn bound_command(args: &BoundArgs) -> Result<()> {
     if args.json {
         return print_json(&Report {
             output: &args.output,
-            mean_ratio: summary.mean_ratio(),
-            summary: &summary,
+            totals: summary.totals(),
+            cells: &summary.cells,
         });
     }
     outln!("cell  set  bound  gap");
     for (i, c) in summary.cells.iter().enumerate() {
         outln!("{i} {} {} {}", c.set_size, c.bound_size, c.gap);
     }
-    outln!("{}, wrote {}", bound_line(&summary), args.output.display());
+    outln!(
+        "{}, wrote {}",
+        bound_line(&summary.totals()),
+        args.output.display()
+    );
     Ok(())
 }
