@@ -153,6 +153,11 @@ impl<'a> BakeOccupancy<'a> {
     }
 
     /// True when `p` may serve as a ray origin of cell `cell` ([`CellOccupancy::allows`]).
+    ///
+    /// The first call for a cell tests its voxels, in parallel, under the cell's `OnceLock`.
+    /// Make that first call outside any parallel work that also asks about the cell (the bake
+    /// drivers do, with `bake::touch_free_space`): a thread waiting for the test's parallel
+    /// work may run such a task, which then waits on the lock the thread holds.
     pub fn allows(&self, cell: usize, p: Vec3) -> bool {
         self.grids[cell]
             .get_or_init(|| CellOccupancy::of(self.scene, self.caster, &self.cells[cell]))
