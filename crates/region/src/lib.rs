@@ -16,6 +16,7 @@ pub mod incremental;
 pub mod merge_similar;
 pub mod methods;
 pub mod occupancy;
+mod pvs_encoding;
 pub mod pvs_file;
 pub mod pvs_objects;
 pub mod rand;
