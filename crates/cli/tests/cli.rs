@@ -226,6 +226,39 @@ fn conservative_from_a_cell_keeps_every_sampled_hit() {
     assert!(seen > 0 && visible >= seen);
     // Conservative, but far from everything: most of the city is hidden from one street.
     assert!(visible < v["triangles"].as_u64().unwrap() / 2);
+
+    // With occluder fusion: still every sampled hit, and never more than without.
+    let o = sightline(
+        &[
+            "visible",
+            "procedural:city?size=6000",
+            "--conservative",
+            "--cell",
+            "point:-6,-6,2,1",
+            "--fusion-splits",
+            "4",
+            "--json",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let fused: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(fused["missed"], 0);
+    assert!(fused["visible"].as_u64().unwrap() <= visible);
+
+    let o = sightline(
+        &[
+            "visible",
+            "procedural:city?size=6000",
+            "--conservative",
+            "--cell",
+            "point:-6,-6,2,1",
+            "--fusion-splits",
+            "99",
+        ],
+        dir.path(),
+    );
+    assert_fails_with(&o, "fusion_splits 99 is more than 20");
 }
 
 #[test]

@@ -79,6 +79,14 @@ pub(crate) struct Args {
     /// With --cell: convex occluders kept (the largest by solid angle from the cell).
     #[arg(long, default_value_t = sightline_point::rv::DEFAULT_MAX_OCCLUDERS, requires = "cell")]
     max_occluders: usize,
+    /// With --cell: occluder fusion, levels of halving of the cell (each smaller box gets its
+    /// own depth map of shrunk occluders, which finds what several occluders hide together;
+    /// each level costs up to twice the time). 0 turns fusion off.
+    #[arg(long, default_value_t = sightline_point::rv::DEFAULT_FUSION_SPLITS, requires = "cell")]
+    fusion_splits: u32,
+    /// With --cell: pixels per cube-face side of the fusion's depth maps.
+    #[arg(long, default_value_t = sightline_point::rv::DEFAULT_FUSION_RESOLUTION, requires = "cell")]
+    fusion_resolution: usize,
     /// With --exact: write the visible polygons (coloured by triangle) as SVG.
     #[arg(long, requires = "exact")]
     svg: Option<PathBuf>,
@@ -164,6 +172,8 @@ fn run_from_region(args: &Args, spec: &str, start: Instant) -> Result<()> {
     let cell = ViewCell::parse(spec).with_context(|| format!("--cell '{spec}'"))?;
     let options = RegionOptions {
         max_occluders: args.max_occluders,
+        fusion_splits: args.fusion_splits,
+        fusion_resolution: args.fusion_resolution,
         ..RegionOptions::default()
     };
     let (r, check) = if args.stream {
@@ -210,13 +220,15 @@ fn run_from_region(args: &Args, spec: &str, start: Instant) -> Result<()> {
         return print_json(&summary);
     }
     outln!(
-        "{}: {} of {} triangles ({:.2}%) in {:.3} s, {} occluders",
+        "{}: {} of {} triangles ({:.2}%) in {:.3} s, {} occluders, {} hidden only by several together ({} boxes)",
         summary.method,
         n,
         summary.triangles,
         100.0 * n as f64 / summary.triangles.max(1) as f64,
         summary.seconds,
-        r.stats.occluders
+        r.stats.occluders,
+        r.stats.fused_hidden,
+        r.stats.fusion_boxes
     );
     if let Some((seen, missed, _)) = check {
         outln!(

@@ -41,12 +41,26 @@ use glam::DVec3;
 use rayon::prelude::*;
 use sightline_core::TriangleSet;
 
+use super::region_fusion::{fused_hidden, CellShape, FusionOccluder, FusionOptions};
 use super::source::{SourceTriangle, TriangleSource};
 use super::types::RvError;
 
 /// Occluders kept by default: on munich's street cells 4,096 give bounds 22 % smaller than
 /// 1,024 at about twice the time (docs/BENCHMARKS.md, "Two-sided bakes").
 pub const DEFAULT_MAX_OCCLUDERS: usize = 4096;
+
+/// Levels of halving of the cell in the occluder fusion by default (docs/BENCHMARKS.md,
+/// "Occluder fusion").
+pub const DEFAULT_FUSION_SPLITS: u32 = 0;
+
+/// Pixels per cube-face side of the fusion's depth maps by default.
+pub const DEFAULT_FUSION_RESOLUTION: usize = 128;
+
+/// The most levels of halving of the cell (2^20 boxes).
+pub const MAX_FUSION_SPLITS: u32 = 20;
+
+/// The largest cube-face side (a depth map of 6 x 2048^2 f32, 96 MiB, per worker thread).
+pub const MAX_FUSION_RESOLUTION: usize = 2048;
 
 /// Options of [`conservative_from_region`].
 #[derive(Clone, Debug, PartialEq)]
@@ -55,6 +69,11 @@ pub struct RegionOptions {
     pub max_occluders: usize,
     /// Triangles per input batch.
     pub batch_triangles: usize,
+    /// Occluder fusion (`region_fusion.rs`): levels of halving of the cell, each box with its
+    /// own depth map of shrunk occluders; 0 turns fusion off.
+    pub fusion_splits: u32,
+    /// Pixels per side of each cube face of the fusion's depth maps.
+    pub fusion_resolution: usize,
 }
 
 impl Default for RegionOptions {
@@ -62,6 +81,8 @@ impl Default for RegionOptions {
         Self {
             max_occluders: DEFAULT_MAX_OCCLUDERS,
             batch_triangles: 16384,
+            fusion_splits: DEFAULT_FUSION_SPLITS,
+            fusion_resolution: DEFAULT_FUSION_RESOLUTION,
         }
     }
 }
@@ -77,6 +98,10 @@ pub struct RegionStats {
     pub hidden: u64,
     /// Triangles with non-finite corners (never visible).
     pub invalid: u64,
+    /// Of the hidden triangles, those only several occluders hide together (occluder fusion).
+    pub fused_hidden: u64,
+    /// Boxes of the cell the fusion drew a depth map for.
+    pub fusion_boxes: u64,
 }
 
 /// The result of [`conservative_from_region`].
@@ -88,6 +113,10 @@ pub struct RegionResult {
     pub stats: RegionStats,
 }
 
+/// Pass 2's verdict on a finite triangle: hidden by a single occluder, and its corners (for
+/// the fusion pass).
+type Verdict = (bool, [DVec3; 3]);
+
 /// Margins of the plane tests, relative to the largest distance from the cell's centre
 /// involved (f64 rounding is about 1e-16 of it).
 const RELATIVE_MARGIN: f64 = 1e-7;
@@ -97,6 +126,8 @@ const RELATIVE_MARGIN: f64 = 1e-7;
 #[derive(Clone, Debug)]
 struct Occluder {
     score: f64,
+    /// The polygon, for the fusion pass.
+    poly: Vec<DVec3>,
     planes: Vec<(DVec3, f64)>,
     /// A cap of directions from the cell's centre that holds the occluder's umbra: a point
     /// hidden from the whole cell is hidden from the centre, so its direction from there
@@ -278,6 +309,20 @@ pub fn conservative_from_region(
             "max_occluders and batch_triangles must be at least 1".into(),
         ));
     }
+    if options.fusion_splits > MAX_FUSION_SPLITS {
+        return Err(RvError::BadOption(format!(
+            "fusion_splits {} is more than {MAX_FUSION_SPLITS} (2^splits boxes per cell)",
+            options.fusion_splits
+        )));
+    }
+    if options.fusion_splits > 0
+        && !(1..=MAX_FUSION_RESOLUTION).contains(&options.fusion_resolution)
+    {
+        return Err(RvError::BadOption(format!(
+            "fusion_resolution {} is not in 1..={MAX_FUSION_RESOLUTION}",
+            options.fusion_resolution
+        )));
+    }
     let corners: Vec<DVec3> = cell_corners.iter().map(|c| c.as_dvec3()).collect();
     let centre = corners.iter().copied().sum::<DVec3>() / corners.len() as f64;
     let bound = source.id_bound();
@@ -311,7 +356,12 @@ pub fn conservative_from_region(
             .fold(cell_extent, f64::max);
         if let Some(planes) = umbra(poly, &corners, RELATIVE_MARGIN * reach) {
             let cap = DirectionCap::of(poly);
-            heap.push(Occluder { score, planes, cap });
+            heap.push(Occluder {
+                score,
+                poly: poly.to_vec(),
+                planes,
+                cap,
+            });
             if heap.len() > options.max_occluders {
                 heap.pop();
             }
@@ -347,12 +397,15 @@ pub fn conservative_from_region(
         return Err(RvError::BadOption("the source stopped rewinding".into()));
     }
     let mut visible = TriangleSet::with_capacity(bound as usize);
+    // What single occluders leave visible, with its corners for the fusion pass.
+    let fusion = options.fusion_splits > 0;
+    let mut candidates: Vec<(u32, [DVec3; 3])> = Vec::new();
     loop {
         batch.clear();
         if source.next_batch(options.batch_triangles, &mut batch)? == 0 {
             break;
         }
-        let verdicts: Vec<(u32, Option<bool>)> = batch
+        let verdicts: Vec<(u32, Option<Verdict>)> = batch
             .par_iter()
             .map(|t| {
                 let hidden = to_local(t).map(|v| {
@@ -361,9 +414,10 @@ pub fn conservative_from_region(
                         .map(|p| p.abs().max_element())
                         .fold(cell_extent, f64::max);
                     let margin = RELATIVE_MARGIN * reach;
-                    occluders
+                    let hidden = occluders
                         .iter()
-                        .any(|o| o.cap.may_hold(v[0]) && hidden_by(&v, o, margin))
+                        .any(|o| o.cap.may_hold(v[0]) && hidden_by(&v, o, margin));
+                    (hidden, v)
                 });
                 (t.id, hidden)
             })
@@ -374,10 +428,39 @@ pub fn conservative_from_region(
             }
             match hidden {
                 None => stats.invalid += 1,
-                Some(true) => stats.hidden += 1,
-                Some(false) => visible.insert(id as usize),
+                Some((true, _)) => stats.hidden += 1,
+                Some((false, v)) => {
+                    visible.insert(id as usize);
+                    if fusion {
+                        candidates.push((id, v));
+                    }
+                }
             }
         }
+    }
+    if fusion && !candidates.is_empty() {
+        let fusers: Vec<FusionOccluder> = occluders
+            .iter()
+            .filter_map(|o| FusionOccluder::new(&o.poly))
+            .collect();
+        let corners_only: Vec<[DVec3; 3]> = candidates.iter().map(|c| c.1).collect();
+        let fused = fused_hidden(
+            &fusers,
+            &corners_only,
+            CellShape::of(&corners),
+            FusionOptions {
+                splits: options.fusion_splits,
+                resolution: options.fusion_resolution,
+            },
+        );
+        for ((id, _), hidden) in candidates.iter().zip(&fused.hidden) {
+            if *hidden {
+                visible.set(*id as usize, false);
+                stats.hidden += 1;
+                stats.fused_hidden += 1;
+            }
+        }
+        stats.fusion_boxes = fused.boxes;
     }
     Ok(RegionResult { visible, stats })
 }

@@ -65,6 +65,7 @@
 //! ```
 
 mod city_stream;
+mod cube_depth;
 mod depth;
 mod driver;
 mod edge_map;
@@ -82,6 +83,7 @@ mod pass;
 mod pipeline;
 mod producer;
 mod projection;
+mod region_fusion;
 mod region_sampler;
 mod source;
 mod test_hooks;
@@ -92,7 +94,8 @@ use sightline_core::Camera;
 
 pub use city_stream::StreamingCity;
 pub use from_region::{
-    conservative_from_region, RegionOptions, RegionResult, RegionStats, DEFAULT_MAX_OCCLUDERS,
+    conservative_from_region, RegionOptions, RegionResult, RegionStats, DEFAULT_FUSION_RESOLUTION,
+    DEFAULT_FUSION_SPLITS, DEFAULT_MAX_OCCLUDERS, MAX_FUSION_RESOLUTION, MAX_FUSION_SPLITS,
 };
 pub use region_sampler::{
     bake_sampler, BakeMethodError, ConservativeSampler, BAKE_METHODS, CONSERVATIVE, REFUSED,
