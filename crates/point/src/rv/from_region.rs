@@ -299,30 +299,7 @@ pub fn conservative_from_region(
     cell_corners: &[glam::Vec3],
     options: &RegionOptions,
 ) -> Result<RegionResult, RvError> {
-    if cell_corners.is_empty() || cell_corners.iter().any(|c| !c.is_finite()) {
-        return Err(RvError::BadOption(
-            "the view cell needs finite corners".into(),
-        ));
-    }
-    if options.max_occluders == 0 || options.batch_triangles == 0 {
-        return Err(RvError::BadOption(
-            "max_occluders and batch_triangles must be at least 1".into(),
-        ));
-    }
-    if options.fusion_splits > MAX_FUSION_SPLITS {
-        return Err(RvError::BadOption(format!(
-            "fusion_splits {} is more than {MAX_FUSION_SPLITS} (2^splits boxes per cell)",
-            options.fusion_splits
-        )));
-    }
-    if options.fusion_splits > 0
-        && !(1..=MAX_FUSION_RESOLUTION).contains(&options.fusion_resolution)
-    {
-        return Err(RvError::BadOption(format!(
-            "fusion_resolution {} is not in 1..={MAX_FUSION_RESOLUTION}",
-            options.fusion_resolution
-        )));
-    }
+    check_options(cell_corners, options)?;
     let corners: Vec<DVec3> = cell_corners.iter().map(|c| c.as_dvec3()).collect();
     let centre = corners.iter().copied().sum::<DVec3>() / corners.len() as f64;
     let bound = source.id_bound();
@@ -405,23 +382,7 @@ pub fn conservative_from_region(
         if source.next_batch(options.batch_triangles, &mut batch)? == 0 {
             break;
         }
-        let verdicts: Vec<(u32, Option<Verdict>)> = batch
-            .par_iter()
-            .map(|t| {
-                let hidden = to_local(t).map(|v| {
-                    let reach = v
-                        .iter()
-                        .map(|p| p.abs().max_element())
-                        .fold(cell_extent, f64::max);
-                    let margin = RELATIVE_MARGIN * reach;
-                    let hidden = occluders
-                        .iter()
-                        .any(|o| o.cap.may_hold(v[0]) && hidden_by(&v, o, margin));
-                    (hidden, v)
-                });
-                (t.id, hidden)
-            })
-            .collect();
+        let verdicts = single_occluder_verdicts(&batch, &occluders, centre, cell_extent);
         for (id, hidden) in verdicts {
             if id >= bound {
                 return Err(RvError::IdOutOfRange { id, bound });
@@ -439,30 +400,107 @@ pub fn conservative_from_region(
         }
     }
     if fusion && !candidates.is_empty() {
-        let fusers: Vec<FusionOccluder> = occluders
-            .iter()
-            .filter_map(|o| FusionOccluder::new(&o.poly))
-            .collect();
-        let corners_only: Vec<[DVec3; 3]> = candidates.iter().map(|c| c.1).collect();
-        let fused = fused_hidden(
-            &fusers,
-            &corners_only,
-            CellShape::of(&corners),
-            FusionOptions {
-                splits: options.fusion_splits,
-                resolution: options.fusion_resolution,
-            },
+        fuse(
+            &occluders,
+            &candidates,
+            &corners,
+            options,
+            &mut visible,
+            &mut stats,
         );
-        for ((id, _), hidden) in candidates.iter().zip(&fused.hidden) {
-            if *hidden {
-                visible.set(*id as usize, false);
-                stats.hidden += 1;
-                stats.fused_hidden += 1;
-            }
-        }
-        stats.fusion_boxes = fused.boxes;
     }
     Ok(RegionResult { visible, stats })
+}
+
+/// Pass 2's verdicts on a batch (`None` for a triangle with non-finite corners): each
+/// triangle against the occluders, largest first, until one hides it.
+fn single_occluder_verdicts(
+    batch: &[SourceTriangle],
+    occluders: &[Occluder],
+    centre: DVec3,
+    cell_extent: f64,
+) -> Vec<(u32, Option<Verdict>)> {
+    batch
+        .par_iter()
+        .map(|t| {
+            let hidden = to_f64(t).map(|v| {
+                let v = v.map(|p| p - centre);
+                let reach = v
+                    .iter()
+                    .map(|p| p.abs().max_element())
+                    .fold(cell_extent, f64::max);
+                let margin = RELATIVE_MARGIN * reach;
+                let hidden = occluders
+                    .iter()
+                    .any(|o| o.cap.may_hold(v[0]) && hidden_by(&v, o, margin));
+                (hidden, v)
+            });
+            (t.id, hidden)
+        })
+        .collect()
+}
+
+/// Refuses a cell without finite corners and options out of range.
+fn check_options(cell_corners: &[glam::Vec3], options: &RegionOptions) -> Result<(), RvError> {
+    if cell_corners.is_empty() || cell_corners.iter().any(|c| !c.is_finite()) {
+        return Err(RvError::BadOption(
+            "the view cell needs finite corners".into(),
+        ));
+    }
+    if options.max_occluders == 0 || options.batch_triangles == 0 {
+        return Err(RvError::BadOption(
+            "max_occluders and batch_triangles must be at least 1".into(),
+        ));
+    }
+    if options.fusion_splits > MAX_FUSION_SPLITS {
+        return Err(RvError::BadOption(format!(
+            "fusion_splits {} is more than {MAX_FUSION_SPLITS} (2^splits boxes per cell)",
+            options.fusion_splits
+        )));
+    }
+    if options.fusion_splits > 0
+        && !(1..=MAX_FUSION_RESOLUTION).contains(&options.fusion_resolution)
+    {
+        return Err(RvError::BadOption(format!(
+            "fusion_resolution {} is not in 1..={MAX_FUSION_RESOLUTION}",
+            options.fusion_resolution
+        )));
+    }
+    Ok(())
+}
+
+/// The fusion pass (`region_fusion.rs`) over what single occluders left visible: removes what
+/// the occluders hide together from `visible` and counts it in `stats`.
+fn fuse(
+    occluders: &[Occluder],
+    candidates: &[(u32, [DVec3; 3])],
+    corners: &[DVec3],
+    options: &RegionOptions,
+    visible: &mut TriangleSet,
+    stats: &mut RegionStats,
+) {
+    let fusers: Vec<FusionOccluder> = occluders
+        .iter()
+        .filter_map(|o| FusionOccluder::new(&o.poly))
+        .collect();
+    let corners_only: Vec<[DVec3; 3]> = candidates.iter().map(|c| c.1).collect();
+    let fused = fused_hidden(
+        &fusers,
+        &corners_only,
+        CellShape::of(corners),
+        FusionOptions {
+            splits: options.fusion_splits,
+            resolution: options.fusion_resolution,
+        },
+    );
+    for ((id, _), hidden) in candidates.iter().zip(&fused.hidden) {
+        if *hidden {
+            visible.set(*id as usize, false);
+            stats.hidden += 1;
+            stats.fused_hidden += 1;
+        }
+    }
+    stats.fusion_boxes = fused.boxes;
 }
 
 #[cfg(test)]
