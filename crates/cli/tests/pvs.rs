@@ -980,6 +980,46 @@ fn two_sided_bake_stores_both_sides_and_its_bound_misses_nothing() {
     {
         assert_eq!(a["gap"], b["gap"]);
     }
+    // With occluder fusion the bound is inside the bound without (fusion only removes).
+    let o = sightline(
+        &[
+            "pvs",
+            "bound",
+            SCENE,
+            "plain.pvs",
+            "--bound-fusion-splits",
+            "3",
+            "-o",
+            "fused.pvs",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = sightline(&["pvs", "show", "fused.pvs", "--json"], dir.path());
+    let fused: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for (a, b) in fused["cells"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(later["cells"].as_array().unwrap())
+    {
+        let (a, b) = (a["gap"].as_array().unwrap(), b["gap"].as_array().unwrap());
+        assert!(a.iter().all(|t| b.contains(t)), "{a:?} {b:?}");
+    }
+    let o = sightline(
+        &[
+            "pvs",
+            "bound",
+            SCENE,
+            "plain.pvs",
+            "--bound-fusion-splits",
+            "21",
+            "-o",
+            "never.pvs",
+        ],
+        dir.path(),
+    );
+    assert_fails_with(&o, "--bound-fusion-splits must be 0 to 20 (got 21)");
     // Dense views from inside the cells see nothing outside the bounds.
     let eval = |file: &str, side: &str| {
         let args = [
@@ -987,12 +1027,14 @@ fn two_sided_bake_stores_both_sides_and_its_bound_misses_nothing() {
         ];
         sightline(&args, dir.path())
     };
-    let o = eval("b.pvs", "bound");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let rows: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    for r in rows.as_array().unwrap() {
-        assert!(r["ground_truth_size"].as_u64().unwrap() > 0, "{r}");
-        assert_eq!(r["false_negatives"], 0, "{r}");
+    for file in ["b.pvs", "fused.pvs"] {
+        let o = eval(file, "bound");
+        assert!(o.status.success(), "{}", stderr(&o));
+        let rows: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        for r in rows.as_array().unwrap() {
+            assert!(r["ground_truth_size"].as_u64().unwrap() > 0, "{file}: {r}");
+            assert_eq!(r["false_negatives"], 0, "{file}: {r}");
+        }
     }
     assert_fails_with(&eval("plain.pvs", "bound"), "holds no conservative bounds");
     // Two-sided shards join into the same file as the whole bake; mixed ones are refused.

@@ -60,6 +60,7 @@ fn check(name: &str, scene: &Scene, cells: usize, half: f32) -> u64 {
         for fusion_splits in [0, 6] {
             let options = RegionOptions {
                 fusion_splits,
+                fusion_resolution: 128,
                 ..RegionOptions::default()
             };
             let r =

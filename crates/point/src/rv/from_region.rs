@@ -27,12 +27,17 @@
 //! largest solid angle from the cell's centre: single triangles, and pairs of consecutive
 //! coplanar triangles sharing an edge whose union is a convex quad (generators and most files
 //! emit quads that way). Pass 2 rewinds the source and tests every triangle against them,
-//! largest first. There is no occluder fusion: a triangle hidden only by several occluders
-//! together is kept.
+//! largest first. A triangle hidden only by several occluders together is kept, unless
+//! occluder fusion is on ([`RegionOptions::fusion_splits`] above 0, off by default): then the
+//! triangles pass 2 left visible go through `region_fusion.rs` (the same occluders, shrunk,
+//! drawn into conservative cube depth maps over an adaptive split of the cell).
 //!
 //! Memory: the visible set (one bit per id), the occluders (about 1.2 KiB each with their
-//! umbra planes: 5 MiB at the default 4,096), one input batch. Pass 2 costs triangles x occluders plane tests at worst
-//! (a triangle is tested against the occluders, largest first, until one hides it).
+//! umbra planes and polygon: 5 MiB at the default 4,096), one input batch; with fusion, the
+//! corners of the triangles pass 2 left visible (76 bytes each) and one depth map per worker
+//! thread (`6 * fusion_resolution^2 * 4` bytes, 6 MiB at the default 512). Pass 2 costs
+//! triangles x occluders plane tests at worst (a triangle is tested against the occluders,
+//! largest first, until one hides it); fusion costs up to `2^(fusion_splits + 1)` depth maps.
 
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
@@ -54,7 +59,7 @@ pub const DEFAULT_MAX_OCCLUDERS: usize = 4096;
 pub const DEFAULT_FUSION_SPLITS: u32 = 0;
 
 /// Pixels per cube-face side of the fusion's depth maps by default.
-pub const DEFAULT_FUSION_RESOLUTION: usize = 128;
+pub const DEFAULT_FUSION_RESOLUTION: usize = 512;
 
 /// The most levels of halving of the cell (2^20 boxes).
 pub const MAX_FUSION_SPLITS: u32 = 20;

@@ -7,7 +7,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use sightline_core::trace::Bvh;
 use sightline_core::Scene;
-use sightline_point::rv::{ConservativeSampler, RegionOptions};
+use sightline_point::rv::{
+    ConservativeSampler, RegionOptions, MAX_FUSION_RESOLUTION, MAX_FUSION_SPLITS,
+};
 use sightline_region::bound::{add_bounds, BoundSummary, BoundTotals, CellBound};
 use sightline_region::PvsFile;
 
@@ -19,7 +21,7 @@ use crate::output::{print_json, refuse_overwriting_inputs};
 /// way and time in proportion; a million is far past any useful bound.
 const MAX_BOUND_OCCLUDERS: usize = 1 << 20;
 
-/// The conservative sampler of `--bound-occluders`.
+/// The conservative sampler of `--bound-occluders` and `--bound-fusion-*`.
 pub(super) fn bound_sampler(options: BoundOptionArgs) -> Result<ConservativeSampler> {
     if !(1..=MAX_BOUND_OCCLUDERS).contains(&options.bound_occluders) {
         bail!(
@@ -27,9 +29,23 @@ pub(super) fn bound_sampler(options: BoundOptionArgs) -> Result<ConservativeSamp
             options.bound_occluders
         );
     }
+    if options.bound_fusion_splits > MAX_FUSION_SPLITS {
+        bail!(
+            "--bound-fusion-splits must be 0 to {MAX_FUSION_SPLITS} (got {})",
+            options.bound_fusion_splits
+        );
+    }
+    if !(1..=MAX_FUSION_RESOLUTION).contains(&options.bound_fusion_resolution) {
+        bail!(
+            "--bound-fusion-resolution must be 1 to {MAX_FUSION_RESOLUTION} (got {})",
+            options.bound_fusion_resolution
+        );
+    }
     Ok(ConservativeSampler {
         options: RegionOptions {
             max_occluders: options.bound_occluders,
+            fusion_splits: options.bound_fusion_splits,
+            fusion_resolution: options.bound_fusion_resolution,
             ..RegionOptions::default()
         },
     })
