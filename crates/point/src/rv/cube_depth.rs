@@ -186,7 +186,9 @@ impl CubeDepth {
     /// Whether triangle `t` (relative to the viewpoint) is behind the drawn occluders at every
     /// point. A triangle that comes within `near` of the viewpoint is never hidden.
     pub(crate) fn hides(&mut self, t: &[DVec3; 3], near: f64) -> bool {
-        let (mut a, mut b, pixels) = std::mem::take(&mut self.scratch);
+        let (mut a, mut b, mut pixels) = std::mem::take(&mut self.scratch);
+        let normal = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
+        let offset = normal.dot(t[0]);
         let hidden = (0..6).all(|f| {
             a.clear();
             a.extend(t.iter().map(|&p| to_face(f, p)));
@@ -198,32 +200,70 @@ impl CubeDepth {
             if zmin.is_nan() || zmin <= near {
                 return false;
             }
-            let (mut x0, mut x1, mut y0, mut y1) = (
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-            );
-            for &p in a.iter() {
-                let (x, y) = self.pixel(p);
-                (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
-            }
-            self.all_nearer(f, (x0, x1, y0, y1), zmin * (1.0 - DEPTH_MARGIN))
+            pixels.clear();
+            pixels.extend(a.iter().map(|&p| self.pixel(p)));
+            // The triangle's plane, 1/z linear in pixel coordinates, bounds its depth per
+            // pixel more tightly than its nearest corner (a long wall behind a house).
+            let plane = (offset.abs() > near * 1e-3 && normal != DVec3::ZERO).then(|| {
+                let n = to_face(f, normal);
+                let k = 2.0 / (self.res as f64 * offset);
+                (n.x * k, n.y * k, (n.z - n.x - n.y) / offset)
+            });
+            self.footprint_behind(f, &pixels, zmin, plane)
         });
         self.scratch = (a, b, pixels);
         hidden
     }
 
-    /// Whether every pixel of face `f` that the box `(x0, x1, y0, y1)` (pixel coordinates)
-    /// touches holds a depth below `depth`.
-    fn all_nearer(&self, f: usize, (x0, x1, y0, y1): (f64, f64, f64, f64), depth: f64) -> bool {
+    /// Whether every pixel of face `f` that convex polygon `pts` (pixel coordinates) touches
+    /// holds a depth below the polygon's there: its nearest depth `zmin`, or more where its
+    /// plane `1/z = wx x + wy y + w0` is farther over the whole pixel.
+    fn footprint_behind(
+        &self,
+        f: usize,
+        pts: &[(f64, f64)],
+        zmin: f64,
+        plane: Option<(f64, f64, f64)>,
+    ) -> bool {
         let res = self.res as i64;
-        let lo = |v: f64| ((v - PIXEL_MARGIN).floor() as i64).clamp(0, res - 1) as usize;
-        let hi = |v: f64| ((v + PIXEL_MARGIN).floor() as i64).clamp(0, res - 1) as usize;
+        let (ymin, ymax) = pts
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(p.1), hi.max(p.1))
+            });
+        let first = ((ymin - PIXEL_MARGIN).floor() as i64).clamp(0, res - 1);
+        let last = ((ymax + PIXEL_MARGIN).floor() as i64).clamp(0, res - 1);
         let base = f * self.res * self.res;
-        (lo(y0)..=hi(y1)).all(|y| {
-            let line = &self.far[base + y * self.res..][..self.res];
-            line[lo(x0)..=hi(x1)].iter().all(|&d| f64::from(d) < depth)
+        (first..=last).all(|row| {
+            // The polygon's extent in the row: its spans at the strip's two edges (clamped to
+            // the polygon) and its corners inside the strip.
+            let (ya, yb) = ((row as f64).max(ymin), ((row + 1) as f64).min(ymax));
+            let (mut xl, mut xr) = (f64::INFINITY, f64::NEG_INFINITY);
+            for y in [ya, yb] {
+                if let Some((l, r)) = span(pts, y) {
+                    (xl, xr) = (xl.min(l), xr.max(r));
+                }
+            }
+            for p in pts.iter().filter(|p| p.1 >= ya && p.1 <= yb) {
+                (xl, xr) = (xl.min(p.0), xr.max(p.0));
+            }
+            if xl > xr {
+                // Only rounding can leave a row between the extremes empty: test it whole.
+                (xl, xr) = (0.0, res as f64);
+            }
+            let x0 = ((xl - PIXEL_MARGIN).floor() as i64).clamp(0, res - 1);
+            let x1 = ((xr + PIXEL_MARGIN).floor() as i64).clamp(0, res - 1);
+            let line = &self.far[base + row as usize * self.res..][..self.res];
+            (x0..=x1).all(|x| {
+                let mut depth = zmin;
+                if let Some((wx, wy, w0)) = plane {
+                    let w_max = wx * x as f64 + wy * row as f64 + w0 + wx.max(0.0) + wy.max(0.0);
+                    if w_max > 0.0 {
+                        depth = depth.max(1.0 / w_max);
+                    }
+                }
+                f64::from(line[x as usize]) < depth * (1.0 - DEPTH_MARGIN)
+            })
         })
     }
 
