@@ -205,17 +205,17 @@ fn conservative_visible_set_misses_nothing_the_reference_sees() {
 #[test]
 fn conservative_from_a_cell_keeps_every_sampled_hit() {
     let dir = tempfile::tempdir().unwrap();
-    let o = sightline(
-        &[
+    let from_cell = |extra: &[&str]| {
+        let cell = [
             "visible",
             "procedural:city?size=6000",
             "--conservative",
             "--cell",
             "point:-6,-6,2,1",
-            "--json",
-        ],
-        dir.path(),
-    );
+        ];
+        sightline(&[&cell[..], extra].concat(), dir.path())
+    };
+    let o = from_cell(&["--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["missed"], 0);
@@ -228,36 +228,13 @@ fn conservative_from_a_cell_keeps_every_sampled_hit() {
     assert!(visible < v["triangles"].as_u64().unwrap() / 2);
 
     // With occluder fusion: still every sampled hit, and never more than without.
-    let o = sightline(
-        &[
-            "visible",
-            "procedural:city?size=6000",
-            "--conservative",
-            "--cell",
-            "point:-6,-6,2,1",
-            "--fusion-splits",
-            "4",
-            "--json",
-        ],
-        dir.path(),
-    );
+    let o = from_cell(&["--fusion-splits", "4", "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let fused: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(fused["missed"], 0);
     assert!(fused["visible"].as_u64().unwrap() <= visible);
 
-    let o = sightline(
-        &[
-            "visible",
-            "procedural:city?size=6000",
-            "--conservative",
-            "--cell",
-            "point:-6,-6,2,1",
-            "--fusion-splits",
-            "99",
-        ],
-        dir.path(),
-    );
+    let o = from_cell(&["--fusion-splits", "99"]);
     assert_fails_with(&o, "fusion_splits 99 is more than 20");
 }
 

@@ -981,19 +981,20 @@ fn two_sided_bake_stores_both_sides_and_its_bound_misses_nothing() {
         assert_eq!(a["gap"], b["gap"]);
     }
     // With occluder fusion the bound is inside the bound without (fusion only removes).
-    let o = sightline(
-        &[
+    let fused_bound = |levels: &str, out: &str| {
+        let args = [
             "pvs",
             "bound",
             SCENE,
             "plain.pvs",
             "--bound-fusion-splits",
-            "3",
+            levels,
             "-o",
-            "fused.pvs",
-        ],
-        dir.path(),
-    );
+            out,
+        ];
+        sightline(&args, dir.path())
+    };
+    let o = fused_bound("3", "fused.pvs");
     assert!(o.status.success(), "{}", stderr(&o));
     let o = sightline(&["pvs", "show", "fused.pvs", "--json"], dir.path());
     let fused: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
@@ -1006,20 +1007,10 @@ fn two_sided_bake_stores_both_sides_and_its_bound_misses_nothing() {
         let (a, b) = (a["gap"].as_array().unwrap(), b["gap"].as_array().unwrap());
         assert!(a.iter().all(|t| b.contains(t)), "{a:?} {b:?}");
     }
-    let o = sightline(
-        &[
-            "pvs",
-            "bound",
-            SCENE,
-            "plain.pvs",
-            "--bound-fusion-splits",
-            "21",
-            "-o",
-            "never.pvs",
-        ],
-        dir.path(),
+    assert_fails_with(
+        &fused_bound("21", "never.pvs"),
+        "--bound-fusion-splits must be 0 to 20 (got 21)",
     );
-    assert_fails_with(&o, "--bound-fusion-splits must be 0 to 20 (got 21)");
     // Dense views from inside the cells see nothing outside the bounds.
     let eval = |file: &str, side: &str| {
         let args = [
