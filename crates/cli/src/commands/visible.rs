@@ -84,7 +84,8 @@ pub(crate) struct Args {
     /// each level costs up to twice the time). 0 turns fusion off.
     #[arg(long, default_value_t = sightline_point::rv::DEFAULT_FUSION_SPLITS, requires = "cell")]
     fusion_splits: u32,
-    /// With --cell: pixels per cube-face side of the fusion's depth maps.
+    /// With --cell: pixels per cube-face side of the fusion's depth maps (the last level
+    /// retests what is left on maps four times finer).
     #[arg(long, default_value_t = sightline_point::rv::DEFAULT_FUSION_RESOLUTION, requires = "cell")]
     fusion_resolution: usize,
     /// With --exact: write the visible polygons (coloured by triangle) as SVG.

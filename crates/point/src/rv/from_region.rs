@@ -35,9 +35,10 @@
 //! Memory: the visible set (one bit per id), the occluders (about 1.2 KiB each with their
 //! umbra planes and polygon: 5 MiB at the default 4,096), one input batch; with fusion, the
 //! corners of the triangles pass 2 left visible (76 bytes each) and one depth map per worker
-//! thread (`6 * fusion_resolution^2 * 4` bytes, 6 MiB at the default 512). Pass 2 costs
-//! triangles x occluders plane tests at worst (a triangle is tested against the occluders,
-//! largest first, until one hides it); fusion costs up to `2^(fusion_splits + 1)` depth maps.
+//! thread (`6 * (4 fusion_resolution)^2 * 4` bytes at the last level: 6 MiB at the default
+//! 128). Pass 2 costs triangles x occluders plane tests at worst (a triangle is tested against
+//! the occluders, largest first, until one hides it); fusion costs up to
+//! `2^(fusion_splits + 1)` depth maps and one finer map per box of the last level.
 
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
@@ -58,14 +59,16 @@ pub const DEFAULT_MAX_OCCLUDERS: usize = 4096;
 /// "Occluder fusion").
 pub const DEFAULT_FUSION_SPLITS: u32 = 0;
 
-/// Pixels per cube-face side of the fusion's depth maps by default.
-pub const DEFAULT_FUSION_RESOLUTION: usize = 512;
+/// Pixels per cube-face side of the fusion's depth maps by default (the last level's second
+/// map is four times finer).
+pub const DEFAULT_FUSION_RESOLUTION: usize = 128;
 
 /// The most levels of halving of the cell (2^20 boxes).
 pub const MAX_FUSION_SPLITS: u32 = 20;
 
-/// The largest cube-face side (a depth map of 6 x 2048^2 f32, 96 MiB, per worker thread).
-pub const MAX_FUSION_RESOLUTION: usize = 2048;
+/// The largest cube-face side (the last level's maps are four times finer: 6 x 2048^2 f32,
+/// 96 MiB, per worker thread).
+pub const MAX_FUSION_RESOLUTION: usize = 512;
 
 /// Options of [`conservative_from_region`].
 #[derive(Clone, Debug, PartialEq)]
@@ -77,7 +80,8 @@ pub struct RegionOptions {
     /// Occluder fusion (`region_fusion.rs`): levels of halving of the cell, each box with its
     /// own depth map of shrunk occluders; 0 turns fusion off.
     pub fusion_splits: u32,
-    /// Pixels per side of each cube face of the fusion's depth maps.
+    /// Pixels per side of each cube face of the fusion's depth maps (the last level retests
+    /// what is left on a map four times finer).
     pub fusion_resolution: usize,
 }
 

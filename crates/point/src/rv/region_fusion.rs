@@ -45,6 +45,8 @@ use glam::DVec3;
 
 use super::cube_depth::CubeDepth;
 
+/// How much finer the last level's second map is.
+const LEAF_REFINE: usize = 4;
 /// Relative slack added to the shrinking distances (rounding of the bounds).
 const SHRINK_SLACK: f64 = 1e-9;
 
@@ -268,26 +270,36 @@ fn refine(work: &Work<'_>, lo: DVec3, hi: DVec3, pending: Vec<u32>, level: u32) 
     work.boxes.fetch_add(1, Ordering::Relaxed);
     let (p, eps) = work.cell.ball(lo, hi);
     let near = 1e-3 * eps.max(1e-9);
-    let mut map = CubeDepth::new(work.options.resolution);
-    let (mut shrunk, mut scratch) = (Vec::new(), Vec::new());
-    for o in work.occluders {
-        o.shrunk_for(p, eps, &mut shrunk, &mut scratch);
-        if shrunk.is_empty() {
-            continue;
+    let draw = |resolution: usize| {
+        let mut map = CubeDepth::new(resolution);
+        let (mut shrunk, mut scratch) = (Vec::new(), Vec::new());
+        for o in work.occluders {
+            o.shrunk_for(p, eps, &mut shrunk, &mut scratch);
+            if shrunk.is_empty() {
+                continue;
+            }
+            shrunk.iter_mut().for_each(|v| *v -= p);
+            map.draw(&shrunk, o.normal, o.offset - o.normal.dot(p), near);
         }
-        shrunk.iter_mut().for_each(|v| *v -= p);
-        map.draw(&shrunk, o.normal, o.offset - o.normal.dot(p), near);
-    }
-    let left: Vec<u32> = pending
-        .into_iter()
-        .filter(|&i| {
-            let t = work.candidates[i as usize].map(|v| v - p);
-            !map.hides(&t, near)
-        })
-        .collect();
-    drop(map);
+        map
+    };
+    let survivors = |map: &mut CubeDepth, pending: Vec<u32>| -> Vec<u32> {
+        pending
+            .into_iter()
+            .filter(|&i| {
+                let t = work.candidates[i as usize].map(|v| v - p);
+                !map.hides(&t, near)
+            })
+            .collect()
+    };
+    let mut left = survivors(&mut draw(work.options.resolution), pending);
     if left.is_empty() {
         return;
+    }
+    // At the last level what is left may be hidden at a finer resolution: near a silhouette
+    // a pixel is too coarse to prove it.
+    if level >= work.options.splits {
+        left = survivors(&mut draw(work.options.resolution * LEAF_REFINE), left);
     }
     if level >= work.options.splits {
         for i in left {

@@ -240,7 +240,8 @@ pub(crate) struct BoundOptionArgs {
     /// fusion"). 0 (the default) turns it off.
     #[arg(long, value_name = "LEVELS", default_value_t = sightline_point::rv::DEFAULT_FUSION_SPLITS)]
     pub(crate) bound_fusion_splits: u32,
-    /// Pixels per cube-face side of the fusion's depth maps.
+    /// Pixels per cube-face side of the fusion's depth maps (the last level retests what is
+    /// left on maps four times finer).
     #[arg(long, value_name = "PIXELS", default_value_t = sightline_point::rv::DEFAULT_FUSION_RESOLUTION)]
     pub(crate) bound_fusion_resolution: usize,
 }
