@@ -235,9 +235,9 @@ pub(crate) struct BoundOptionArgs {
     /// Occluder fusion in the conservative bound: levels of halving of each cell, each
     /// smaller box with its own depth map of shrunk occluders, which finds what several
     /// occluders hide together. Each level costs up to twice the time; on munich's street
-    /// cells 6 levels take the bound down by 7 % at 6.5x the time, and by 21 % with all of
-    /// munich's occluders (--bound-occluders 50000) at 20x (docs/BENCHMARKS.md, "Occluder
-    /// fusion"). 0 (the default) turns it off.
+    /// cells 6 levels take the bound down by 7 % at 5x the time, 8 levels by 14 % at 25x, and
+    /// 8 levels with all of munich's occluders (--bound-occluders 50000) by 27.5 % at 60x
+    /// (docs/BENCHMARKS.md, "Occluder fusion"). 0 (the default) turns it off.
     #[arg(long, value_name = "LEVELS", default_value_t = sightline_point::rv::DEFAULT_FUSION_SPLITS)]
     pub(crate) bound_fusion_splits: u32,
     /// Pixels per cube-face side of the fusion's depth maps (the last level retests what is
