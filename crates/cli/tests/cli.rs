@@ -235,7 +235,7 @@ fn conservative_from_a_cell_keeps_every_sampled_hit() {
     assert!(fused["visible"].as_u64().unwrap() <= visible);
 
     let o = from_cell(&["--fusion-splits", "99"]);
-    assert_fails_with(&o, "fusion_splits 99 is more than 20");
+    assert_fails_with(&o, "fusion_splits 99 is more than 12");
 }
 
 #[test]

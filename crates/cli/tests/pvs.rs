@@ -1009,7 +1009,7 @@ fn two_sided_bake_stores_both_sides_and_its_bound_misses_nothing() {
     }
     assert_fails_with(
         &fused_bound("21", "never.pvs"),
-        "--bound-fusion-splits must be 0 to 20 (got 21)",
+        "--bound-fusion-splits must be 0 to 12 (got 21)",
     );
     // Dense views from inside the cells see nothing outside the bounds.
     let eval = |file: &str, side: &str| {
