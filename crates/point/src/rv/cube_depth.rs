@@ -28,6 +28,8 @@
 
 use glam::DVec3;
 
+/// Pixels per side of a tile of interest (a power of two).
+const TILE: usize = 8;
 /// Relative margin of the depth comparison (f64 rounding of the projections is about 1e-15).
 const DEPTH_MARGIN: f64 = 1e-6;
 /// Pixels the coverage spans are shrunk by, and triangle footprints grown by.
@@ -97,6 +99,9 @@ pub(crate) struct CubeDepth {
     /// the pixel, `+inf` where nothing covers it.
     far: Vec<f32>,
     scratch: (Vec<DVec3>, Vec<DVec3>, Vec<(f64, f64)>),
+    /// Per face, row-major tiles of [`TILE`]² pixels that some triangle under test may reach;
+    /// only those are drawn (empty: all of them).
+    interest: Vec<bool>,
 }
 
 impl CubeDepth {
@@ -106,7 +111,65 @@ impl CubeDepth {
             res,
             far: vec![f32::INFINITY; 6 * res * res],
             scratch: Default::default(),
+            interest: Vec::new(),
         }
+    }
+
+    /// Tiles per face side.
+    fn tiles(&self) -> usize {
+        self.res.div_ceil(TILE)
+    }
+
+    /// Marks the tiles triangle `t` (relative to the viewpoint) may touch as of interest: once
+    /// any is marked, only marked tiles are drawn, so every triangle tested later must have
+    /// been marked.
+    pub(crate) fn mark_interest(&mut self, t: &[DVec3; 3]) {
+        let side = self.tiles();
+        if self.interest.is_empty() {
+            self.interest = vec![false; 6 * side * side];
+        }
+        let (mut a, mut b, pixels) = std::mem::take(&mut self.scratch);
+        for f in 0..6 {
+            a.clear();
+            a.extend(t.iter().map(|&p| to_face(f, p)));
+            clip_to_pyramid(&mut a, &mut b, None);
+            if a.is_empty() {
+                continue;
+            }
+            // Pixel coordinates, a pixel more on every side (a point at or behind the
+            // viewpoint's plane projects anywhere: the whole face).
+            let (mut x0, mut x1, mut y0, mut y1) = (
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+            );
+            for &p in a.iter() {
+                let (x, y) = if p.z > 0.0 {
+                    self.pixel(p)
+                } else {
+                    (f64::NAN, f64::NAN)
+                };
+                (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
+            }
+            let res = self.res as f64;
+            let tile = |v: f64, fallback: f64| {
+                let v = if v.is_finite() { v } else { fallback };
+                (v.clamp(0.0, res - 1.0) as usize) / TILE
+            };
+            let (tx0, tx1) = (tile(x0 - 1.0, 0.0), tile(x1 + 1.0, res));
+            let (ty0, ty1) = (tile(y0 - 1.0, 0.0), tile(y1 + 1.0, res));
+            let any_behind = a.iter().any(|p| p.z <= 0.0);
+            let (tx0, tx1, ty0, ty1) = if any_behind {
+                (0, side - 1, 0, side - 1)
+            } else {
+                (tx0, tx1, ty0, ty1)
+            };
+            for ty in ty0..=ty1 {
+                self.interest[(f * side + ty) * side..][tx0..=tx1].fill(true);
+            }
+        }
+        self.scratch = (a, b, pixels);
     }
 
     /// Pixel coordinates (`[0, res]`) of the projection of face point `p`.
@@ -167,17 +230,28 @@ impl CubeDepth {
             let x0 = ((l.0.max(h.0) + PIXEL_MARGIN).ceil() as i64).max(0);
             let x1 = ((l.1.min(h.1) - PIXEL_MARGIN).floor() as i64 - 1).min(res - 1);
             let row_w = wy * row as f64 + w0 + corner;
+            let side = self.tiles();
+            let tiles = (!self.interest.is_empty())
+                .then(|| &self.interest[(f * side + row as usize / TILE) * side..][..side]);
             let line = &mut self.far[base + row as usize * self.res..][..self.res];
-            for x in x0..=x1 {
-                let w = wx * x as f64 + row_w;
-                if w > 0.0 {
-                    let z = 1.0 / w;
-                    let stored = round_up(z);
-                    let px = &mut line[x as usize];
-                    if stored < *px {
-                        *px = stored;
+            let mut x = x0;
+            while x <= x1 {
+                let run_end = (x | (TILE as i64 - 1)).min(x1);
+                if tiles.is_none_or(|t| t[x as usize / TILE]) {
+                    for x in x..=run_end {
+                        let w = wx * x as f64 + row_w;
+                        let px = &mut line[x as usize];
+                        // w * depth <= 1 means the pixel already holds a nearer depth: no
+                        // division (skipping a write only ever keeps a larger depth).
+                        if w > 0.0 && (px.is_infinite() || w * f64::from(*px) > 1.0) {
+                            let stored = round_up(1.0 / w);
+                            if stored < *px {
+                                *px = stored;
+                            }
+                        }
                     }
                 }
+                x = run_end + 1;
             }
             low = high;
         }

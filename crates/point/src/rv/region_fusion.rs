@@ -270,8 +270,12 @@ fn refine(work: &Work<'_>, lo: DVec3, hi: DVec3, pending: Vec<u32>, level: u32) 
     work.boxes.fetch_add(1, Ordering::Relaxed);
     let (p, eps) = work.cell.ball(lo, hi);
     let near = 1e-3 * eps.max(1e-9);
-    let draw = |resolution: usize| {
+    let draw = |resolution: usize, pending: &[u32]| {
         let mut map = CubeDepth::new(resolution);
+        // Only where the triangles under test may land is drawn.
+        for &i in pending {
+            map.mark_interest(&work.candidates[i as usize].map(|v| v - p));
+        }
         let (mut shrunk, mut scratch) = (Vec::new(), Vec::new());
         for o in work.occluders {
             o.shrunk_for(p, eps, &mut shrunk, &mut scratch);
@@ -292,14 +296,17 @@ fn refine(work: &Work<'_>, lo: DVec3, hi: DVec3, pending: Vec<u32>, level: u32) 
             })
             .collect()
     };
-    let mut left = survivors(&mut draw(work.options.resolution), pending);
+    let mut left = survivors(&mut draw(work.options.resolution, &pending), pending);
     if left.is_empty() {
         return;
     }
     // At the last level what is left may be hidden at a finer resolution: near a silhouette
     // a pixel is too coarse to prove it.
     if level >= work.options.splits {
-        left = survivors(&mut draw(work.options.resolution * LEAF_REFINE), left);
+        left = survivors(
+            &mut draw(work.options.resolution * LEAF_REFINE, &left),
+            left,
+        );
     }
     if level >= work.options.splits {
         for i in left {
