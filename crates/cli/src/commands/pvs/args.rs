@@ -235,8 +235,8 @@ pub(crate) struct BoundOptionArgs {
     /// Occluder fusion in the conservative bound: levels of halving of each cell, each
     /// smaller box with its own depth map of shrunk occluders, which finds what several
     /// occluders hide together. Each level costs up to twice the time; on munich's street
-    /// cells 6 levels take the bound down by 7 % at 5x the time, 8 levels by 14 % at 25x, and
-    /// 8 levels with all of munich's occluders (--bound-occluders 50000) by 27.5 % at 60x
+    /// cells 6 levels take the bound down by 7 % at 4x the time, 8 levels by 14 % at 16x, and
+    /// 8 levels with all of munich's occluders (--bound-occluders 50000) by 27.5 % at 50x
     /// (docs/BENCHMARKS.md, "Occluder fusion"). 0 (the default) turns it off.
     #[arg(long, value_name = "LEVELS", default_value_t = sightline_point::rv::DEFAULT_FUSION_SPLITS)]
     pub(crate) bound_fusion_splits: u32,
