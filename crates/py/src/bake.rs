@@ -272,7 +272,9 @@ fn bake_batch_py<'py>(
 ///
 /// Two-sided bake (`pvs bake --bound`): with `bound` true every cell also gets RV's
 /// conservative from-region set joined with its sampled set (`Pvs.bound(i)`; the file's
-/// `metadata["bound"]` and `metadata["cells"][i]["gap"]` say how far apart the sides are).
+/// `metadata["bound"]` and `metadata["cells"][i]["gap"]` say how far apart the sides are);
+/// `bound_occluders` and `bound_fusion_splits` as `--bound-occluders` and
+/// `--bound-fusion-splits` (more time for a tighter bound).
 ///
 /// `scene`: the `Scene`; `method`: a `Method` or a method's name (default `"gvs++"`); `rays`:
 /// the ray budget per cell (`None`: no budget, GVS++ and GVS run until their termination rule
@@ -281,7 +283,8 @@ fn bake_batch_py<'py>(
 #[pyfunction]
 #[pyo3(signature = (scene, cells, method = MethodArg::Name("gvs++".into()), rays = None,
     seed = 1, time_ms = None, threads = None, progress = None, *, since = None,
-    old_scene = None, probe_rays = DEFAULT_PROBE_RAYS, device = "cpu", bound = false))]
+    old_scene = None, probe_rays = DEFAULT_PROBE_RAYS, device = "cpu", bound = false,
+    bound_occluders = sightline_point::rv::DEFAULT_MAX_OCCLUDERS, bound_fusion_splits = 0))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn bake<'py>(
     py: Python<'py>,
@@ -298,6 +301,8 @@ pub(crate) fn bake<'py>(
     probe_rays: usize,
     device: &str,
     bound: bool,
+    bound_occluders: usize,
+    bound_fusion_splits: u32,
 ) -> PyResult<PyPvs> {
     let since = match (since, old_scene) {
         (Some(pvs), Some(old)) => Some(Since {
@@ -321,6 +326,15 @@ pub(crate) fn bake<'py>(
              already is the bound",
         ));
     }
+    // As `pvs bake --bound-occluders N --bound-fusion-splits S`.
+    let conservative = sightline_point::rv::ConservativeSampler {
+        options: sightline_point::rv::RegionOptions {
+            max_occluders: bound_occluders,
+            fusion_splits: bound_fusion_splits,
+            ..Default::default()
+        },
+    };
+    conservative.options.validate().map_err(value_error)?;
     let sampler = method.sampler()?;
     let data = scene.get().data.clone();
     let device = BakeCaster::new(py, device, &data.scene)?;
@@ -355,7 +369,6 @@ pub(crate) fn bake<'py>(
         .map_err(value_error)?;
     if bound {
         // As `pvs bake --bound`: RV's from-region set beside each sampled one.
-        let conservative = sightline_point::rv::ConservativeSampler::default();
         py.detach(|| {
             with_threads(threads, || {
                 add_bounds(&data.scene, data.bvh(), &mut file, &conservative, &|_| {})

@@ -607,3 +607,12 @@ def test_two_sided_bake_keeps_the_sampled_set_inside_its_bound(city, city_cells)
         plain.bound(0)
     with pytest.raises(ValueError, match="already is the bound"):
         sl.bake(city, city_cells, "conservative", bound=True)
+    # Occluder fusion: a bound inside the bound without it, still holding the set.
+    fused = sl.bake(city, city_cells, method, rays=50_000, bound=True, bound_fusion_splits=3)
+    for i, s in enumerate(fused.sets()):
+        f = fused.bound(i)
+        assert np.isin(s, f).all() and np.isin(f, pvs.bound(i)).all()
+    with pytest.raises(ValueError, match="fusion_splits 13 is more than 12"):
+        sl.bake(city, city_cells, method, rays=1000, bound=True, bound_fusion_splits=13)
+    with pytest.raises(ValueError, match="max_occluders 0"):
+        sl.bake(city, city_cells, method, rays=1000, bound=True, bound_occluders=0)

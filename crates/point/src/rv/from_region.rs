@@ -63,6 +63,10 @@ pub const DEFAULT_FUSION_SPLITS: u32 = 0;
 /// map is four times finer).
 pub const DEFAULT_FUSION_RESOLUTION: usize = 128;
 
+/// The most occluders kept: each costs about 1.2 KiB per cell under way and time in
+/// proportion; a million is far past any useful bound.
+pub const MAX_OCCLUDERS: usize = 1 << 20;
+
 /// The most levels of halving of the cell (up to 2^13 depth maps: on munich's street cells
 /// 8 levels take about 5 s, so 12 take minutes per cell; more would run for hours).
 pub const MAX_FUSION_SPLITS: u32 = 12;
@@ -457,26 +461,43 @@ fn check_options(cell_corners: &[glam::Vec3], options: &RegionOptions) -> Result
             "the view cell needs finite corners".into(),
         ));
     }
-    if options.max_occluders == 0 || options.batch_triangles == 0 {
-        return Err(RvError::BadOption(
-            "max_occluders and batch_triangles must be at least 1".into(),
-        ));
+    options.validate()
+}
+
+impl RegionOptions {
+    /// Refuses options out of range: no occluders or more than [`MAX_OCCLUDERS`], empty
+    /// batches, more than [`MAX_FUSION_SPLITS`] levels, a resolution outside
+    /// `1..=`[`MAX_FUSION_RESOLUTION`] with fusion on.
+    ///
+    /// # Errors
+    /// [`RvError::BadOption`] naming the option.
+    pub fn validate(&self) -> Result<(), RvError> {
+        if !(1..=MAX_OCCLUDERS).contains(&self.max_occluders) {
+            return Err(RvError::BadOption(format!(
+                "max_occluders {} is not in 1..={MAX_OCCLUDERS}",
+                self.max_occluders
+            )));
+        }
+        if self.batch_triangles == 0 {
+            return Err(RvError::BadOption(
+                "batch_triangles must be at least 1".into(),
+            ));
+        }
+        if self.fusion_splits > MAX_FUSION_SPLITS {
+            return Err(RvError::BadOption(format!(
+                "fusion_splits {} is more than {MAX_FUSION_SPLITS} (2^splits boxes per cell)",
+                self.fusion_splits
+            )));
+        }
+        if self.fusion_splits > 0 && !(1..=MAX_FUSION_RESOLUTION).contains(&self.fusion_resolution)
+        {
+            return Err(RvError::BadOption(format!(
+                "fusion_resolution {} is not in 1..={MAX_FUSION_RESOLUTION}",
+                self.fusion_resolution
+            )));
+        }
+        Ok(())
     }
-    if options.fusion_splits > MAX_FUSION_SPLITS {
-        return Err(RvError::BadOption(format!(
-            "fusion_splits {} is more than {MAX_FUSION_SPLITS} (2^splits boxes per cell)",
-            options.fusion_splits
-        )));
-    }
-    if options.fusion_splits > 0
-        && !(1..=MAX_FUSION_RESOLUTION).contains(&options.fusion_resolution)
-    {
-        return Err(RvError::BadOption(format!(
-            "fusion_resolution {} is not in 1..={MAX_FUSION_RESOLUTION}",
-            options.fusion_resolution
-        )));
-    }
-    Ok(())
 }
 
 /// The fusion pass (`region_fusion.rs`) over what single occluders left visible: removes what

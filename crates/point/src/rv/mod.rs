@@ -96,6 +96,7 @@ pub use city_stream::StreamingCity;
 pub use from_region::{
     conservative_from_region, RegionOptions, RegionResult, RegionStats, DEFAULT_FUSION_RESOLUTION,
     DEFAULT_FUSION_SPLITS, DEFAULT_MAX_OCCLUDERS, MAX_FUSION_RESOLUTION, MAX_FUSION_SPLITS,
+    MAX_OCCLUDERS,
 };
 pub use region_sampler::{
     bake_sampler, BakeMethodError, ConservativeSampler, BAKE_METHODS, CONSERVATIVE, REFUSED,

@@ -177,6 +177,8 @@ def bake(
     probe_rays: int = 16384,
     device: Literal["cpu", "gpu"] = "cpu",
     bound: bool = False,
+    bound_occluders: int = 4096,
+    bound_fusion_splits: int = 0,
 ) -> Pvs:
     """Bakes ``cells`` on this machine as ``sightline pvs bake`` does (same cells, sets and
     per-cell statistics). As the CLI's default, ray origins skip the parts of a cell that lie
@@ -197,7 +199,9 @@ def bake(
     ``bound=True`` is ``pvs bake --bound``: every cell also gets a conservative bound, RV's
     from-region set joined with the sampled set (``Pvs.bound(i)``), so the file says per
     cell what is surely visible and what might be; ``metadata["cells"][i]["gap"]`` counts
-    the triangles between the two.
+    the triangles between the two. ``bound_occluders`` and ``bound_fusion_splits`` are
+    ``--bound-occluders`` and ``--bound-fusion-splits``: more occluders and levels of
+    occluder fusion give a tighter bound for more time (``ValueError`` out of range).
     Pass both or neither. The result equals the CLI's, and ``metadata["incremental"]`` counts
     the ``kept_cells`` and ``rebaked_cells``. A ``since`` that cannot serve (baked
     differently, a shard, without a fingerprint, or for another scene than ``old_scene``)

@@ -8,7 +8,7 @@ use serde::Serialize;
 use sightline_core::trace::Bvh;
 use sightline_core::Scene;
 use sightline_point::rv::{
-    ConservativeSampler, RegionOptions, MAX_FUSION_RESOLUTION, MAX_FUSION_SPLITS,
+    ConservativeSampler, RegionOptions, MAX_FUSION_RESOLUTION, MAX_FUSION_SPLITS, MAX_OCCLUDERS,
 };
 use sightline_region::bound::{add_bounds, BoundSummary, BoundTotals, CellBound};
 use sightline_region::PvsFile;
@@ -17,15 +17,11 @@ use super::args::{BoundArgs, BoundOptionArgs};
 use crate::args::thread_count;
 use crate::output::{print_json, refuse_overwriting_inputs};
 
-/// Most occluders `--bound-occluders` takes: each costs a few hundred bytes per cell under
-/// way and time in proportion; a million is far past any useful bound.
-const MAX_BOUND_OCCLUDERS: usize = 1 << 20;
-
 /// The conservative sampler of `--bound-occluders` and `--bound-fusion-*`.
 pub(super) fn bound_sampler(options: BoundOptionArgs) -> Result<ConservativeSampler> {
-    if !(1..=MAX_BOUND_OCCLUDERS).contains(&options.bound_occluders) {
+    if !(1..=MAX_OCCLUDERS).contains(&options.bound_occluders) {
         bail!(
-            "--bound-occluders must be 1 to {MAX_BOUND_OCCLUDERS} (got {})",
+            "--bound-occluders must be 1 to {MAX_OCCLUDERS} (got {})",
             options.bound_occluders
         );
     }
