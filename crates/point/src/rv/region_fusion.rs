@@ -35,9 +35,17 @@
 //! triangle proven hidden from every box of a subdivision of the cell is hidden from the whole
 //! cell.
 //!
+//! # Cost
+//! A box's map is drawn only in the tiles its triangles still under test may reach (nothing
+//! else is read). Above the last level the box's size, not the pixel, decides what can be
+//! proven, so those maps are coarse; at the last level what is left is retested on a map
+//! [`LEAF_REFINE`] times finer, where a pixel is what separates a triangle from a silhouette
+//! (munich: 6 levels at 128 px then 512 px give the sets of 512 px throughout in a fifth of
+//! the time; docs/BENCHMARKS.md, "Occluder fusion").
+//!
 //! Memory: the candidates' corners (72 bytes each), a visible flag per candidate, one cube
-//! depth map per box under way (`6 * resolution^2 * 4` bytes, one per worker thread), one
-//! shrunk occluder at a time.
+//! depth map per box under way (`6 * resolution^2 * 4` bytes, `LEAF_REFINE^2` times that at
+//! the last level; one per worker thread), one shrunk occluder at a time.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
