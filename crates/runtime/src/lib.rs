@@ -263,7 +263,10 @@ impl Pvs {
         let Some(set) = self.layout.sets(self.bytes.get(), cell).1 else {
             return Err(Error::NoObjects(self.layout.version));
         };
-        self.decode(cell, set, self.object_count(), "objects", out)
+        {
+            out.clear();
+            self.decode_into(cell, set, self.object_count(), "objects", out)
+        }
     }
 
     /// The objects visible from `cell`, ascending.
@@ -277,7 +280,10 @@ impl Pvs {
     pub fn visible_triangles_into(&self, cell: u32, out: &mut Vec<u32>) -> Result<(), Error> {
         self.check_cell(cell)?;
         let set = self.layout.sets(self.bytes.get(), cell).0;
-        self.decode(cell, set, self.layout.triangle_count, "triangles", out)
+        {
+            out.clear();
+            self.decode_into(cell, set, self.layout.triangle_count, "triangles", out)
+        }
     }
 
     /// The triangles visible from `cell`, ascending.
@@ -349,18 +355,17 @@ impl Pvs {
             Ids::Triangles => (triangles, self.layout.triangle_count, "bound triangles"),
             Ids::Objects => (objects, self.object_count(), "bound objects"),
         };
+        out.clear();
         if !whole {
-            return self.decode(cell, extra, capacity, what, out);
+            return self.decode_into(cell, extra, capacity, what, out);
         }
         match ids {
             Ids::Triangles => self.visible_triangles_into(cell, out)?,
             Ids::Objects => self.visible_objects_into(cell, out)?,
         }
-        self.decode_after(cell, extra, capacity, what, out)?;
-        // Two ascending runs (disjoint in a valid file; a shared id is kept once): an unstable
-        // sort needs no buffer.
-        out.sort_unstable();
-        out.dedup();
+        let set_len = out.len();
+        self.decode_into(cell, extra, capacity, what, out)?;
+        merge_runs(out, set_len);
         Ok(())
     }
 
@@ -445,20 +450,8 @@ impl Pvs {
         Ok(())
     }
 
-    fn decode(
-        &self,
-        cell: u32,
-        set: format::SetRef,
-        capacity: u32,
-        what: &str,
-        out: &mut Vec<u32>,
-    ) -> Result<(), Error> {
-        out.clear();
-        self.decode_after(cell, set, capacity, what, out)
-    }
-
-    /// Decodes `set`'s ids after those already in `out`.
-    fn decode_after(
+    /// Appends `set`'s ids to `out`.
+    fn decode_into(
         &self,
         cell: u32,
         set: format::SetRef,
@@ -478,6 +471,36 @@ impl Pvs {
     }
 }
 
+/// Merges the two ascending runs `ids[..split]` and `ids[split..]` into one ascending run
+/// (they are disjoint in a valid file; a shared id is kept once), in linear time: the second
+/// run is copied past the end (the buffer grows once and is reused by later calls) and the
+/// two are merged from the back.
+fn merge_runs(ids: &mut Vec<u32>, split: usize) {
+    let second = ids.len() - split;
+    ids.extend_from_within(split..);
+    let (mut a, mut b) = (split, second);
+    let mut w = split + second;
+    while b > 0 {
+        let next = ids[split + second + b - 1];
+        w -= 1;
+        if a > 0 && ids[a - 1] > next {
+            ids[w] = ids[a - 1];
+            a -= 1;
+        } else {
+            if a > 0 && ids[a - 1] == next {
+                a -= 1;
+            }
+            ids[w] = next;
+            b -= 1;
+        }
+    }
+    // Ids kept once leave a gap before the written part: close it.
+    ids.truncate(split + second);
+    if w > a {
+        ids.drain(a..w);
+    }
+}
+
 /// Which ids of a cell: its triangles or its objects.
 #[derive(Clone, Copy)]
 enum Ids {
@@ -494,5 +517,26 @@ fn read_cell(record: &[u8]) -> Cell {
             read_vec3(record, 36),
         ],
         half_extents: read_vec3(record, 48),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::merge_runs;
+
+    #[test]
+    fn merging_two_ascending_runs_keeps_order_and_shared_ids_once() {
+        let cases: [(&[u32], &[u32], &[u32]); 5] = [
+            (&[], &[], &[]),
+            (&[1, 5, 9], &[], &[1, 5, 9]),
+            (&[], &[2, 3], &[2, 3]),
+            (&[1, 5, 9], &[0, 6, 10], &[0, 1, 5, 6, 9, 10]),
+            (&[1, 5, 9], &[5, 9, 11], &[1, 5, 9, 11]),
+        ];
+        for (set, extra, merged) in cases {
+            let mut ids = [set, extra].concat();
+            merge_runs(&mut ids, set.len());
+            assert_eq!(ids, merged, "{set:?} + {extra:?}");
+        }
     }
 }
