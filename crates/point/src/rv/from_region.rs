@@ -390,7 +390,7 @@ pub fn conservative_from_region(
     let mut visible = TriangleSet::with_capacity(bound as usize);
     // What single occluders leave visible, with its corners for the fusion pass.
     let fusion = options.fusion_splits > 0;
-    let mut candidates: Vec<(u32, [DVec3; 3])> = Vec::new();
+    let (mut candidate_ids, mut candidates): (Vec<u32>, Vec<[DVec3; 3]>) = (Vec::new(), Vec::new());
     loop {
         batch.clear();
         if source.next_batch(options.batch_triangles, &mut batch)? == 0 {
@@ -407,7 +407,8 @@ pub fn conservative_from_region(
                 Some((false, v)) => {
                     visible.insert(id as usize);
                     if fusion {
-                        candidates.push((id, v));
+                        candidate_ids.push(id);
+                        candidates.push(v);
                     }
                 }
             }
@@ -416,6 +417,7 @@ pub fn conservative_from_region(
     if fusion && !candidates.is_empty() {
         fuse(
             &occluders,
+            &candidate_ids,
             &candidates,
             &corners,
             options,
@@ -504,7 +506,8 @@ impl RegionOptions {
 /// the occluders hide together from `visible` and counts it in `stats`.
 fn fuse(
     occluders: &[Occluder],
-    candidates: &[(u32, [DVec3; 3])],
+    ids: &[u32],
+    candidates: &[[DVec3; 3]],
     corners: &[DVec3],
     options: &RegionOptions,
     visible: &mut TriangleSet,
@@ -514,17 +517,16 @@ fn fuse(
         .iter()
         .filter_map(|o| FusionOccluder::new(&o.poly))
         .collect();
-    let corners_only: Vec<[DVec3; 3]> = candidates.iter().map(|c| c.1).collect();
     let fused = fused_hidden(
         &fusers,
-        &corners_only,
+        candidates,
         CellShape::of(corners),
         FusionOptions {
             splits: options.fusion_splits,
             resolution: options.fusion_resolution,
         },
     );
-    for ((id, _), hidden) in candidates.iter().zip(&fused.hidden) {
+    for (id, hidden) in ids.iter().zip(&fused.hidden) {
         if *hidden {
             visible.set(*id as usize, false);
             stats.hidden += 1;

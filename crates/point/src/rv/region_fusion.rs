@@ -278,50 +278,47 @@ fn refine(work: &Work<'_>, lo: DVec3, hi: DVec3, pending: Vec<u32>, level: u32) 
     work.boxes.fetch_add(1, Ordering::Relaxed);
     let (p, eps) = work.cell.ball(lo, hi);
     let near = 1e-3 * eps.max(1e-9);
-    let draw = |resolution: usize, pending: &[u32]| {
+    // Once per box: the occluders shrunk for its ball and the triangles under test, both
+    // relative to its centre (the last level draws them twice).
+    let mut shrunk = Vec::new();
+    let mut scratch = Vec::new();
+    for o in work.occluders {
+        let mut poly = Vec::new();
+        o.shrunk_for(p, eps, &mut poly, &mut scratch);
+        if !poly.is_empty() {
+            poly.iter_mut().for_each(|v| *v -= p);
+            shrunk.push((poly, o.normal, o.offset - o.normal.dot(p)));
+        }
+    }
+    let mut tests: Vec<(u32, [DVec3; 3])> = pending
+        .into_iter()
+        .map(|i| (i, work.candidates[i as usize].map(|v| v - p)))
+        .collect();
+    let prove = |resolution: usize, tests: &mut Vec<(u32, [DVec3; 3])>| {
         let mut map = CubeDepth::new(resolution);
         // Only where the triangles under test may land is drawn.
-        for &i in pending {
-            map.mark_interest(&work.candidates[i as usize].map(|v| v - p));
+        for (_, t) in tests.iter() {
+            map.mark_interest(t);
         }
-        let (mut shrunk, mut scratch) = (Vec::new(), Vec::new());
-        for o in work.occluders {
-            o.shrunk_for(p, eps, &mut shrunk, &mut scratch);
-            if shrunk.is_empty() {
-                continue;
-            }
-            shrunk.iter_mut().for_each(|v| *v -= p);
-            map.draw(&shrunk, o.normal, o.offset - o.normal.dot(p), near);
+        for (poly, normal, offset) in &shrunk {
+            map.draw(poly, *normal, *offset, near);
         }
-        map
+        tests.retain(|(_, t)| !map.hides(t, near));
     };
-    let survivors = |map: &mut CubeDepth, pending: Vec<u32>| -> Vec<u32> {
-        pending
-            .into_iter()
-            .filter(|&i| {
-                let t = work.candidates[i as usize].map(|v| v - p);
-                !map.hides(&t, near)
-            })
-            .collect()
-    };
-    let mut left = survivors(&mut draw(work.options.resolution, &pending), pending);
-    if left.is_empty() {
+    prove(work.options.resolution, &mut tests);
+    if tests.is_empty() {
         return;
     }
-    // At the last level what is left may be hidden at a finer resolution: near a silhouette
-    // a pixel is too coarse to prove it.
     if level >= work.options.splits {
-        left = survivors(
-            &mut draw(work.options.resolution * LEAF_REFINE, &left),
-            left,
-        );
-    }
-    if level >= work.options.splits {
-        for i in left {
+        // What is left may be hidden at a finer resolution: near a silhouette a pixel is too
+        // coarse to prove it.
+        prove(work.options.resolution * LEAF_REFINE, &mut tests);
+        for (i, _) in tests {
             work.visible[i as usize].store(true, Ordering::Relaxed);
         }
         return;
     }
+    let left: Vec<u32> = tests.into_iter().map(|(i, _)| i).collect();
     // Halve the box across its longest side.
     let size = hi - lo;
     let axis = (0..3)
