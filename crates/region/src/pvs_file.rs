@@ -250,12 +250,7 @@ impl PvsFile {
 
     /// Writes the file to `path` atomically (an existing file is replaced only on success).
     pub fn save(&self, path: &Path) -> Result<(), PvsError> {
-        let mut bytes = Vec::new();
-        self.write(&mut bytes)?;
-        write_atomic(path, |w| w.write_all(&bytes)).map_err(|source| PvsError::Io {
-            path: path.to_path_buf(),
-            source,
-        })
+        save_with(path, |bytes| self.write(bytes))
     }
 
     /// Reads a file from `path` (bounded: see [`sightline_runtime::Pvs::open`]).
@@ -368,18 +363,15 @@ impl EncodedPvsFile {
                 self.cells.len()
             )));
         };
-        let mut bytes = Vec::new();
-        write_encoded_sides(
-            &mut bytes,
-            self.scene_hash,
-            self.triangle_count,
-            self.objects.as_ref(),
-            &self.metadata,
-            self.cells.iter().zip(extras).map(|((c, s), e)| (c, s, e)),
-        )?;
-        write_atomic(path, |w| w.write_all(&bytes)).map_err(|source| PvsError::Io {
-            path: path.to_path_buf(),
-            source,
+        save_with(path, |bytes| {
+            write_encoded_sides(
+                bytes,
+                self.scene_hash,
+                self.triangle_count,
+                self.objects.as_ref(),
+                &self.metadata,
+                self.cells.iter().zip(extras).map(|((c, s), e)| (c, s, e)),
+            )
         })
     }
 }
@@ -753,15 +745,19 @@ pub fn save_encoded<'a>(
     metadata: &serde_json::Value,
     cells: impl ExactSizeIterator<Item = (&'a ViewCell, &'a EncodedSet)>,
 ) -> Result<(), PvsError> {
+    save_with(path, |bytes| {
+        write_encoded(bytes, scene_hash, triangle_count, objects, metadata, cells)
+    })
+}
+
+/// Lays a file out in memory with `write`, then replaces `path` with it atomically (an
+/// existing file survives any failure): the one way every `.pvs` writer saves.
+fn save_with(
+    path: &Path,
+    write: impl FnOnce(&mut Vec<u8>) -> Result<(), PvsError>,
+) -> Result<(), PvsError> {
     let mut bytes = Vec::new();
-    write_encoded(
-        &mut bytes,
-        scene_hash,
-        triangle_count,
-        objects,
-        metadata,
-        cells,
-    )?;
+    write(&mut bytes)?;
     write_atomic(path, |w| w.write_all(&bytes)).map_err(|source| PvsError::Io {
         path: path.to_path_buf(),
         source,
