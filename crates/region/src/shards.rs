@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::json;
 
+use crate::bound::{BoundSummary, CellBound};
 use crate::checkpoint::fingerprint_differences;
 use crate::pvs_file::{EncodedPvsFile, EncodedSet};
 use crate::viewcell::ViewCell;
@@ -343,30 +344,28 @@ fn merged_metadata(
                 .map(|c| c.meta.clone())
                 .collect::<Vec<_>>()),
         );
-        if let Some(bound) = m.get_mut("bound").and_then(|b| b.as_object_mut()) {
+        if m.contains_key("bound") {
             // Two-sided shards: the bounds' totals over every cell, from the cells' own
-            // statistics (`bound::add_bounds` writes them).
-            let count = |key: &str| -> Vec<u64> {
-                let cells = by_index.values();
-                cells.map(|c| c.meta[key].as_u64().unwrap_or(0)).collect()
+            // figures (`bound::add_bounds` writes them), as a whole bake's.
+            let figure = |c: &MergedCell<'_>, key: &str| c.meta[key].as_u64().unwrap_or(0) as usize;
+            let summary = BoundSummary {
+                method: files[0].1.metadata["bound"]["method"]
+                    .as_str()
+                    .unwrap_or_default()
+                    .to_string(),
+                seconds: (files.iter())
+                    .map(|(_, f)| f.metadata["bound"]["seconds"].as_f64().unwrap_or(0.0))
+                    .sum(),
+                cells: (by_index.values())
+                    .map(|c| CellBound {
+                        set_size: figure(c, "pvs_size"),
+                        bound_size: figure(c, "bound_size"),
+                        gap: figure(c, "gap"),
+                        not_in_conservative: figure(c, "not_in_conservative"),
+                    })
+                    .collect(),
             };
-            let set: u64 = count("pvs_size").iter().sum();
-            let bounds: u64 = count("bound_size").iter().sum();
-            let ratio = if set == 0 {
-                1.0
-            } else {
-                bounds as f64 / set as f64
-            };
-            let seconds: f64 = (files.iter())
-                .map(|(_, f)| f.metadata["bound"]["seconds"].as_f64().unwrap_or(0.0))
-                .sum();
-            bound.insert("mean_ratio".into(), json!(ratio));
-            bound.insert("seconds".into(), json!(seconds));
-            let not_contained = count("not_in_conservative")
-                .iter()
-                .filter(|&&n| n > 0)
-                .count();
-            bound.insert("cells_not_contained".into(), json!(not_contained));
+            m.insert("bound".into(), json!(summary.totals()));
         }
         m.insert(
             "merged_from".into(),
