@@ -56,8 +56,11 @@ fn to_face(f: usize, x: DVec3) -> DVec3 {
     DVec3::new(a[(axis + 1) % 3], a[(axis + 2) % 3], sign * a[axis])
 }
 
-/// Clips a convex polygon (face coordinates) to `keep(p) >= 0` for a linear `keep`.
-fn clip(poly: &[DVec3], keep: impl Fn(DVec3) -> f64, out: &mut Vec<DVec3>) {
+/// Clips a convex polygon (face coordinates) to `keep(p) >= 0` for a linear `keep`. RV's
+/// fixed-size clipper (`projection::clip_into`) does the same, but copies a 12-corner polygon
+/// per plane: on this path (every occluder and triangle, on every face) it measured 40 % more
+/// time for the whole fusion (munich cell 2, 8 levels: 4.3 s against 3.1 s of CPU).
+pub(crate) fn clip(poly: &[DVec3], keep: impl Fn(DVec3) -> f64, out: &mut Vec<DVec3>) {
     out.clear();
     for i in 0..poly.len() {
         let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);

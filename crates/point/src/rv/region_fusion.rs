@@ -51,7 +51,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use glam::DVec3;
 
-use super::cube_depth::CubeDepth;
+use super::cube_depth::{clip, CubeDepth};
 
 /// How much finer the last level's second map is.
 const LEAF_REFINE: usize = 4;
@@ -123,28 +123,13 @@ impl FusionOccluder {
             let mp = m.dot(p);
             let base = c + eps * (1.0 + k) * grow;
             for (scale, rhs) in [(1.0 - k, base - k * mp), (1.0 + k, base + k * mp)] {
-                clip_half(out, m * scale, rhs, scratch);
+                clip(out, |y| scale * m.dot(y) - rhs, scratch);
                 std::mem::swap(out, scratch);
                 if out.len() < 3 {
                     out.clear();
                     return;
                 }
             }
-        }
-    }
-}
-
-/// Clips convex `poly` to `a · y >= b`, into `out`.
-fn clip_half(poly: &[DVec3], a: DVec3, b: f64, out: &mut Vec<DVec3>) {
-    out.clear();
-    for i in 0..poly.len() {
-        let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
-        let (kp, kq) = (a.dot(p) - b, a.dot(q) - b);
-        if kp >= 0.0 {
-            out.push(p);
-        }
-        if (kp >= 0.0) != (kq >= 0.0) {
-            out.push(p + (q - p) * (kp / (kp - kq)));
         }
     }
 }
