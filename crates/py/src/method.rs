@@ -34,6 +34,9 @@ use crate::convert::value_error;
 /// - `raster_resolution`: RASTER cube-map face resolution (512).
 /// - `fixed_rounds`: GVS++ keeps the paper's rounds under a budget too (sized for a GPU:
 ///   on a CPU a budget below one round is then spent on random rays alone).
+/// - `paper_discontinuities`: GVS++ reverse-samples only the discontinuities at the 9
+///   vertices of a border polygon, as the paper does (by default every border sample is
+///   searched: it finds what is seen through gaps between found objects, with fewer rays).
 ///
 /// Raises `ValueError` for an unknown name or a parameter out of range.
 #[pyclass(module = "sightline", name = "Method", frozen)]
@@ -73,7 +76,7 @@ impl PyMethod {
     #[new]
     #[pyo3(signature = (name = "gvs++", *, n_rand = None, n_abs_edge = None, delta_abs = None,
         n_rs_edge = None, n_rs_area = None, delta = None, termination = None,
-        raster_resolution = None, fixed_rounds = false))]
+        raster_resolution = None, fixed_rounds = false, paper_discontinuities = false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         name: &str,
@@ -86,6 +89,7 @@ impl PyMethod {
         termination: Option<usize>,
         raster_resolution: Option<u32>,
         fixed_rounds: bool,
+        paper_discontinuities: bool,
     ) -> PyResult<Self> {
         let options = MethodOverrides {
             n_rand,
@@ -97,6 +101,7 @@ impl PyMethod {
             termination,
             raster_resolution,
             fixed_rounds,
+            paper_discontinuities,
         };
         Self::from_options(name, options)
     }
@@ -126,6 +131,7 @@ impl PyMethod {
             o.termination,
             o.raster_resolution,
             o.fixed_rounds,
+            o.paper_discontinuities,
         );
         let ctor = py.get_type::<PyMethod>().getattr("_from_positional")?;
         PyTuple::new(py, [ctor, args.into_pyobject(py)?.into_any()])
@@ -135,7 +141,7 @@ impl PyMethod {
     #[staticmethod]
     #[allow(clippy::too_many_arguments)]
     #[pyo3(signature = (name, n_rand, n_abs_edge, delta_abs, n_rs_edge, n_rs_area, delta,
-        termination, raster_resolution, fixed_rounds = false))]
+        termination, raster_resolution, fixed_rounds = false, paper_discontinuities = false))]
     fn _from_positional(
         name: &str,
         n_rand: Option<u64>,
@@ -147,6 +153,7 @@ impl PyMethod {
         termination: Option<usize>,
         raster_resolution: Option<u32>,
         fixed_rounds: bool,
+        paper_discontinuities: bool,
     ) -> PyResult<Self> {
         Self::new(
             name,
@@ -159,6 +166,7 @@ impl PyMethod {
             termination,
             raster_resolution,
             fixed_rounds,
+            paper_discontinuities,
         )
     }
 }

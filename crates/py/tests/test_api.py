@@ -514,6 +514,20 @@ def test_fixed_rounds_survive_pickling_and_change_a_budgeted_bake(city, city_cel
     np.testing.assert_array_equal(a, r)
 
 
+def test_paper_discontinuities_survive_pickling_and_change_a_converged_bake(city, city_cells):
+    import pickle
+
+    paper = sl.Method("gvs++", n_rand=20_000, paper_discontinuities=True)
+    again = pickle.loads(pickle.dumps(paper))
+    assert "paper_discontinuities: true" in repr(again)
+    # Searching every border sample for discontinuities reverse-samples more of them, so a
+    # converged bake casts different rays and finds at least some other triangles.
+    ours = sl.Method("gvs++", n_rand=20_000)
+    a = sl.bake_cell(city, city_cells[0], again, seed=3)
+    b = sl.bake_cell(city, city_cells[0], ours, seed=3)
+    assert not np.array_equal(a, b)
+
+
 # --- Quake 3 cells ------------------------------------------------------------------------
 
 

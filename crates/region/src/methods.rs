@@ -60,6 +60,11 @@ pub struct MethodOverrides {
     /// GVS++/GVS: stop after a round finding fewer new triangles (paper: 10).
     #[cfg_attr(feature = "clap", arg(long))]
     pub termination: Option<usize>,
+    /// GVS++: reverse-sample only the discontinuities found at the 9 vertices of a border
+    /// polygon, as the paper does (by default every border sample is searched: it finds what
+    /// is seen through gaps between found objects, with fewer rays in all).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub paper_discontinuities: bool,
     /// RASTER: cube-map face resolution (default 512).
     #[cfg_attr(feature = "clap", arg(long))]
     pub raster_resolution: Option<u32>,
@@ -94,6 +99,7 @@ impl MethodOverrides {
             p.gvs.delta_discontinuity = v;
         }
         p.gvspp.fixed_rounds = self.fixed_rounds;
+        p.gvspp.edge_discontinuities = !self.paper_discontinuities;
         if let Some(v) = self.termination {
             p.gvspp.termination_threshold = v;
             p.gvs.termination_threshold = v;
@@ -173,6 +179,7 @@ mod tests {
             (10, 10)
         );
         assert!(!p.gvspp.fixed_rounds);
+        assert!(p.gvspp.edge_discontinuities);
         assert_eq!(p.raster_resolution, None);
         assert_eq!(RasterSampler::default().resolution, 512);
     }
@@ -183,10 +190,12 @@ mod tests {
             n_rand: Some(7),
             delta: Some(0.01),
             fixed_rounds: true,
+            paper_discontinuities: true,
             ..MethodOverrides::default()
         }
         .params();
         assert_eq!((p.gvspp.n_rand, p.gvs.n_rand), (7, 7));
+        assert!(!p.gvspp.edge_discontinuities);
         assert_eq!(
             (p.gvspp.delta_discontinuity, p.gvs.delta_discontinuity),
             (0.01, 0.01)

@@ -208,6 +208,12 @@ struct PvsArgs {
     /// large scenes.
     #[arg(long)]
     equal_time_only: bool,
+    /// Also run GVS++ with the paper's discontinuities (searched at the border polygon's 9
+    /// vertices only, not at every border sample) to convergence, as one more row: what our
+    /// search of every border sample brings, on the same cells and views. Not with
+    /// --equal-time-only.
+    #[arg(long, conflicts_with = "equal_time_only")]
+    paper_discontinuities: bool,
     /// Write plots per scene as SVG files into DIR: the convergence curves (average error
     /// against rays for every method, on the scene's first cell; not with --equal-time-only)
     /// and, with small budgets, GVS++ and RAND's error against seconds at those budgets
@@ -443,6 +449,7 @@ fn pvs(args: PvsArgs) -> Result<()> {
         equal_time_only: args.equal_time_only,
         // The curves start from a converged GVS++ bake, which --equal-time-only skips.
         convergence: args.plot.is_some() && !args.equal_time_only,
+        paper_discontinuities: args.paper_discontinuities,
     };
     options.validate().map_err(|e| match e {
         eval_bench::BenchError::TimeBudget(_) => anyhow::anyhow!("--time-budgets: {e}"),

@@ -21,7 +21,7 @@ pub use peers::{
 };
 pub use pvs::{
     bench_pvs_scene, bench_pvs_scene_on, equal_budget_pairs, PvsBenchOptions, PvsRow,
-    PvsSceneReport, SecondCaster,
+    PvsSceneReport, SecondCaster, PAPER_GVSPP,
 };
 pub use raster::{bench_raster, RasterRow};
 pub use rv::{bench_rv, RvBenchOptions, RvRow};

@@ -66,7 +66,14 @@ pub struct PvsBenchOptions {
     pub equal_time_only: bool,
     /// Also compute the convergence curves of every method on the scene's first cell.
     pub convergence: bool,
+    /// Also run GVS++ with the paper's discontinuities (border vertices only) to convergence,
+    /// as the row [`PAPER_GVSPP`] after the full rows (not with `equal_time_only`): what
+    /// searching every border sample brings, on the same cells and views.
+    pub paper_discontinuities: bool,
 }
+
+/// The method name of the row of [`PvsBenchOptions::paper_discontinuities`].
+pub const PAPER_GVSPP: &str = "GVS++ (paper's discontinuities)";
 
 impl PvsBenchOptions {
     /// Checks the budgets: time budgets within 1 ms..=1 h, ray budgets within 1..=10^11.
@@ -169,17 +176,27 @@ struct Methods {
     gvspp: GvsPlusPlus,
     gvs: Gvs,
     raster: RasterSampler,
+    /// GVS++ with the paper's discontinuities, when its row is asked for.
+    gvspp_paper: Option<GvsPlusPlus>,
 }
 
 impl Methods {
-    fn new(n_rand: u64) -> Self {
-        Self {
-            gvspp: GvsPlusPlus {
-                params: GvsPlusPlusParams {
-                    n_rand,
-                    ..GvsPlusPlusParams::default()
-                },
+    fn new(n_rand: u64, paper_discontinuities: bool) -> Self {
+        let gvspp = GvsPlusPlus {
+            params: GvsPlusPlusParams {
+                n_rand,
+                ..GvsPlusPlusParams::default()
             },
+        };
+        let gvspp_paper = paper_discontinuities.then(|| GvsPlusPlus {
+            params: GvsPlusPlusParams {
+                edge_discontinuities: false,
+                ..gvspp.params.clone()
+            },
+        });
+        Self {
+            gvspp,
+            gvspp_paper,
             gvs: Gvs {
                 params: GvsParams {
                     n_rand,
@@ -188,6 +205,11 @@ impl Methods {
             },
             raster: RasterSampler::default(),
         }
+    }
+
+    /// Whether the row of [`PAPER_GVSPP`] is among the full rows.
+    fn paper_row(&self, equal_time_only: bool) -> bool {
+        self.gvspp_paper.is_some() && !equal_time_only
     }
 
     /// Every method's set of one cell, in the order of the rows.
@@ -213,6 +235,9 @@ impl Methods {
                 self.gvs.sample(ctx, &equal_rays, none),
                 self.raster.sample(ctx, &equal_rays, none),
             ];
+            if let Some(paper) = &self.gvspp_paper {
+                results.push(paper.sample(ctx, &Budget::default(), none));
+            }
         }
         for (_, budget) in small_budgets {
             results.push(self.gvspp.sample(ctx, budget, none));
@@ -260,13 +285,15 @@ fn empty_rows(
     cells: usize,
     small_budgets: &[(String, Budget)],
     equal_time_only: bool,
+    paper_row: bool,
 ) -> Vec<PvsRow> {
     let full = if equal_time_only {
         &[][..]
     } else {
         &FULL_ROWS[..]
     };
-    let full = full.iter().map(|(m, b)| (m.to_string(), b.to_string()));
+    let paper = paper_row.then_some((PAPER_GVSPP, "converged"));
+    let full = (full.iter().copied().chain(paper)).map(|(m, b)| (m.to_string(), b.to_string()));
     let small = small_budgets
         .iter()
         .flat_map(|(label, _)| ["GVS++", "RAND"].map(|m| (m.to_string(), label.clone())));
@@ -330,7 +357,7 @@ pub fn bench_pvs_scene_on(
 ) -> Result<PvsSceneReport, BenchError> {
     options.validate()?;
     let small_budgets = options.small_budgets();
-    let methods = Methods::new(options.n_rand);
+    let methods = Methods::new(options.n_rand, options.paper_discontinuities);
     let eval = options.eval_params();
     let bvh = Bvh::build(scene);
     let half = scene.bounds().diagonal() * options.cell_size;
@@ -344,6 +371,7 @@ pub fn bench_pvs_scene_on(
         cells.len(),
         &small_budgets,
         options.equal_time_only,
+        methods.paper_row(options.equal_time_only),
     );
     let mut extra = second.map_or_else(Vec::new, |s| second_rows(&rows, s.method));
     // Viewpoints only outside solid geometry: a view from inside a wall sees what no player

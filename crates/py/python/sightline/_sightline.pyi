@@ -69,6 +69,7 @@ class Method:
         termination: Optional[int] = None,
         raster_resolution: Optional[int] = None,
         fixed_rounds: bool = False,
+        paper_discontinuities: bool = False,
     ) -> None: ...
     @property
     def name(self) -> str: ...

@@ -205,8 +205,11 @@ fn refine_batch(
     progress: &(dyn Fn(&ConvergencePoint) + Sync),
 ) -> usize {
     let take = batch_items(cell.abs_rays_per_triangle(), tally.rays_left());
-    let rays = cell.refine_abs_rays(ctx, take);
-    cast_and_credit(ctx, cell, tally, &rays, Phase::Abs, progress).1
+    let (rays, targets) = cell.refine_abs_rays(ctx, take);
+    let (hits, new) = cast_and_credit(ctx, cell, tally, &rays, Phase::Abs, progress);
+    let discontinuities = cell.discontinuities(&rays, &hits, &targets);
+    cell.pending.extend(discontinuities);
+    new
 }
 
 /// Reverse sampling (4.3) of the oldest waiting discontinuities, about one batch of rays and no

@@ -66,6 +66,9 @@ pub(crate) struct GvsppCell {
     delta_abs: f32,
     /// Discontinuity threshold `Δ` in scene units.
     delta: f32,
+    /// Whether edge samples are searched for discontinuities too
+    /// ([`GvsPlusPlusParams::edge_discontinuities`]).
+    edge_discontinuities: bool,
 }
 
 impl GvsppCell {
@@ -90,6 +93,7 @@ impl GvsppCell {
             n_abs_edge: p.n_abs_edge,
             delta_abs: p.delta_abs * diagonal,
             delta: p.delta_discontinuity * diagonal,
+            edge_discontinuities: p.edge_discontinuities,
         }
     }
 
@@ -117,7 +121,8 @@ impl GvsppCell {
     }
 
     /// Takes up to `n` triangles off the queue and returns their ABS rays (4.2) with, for each
-    /// ray aimed at a border vertex, its target.
+    /// ray searched for a discontinuity (at a border vertex, and with edge discontinuities at
+    /// every sample), its target.
     pub fn abs_rays(&mut self, ctx: &CellContext<'_>, n: usize) -> (Vec<Ray>, Vec<Option<Vec3>>) {
         let chunk = self.queue.take(n);
         let (rays, targets, _) = abs_rays(
@@ -125,14 +130,15 @@ impl GvsppCell {
             &chunk,
             self.delta_abs,
             EdgeSamples::Fixed(self.n_abs_edge),
+            self.edge_discontinuities,
         );
         (rays, targets)
     }
 
     /// Takes up to `n` triangles off the queue and returns their coarse ABS rays (the border
     /// vertices, and edge samples [`ABS_ANGLE_STEP`] apart as seen from the discovery's origin)
-    /// with the vertex rays' targets; triangles that got fewer edge samples than `n_abs_edge`
-    /// join [`GvsppCell::refine`].
+    /// with the targets of the rays searched for discontinuities (as [`GvsppCell::abs_rays`]);
+    /// triangles that got fewer edge samples than `n_abs_edge` join [`GvsppCell::refine`].
     pub fn coarse_abs_rays(
         &mut self,
         ctx: &CellContext<'_>,
@@ -143,7 +149,13 @@ impl GvsppCell {
             n: self.n_abs_edge,
             step: ABS_ANGLE_STEP,
         };
-        let (rays, targets, partial) = abs_rays(ctx, &chunk, self.delta_abs, samples);
+        let (rays, targets, partial) = abs_rays(
+            ctx,
+            &chunk,
+            self.delta_abs,
+            samples,
+            self.edge_discontinuities,
+        );
         self.refine.extend(
             chunk
                 .iter()
@@ -155,11 +167,23 @@ impl GvsppCell {
     }
 
     /// Takes up to `n` triangles off [`GvsppCell::refine`] and returns the paper's edge samples
-    /// of their border (no vertices: the coarse pass cast those).
-    pub fn refine_abs_rays(&mut self, ctx: &CellContext<'_>, n: usize) -> Vec<Ray> {
+    /// of their border (no vertices: the coarse pass cast those), with their targets where
+    /// edge samples are searched for discontinuities.
+    pub fn refine_abs_rays(
+        &mut self,
+        ctx: &CellContext<'_>,
+        n: usize,
+    ) -> (Vec<Ray>, Vec<Option<Vec3>>) {
         let chunk = self.refine.take(n);
         let samples = EdgeSamples::EdgesOnly(self.n_abs_edge);
-        abs_rays(ctx, &chunk, self.delta_abs, samples).0
+        let (rays, targets, _) = abs_rays(
+            ctx,
+            &chunk,
+            self.delta_abs,
+            samples,
+            self.edge_discontinuities,
+        );
+        (rays, targets)
     }
 
     /// The discontinuities (4.3) of ABS rays `rays` aimed at `targets`, which hit `hits`.

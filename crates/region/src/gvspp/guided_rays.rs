@@ -58,15 +58,17 @@ impl EdgeSamples {
     }
 }
 
-/// ABS rays for a chunk of discoveries, and for each ray that aims at a border *vertex*, its
-/// target (rays at edge samples get `None`). With [`EdgeSamples::Coarse`], also whether each
-/// discovery had fewer edge samples than `n` somewhere (it then needs an
+/// ABS rays for a chunk of discoveries, and for each ray that aims at a border *vertex* (and,
+/// with `edge_targets`, at an edge sample too), its target, where [`find_discontinuities`]
+/// looks for a discontinuity; other rays get `None`. With [`EdgeSamples::Coarse`], also
+/// whether each discovery had fewer edge samples than `n` somewhere (it then needs an
 /// [`EdgeSamples::EdgesOnly`] pass to complete the paper's samples).
 pub(crate) fn abs_rays(
     ctx: &CellContext<'_>,
     chunk: &[Discovery],
     delta_abs: f32,
     samples: EdgeSamples,
+    edge_targets: bool,
 ) -> (Vec<Ray>, Vec<Option<Vec3>>, Vec<bool>) {
     let full = match samples {
         EdgeSamples::Fixed(n) | EdgeSamples::EdgesOnly(n) | EdgeSamples::Coarse { n, .. } => n,
@@ -92,7 +94,8 @@ pub(crate) fn abs_rays(
                 for k in 0..n_edge {
                     let f = (k + 1) as f32 / (n_edge + 1) as f32;
                     let target = polygon[a].lerp(polygon[b], f);
-                    out.push((Ray::new(d.origin, target - d.origin), None));
+                    let kept = edge_targets.then_some(target);
+                    out.push((Ray::new(d.origin, target - d.origin), kept));
                 }
             }
             (out, partial)
@@ -111,8 +114,8 @@ pub(crate) fn abs_rays(
     (rays, targets, partial)
 }
 
-/// Border-vertex rays whose hit is closer than the target by more than `delta` (an occluder in
-/// front) or that hit nothing (section 4.3). Rays aim at their target with `t = 1`.
+/// Border rays with a target whose hit is closer than the target by more than `delta` (an
+/// occluder in front) or that hit nothing (section 4.3). Rays aim at their target with `t = 1`.
 pub(crate) fn find_discontinuities(
     rays: &[Ray],
     hits: &[Hit],
@@ -225,8 +228,9 @@ mod tests {
     use crate::viewcell::ViewCell;
 
     /// One triangle 1 unit across, seen from `distance` away: its rays at the three sampling
-    /// modes, and whether the coarse pass left samples out.
-    fn rays_at(distance: f32, samples: EdgeSamples) -> (usize, usize, bool) {
+    /// modes, how many of them have a target (vertices only, or every sample with
+    /// `edge_targets`), and whether the coarse pass left samples out.
+    fn rays_with(distance: f32, samples: EdgeSamples, edge_targets: bool) -> (usize, usize, bool) {
         let mut b = SceneBuilder::new("one");
         let (p, q, r) = (
             Vec3::new(-0.5, -0.5, distance),
@@ -250,9 +254,14 @@ mod tests {
             origin: Vec3::ZERO,
             hit_point: Vec3::new(0.0, 0.0, distance),
         };
-        let (rays, targets, partial) = abs_rays(&ctx, &[d], 1e-4, samples);
-        let vertices = targets.iter().filter(|t| t.is_some()).count();
-        (rays.len(), vertices, partial[0])
+        let (rays, targets, partial) = abs_rays(&ctx, &[d], 1e-4, samples, edge_targets);
+        let with_target = targets.iter().filter(|t| t.is_some()).count();
+        (rays.len(), with_target, partial[0])
+    }
+
+    /// [`rays_with`] as the paper does it: targets at the border vertices only.
+    fn rays_at(distance: f32, samples: EdgeSamples) -> (usize, usize, bool) {
+        rays_with(distance, samples, false)
     }
 
     #[test]
@@ -266,5 +275,38 @@ mod tests {
         assert_eq!(rays_at(400.0, coarse), (12, 9, true));
         // The refinement casts the 60 edge samples and no vertex rays.
         assert_eq!(rays_at(400.0, EdgeSamples::EdgesOnly(20)), (60, 0, false));
+    }
+
+    #[test]
+    fn edge_discontinuities_give_every_border_sample_a_target() {
+        // Every ray aims at a point of the border polygon, so every one can reveal an occluder.
+        assert_eq!(
+            rays_with(2.0, EdgeSamples::Fixed(20), true),
+            (69, 69, false)
+        );
+        let coarse = EdgeSamples::Coarse { n: 20, step: 0.003 };
+        assert_eq!(rays_with(400.0, coarse, true), (12, 12, true));
+        assert_eq!(
+            rays_with(400.0, EdgeSamples::EdgesOnly(20), true),
+            (60, 60, false)
+        );
+    }
+
+    #[test]
+    fn a_border_sample_behind_an_occluder_is_a_discontinuity_and_one_past_it_is_not() {
+        let origin = Vec3::ZERO;
+        let target = Vec3::new(0.0, 0.0, 10.0);
+        let ray = Ray::new(origin, target - origin);
+        let hit = |t: f32| Hit { triangle: 7, t };
+        let rays = [ray, ray, ray, ray];
+        // In front by 1 unit (found), at the target, past it, and nothing at all (found).
+        let hits = [hit(0.9), hit(1.0), hit(1.5), Hit::MISS];
+        let targets = [Some(target); 4];
+        let found = find_discontinuities(&rays, &hits, &targets, 0.01);
+        assert_eq!(found.len(), 2);
+        assert_eq!(found[0].occluder, Some(7));
+        assert_eq!(found[1].occluder, None);
+        // Without a target (an edge sample in the paper's mode) nothing is looked for.
+        assert!(find_discontinuities(&rays, &hits, &[None; 4], 0.01).is_empty());
     }
 }

@@ -37,6 +37,20 @@
 //! round) over a window of at least [`TERMINATION_WINDOW`] rays instead of one round, so that a
 //! small `n_rand` does not stop a bake early; with the default `n_rand` it is the paper's rule.
 //!
+//! # Discontinuities at every border sample (ours)
+//! The paper looks for discontinuities only on the rays to the 9 *vertices* of a border
+//! polygon. In an open city what the cell sees through a gap between two buildings lies
+//! behind the gap, and the found triangles around it are large facades and roofs whose border
+//! vertices are metres away from the gap: reverse sampling aimed at those vertices passes the
+//! gap by, and only random rays through the gap find what it shows (measured on a generated
+//! open city: a facade seen from 3 % of a cell, through a gap 10 mrad wide, was the cell's
+//! largest error, 38 of its 54 error pixels in 600 views, for GVS++ and RAND alike). With
+//! `edge_discontinuities` (the default) every border sample, the `n_abs_edge` points on each
+//! long edge as well as the vertices, is searched, so reverse sampling also aims along the
+//! edges that cross the gap. It reverse-samples several times as many discontinuities, and
+//! converged bakes still cast fewer rays in all (they find more early, so the termination rule
+//! holds sooner). `edge_discontinuities: false` is the paper's.
+//!
 //! Distances: the paper gives Δ_ABS = 0.001 in scene units of km-scale scenes; here both
 //! distances are fractions of the scene's bounding-box diagonal (`delta_abs` 1e-6 ≈ 1 mm on a
 //! 1 km scene), so the defaults work on a bunny and on a city alike.

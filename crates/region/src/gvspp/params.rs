@@ -21,6 +21,12 @@ pub struct GvsPlusPlusParams {
     pub n_rs_area: u32,
     /// Discontinuity threshold (`Δ`) as a fraction of the scene diagonal.
     pub delta_discontinuity: f32,
+    /// Look for discontinuities (section 4.3) at every border sample, the `n_abs_edge` points
+    /// on each long edge of the border polygon as well as its 9 vertices (ours; the paper
+    /// tests the vertices only). On by default: a building seen through a gap between two
+    /// found ones is usually next to neither of the gap's border *vertices*, so the paper's
+    /// reverse sampling never aims at the gap (see `gvspp/mod.rs`). `false` is the paper's.
+    pub edge_discontinuities: bool,
     /// Stop when the rounds of the last [`TERMINATION_WINDOW`] rays found fewer new triangles
     /// than this (`T`).
     pub termination_threshold: usize,
@@ -48,6 +54,7 @@ impl Default for GvsPlusPlusParams {
             n_rs_edge: 20,
             n_rs_area: 20,
             delta_discontinuity: 1e-5,
+            edge_discontinuities: true,
             termination_threshold: 10,
             fixed_rounds: false,
         }
