@@ -22,9 +22,9 @@ use crate::convert::value_error;
 /// points) or `"conservative"` (RV's from-region set: no rays, no budget, never misses a
 /// visible triangle, several times larger; it reads none of the parameters). Parameters:
 ///
-/// - `n_rand`: GVS++/GVS random rays per round (paper: 10,000,000). Under a ray or time
-///   budget GVS++ has no rounds: each batch of 16,384 rays goes to random, border or
-///   reverse sampling, whichever found the most new triangles per ray lately.
+/// - `n_rand`: GVS++/GVS random rays per round (paper: 10,000,000). GVS++ has rounds only
+///   with `fixed_rounds`: otherwise each batch of 16,384 rays goes to random, border,
+///   reverse or neighbour sampling, whichever found the most new triangles per ray lately.
 /// - `n_abs_edge`: GVS++ samples per border-polygon edge (paper: 20).
 /// - `delta_abs`: GVS++/GVS border offset, a fraction of the scene diagonal (1e-6).
 /// - `n_rs_edge`, `n_rs_area`: GVS++ reverse-sampling origins per cell edge and on the
@@ -32,8 +32,8 @@ use crate::convert::value_error;
 /// - `delta`: GVS++/GVS discontinuity threshold, a fraction of the scene diagonal (1e-5).
 /// - `termination`: GVS++/GVS stop after a round finding fewer new triangles (paper: 10).
 /// - `raster_resolution`: RASTER cube-map face resolution (512).
-/// - `fixed_rounds`: GVS++ keeps the paper's rounds under a budget too (sized for a GPU:
-///   on a CPU a budget below one round is then spent on random rays alone).
+/// - `fixed_rounds`: GVS++ runs the paper's rounds (sized for a GPU: on a CPU a budget
+///   below one round is then spent on random rays alone).
 /// - `paper_discontinuities`: GVS++ reverse-samples only the discontinuities at the 9
 ///   vertices of a border polygon, as the paper does (by default every border sample is
 ///   searched: it finds what is seen through gaps between found objects, with fewer rays).

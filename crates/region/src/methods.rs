@@ -32,14 +32,16 @@ pub struct MethodParams {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "clap", derive(clap::Args))]
 pub struct MethodOverrides {
-    /// GVS++/GVS: random rays per round (paper: 10,000,000). Under --rays or --time GVS++ has
-    /// no rounds: each batch of 16,384 rays goes to random, border or reverse sampling,
-    /// whichever found the most new triangles per ray lately (each keeps at least a tenth).
+    /// GVS++/GVS: random rays per round (paper: 10,000,000). GVS++ has rounds only with
+    /// --fixed-rounds: otherwise each batch of 16,384 rays goes to random, border, reverse or
+    /// neighbour sampling, whichever found the most new triangles per ray lately (each keeps at
+    /// least a tenth), and without --rays or --time the bake stops once the last 10^7 rays found
+    /// fewer than --termination new triangles.
     #[cfg_attr(feature = "clap", arg(long))]
     pub n_rand: Option<u64>,
-    /// GVS++: under --rays or --time too, rounds of --n-rand random rays followed by the whole
-    /// exploration queue, as in the paper (sized for a GPU: on a CPU a budget below one round is
-    /// then spent on random rays alone).
+    /// GVS++: rounds of --n-rand random rays, each followed by the whole exploration queue, as in
+    /// the paper (sized for a GPU: on a CPU a budget below one round is then spent on random
+    /// rays alone).
     #[cfg_attr(feature = "clap", arg(long))]
     pub fixed_rounds: bool,
     /// GVS++: samples per border-polygon edge (paper: 20).

@@ -146,6 +146,11 @@ impl Tally {
             .map_or(u64::MAX, |m| m.saturating_sub(self.rays))
     }
 
+    /// True without a ray or time limit.
+    pub fn budget_unlimited(&self) -> bool {
+        self.budget.is_unlimited()
+    }
+
     /// True when the budget is used up.
     pub fn exhausted(&self) -> bool {
         self.rays_left() == 0

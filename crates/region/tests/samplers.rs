@@ -290,6 +290,33 @@ fn small_rounds_do_not_stop_an_unbounded_bake_early() {
     assert_eq!(r.converged, Some(true));
 }
 
+/// A bake to convergence is scheduled by yield too (its neighbour sampling, a kind only that
+/// schedule has, finds triangles), and ends by the termination rule; `fixed_rounds` keeps the
+/// paper's rounds, which have no neighbour sampling.
+#[test]
+fn a_converged_bake_is_scheduled_by_yield_unless_fixed_rounds() {
+    let scene = rooms();
+    let cell = room_cell();
+    let found =
+        |r: &CellResult, name: &str| r.found_by.iter().find(|(n, _)| *n == name).map(|(_, k)| *k);
+    let by_yield = run(&small_gvspp(), &scene, &cell, Budget::default());
+    assert_eq!(by_yield.converged, Some(true));
+    assert!(
+        found(&by_yield, "adjacent").is_some(),
+        "{:?}",
+        by_yield.found_by
+    );
+    let rounds = GvsPlusPlus {
+        params: GvsPlusPlusParams {
+            fixed_rounds: true,
+            ..small_gvspp().params
+        },
+    };
+    let rounds = run(&rounds, &scene, &cell, Budget::default());
+    assert_eq!(rounds.converged, Some(true));
+    assert_eq!(found(&rounds, "adjacent"), None, "{:?}", rounds.found_by);
+}
+
 /// A closed room, rotated off the axes so its f32 vertices are rounded, whose walls are split
 /// in two halves meshed at different resolutions: along each seam the vertices of the finer
 /// half sit on the long edges of the coarser one (T-junctions), off them by the rounding, so

@@ -9,7 +9,8 @@ use serde::Serialize;
 /// Parameters of GVS++ (defaults: the paper's, section 6 and table 1).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct GvsPlusPlusParams {
-    /// Random rays per round (`n_rand`).
+    /// Random rays per round (`n_rand`): with `fixed_rounds` and in the shared-ray bake (the
+    /// schedule by yield has no rounds).
     pub n_rand: u64,
     /// Samples along each long edge of the border polygon (`n_ABSEdge`).
     pub n_abs_edge: u32,
@@ -27,12 +28,12 @@ pub struct GvsPlusPlusParams {
     /// found ones is usually next to neither of the gap's border *vertices*, so the paper's
     /// reverse sampling never aims at the gap (see `gvspp/mod.rs`). `false` is the paper's.
     pub edge_discontinuities: bool,
-    /// Stop when the rounds of the last [`TERMINATION_WINDOW`] rays found fewer new triangles
-    /// than this (`T`).
+    /// Without a budget, stop when the batches (or rounds) of the last [`TERMINATION_WINDOW`]
+    /// rays found fewer new triangles than this (`T`).
     pub termination_threshold: usize,
-    /// Under a budget too, run the paper's rounds (`n_rand` random rays, then the whole
-    /// exploration queue). Off by default: under a budget each batch of [`YIELD_BATCH`] rays
-    /// goes to the kind of ray with the best recent yield (see the module docs).
+    /// Run the paper's rounds (`n_rand` random rays, then the whole exploration queue). Off by
+    /// default: each batch of [`YIELD_BATCH`] rays goes to the kind of ray with the best recent
+    /// yield, under a budget and to convergence alike (see the module docs).
     pub fixed_rounds: bool,
 }
 

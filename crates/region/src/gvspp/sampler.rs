@@ -1,5 +1,5 @@
-//! The per-cell GVS++ sampler: one cell's rays cast alone, in the paper's rounds (without a
-//! budget, or with `fixed_rounds`) or scheduled by yield under a budget (`by_yield.rs`).
+//! The per-cell GVS++ sampler: one cell's rays cast alone, scheduled by yield (`by_yield.rs`),
+//! or in the paper's rounds with `fixed_rounds`.
 //!
 //! Based on: Koch, Wimmer. Guided Visibility Sampling++. 2021, sections 4.1 to 4.4 (the state
 //! it steps is `cell.rs`; the algorithm and its schedules are described in `gvspp/mod.rs`).
@@ -31,9 +31,9 @@ impl Sampler for GvsPlusPlus {
         progress: &(dyn Fn(&ConvergencePoint) + Sync),
     ) -> CellResult {
         let mut tally = Tally::new(ctx.scene.triangle_count(), *budget);
-        // The schedule by yield only under a budget: a bake to convergence keeps the paper's
-        // rounds, whose termination rule (4.4) decides when it has converged.
-        if !self.params.fixed_rounds && !budget.is_unlimited() {
+        // The schedule by yield unless `fixed_rounds`: under a budget until it is spent,
+        // without one until the termination rule (4.4) holds with nothing left to explore.
+        if !self.params.fixed_rounds {
             let mut cell = GvsppCell::new(ctx, &self.params, Rounds::ByYield);
             let rule_held = sample_by_yield(ctx, &mut cell, &mut tally, progress);
             return tally.finish_guided(cell.found.found_by(), rule_held);
