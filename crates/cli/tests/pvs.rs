@@ -356,7 +356,7 @@ fn share_rays_bake_writes_a_file_and_rejects_other_methods() {
     };
     let o = sightline(&args("gvs++"), dir.path());
     assert!(o.status.success(), "{}", stderr(&o));
-    // 30,000 rays cover several rounds of 5,000: no warning about the paper's rounds.
+    // Shared bakes are scheduled by yield: no rounds, no warning about them.
     assert!(!stderr(&o).contains("paper's rounds"), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["cells"], 4);
@@ -366,15 +366,17 @@ fn share_rays_bake_writes_a_file_and_rejects_other_methods() {
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["metadata"]["method"], "gvs++ shared");
     assert_eq!(v["cells"].as_array().unwrap().len(), 4);
-    // A budget below one round is spent on random rays first: the user is told.
+    // With --fixed-rounds, a budget below one round is spent on random rays first: the user
+    // is told.
     let mut short = args("gvs++");
     short[7] = "50000";
     short[14] = "short.pvs";
+    short.push("--fixed-rounds");
     let o = sightline(&short, dir.path());
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
         stderr(&o)
-            .contains("warning: --share-rays runs GVS++ in the paper's rounds of --n-rand 50000"),
+            .contains("warning: --fixed-rounds runs GVS++ in the paper's rounds of --n-rand 50000"),
         "{}",
         stderr(&o)
     );

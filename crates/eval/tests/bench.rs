@@ -248,6 +248,7 @@ fn share_reports_both_bakes_and_a_speedup_per_independent_bake() {
         share_budgets: vec![1000, 3000],
         n_rand: 1000,
         share_n_rand: None,
+        fixed_rounds: false,
         backward: true,
         explore_shared: false,
         eval_cells: 2,

@@ -107,13 +107,17 @@ struct ShareArgs {
         default_value = "50000,100000,200000,400000,800000"
     )]
     share_budgets: Vec<u64>,
-    /// GVS++ random rays per round of the independent bakes.
+    /// GVS++ random rays per round of the independent bakes (with --fixed-rounds).
     #[arg(long, default_value_t = 50_000)]
     n_rand: u64,
     /// Random rays per cell and round of the shared bakes (default: half of --n-rand, as
-    /// each is also cast backward).
+    /// each is also cast backward; with --fixed-rounds).
     #[arg(long)]
     share_n_rand: Option<u64>,
+    /// Both bakes in the paper's rounds (as before the eighteenth session); by default both
+    /// schedule each cell's rays by yield.
+    #[arg(long)]
+    fixed_rounds: bool,
     /// Shared bakes: cast rays forward only.
     #[arg(long)]
     no_backward: bool,
@@ -563,6 +567,7 @@ fn share(args: ShareArgs) -> Result<()> {
         share_budgets: args.share_budgets.clone(),
         n_rand: args.n_rand,
         share_n_rand: args.share_n_rand,
+        fixed_rounds: args.fixed_rounds,
         backward: !args.no_backward,
         explore_shared: args.explore_shared,
         eval_cells: args.eval_cells,

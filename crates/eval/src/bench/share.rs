@@ -37,10 +37,13 @@ pub struct ShareBenchOptions {
     pub budgets: Vec<u64>,
     /// Per-cell ray budgets of the shared bakes (backward casts included).
     pub share_budgets: Vec<u64>,
-    /// GVS++ random rays per round of the independent bakes.
+    /// GVS++ random rays per round of the independent bakes (with `fixed_rounds`).
     pub n_rand: u64,
-    /// Random rays per cell and round of the shared bakes (`None`: half of `n_rand`).
+    /// Random rays per cell and round of the shared bakes (`None`: half of `n_rand`; with
+    /// `fixed_rounds`).
     pub share_n_rand: Option<u64>,
+    /// Both bakes in the paper's rounds; otherwise both are scheduled by yield.
+    pub fixed_rounds: bool,
     /// Shared bakes also cast their random rays backward.
     pub backward: bool,
     /// Shared bakes explore triangles received from other cells' rays too.
@@ -234,6 +237,7 @@ impl Setup<'_> {
         let sampler = GvsPlusPlus {
             params: GvsPlusPlusParams {
                 n_rand: options.n_rand,
+                fixed_rounds: options.fixed_rounds,
                 ..GvsPlusPlusParams::default()
             },
         };
@@ -267,6 +271,7 @@ impl Setup<'_> {
         let params = ShareParams {
             gvspp: GvsPlusPlusParams {
                 n_rand: options.share_n_rand.unwrap_or((options.n_rand / 2).max(1)),
+                fixed_rounds: options.fixed_rounds,
                 ..GvsPlusPlusParams::default()
             },
             backward: options.backward,

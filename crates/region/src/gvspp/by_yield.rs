@@ -262,7 +262,7 @@ fn neighbour_batch(
 
 /// How many items costing up to `per_item` rays each make about one batch, and no more than
 /// `rays_left` allow (at least one, so a batch always makes progress).
-fn batch_items(per_item: usize, rays_left: u64) -> usize {
+pub(crate) fn batch_items(per_item: usize, rays_left: u64) -> usize {
     let per_item = per_item.max(1);
     (YIELD_BATCH / per_item)
         .max(1)

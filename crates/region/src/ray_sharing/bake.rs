@@ -22,6 +22,8 @@ use crate::sampler::{Budget, CellContext, CellResult, ConvergencePoint};
 use crate::segment_cells::SegmentCells;
 use crate::viewcell::ViewCell;
 
+mod by_yield;
+
 /// One cell's state: its GVS++ state, stepped as the per-cell sampler steps it, and the PVS
 /// that its own and other cells' rays fill.
 struct CellState {
@@ -37,6 +39,9 @@ struct CellState {
     /// Stopped random sampling (converged, or no free space for origins).
     converged: bool,
     convergence: Vec<ConvergencePoint>,
+    /// New triangles the cell's own rays found in the last cast (the schedule by yield's
+    /// measure of a batch; a cell has at most one batch in a cast there).
+    own_new: usize,
 }
 
 impl CellState {
@@ -108,10 +113,15 @@ pub fn bake_shared(
         })
         .collect();
     let p = &params.gvspp;
+    let rounds = if p.fixed_rounds {
+        Rounds::PaperPerRound
+    } else {
+        Rounds::ByYield
+    };
     let states: Vec<CellState> = contexts
         .par_iter()
         .map(|ctx| CellState {
-            gvspp: GvsppCell::new(ctx, p, Rounds::PaperPerRound),
+            gvspp: GvsppCell::new(ctx, p, rounds),
             pvs: TriangleSet::with_capacity(scene.triangle_count()),
             pvs_size: 0,
             explored: TriangleSet::with_capacity(scene.triangle_count()),
@@ -119,6 +129,7 @@ pub fn bake_shared(
             round_start: 0,
             converged: false,
             convergence: Vec::new(),
+            own_new: 0,
         })
         .collect();
     let mut bake = Bake {
@@ -138,7 +149,11 @@ pub fn bake_shared(
         round: 0,
         progress,
     };
-    bake.run();
+    if p.fixed_rounds {
+        bake.run();
+    } else {
+        bake.run_by_yield();
+    }
     let seconds = start.elapsed().as_secs_f64();
     let per_cell = seconds / cells.len().max(1) as f64;
     let results = bake
@@ -375,15 +390,22 @@ impl Bake<'_> {
             .states
             .par_iter_mut()
             .zip(by_cell)
-            .map(|(s, list)| {
+            .zip(&self.contexts)
+            .map(|((s, list), ctx)| {
                 let mut shared = 0u64;
+                s.own_new = 0;
                 for c in list {
                     let t = c.discovery.triangle as usize;
                     if !s.pvs.contains(t) {
                         s.pvs.insert(t);
                         s.pvs_size += 1;
+                        // Neighbour sampling (schedule by yield) skips what the cell knows.
+                        if let Some(n) = s.gvspp.neighbours.as_mut() {
+                            n.found(ctx, [c.discovery.triangle]);
+                        }
                         if c.own {
                             s.gvspp.found.credit(phase, 1);
+                            s.own_new += 1;
                         } else {
                             s.gvspp.found.credit(Phase::Shared, 1);
                             shared += 1;

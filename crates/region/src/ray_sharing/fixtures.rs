@@ -31,7 +31,8 @@ pub(super) fn small_params() -> ShareParams {
             n_rand: 20_000,
             n_rs_edge: 4,
             n_rs_area: 8,
-            // The shared schedule runs the paper's rounds (see the module docs).
+            // These fixtures test the paper's rounds (`bake/by_yield.rs` tests the schedule by
+            // yield, the default).
             fixed_rounds: true,
             ..GvsPlusPlusParams::default()
         },

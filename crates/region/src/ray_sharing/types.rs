@@ -12,7 +12,8 @@ use crate::viewcell::ViewCell;
 /// Parameters of a shared bake.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ShareParams {
-    /// The per-cell GVS++ parameters (`n_rand` is the random rays per cell and round).
+    /// The per-cell GVS++ parameters (`n_rand` is the random rays per cell and round, with
+    /// `fixed_rounds`; otherwise cells are scheduled by yield).
     pub gvspp: GvsPlusPlusParams,
     /// Also cast every random ray backward from its origin, doubling the free segment it yields
     /// for two casts (the backward cast is counted in the rays). Guided rays (ABS, RS) are cast
@@ -38,7 +39,8 @@ impl Default for ShareParams {
 /// Running totals of a shared bake, reported after every batch.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct SharedProgress {
-    /// Round (random phase + exploration) in progress, from 0.
+    /// Round (random phase + exploration) in progress, from 0; by yield, the step (one batch
+    /// per cell).
     pub round: usize,
     /// Rays cast so far by all cells.
     pub rays: u64,

@@ -676,13 +676,14 @@ pub(super) fn run_merge(args: MergeArgs) -> Result<()> {
 /// The shared-ray bake runs GVS++ in the paper's rounds even under a budget (the per-cell
 /// bake's schedule by yield is not shared yet): a ray budget below one round, or a time budget,
 /// may go to random rays before border and reverse sampling run. The user should hear it.
-fn warn_shared_rounds_under_budget(args: &BakeArgs, n_rand: u64) {
+fn warn_shared_rounds_under_budget(args: &BakeArgs, params: &sightline_region::GvsPlusPlusParams) {
+    let n_rand = params.n_rand;
     let short = args.rays.is_some_and(|rays| rays < n_rand) || args.time.is_some();
-    if short {
+    if params.fixed_rounds && short {
         eprintln!(
-            "warning: --share-rays runs GVS++ in the paper's rounds of --n-rand {n_rand} random \
+            "warning: --fixed-rounds runs GVS++ in the paper's rounds of --n-rand {n_rand} random \
              rays; under this budget a cell may spend it on random rays before border and reverse \
-             sampling run (without --share-rays, a budgeted bake schedules its rays by yield)"
+             sampling run (without --fixed-rounds, the bake schedules its rays by yield)"
         );
     }
 }
@@ -698,7 +699,7 @@ fn bake_with_shared_rays(args: &BakeArgs, inputs: &BakeInputs<'_>) -> Result<()>
             args.method
         );
     }
-    warn_shared_rounds_under_budget(args, inputs.params.gvspp.n_rand);
+    warn_shared_rounds_under_budget(args, &inputs.params.gvspp);
     // As measured by `bench share` (docs/BENCHMARKS.md): received triangles are explored too.
     let share = ShareParams {
         gvspp: inputs.params.gvspp.clone(),
@@ -715,8 +716,13 @@ fn bake_with_shared_rays(args: &BakeArgs, inputs: &BakeInputs<'_>) -> Result<()>
         args.seed,
         inputs.free_space,
         &|p| {
+            let step = if share.gvspp.fixed_rounds {
+                "round"
+            } else {
+                "step"
+            };
             bar.set_message(format!(
-                "round {}: {} rays, {} cells sampling, mean PVS {:.0}",
+                "{step} {}: {} rays, {} cells sampling, mean PVS {:.0}",
                 p.round,
                 p.rays,
                 p.sampling_cells,
