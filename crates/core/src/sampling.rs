@@ -6,6 +6,8 @@
 //! models using randomized and scrambled Halton sequences. 2003 — the sampling the GVS++ paper
 //! uses for ray origins, directions and evaluation viewpoints.
 
+use std::sync::OnceLock;
+
 use crate::random::SplitMix64;
 
 /// The first primes, the bases of the Halton dimensions.
@@ -13,7 +15,75 @@ pub const PRIMES: [u32; 16] = [2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 4
 
 /// The radical inverse of `index` in `base`: the `index`-th point of the 1D Halton (van der
 /// Corput) sequence, in `[0, 1)`.
-pub fn radical_inverse(mut index: u64, base: u32) -> f64 {
+///
+/// Exact, then rounded once: the digits reversed as an integer `r` over `base^n` (both exact in
+/// `f64` below 2^53), one division. Base 2 is the index's bits reversed; the bases of
+/// [`PRIMES`] reverse several digits per step through a table (at most 4,096 entries), so the
+/// chain of dependent operations is a few steps long. A bake draws a Halton point for every
+/// random ray: the digit-by-digit sum (one `f64` multiply-add and one integer division per
+/// digit, still [`radical_inverse_by_digits`]) took 43 ns per 5-dimensional point, about a
+/// seventh of a GVS++ bake's time. Indices beyond the exact range take the digit-by-digit sum.
+pub fn radical_inverse(index: u64, base: u32) -> f64 {
+    const EXACT: u64 = 1 << 53;
+    // Each base with its chunk (its largest power up to 4,096) as constants, so that the
+    // divisions by the chunk are multiplications.
+    macro_rules! by_chunks {
+        ($($slot:literal: $base:literal, $chunk:literal;)*) => {
+            match base {
+                $($base => by_chunks::<$chunk>(index, digit_table($slot)),)*
+                _ => exact_by_digits(index, base),
+            }
+        };
+    }
+    if base == 2 && index < EXACT {
+        // The bits reversed are the digits reversed; scaling by 2^-64 is exact.
+        return index.reverse_bits() as f64 * (1.0 / 18_446_744_073_709_551_616.0);
+    }
+    by_chunks! {
+        1: 3, 2187; 2: 5, 3125; 3: 7, 2401; 4: 11, 1331; 5: 13, 2197; 6: 17, 289; 7: 19, 361;
+        8: 23, 529; 9: 29, 841; 10: 31, 961; 11: 37, 1369; 12: 41, 1681; 13: 43, 1849;
+        14: 47, 2209; 15: 53, 2809;
+    }
+}
+
+/// [`radical_inverse`] `CHUNK`'s digits at a time through `table` (its base's).
+#[inline]
+fn by_chunks<const CHUNK: u64>(index: u64, table: &DigitTable) -> f64 {
+    const EXACT: u64 = 1 << 53;
+    debug_assert_eq!(u64::from(table.chunk), CHUNK);
+    let (mut rest, mut reversed, mut denominator) = (index, 0u64, 1u64);
+    while rest > 0 {
+        if denominator > EXACT / CHUNK {
+            // The last chunk's padding would leave the exact range: digit by digit.
+            return exact_by_digits(index, table.base);
+        }
+        reversed = reversed * CHUNK + u64::from(table.reversed[(rest % CHUNK) as usize]);
+        rest /= CHUNK;
+        denominator *= CHUNK;
+    }
+    reversed as f64 / denominator as f64
+}
+
+/// [`radical_inverse`] one digit at a time: exact (as an integer over `base^n`, rounded once)
+/// while `base^n` stays below 2^53, else [`radical_inverse_by_digits`].
+fn exact_by_digits(index: u64, base: u32) -> f64 {
+    const EXACT: u64 = 1 << 53;
+    let b = u64::from(base);
+    let (mut rest, mut reversed, mut denominator) = (index, 0u64, 1u64);
+    while rest > 0 {
+        if denominator > EXACT / b {
+            return radical_inverse_by_digits(index, base);
+        }
+        reversed = reversed * b + rest % b;
+        rest /= b;
+        denominator *= b;
+    }
+    reversed as f64 / denominator as f64
+}
+
+/// [`radical_inverse`] summed digit by digit in `f64` (rounded at every step: within a few
+/// ulps of the exact value).
+pub fn radical_inverse_by_digits(mut index: u64, base: u32) -> f64 {
     let b = u64::from(base);
     let inv = 1.0 / base as f64;
     let mut factor = inv;
@@ -24,6 +94,43 @@ pub fn radical_inverse(mut index: u64, base: u32) -> f64 {
         factor *= inv;
     }
     result
+}
+
+/// For one base: every number of `digits` digits (`chunk = base^digits` of them) with its
+/// digits reversed.
+struct DigitTable {
+    base: u32,
+    chunk: u32,
+    reversed: Vec<u32>,
+}
+
+/// The table of [`PRIMES`]`[slot]` (built on first use), with as many digits as keep it at
+/// 4,096 entries at most.
+fn digit_table(slot: usize) -> &'static DigitTable {
+    static TABLES: [OnceLock<DigitTable>; PRIMES.len()] = [const { OnceLock::new() }; PRIMES.len()];
+    TABLES[slot].get_or_init(|| {
+        let base = PRIMES[slot];
+        let (mut chunk, mut digits) = (base, 1);
+        while chunk * base <= 4096 {
+            chunk *= base;
+            digits += 1;
+        }
+        let reversed = (0..chunk)
+            .map(|mut c| {
+                let mut r = 0;
+                for _ in 0..digits {
+                    r = r * base + c % base;
+                    c /= base;
+                }
+                r
+            })
+            .collect();
+        DigitTable {
+            base,
+            chunk,
+            reversed,
+        }
+    })
 }
 
 /// A `D`-dimensional Halton sequence (bases = the first `D` primes) with a random shift per
@@ -76,6 +183,57 @@ mod tests {
     #[test]
     fn radical_inverse_of_zero_is_zero() {
         assert_eq!(radical_inverse(0, 3), 0.0);
+    }
+
+    /// The exact value of the digits reversed rounded once: the digits in `u128` and a
+    /// division in `f64` of the numerator and denominator, where both are exact (`base^n` up
+    /// to 2^53); `None` beyond.
+    fn exact(mut index: u64, base: u32) -> Option<f64> {
+        let b = u128::from(base);
+        let (mut r, mut d) = (0u128, 1u128);
+        while index > 0 {
+            r = r * b + u128::from(index) % b;
+            index /= base as u64;
+            d *= b;
+        }
+        (d <= 1 << 53).then(|| r as f64 / d as f64)
+    }
+
+    #[test]
+    fn radical_inverse_is_the_exact_value_rounded_once() {
+        let mut rng = SplitMix64::new(3);
+        for &base in &PRIMES {
+            // Small indices, every chunk boundary's neighbourhood, and large random ones.
+            let indices = (0..5000u64)
+                .chain((1..12).flat_map(|k| {
+                    let p = u64::from(base).pow(k);
+                    [p - 1, p, p + 1]
+                }))
+                .chain((0..2000).map(|_| rng.next_u64() >> 24));
+            for i in indices {
+                let fast = radical_inverse(i, base);
+                let slow = radical_inverse_by_digits(i, base);
+                // Exact where it can be; beyond, the digit-by-digit sum.
+                assert_eq!(
+                    fast,
+                    exact(i, base).unwrap_or(slow),
+                    "index {i} base {base}"
+                );
+                // In [0, 1) where exact (the digit-by-digit sum may round up to 1).
+                assert!(exact(i, base).is_none() || (0.0..1.0).contains(&fast));
+                // The digit-by-digit sum agrees to within a few ulps.
+                assert!(
+                    (fast - slow).abs() <= 8.0 * f64::EPSILON * fast.max(1e-300),
+                    "{i} {base}: {fast} {slow}"
+                );
+            }
+        }
+        // A base without a table is exact too; beyond the exact range, the digit-by-digit sum.
+        assert_eq!(Some(radical_inverse(12345, 59)), exact(12345, 59));
+        assert_eq!(
+            radical_inverse(u64::MAX, 3),
+            radical_inverse_by_digits(u64::MAX, 3)
+        );
     }
 
     #[test]
