@@ -65,13 +65,16 @@ pub(crate) enum Kind {
     Neighbour = 4,
 }
 
-const KINDS: [Kind; 5] = [
-    Kind::Random,
-    Kind::Border,
-    Kind::Reverse,
-    Kind::Refine,
-    Kind::Neighbour,
-];
+impl Kind {
+    /// Every kind, in the order of their values (the index of their counters).
+    pub(crate) const ALL: [Kind; 5] = [
+        Kind::Random,
+        Kind::Border,
+        Kind::Reverse,
+        Kind::Refine,
+        Kind::Neighbour,
+    ];
+}
 
 /// Each kind casts at least this share of the rays while it has work.
 pub(crate) const FLOOR_SHARE: f64 = 0.1;
@@ -93,7 +96,7 @@ impl YieldScheduler {
     /// first of equals); `None` when no kind has work.
     pub fn choose(&self, has_work: [bool; 5]) -> Option<Kind> {
         let total: u64 = self.rays.iter().sum();
-        let ready = || KINDS.into_iter().filter(|k| has_work[*k as usize]);
+        let ready = || Kind::ALL.into_iter().filter(|k| has_work[*k as usize]);
         ready()
             .find(|k| self.estimate[*k as usize].is_none())
             .or_else(|| {

@@ -486,7 +486,7 @@ impl Bake<'_> {
 mod tests {
     use super::*;
     use crate::ray_sharing::fixtures::{
-        city_cells, face, small_city, small_params, two_cell_scene,
+        city_cells, face, on_threads, small_city, small_params, two_cell_scene,
     };
     use serde_json::json;
     use sightline_core::trace::Bvh;
@@ -549,11 +549,7 @@ mod tests {
         let bvh = Bvh::build(&scene);
         let cells = city_cells(&scene, 4);
         let run = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            pool.install(|| {
+            on_threads(threads, || {
                 bake_shared(
                     &scene,
                     &bvh,

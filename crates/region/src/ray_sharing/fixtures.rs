@@ -8,6 +8,15 @@ use super::types::ShareParams;
 use crate::gvspp::GvsPlusPlusParams;
 use crate::viewcell::ViewCell;
 
+/// `f` run on a pool of `threads` threads (results must not depend on the count).
+pub(super) fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    pool.install(f)
+}
+
 /// A small procedural city.
 pub(super) fn small_city() -> Scene {
     scene::open("procedural:city?seed=3&size=3000", &LoadOptions::default()).unwrap()

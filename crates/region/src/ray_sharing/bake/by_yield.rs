@@ -22,15 +22,6 @@ use crate::guided::Phase;
 use crate::gvspp::{batch_items, Kind, NeighbourSampling, YieldScheduler, YIELD_BATCH};
 use crate::sampler::ConvergencePoint;
 
-/// The five kinds, in the order of [`Kind`]'s values (one bucket of rays each).
-const KINDS: [Kind; 5] = [
-    Kind::Random,
-    Kind::Border,
-    Kind::Reverse,
-    Kind::Refine,
-    Kind::Neighbour,
-];
-
 /// One cell's batch in a bucket: its rays are `start..end` of the bucket's, and border batches
 /// keep the targets searched for discontinuities.
 struct Planned {
@@ -94,7 +85,8 @@ impl Bake<'_> {
                     self.cast_bucket(kind, &mut buckets[kind as usize], &mut schedulers);
                 }
             }
-            for kind in KINDS {
+            // One bucket of rays per kind, in the order of [`Kind::ALL`].
+            for kind in Kind::ALL {
                 self.cast_bucket(kind, &mut buckets[kind as usize], &mut schedulers);
             }
             self.round += 1;
@@ -220,7 +212,7 @@ mod tests {
 
     use super::super::{bake_shared, ShareParams};
     use crate::gvspp::GvsPlusPlusParams;
-    use crate::ray_sharing::fixtures::{city_cells, small_city, two_cell_scene};
+    use crate::ray_sharing::fixtures::{city_cells, on_threads, small_city, two_cell_scene};
     use crate::sampler::Budget;
 
     /// The shared schedule by yield (`fixed_rounds` off), with the fixtures' small reverse
@@ -244,11 +236,7 @@ mod tests {
         let cells = city_cells(&scene, 4);
         let budget = 150_000;
         let run = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            pool.install(|| {
+            on_threads(threads, || {
                 let (p, b) = (by_yield(), Budget::rays(budget));
                 bake_shared(&scene, &bvh, &cells, &p, &b, 9, &|_, _| true, &|_| {})
             })
