@@ -1,6 +1,6 @@
 //! The `device` argument of `bake`: `"cpu"` casts with the scene's BVH, `"gpu"` with
 //! sightline-gpu's ray caster behind its cell-batching caster, as `sightline pvs bake --device
-//! gpu` does (16 cells at once, their rounds cast together; hits bit-identical to the CPU's on
+//! gpu` does (16 cells at once, their ray batches cast together; hits bit-identical to the CPU's on
 //! adapters with `SHADER_F64`, so the same sets). The GPU parts are the cargo feature `gpu`,
 //! on in the package's build (`pyproject.toml`); a build without it refuses `"gpu"` with a
 //! `RuntimeError` naming the feature, as it refuses a missing Vulkan adapter.

@@ -30,7 +30,8 @@ use crate::convert::value_error;
 /// - `n_rs_edge`, `n_rs_area`: GVS++ reverse-sampling origins per cell edge and on the
 ///   cell surface (paper: 20 each).
 /// - `delta`: GVS++/GVS discontinuity threshold, a fraction of the scene diagonal (1e-5).
-/// - `termination`: GVS++/GVS stop after a round finding fewer new triangles (paper: 10).
+/// - `termination`: without a budget GVS++/GVS stop once the last 10^7 rays (GVS: the last
+///   round) found fewer new triangles than this (paper: 10).
 /// - `raster_resolution`: RASTER cube-map face resolution (512).
 /// - `fixed_rounds`: GVS++ runs the paper's rounds (sized for a GPU: on a CPU a budget
 ///   below one round is then spent on random rays alone).

@@ -59,7 +59,8 @@ pub struct MethodOverrides {
     /// GVS++/GVS: discontinuity threshold as a fraction of the scene diagonal (default 1e-5).
     #[cfg_attr(feature = "clap", arg(long))]
     pub delta: Option<f32>,
-    /// GVS++/GVS: stop after a round finding fewer new triangles (paper: 10).
+    /// GVS++/GVS: without a budget, stop once the last 10^7 rays (GVS: the last round) found
+    /// fewer new triangles than this (paper: 10).
     #[cfg_attr(feature = "clap", arg(long))]
     pub termination: Option<usize>,
     /// GVS++: reverse-sample only the discontinuities found at the 9 vertices of a border

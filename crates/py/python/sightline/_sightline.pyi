@@ -186,7 +186,7 @@ def bake(
     inside closed geometry (8x8x8 voxels a cell; ``pvs bake --help``, ``--origins-anywhere``).
 
     ``device="gpu"`` casts the rays with the GPU ray caster, as ``pvs bake --device gpu``
-    (16 cells at once, their rounds cast together): the same sets as on the CPU for the same
+    (16 cells at once, their ray batches cast together): the same sets as on the CPU for the same
     seed and rays where the adapter has ``SHADER_F64`` (lavapipe, NVIDIA, AMD; else a
     ``RuntimeWarning``). ``RuntimeError`` when there is no Vulkan adapter or the package was
     built without the cargo feature ``gpu``; ``ValueError`` for another device name.

@@ -135,12 +135,12 @@ pub(crate) struct BakeArgs {
     #[arg(long, default_value = "gvs++",
         value_parser = clap::builder::PossibleValuesParser::new(BAKE_METHODS))]
     pub(crate) method: String,
-    /// Ray budget per cell (RASTER counts 6 R² per cube map). Under --rays or --time, GVS++
-    /// casts batches of 16,384 rays, each of the kind (random, border or reverse sampling)
-    /// that lately found the most new triangles per ray, and keeps the budget to within one
-    /// exploration step (about 340 rays at the defaults). Without --rays and --time, GVS++
-    /// and GVS run the paper's rounds until their own termination rule, RAND casts 10M rays,
-    /// RASTER renders 64 cube maps. A GVS/GVS++ cell whose budget runs out before its
+    /// Ray budget per cell (RASTER counts 6 R² per cube map). GVS++ casts batches of 16,384
+    /// rays, each of the kind (random, border, reverse or neighbour sampling) that lately
+    /// found the most new triangles per ray, and keeps a budget to within one exploration step
+    /// (about 340 rays at the defaults). Without --rays and --time, GVS++ runs until the last
+    /// 10^7 rays found fewer than --termination new triangles, GVS its paper's rounds until
+    /// its rule holds, RAND casts 10M rays, RASTER renders 64 cube maps. A GVS/GVS++ cell whose budget runs out before its
     /// termination rule held is not converged: the bake warns and the file records
     /// `converged: false` for it. How much is enough depends on the cell: a room-sized cell of
     /// an indoor level converges after tens of millions of rays (55M for one of the house
@@ -161,9 +161,9 @@ pub(crate) struct BakeArgs {
     /// ray budget. `--gpu-cells` cells bake at once and their rays go to the GPU together.
     #[arg(long, value_enum, default_value_t = Device::Cpu)]
     pub(crate) device: Device,
-    /// With `--device gpu`: cells baked at once (on as many threads), whose rounds of rays
+    /// With `--device gpu`: cells baked at once (on as many threads), whose batches of rays
     /// are gathered into one GPU batch, so that many small cells still give the GPU large
-    /// batches (the sets are the same for any value). 1: each cell's rounds go alone, cells
+    /// batches (the sets are the same for any value). 1: each cell's batches go alone, cells
     /// on the bake's threads (`--threads`).
     #[arg(long, value_name = "N", default_value_t = 16,
           value_parser = clap::value_parser!(u16).range(1..=1024))]
