@@ -1,11 +1,11 @@
 //! [`CellBatchingCaster`]: casts the rays of several concurrent callers (the cells of a
 //! many-cell bake) as one batch, so a GPU caster gets batches large enough to keep it busy.
 //!
-//! Why: a GVS++ cell casts in rounds (random rays, then border and reverse sampling of what
-//! they found, 4.1 to 4.3), and the rounds of a small cell are small: a few thousand rays of
-//! border sampling, a few hundred of reverse sampling. Cast alone, each round is one GPU
-//! submission with its fixed cost (upload, dispatch, fence wait, readback) and the GPU idles
-//! while the cell prepares its next round. Here many cells run at once (a pool of
+//! Why: a GVS++ cell casts in batches (of at most 16,384 rays, each of one kind: random, border,
+//! reverse or neighbour sampling; with `fixed_rounds`, the paper's rounds, whose exploration
+//! steps of a small cell are a few thousand rays of border sampling, a few hundred of reverse
+//! sampling). Cast alone, each batch is one GPU submission with its fixed cost (upload,
+//! dispatch, fence wait, readback) and the GPU idles while the cell prepares its next one. Here many cells run at once (a pool of
 //! [`CellBatchingOptions::cells`] threads, [`CellBatchingCaster::install`]) and their calls
 //! meet in one queue; a dispatcher thread concatenates the pending calls and casts them with
 //! the inner caster in one call, then hands each caller its slice of the hits.
@@ -16,9 +16,9 @@
 //! gives the per-cell bake's sets exactly.
 //!
 //! When to dispatch: as soon as as many calls are pending as went into the last batch (the
-//! cells that are baking come back with their next round), or
+//! cells that are baking come back with their next batch), or
 //! [`CellBatchingOptions::max_rays`] rays are pending, or the oldest pending call has waited
-//! [`CellBatchingOptions::linger`] (a cell that finished or is still preparing its round does
+//! [`CellBatchingOptions::linger`] (a cell that finished or is still preparing its batch does
 //! not hold the others longer than that). The first batch waits for `cells` calls.
 //!
 //! Based on: Koch, Wimmer. Guided Visibility Sampling++. 2021, section 4 (the rounds whose
