@@ -24,13 +24,12 @@ pub const PRIMES: [u32; 16] = [2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 4
 /// digit, still [`radical_inverse_by_digits`]) took 43 ns per 5-dimensional point, about a
 /// seventh of a GVS++ bake's time. Indices beyond the exact range take the digit-by-digit sum.
 pub fn radical_inverse(index: u64, base: u32) -> f64 {
-    const EXACT: u64 = 1 << 53;
-    // Each base with its chunk (its largest power up to 4,096) as constants, so that the
-    // divisions by the chunk are multiplications.
+    // Each base of `PRIMES` but 2 with its chunk as a constant, so that the divisions by the
+    // chunk are multiplications.
     macro_rules! by_chunks {
-        ($($slot:literal: $base:literal, $chunk:literal;)*) => {
+        ($($base:literal)*) => {
             match base {
-                $($base => by_chunks::<$chunk>(index, digit_table($slot)),)*
+                $($base => by_chunks::<{ chunk_of($base) as u64 }>(index, digit_table($base)),)*
                 _ => exact_by_digits(index, base),
             }
         };
@@ -39,18 +38,24 @@ pub fn radical_inverse(index: u64, base: u32) -> f64 {
         // The bits reversed are the digits reversed; scaling by 2^-64 is exact.
         return index.reverse_bits() as f64 * (1.0 / 18_446_744_073_709_551_616.0);
     }
-    by_chunks! {
-        1: 3, 2187; 2: 5, 3125; 3: 7, 2401; 4: 11, 1331; 5: 13, 2197; 6: 17, 289; 7: 19, 361;
-        8: 23, 529; 9: 29, 841; 10: 31, 961; 11: 37, 1369; 12: 41, 1681; 13: 43, 1849;
-        14: 47, 2209; 15: 53, 2809;
+    by_chunks!(3 5 7 11 13 17 19 23 29 31 37 41 43 47 53)
+}
+
+/// Numerators and denominators below this are exact in `f64`.
+const EXACT: u64 = 1 << 53;
+
+/// How many numbers a digit table of `base` holds: its largest power up to 4,096.
+const fn chunk_of(base: u32) -> u32 {
+    let mut chunk = base;
+    while chunk * base <= 4096 {
+        chunk *= base;
     }
+    chunk
 }
 
 /// [`radical_inverse`] `CHUNK`'s digits at a time through `table` (its base's).
 #[inline]
 fn by_chunks<const CHUNK: u64>(index: u64, table: &DigitTable) -> f64 {
-    const EXACT: u64 = 1 << 53;
-    debug_assert_eq!(u64::from(table.chunk), CHUNK);
     let (mut rest, mut reversed, mut denominator) = (index, 0u64, 1u64);
     while rest > 0 {
         if denominator > EXACT / CHUNK {
@@ -67,7 +72,6 @@ fn by_chunks<const CHUNK: u64>(index: u64, table: &DigitTable) -> f64 {
 /// [`radical_inverse`] one digit at a time: exact (as an integer over `base^n`, rounded once)
 /// while `base^n` stays below 2^53, else [`radical_inverse_by_digits`].
 fn exact_by_digits(index: u64, base: u32) -> f64 {
-    const EXACT: u64 = 1 << 53;
     let b = u64::from(base);
     let (mut rest, mut reversed, mut denominator) = (index, 0u64, 1u64);
     while rest > 0 {
@@ -96,25 +100,22 @@ pub fn radical_inverse_by_digits(mut index: u64, base: u32) -> f64 {
     result
 }
 
-/// For one base: every number of `digits` digits (`chunk = base^digits` of them) with its
+/// For one base: every number of as many digits as [`chunk_of`] the base allows, with its
 /// digits reversed.
 struct DigitTable {
     base: u32,
-    chunk: u32,
     reversed: Vec<u32>,
 }
 
-/// The table of [`PRIMES`]`[slot]` (built on first use), with as many digits as keep it at
-/// 4,096 entries at most.
-fn digit_table(slot: usize) -> &'static DigitTable {
+/// The table of `base`, one of [`PRIMES`] (built on first use; [`radical_inverse`] asks only
+/// for those).
+fn digit_table(base: u32) -> &'static DigitTable {
     static TABLES: [OnceLock<DigitTable>; PRIMES.len()] = [const { OnceLock::new() }; PRIMES.len()];
+    debug_assert!(PRIMES.contains(&base), "no digit table for base {base}");
+    let slot = PRIMES.iter().position(|&p| p == base).unwrap_or(0);
     TABLES[slot].get_or_init(|| {
-        let base = PRIMES[slot];
-        let (mut chunk, mut digits) = (base, 1);
-        while chunk * base <= 4096 {
-            chunk *= base;
-            digits += 1;
-        }
+        let chunk = chunk_of(base);
+        let digits = chunk.ilog(base);
         let reversed = (0..chunk)
             .map(|mut c| {
                 let mut r = 0;
@@ -125,11 +126,7 @@ fn digit_table(slot: usize) -> &'static DigitTable {
                 r
             })
             .collect();
-        DigitTable {
-            base,
-            chunk,
-            reversed,
-        }
+        DigitTable { base, reversed }
     })
 }
 

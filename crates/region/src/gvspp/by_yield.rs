@@ -41,6 +41,9 @@
 //!
 //! [`TERMINATION_WINDOW`]: super::TERMINATION_WINDOW
 
+use glam::Vec3;
+use sightline_core::{Hit, Ray};
+
 use crate::guided::Phase;
 use crate::rays::{cast, discover};
 use crate::sampler::{CellContext, ConvergencePoint, Tally};
@@ -66,6 +69,16 @@ pub(crate) enum Kind {
 }
 
 impl Kind {
+    /// The phase a kind's finds are credited to.
+    pub(crate) fn phase(self) -> Phase {
+        match self {
+            Kind::Random => Phase::Random,
+            Kind::Border | Kind::Refine => Phase::Abs,
+            Kind::Reverse => Phase::Rs,
+            Kind::Neighbour => Phase::Adjacent,
+        }
+    }
+
     /// Every kind, in the order of their values (the index of their counters).
     pub(crate) const ALL: [Kind; 5] = [
         Kind::Random,
@@ -146,35 +159,26 @@ pub(crate) fn sample_by_yield(
 ) -> bool {
     let mut scheduler = YieldScheduler::default();
     let mut rule_held = false;
-    // Border, reverse, refinement and neighbour work waiting (random rays always have work).
-    let waiting = |c: &GvsppCell| {
-        [
-            !c.queue.is_empty(),
-            !c.pending.is_empty(),
-            !c.refine.is_empty(),
-            c.neighbours.as_ref().is_some_and(|n| n.has_work()),
-        ]
-    };
     while !tally.exhausted() {
-        let [border, reverse, refine, neighbour] = waiting(cell);
-        let has_work = [true, border, reverse, refine, neighbour];
-        let Some(kind) = scheduler.choose(has_work) else {
+        let Some(kind) = scheduler.choose(cell.work()) else {
             break;
         };
         let before = tally.rays;
-        let new = match kind {
-            Kind::Random => match random_batch(ctx, cell, tally, progress) {
+        let new = if kind == Kind::Random {
+            match random_batch(ctx, cell, tally, progress) {
                 Some(new) => new,
                 None => break,
-            },
-            Kind::Border => border_batch(ctx, cell, tally, progress),
-            Kind::Reverse => reverse_batch(ctx, cell, tally, progress),
-            Kind::Refine => refine_batch(ctx, cell, tally, progress),
-            Kind::Neighbour => neighbour_batch(ctx, cell, tally, progress),
+            }
+        } else {
+            let is_found = |id: u32| tally.pvs.contains(id);
+            let (rays, targets) = guided_batch(ctx, cell, kind, tally.rays_left(), is_found);
+            let (hits, new) = cast_and_credit(ctx, cell, tally, &rays, kind.phase(), progress);
+            let discontinuities = cell.discontinuities(&rays, &hits, &targets);
+            cell.pending.extend(discontinuities);
+            new
         };
         scheduler.record(kind, (tally.rays - before) as usize, new);
-        let idle = !waiting(cell).contains(&true);
-        rule_held |= cell.batch_done(tally.rays - before, new) && idle;
+        rule_held |= cell.batch_done(tally.rays - before, new) && cell.idle();
         // Without a budget the rule ends the bake; under one the budget does (so that
         // comparisons at equal rays are fair).
         if rule_held && tally.budget_unlimited() {
@@ -200,72 +204,48 @@ fn random_batch(
     Some(n)
 }
 
-/// Border sampling (4.2) of the next queued triangles, about one batch of rays and no more
-/// than the budget allows; their discontinuities join the waiting ones. The number of new
-/// triangles.
-fn border_batch(
+/// The rays of one batch of a guided `kind` (not random), about [`YIELD_BATCH`] of them and
+/// no more than `rays_left` allow (to within one item), with the targets of the rays searched
+/// for discontinuities (border kinds; empty for the others). Both drivers of the schedule by
+/// yield take their batches here: this per-cell sampler and the shared-ray bake.
+/// - border sampling (4.2) of the next queued triangles, coarse (see the module docs);
+/// - refinement: the rest of the paper's edge samples of the next coarsely sampled triangles;
+/// - reverse sampling (4.3) of the oldest waiting discontinuities;
+/// - neighbour sampling of the next waiting neighbours that `is_found` does not know.
+pub(crate) fn guided_batch(
     ctx: &CellContext<'_>,
     cell: &mut GvsppCell,
-    tally: &mut Tally,
-    progress: &(dyn Fn(&ConvergencePoint) + Sync),
-) -> usize {
-    let take = batch_items(cell.abs_rays_per_triangle(), tally.rays_left());
-    let (rays, targets) = cell.coarse_abs_rays(ctx, take);
-    let (hits, new) = cast_and_credit(ctx, cell, tally, &rays, Phase::Abs, progress);
-    let discontinuities = cell.discontinuities(&rays, &hits, &targets);
-    cell.pending.extend(discontinuities);
-    new
-}
-
-/// The rest of the paper's border edge samples (4.2) of the next coarsely sampled triangles,
-/// about one batch of rays and no more than the budget allows. The number of new triangles.
-fn refine_batch(
-    ctx: &CellContext<'_>,
-    cell: &mut GvsppCell,
-    tally: &mut Tally,
-    progress: &(dyn Fn(&ConvergencePoint) + Sync),
-) -> usize {
-    let take = batch_items(cell.abs_rays_per_triangle(), tally.rays_left());
-    let (rays, targets) = cell.refine_abs_rays(ctx, take);
-    let (hits, new) = cast_and_credit(ctx, cell, tally, &rays, Phase::Abs, progress);
-    let discontinuities = cell.discontinuities(&rays, &hits, &targets);
-    cell.pending.extend(discontinuities);
-    new
-}
-
-/// Reverse sampling (4.3) of the oldest waiting discontinuities, about one batch of rays and no
-/// more than the budget allows. The number of new triangles.
-fn reverse_batch(
-    ctx: &CellContext<'_>,
-    cell: &mut GvsppCell,
-    tally: &mut Tally,
-    progress: &(dyn Fn(&ConvergencePoint) + Sync),
-) -> usize {
-    let size = batch_items(cell.rs_rays_per_discontinuity(), tally.rays_left());
-    let group: Vec<_> = cell.pending.drain(..size.min(cell.pending.len())).collect();
-    let rays = cell.rs_rays(ctx, &group);
-    cast_and_credit(ctx, cell, tally, &rays, Phase::Rs, progress).1
-}
-
-/// Neighbour sampling of the next waiting neighbours, about one batch of rays and no more than
-/// the budget allows. The number of new triangles.
-fn neighbour_batch(
-    ctx: &CellContext<'_>,
-    cell: &mut GvsppCell,
-    tally: &mut Tally,
-    progress: &(dyn Fn(&ConvergencePoint) + Sync),
-) -> usize {
-    let take = batch_items(NeighbourSampling::rays_per_triangle(), tally.rays_left());
-    let Some(neighbours) = cell.neighbours.as_mut() else {
-        return 0;
-    };
-    let rays = neighbours.rays(ctx, take, |id| tally.pvs.contains(id));
-    cast_and_credit(ctx, cell, tally, &rays, Phase::Adjacent, progress).1
+    kind: Kind,
+    rays_left: u64,
+    is_found: impl Fn(u32) -> bool,
+) -> (Vec<Ray>, Vec<Option<Vec3>>) {
+    match kind {
+        Kind::Random => (Vec::new(), Vec::new()),
+        Kind::Border => {
+            let take = batch_items(cell.abs_rays_per_triangle(), rays_left);
+            cell.coarse_abs_rays(ctx, take)
+        }
+        Kind::Refine => {
+            let take = batch_items(cell.abs_rays_per_triangle(), rays_left);
+            cell.refine_abs_rays(ctx, take)
+        }
+        Kind::Reverse => {
+            let size = batch_items(cell.rs_rays_per_discontinuity(), rays_left);
+            let group: Vec<_> = cell.pending.drain(..size.min(cell.pending.len())).collect();
+            (cell.rs_rays(ctx, &group), Vec::new())
+        }
+        Kind::Neighbour => {
+            let take = batch_items(NeighbourSampling::rays_per_triangle(), rays_left);
+            let rays =
+                (cell.neighbours.as_mut()).map_or_else(Vec::new, |n| n.rays(ctx, take, is_found));
+            (rays, Vec::new())
+        }
+    }
 }
 
 /// How many items costing up to `per_item` rays each make about one batch, and no more than
 /// `rays_left` allow (at least one, so a batch always makes progress).
-pub(crate) fn batch_items(per_item: usize, rays_left: u64) -> usize {
+fn batch_items(per_item: usize, rays_left: u64) -> usize {
     let per_item = per_item.max(1);
     (YIELD_BATCH / per_item)
         .max(1)
@@ -278,10 +258,10 @@ fn cast_and_credit(
     ctx: &CellContext<'_>,
     cell: &mut GvsppCell,
     tally: &mut Tally,
-    rays: &[sightline_core::Ray],
+    rays: &[Ray],
     phase: Phase,
     progress: &(dyn Fn(&ConvergencePoint) + Sync),
-) -> (Vec<sightline_core::Hit>, usize) {
+) -> (Vec<Hit>, usize) {
     let hits = cast(ctx.caster, rays);
     let new = discover(&tally.pvs, rays, &hits);
     let n = new.len();

@@ -233,6 +233,23 @@ impl GvsppCell {
     pub fn batch_done(&mut self, rays: u64, new: usize) -> bool {
         self.termination.round_done(rays, new)
     }
+
+    /// Which kinds of batch of the schedule by yield have work, indexed by the kind's value
+    /// (random, border, reverse, refinement, neighbour; random rays always have work).
+    pub fn work(&self) -> [bool; 5] {
+        [
+            true,
+            !self.queue.is_empty(),
+            !self.pending.is_empty(),
+            !self.refine.is_empty(),
+            self.neighbours.as_ref().is_some_and(|n| n.has_work()),
+        ]
+    }
+
+    /// Nothing waits for exploration: only random rays have work.
+    pub fn idle(&self) -> bool {
+        !self.work()[1..].contains(&true)
+    }
 }
 
 /// How many steps costing `cost` rays each fit in `rays_left` (at least one, so a step always

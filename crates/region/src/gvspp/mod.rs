@@ -75,8 +75,7 @@ mod neighbours;
 mod params;
 mod sampler;
 
-pub(crate) use by_yield::{batch_items, Kind, YieldScheduler};
+pub(crate) use by_yield::{guided_batch, Kind, YieldScheduler};
 pub(crate) use cell::{GvsppCell, Rounds};
-pub(crate) use neighbours::NeighbourSampling;
 pub use params::{GvsPlusPlusParams, GvsPlusPlusParamsError, TERMINATION_WINDOW, YIELD_BATCH};
 pub use sampler::GvsPlusPlus;

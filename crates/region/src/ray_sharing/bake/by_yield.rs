@@ -18,8 +18,7 @@ use glam::Vec3;
 use sightline_core::{Hit, Ray};
 
 use super::{Bake, SHARED_BATCH};
-use crate::guided::Phase;
-use crate::gvspp::{batch_items, Kind, NeighbourSampling, YieldScheduler, YIELD_BATCH};
+use crate::gvspp::{guided_batch, Kind, YieldScheduler, YIELD_BATCH};
 use crate::sampler::ConvergencePoint;
 
 /// One cell's batch in a bucket: its rays are `start..end` of the bucket's, and border batches
@@ -37,16 +36,6 @@ struct Bucket {
     owners: Vec<u32>,
     rays: Vec<Ray>,
     planned: Vec<Planned>,
-}
-
-/// The phase a kind's finds are credited to.
-fn phase_of(kind: Kind) -> Phase {
-    match kind {
-        Kind::Random => Phase::Random,
-        Kind::Border | Kind::Refine => Phase::Abs,
-        Kind::Reverse => Phase::Rs,
-        Kind::Neighbour => Phase::Adjacent,
-    }
 }
 
 impl Bake<'_> {
@@ -108,49 +97,21 @@ impl Bake<'_> {
         let random_cost = self.random_cost();
         let ctx = &self.contexts[i];
         let s = &mut self.states[i];
-        let cell = &mut s.gvspp;
-        let has_work = [
-            true,
-            !cell.queue.is_empty(),
-            !cell.pending.is_empty(),
-            !cell.refine.is_empty(),
-            cell.neighbours.as_ref().is_some_and(|n| n.has_work()),
-        ];
-        let kind = scheduler.choose(has_work)?;
-        let (rays, targets) = match kind {
-            Kind::Random => {
-                let n = (YIELD_BATCH as u64).min(rays_left / random_cost) as usize;
-                let rays = cell.random.next_batch(ctx, n);
-                if rays.is_empty() {
-                    // A whole batch without an allowed origin: no free space in this cell.
-                    s.converged = true;
-                    return None;
-                }
-                (rays, Vec::new())
-            }
-            Kind::Border => {
-                let take = batch_items(cell.abs_rays_per_triangle(), rays_left);
-                cell.coarse_abs_rays(ctx, take)
-            }
-            Kind::Refine => {
-                let take = batch_items(cell.abs_rays_per_triangle(), rays_left);
-                cell.refine_abs_rays(ctx, take)
-            }
-            Kind::Reverse => {
-                let size = batch_items(cell.rs_rays_per_discontinuity(), rays_left);
-                let group: Vec<_> = cell.pending.drain(..size.min(cell.pending.len())).collect();
-                (cell.rs_rays(ctx, &group), Vec::new())
-            }
-            Kind::Neighbour => {
-                let take = batch_items(NeighbourSampling::rays_per_triangle(), rays_left);
-                let pvs = &s.pvs;
-                let rays = (cell.neighbours.as_mut()).map_or_else(Vec::new, |n| {
-                    n.rays(ctx, take, |id| pvs.contains(id as usize))
-                });
-                (rays, Vec::new())
-            }
-        };
-        Some((kind, rays, targets))
+        let kind = scheduler.choose(s.gvspp.work())?;
+        if kind != Kind::Random {
+            let pvs = &s.pvs;
+            let is_found = |id: u32| pvs.contains(id as usize);
+            let (rays, targets) = guided_batch(ctx, &mut s.gvspp, kind, rays_left, is_found);
+            return Some((kind, rays, targets));
+        }
+        let n = (YIELD_BATCH as u64).min(rays_left / random_cost) as usize;
+        let rays = s.gvspp.random.next_batch(ctx, n);
+        if rays.is_empty() {
+            // A whole batch without an allowed origin: no free space in this cell.
+            s.converged = true;
+            return None;
+        }
+        Some((kind, rays, Vec::new()))
     }
 
     /// Casts and shares `bucket`'s rays, then gives each cell in it its batch's outcome: the
@@ -167,15 +128,13 @@ impl Bake<'_> {
         let hits: Vec<Hit> = if bucket.rays.is_empty() {
             Vec::new()
         } else {
-            self.cast_and_share(&bucket.owners, &bucket.rays, phase_of(kind))
+            self.cast_and_share(&bucket.owners, &bucket.rays, kind.phase())
         };
         let unlimited = self.budget.is_unlimited();
         let seconds = self.start.elapsed().as_secs_f64();
         for (p, rays_before) in bucket.planned.drain(..).zip(before) {
-            let (rays, hits) = (
-                &bucket.rays[p.start..p.end],
-                &hits[p.start.min(hits.len())..p.end.min(hits.len())],
-            );
+            // (Without rays there is no cast and no hit: every range is empty then.)
+            let (rays, hits) = (&bucket.rays[p.start..p.end], &hits[p.start..p.end]);
             let s = &mut self.states[p.cell];
             // Each cell has at most one batch in a cast, so `own_new` is this batch's.
             let new = if rays.is_empty() { 0 } else { s.own_new };
@@ -185,13 +144,8 @@ impl Bake<'_> {
                 s.gvspp.pending.extend(found);
             }
             schedulers[p.cell].record(kind, cast as usize, new);
-            let cell = &s.gvspp;
-            let idle = cell.queue.is_empty()
-                && cell.pending.is_empty()
-                && cell.refine.is_empty()
-                && !cell.neighbours.as_ref().is_some_and(|n| n.has_work());
             let rule = s.gvspp.batch_done(cast, new);
-            if unlimited && rule && idle {
+            if unlimited && rule && s.gvspp.idle() {
                 s.converged = true;
             }
             s.convergence.push(ConvergencePoint {
