@@ -55,6 +55,8 @@ pub(crate) struct RandomRays {
     directions: Directions,
     /// Index of the next ray of the sequence: later phases continue where earlier ones stopped.
     next: u64,
+    /// Origins drawn since the last batch with an allowed one (all of them refused).
+    refused_in_a_row: u64,
 }
 
 impl RandomRays {
@@ -64,6 +66,7 @@ impl RandomRays {
             halton: ShiftedHalton::new(seed),
             directions: Directions::for_cell(cell, scene),
             next: 0,
+            refused_in_a_row: 0,
         }
     }
 
@@ -104,12 +107,18 @@ impl RandomRays {
     pub fn next_batch(&mut self, ctx: &CellContext<'_>, count: usize) -> Vec<Ray> {
         let rays = self.batch(ctx, self.next, count);
         self.next += count as u64;
+        self.refused_in_a_row = if rays.is_empty() {
+            self.refused_in_a_row + count as u64
+        } else {
+            0
+        };
         rays
     }
 
     /// One random-sampling phase (section 4.1): up to `n_rays` more rays of the sequence,
     /// within the budget of `tally`, in batches; returns the newly found triangles in ray
-    /// order, or `None` when a whole batch had no allowed origin (the cell has no free space).
+    /// order, or `None` when [`FREE_SPACE_PROBE`] origins in a row were refused (the cell has
+    /// no free space).
     pub fn sample_round(
         &mut self,
         ctx: &CellContext<'_>,
@@ -124,10 +133,12 @@ impl RandomRays {
             let rays = self.next_batch(ctx, n);
             remaining -= n as u64;
             if rays.is_empty() {
-                // No allowed origin in a batch of [`FREE_SPACE_PROBE`] or more: the cell has
-                // no free space. A smaller batch (the last rays of a budget) may just have
-                // drawn its few origins in the cell's closed part: the sequence moves on.
-                if n >= FREE_SPACE_PROBE {
+                // No allowed origin among the last [`FREE_SPACE_PROBE`] or more, in this batch
+                // or the small ones before it: the cell has no free space. A smaller run (the
+                // last rays of a budget) may just have drawn its few origins in the cell's
+                // closed part: the sequence moves on. (Counting per batch alone, a budget
+                // below the probe never ended in a cell without free space.)
+                if self.refused_in_a_row >= FREE_SPACE_PROBE as u64 {
                     return None;
                 }
                 continue;

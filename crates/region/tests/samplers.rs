@@ -490,3 +490,27 @@ fn reverse_sampling_at_border_samples_finds_what_a_gap_shows() {
         .map_or(0, |(_, k)| *k);
     assert!(found(&ours) && by_rs > 0, "{:?}", ours.found_by);
 }
+
+/// A cell without free space ends its bake with no rays and an empty set, also under a budget
+/// below one free-space probe (256 origins): its small random batches, each with every origin
+/// refused, count up until they have probed enough. (They used to be judged one at a time,
+/// and the bake never ended.)
+#[test]
+fn a_cell_without_free_space_ends_under_a_budget_below_the_probe() {
+    let scene = rooms();
+    let cell = room_cell();
+    let bvh = Bvh::build(&scene);
+    let closed = |_: Vec3| false;
+    let ctx = CellContext {
+        scene: &scene,
+        caster: &bvh,
+        cell: &cell,
+        seed: 7,
+        free_space: Some(&closed),
+    };
+    for budget in [Budget::rays(100), Budget::rays(10_000), Budget::default()] {
+        let r = GvsPlusPlus::default().sample(&ctx, &budget, &|_| {});
+        assert_eq!(r.rays, 0, "{budget:?}");
+        assert_eq!(r.visible.count_ones(..), 0);
+    }
+}
