@@ -92,6 +92,31 @@ pub enum GpuError {
     /// Starting the threads of a cell-batching caster failed.
     #[error("starting the batching threads failed: {0}")]
     Threads(String),
+    /// The ray-query caster on a device without `EXPERIMENTAL_RAY_QUERY` (the adapter has no
+    /// `VK_KHR_ray_query`, or the device was requested without the feature).
+    #[error(
+        "adapter {adapter:?} offers no hardware ray queries (Vulkan VK_KHR_ray_query and \
+         acceleration structures, wgpu's EXPERIMENTAL_RAY_QUERY); Mesa's lavapipe has them \
+         from Mesa 24.1 (Debian 12: from bookworm-backports), or use the compute-shader caster"
+    )]
+    NoRayQuery {
+        /// The adapter's name.
+        adapter: String,
+    },
+    /// The driver refused to build an acceleration structure (a bug, or a driver's).
+    #[error("building the acceleration structures failed: {0}")]
+    AccelerationStructure(String),
+    /// More triangles than one bottom-level acceleration structure of the adapter holds.
+    #[error(
+        "{triangles} triangles; this adapter's acceleration structures hold at most {limit} \
+         (max_blas_primitive_count)"
+    )]
+    TooManyTriangles {
+        /// Triangles the scene has.
+        triangles: usize,
+        /// The adapter's limit.
+        limit: u32,
+    },
 }
 
 /// Checks that `info` describes a Vulkan adapter.
@@ -159,8 +184,11 @@ pub fn pick_adapter(adapters: Vec<Adapter>) -> Option<Adapter> {
 ///
 /// Only `Backends::VULKAN` is enumerated and the chosen adapter's backend is checked with
 /// [`check_vulkan`]. Occlusion queries are part of core WebGPU, so no optional feature or
-/// raised limit is requested and any conformant Vulkan 1.x driver works. Set
-/// `SIGHTLINE_GPU_ADAPTER` to part of an adapter's name to choose among several.
+/// raised limit is required and any conformant Vulkan 1.x driver works. Where the adapter has
+/// them, `SHADER_F64` (exact hits of [`GpuRayCaster`](crate::GpuRayCaster)) and
+/// `EXPERIMENTAL_RAY_QUERY` with the adapter's acceleration-structure limits
+/// ([`RayQueryCaster`](crate::RayQueryCaster)) are requested, and the adapter's buffer-size
+/// limits. Set `SIGHTLINE_GPU_ADAPTER` to part of an adapter's name to choose among several.
 pub fn vulkan_device() -> Result<(Device, Queue, AdapterInfo), GpuError> {
     let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
     desc.backends = Backends::VULKAN;
@@ -172,14 +200,35 @@ pub fn vulkan_device() -> Result<(Device, Queue, AdapterInfo), GpuError> {
     // Optional: f64 makes the ray caster's hits bit-exact (`ray_cast.rs`), and the adapter's
     // own buffer limits let it hold large scenes. Neither changes the occlusion queries.
     let adapter_limits = adapter.limits();
+    let mut required_limits = wgpu::Limits {
+        max_storage_buffer_binding_size: adapter_limits.max_storage_buffer_binding_size,
+        max_buffer_size: adapter_limits.max_buffer_size,
+        ..Default::default()
+    };
+    // Optional too: hardware ray queries for `ray_query.rs`, with the adapter's own
+    // acceleration-structure limits (the defaults are 0, which allow no BLAS at all).
+    let ray_query = adapter
+        .features()
+        .contains(wgpu::Features::EXPERIMENTAL_RAY_QUERY);
+    let mut experimental_features = wgpu::ExperimentalFeatures::disabled();
+    if ray_query {
+        required_limits.max_blas_primitive_count = adapter_limits.max_blas_primitive_count;
+        required_limits.max_blas_geometry_count = adapter_limits.max_blas_geometry_count;
+        required_limits.max_tlas_instance_count = adapter_limits.max_tlas_instance_count;
+        required_limits.max_acceleration_structures_per_shader_stage =
+            adapter_limits.max_acceleration_structures_per_shader_stage;
+        // SAFETY: wgpu asks callers of its EXPERIMENTAL_* features to accept that their
+        // implementation may still have bugs. Only `ray_query.rs` uses the feature: one
+        // opaque triangle BLAS and one TLAS, built once and only read afterwards, the path
+        // wgpu's own ray-query examples and tests take.
+        experimental_features = unsafe { wgpu::ExperimentalFeatures::enabled() };
+    }
     let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
         label: Some("sightline-gpu"),
-        required_features: adapter.features() & wgpu::Features::SHADER_F64,
-        required_limits: wgpu::Limits {
-            max_storage_buffer_binding_size: adapter_limits.max_storage_buffer_binding_size,
-            max_buffer_size: adapter_limits.max_buffer_size,
-            ..Default::default()
-        },
+        required_features: adapter.features()
+            & (wgpu::Features::SHADER_F64 | wgpu::Features::EXPERIMENTAL_RAY_QUERY),
+        required_limits,
+        experimental_features,
         ..Default::default()
     }))?;
     Ok((device, queue, info))

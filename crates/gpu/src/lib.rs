@@ -2,7 +2,9 @@
 //! ([`GpuBackend`]) for the run-time culling of `sightline-cull`, implementing its
 //! [`OcclusionBackend`](sightline_cull::OcclusionBackend) trait with `wgpu` on Vulkan; and a
 //! compute-shader ray caster ([`GpuRayCaster`]) implementing `sightline-core`'s
-//! [`RayCaster`](sightline_core::trace::RayCaster), with hits equal to the CPU caster's.
+//! [`RayCaster`](sightline_core::trace::RayCaster), with hits equal to the CPU caster's (and,
+//! where the adapter has hardware ray queries, [`RayQueryCaster`], the same interface on the
+//! driver's acceleration structures, with hits equal up to rounding at edges and ties).
 //!
 //! Based on: Seletsky. Real Time Visibility Culling With Hardware Occlusion Queries and Uniform
 //! Grids. 2013, sections 2.4 (hardware occlusion queries) and 4.3.2 (depth pre-pass and
@@ -19,6 +21,15 @@
 //!   [`GpuRayCaster::with_device`]; its exactness against the CPU caster, the node width
 //!   chosen and why are in its module documentation. `sightline bench trace --device gpu`
 //!   measures it beside the CPU casters, `sightline pvs bake --device gpu` bakes with it.
+//! - `ray_query.rs` (+ `ray_query.wgsl`): [`RayQueryCaster`], the same queries with hardware
+//!   ray queries (Vulkan `VK_KHR_ray_query`, wgpu's `EXPERIMENTAL_RAY_QUERY`) where the
+//!   adapter has them: the driver's acceleration structure and triangle test, so hits agree
+//!   with the CPU caster's up to ties and edges within rounding and `t` within
+//!   [`RAY_QUERY_T_TOLERANCE`]; its module documentation states what and why.
+//! - `caster_choice.rs`: [`AnyGpuCaster`], the caster a bake or benchmark uses
+//!   ([`GpuCasterKind`]: ray queries where the adapter has them, else compute; `--gpu-caster`).
+//! - `stream.rs`: what both ray casters share, streaming ray batches through their compute
+//!   pipelines in double-buffered chunks from a pool of buffer sets.
 //! - `cell_batching.rs`: [`CellBatchingCaster`], which runs many cells of a bake at once and
 //!   casts their rounds' rays as one batch (any caster inside; the GPU's in `pvs bake
 //!   --device gpu`), with the per-cell bake's results.
@@ -35,6 +46,9 @@
 //!   pipelines and compute shaders are core WebGPU; any Vulkan 1.x driver that wgpu supports
 //!   works. `SHADER_F64` is requested where the adapter has it: with it the ray caster's hits
 //!   are bit-exact with the CPU's, without it `t` is within [`APPROXIMATE_T_ULPS`].
+//!   `EXPERIMENTAL_RAY_QUERY` is requested where the adapter has it (with its
+//!   acceleration-structure limits), for [`RayQueryCaster`]; lavapipe has it from Mesa 24.1
+//!   (Debian 12: `mesa-vulkan-drivers` from bookworm-backports).
 //! - Without a GPU (CI, servers): Mesa's lavapipe, `apt-get install -y mesa-vulkan-drivers`.
 //!   The tests of this crate **fail** (they do not skip) when no Vulkan adapter is found.
 //!
@@ -60,13 +74,18 @@
 //! ```
 #![deny(missing_docs)]
 
+mod caster_choice;
 mod cell_batching;
 mod device;
 mod occlusion_query;
 mod ray_cast;
 mod ray_layout;
+mod ray_query;
+mod stream;
 
+pub use caster_choice::{AnyGpuCaster, GpuCasterKind};
 pub use cell_batching::{CellBatchingCaster, CellBatchingOptions, CellBatchingStats};
 pub use device::{check_vulkan, pick_adapter, vulkan_device, GpuError};
 pub use occlusion_query::{GpuBackend, GpuFrameStats, MeshId, QueryOutcome};
 pub use ray_cast::{GpuRayCaster, GpuRayCasterOptions, APPROXIMATE_T_ULPS};
+pub use ray_query::{RayQueryCaster, RayQueryMemory, RayQueryOptions, RAY_QUERY_T_TOLERANCE};

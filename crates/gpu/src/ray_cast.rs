@@ -53,12 +53,8 @@
 //! `i`, the CPU prepares and uploads chunk `i + 1` and reads back chunk `i - 1`. Each call
 //! takes its own pair of buffer sets from a pool, so calls from several threads (a bake's
 //! cells, each casting batches of 64k rays) keep several chunks queued on the GPU at once.
+//! `stream.rs` does this for both GPU casters.
 
-use std::sync::mpsc;
-use std::sync::Mutex;
-
-use bytemuck::{Pod, Zeroable};
-use rayon::prelude::*;
 use sightline_core::scene::Scene;
 use sightline_core::trace::RayCaster;
 use sightline_core::{Hit, Ray};
@@ -66,13 +62,10 @@ use wgpu::{AdapterInfo, Device, Queue};
 
 use crate::device::{vulkan_device, GpuError};
 use crate::ray_layout::{GpuBvh, GpuRay};
+use crate::stream::{chunk_cap, or_panic, CastPipelines, ChunkShader, Streamer};
 
-/// Invocations per workgroup (`@workgroup_size` in `ray_cast.wgsl`).
-const WORKGROUP: u32 = 64;
 /// Bytes of one prepared ray on the GPU.
 const RAY_BYTES: u64 = std::mem::size_of::<GpuRay>() as u64;
-/// Bytes of one hit on the GPU: triangle id and `t` bits.
-const HIT_BYTES: u64 = 8;
 /// Ulps within which `t` equals the CPU caster's without `SHADER_F64` (WGSL's 2.5-ulp division
 /// of a numerator and denominator that are otherwise the CPU's bits).
 pub const APPROXIMATE_T_ULPS: u32 = 3;
@@ -120,107 +113,30 @@ fn check_stack(needed: usize, width: usize) -> Result<usize, GpuError> {
     Ok(available)
 }
 
-/// The uniform block of `ray_cast.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct Params {
-    count: u32,
-    zero: u32,
-    pad: [u32; 2],
-}
-
-/// One of the two sets of per-chunk buffers.
-struct Slot {
-    capacity: u64,
-    params: wgpu::Buffer,
-    rays: wgpu::Buffer,
-    hits: wgpu::Buffer,
-    readback: wgpu::Buffer,
-    bind_group: wgpu::BindGroup,
-}
-
-/// A chunk submitted and not yet read back.
-struct Pending {
-    slot: usize,
-    offset: usize,
-    len: usize,
-    submission: wgpu::SubmissionIndex,
-    mapped: mpsc::Receiver<Result<(), wgpu::BufferAsyncError>>,
-}
-
-/// The scene on the GPU; absent when it has nothing to hit.
+/// The scene on the GPU with the pipelines that cast against it; absent when the scene has
+/// nothing to hit.
 struct Uploaded {
+    pipelines: CastPipelines,
     nodes: wgpu::Buffer,
     triangles: wgpu::Buffer,
 }
 
-/// The caster's bind group layout and its two compute pipelines, one per kind of query; made
-/// once per caster, apart from [`GpuRayCaster::with_device`]'s checks and uploads.
-struct CastPipelines {
-    /// Group 0: the parameters (uniform), BVH nodes, triangles and rays (read-only storage),
-    /// and the hits (written).
-    bind_layout: wgpu::BindGroupLayout,
-    /// `cast_closest`: the nearest hit per ray.
-    closest: wgpu::ComputePipeline,
-    /// `cast_any`: whether anything is hit, stopping at the first hit.
-    any_hit: wgpu::ComputePipeline,
-}
+impl ChunkShader for Uploaded {
+    type GpuRay = GpuRay;
 
-impl CastPipelines {
-    /// Makes the layout and both pipelines from the compiled `module` (inside the caller's
-    /// validation error scope, which reports a shader that does not compile).
-    fn new(device: &Device, module: &wgpu::ShaderModule) -> Self {
-        let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let bind_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("sightline ray cast"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-                storage(1, true),
-                storage(2, true),
-                storage(3, true),
-                storage(4, false),
-            ],
-        });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("sightline ray cast"),
-            bind_group_layouts: &[Some(&bind_layout)],
-            immediate_size: 0,
-        });
-        let pipeline = |entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("sightline ray cast"),
-                layout: Some(&layout),
-                module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
-        let closest = pipeline("cast_closest");
-        let any_hit = pipeline("cast_any");
-        Self {
-            bind_layout,
-            closest,
-            any_hit,
-        }
+    fn prepare(&self, ray: &Ray) -> GpuRay {
+        GpuRay::new(ray)
+    }
+
+    fn pipelines(&self) -> &CastPipelines {
+        &self.pipelines
+    }
+
+    fn scene_bindings(&self) -> Vec<wgpu::BindingResource<'_>> {
+        vec![
+            self.nodes.as_entire_binding(),
+            self.triangles.as_entire_binding(),
+        ]
     }
 }
 
@@ -242,17 +158,8 @@ impl CastPipelines {
 /// # Ok::<(), sightline_gpu::GpuError>(())
 /// ```
 pub struct GpuRayCaster {
-    device: Device,
-    queue: Queue,
     info: AdapterInfo,
-    closest: wgpu::ComputePipeline,
-    any_hit: wgpu::ComputePipeline,
-    bind_layout: wgpu::BindGroupLayout,
-    scene: Option<Uploaded>,
-    /// Idle pairs of per-chunk buffer sets: a call takes one (or makes one) and gives it back,
-    /// so calls from several threads (the cells of a bake) have their chunks in flight at once.
-    idle: Mutex<Vec<Vec<Slot>>>,
-    chunk_rays: usize,
+    stream: Streamer<Uploaded>,
     exact: bool,
     width: usize,
     stack_needed: usize,
@@ -299,12 +206,7 @@ impl GpuRayCaster {
         let triangle_bytes: &[u8] = bytemuck::cast_slice(&bvh.triangles);
         check("BVH nodes", node_bytes.len() as u64)?;
         check("triangles", triangle_bytes.len() as u64)?;
-        let groups = u64::from(limits.max_compute_workgroups_per_dimension);
-        let chunk_rays = (options.chunk_rays as u64)
-            .min(binding_limit / RAY_BYTES)
-            // One dispatch row: at least 65,535 workgroups of 64, 4.19M rays.
-            .min(groups * u64::from(WORKGROUP))
-            .max(1) as usize;
+        let chunk_rays = chunk_cap(device, options.chunk_rays, RAY_BYTES);
 
         let exact = options.use_f64 && device.features().contains(wgpu::Features::SHADER_F64);
         let source = shader_source(options.width, stack, exact);
@@ -313,11 +215,14 @@ impl GpuRayCaster {
             label: Some("sightline ray cast"),
             source: wgpu::ShaderSource::Wgsl(source.into()),
         });
-        let CastPipelines {
-            bind_layout,
-            closest,
-            any_hit,
-        } = CastPipelines::new(device, &module);
+        // Group 0: the parameters, the BVH nodes and triangles (read-only storage), the rays
+        // and the hits.
+        let read_only = wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        };
+        let pipelines = CastPipelines::new(device, &module, &[read_only, read_only]);
         let upload = |label: &str, bytes: &[u8]| {
             use wgpu::util::DeviceExt;
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -327,6 +232,7 @@ impl GpuRayCaster {
             })
         };
         let uploaded = (bvh.node_count() > 0).then(|| Uploaded {
+            pipelines,
             nodes: upload("sightline BVH nodes", node_bytes),
             triangles: upload("sightline BVH triangles", triangle_bytes),
         });
@@ -334,15 +240,8 @@ impl GpuRayCaster {
             return Err(GpuError::Shader(e.to_string()));
         }
         Ok(Self {
-            device: device.clone(),
-            queue: queue.clone(),
             info,
-            closest,
-            any_hit,
-            bind_layout,
-            scene: uploaded,
-            idle: Mutex::new(Vec::new()),
-            chunk_rays,
+            stream: Streamer::new(device, queue, uploaded, chunk_rays),
             exact,
             width: options.width,
             stack_needed: bvh.stack_needed,
@@ -362,7 +261,7 @@ impl GpuRayCaster {
 
     /// Rays per chunk, after the adapter's limits.
     pub fn chunk_rays(&self) -> usize {
-        self.chunk_rays
+        self.stream.chunk_rays()
     }
 
     /// Children per BVH node.
@@ -377,250 +276,12 @@ impl GpuRayCaster {
 
     /// [`RayCaster::cast`], with GPU failures (device lost, readback failed) as errors.
     pub fn try_cast(&self, rays: &[Ray], hits: &mut [Hit]) -> Result<(), GpuError> {
-        if rays.len() != hits.len() {
-            return Err(GpuError::LengthMismatch {
-                rays: rays.len(),
-                out: hits.len(),
-            });
-        }
-        self.run(rays, false, |offset, words| {
-            for (h, w) in hits[offset..].iter_mut().zip(words) {
-                *h = Hit {
-                    triangle: w[0],
-                    t: f32::from_bits(w[1]),
-                };
-            }
-        })
+        self.stream.cast(rays, hits)
     }
 
     /// [`RayCaster::occluded`], with GPU failures as errors.
     pub fn try_occluded(&self, rays: &[Ray], out: &mut [bool]) -> Result<(), GpuError> {
-        if rays.len() != out.len() {
-            return Err(GpuError::LengthMismatch {
-                rays: rays.len(),
-                out: out.len(),
-            });
-        }
-        self.run(rays, true, |offset, words| {
-            for (o, w) in out[offset..].iter_mut().zip(words) {
-                *o = w[0] != Hit::NONE;
-            }
-        })
-    }
-
-    /// Casts `rays` chunk by chunk, double-buffered, and hands each chunk's `[id, t bits]`
-    /// words to `sink` with the chunk's offset.
-    fn run(
-        &self,
-        rays: &[Ray],
-        any_hit: bool,
-        mut sink: impl FnMut(usize, &[[u32; 2]]),
-    ) -> Result<(), GpuError> {
-        let Some(scene) = &self.scene else {
-            // Nothing to hit.
-            let miss = vec![[Hit::NONE, f32::INFINITY.to_bits()]; rays.len()];
-            sink(0, &miss);
-            return Ok(());
-        };
-        if rays.is_empty() {
-            return Ok(());
-        }
-        let idle = || self.idle.lock().unwrap_or_else(|e| e.into_inner());
-        let mut slots = idle().pop().unwrap_or_default();
-        self.run_on(&mut slots, scene, rays, any_hit, &mut sink)?;
-        // After an error the buffers may be left mapped: they are dropped, not reused.
-        idle().push(slots);
-        Ok(())
-    }
-
-    /// [`GpuRayCaster::run`] on one pair of buffer sets.
-    fn run_on(
-        &self,
-        slots: &mut Vec<Slot>,
-        scene: &Uploaded,
-        rays: &[Ray],
-        any_hit: bool,
-        mut sink: impl FnMut(usize, &[[u32; 2]]),
-    ) -> Result<(), GpuError> {
-        let mut pending: Option<Pending> = None;
-        let mut words = Vec::new();
-        for (i, chunk) in rays.chunks(self.chunk_rays).enumerate() {
-            let slot = i % 2;
-            self.reserve(slots, slot, chunk.len(), scene);
-            let prepared: Vec<GpuRay> = chunk.par_iter().map(GpuRay::new).collect();
-            let s = &slots[slot];
-            // `chunk_rays` keeps this within the adapter's workgroups per dimension.
-            let groups = (chunk.len() as u32).div_ceil(WORKGROUP);
-            let params = Params {
-                count: chunk.len() as u32,
-                zero: 0,
-                pad: [0; 2],
-            };
-            self.queue
-                .write_buffer(&s.params, 0, bytemuck::bytes_of(&params));
-            self.queue
-                .write_buffer(&s.rays, 0, bytemuck::cast_slice(&prepared));
-            let mut encoder = self
-                .device
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                    label: Some("sightline ray cast"),
-                });
-            {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("sightline ray cast"),
-                    timestamp_writes: None,
-                });
-                pass.set_pipeline(if any_hit {
-                    &self.any_hit
-                } else {
-                    &self.closest
-                });
-                pass.set_bind_group(0, &s.bind_group, &[]);
-                pass.dispatch_workgroups(groups, 1, 1);
-            }
-            let bytes = chunk.len() as u64 * HIT_BYTES;
-            encoder.copy_buffer_to_buffer(&s.hits, 0, &s.readback, 0, bytes);
-            let submission = self.queue.submit([encoder.finish()]);
-            let (tx, rx) = mpsc::channel();
-            s.readback
-                .slice(..bytes)
-                .map_async(wgpu::MapMode::Read, move |r| {
-                    // The receiver waits in `finish`; if it is gone nobody needs to know.
-                    let _ = tx.send(r);
-                });
-            if let Some(p) = pending.take() {
-                self.finish(slots, p, &mut words, &mut sink)?;
-            }
-            pending = Some(Pending {
-                slot,
-                offset: i * self.chunk_rays,
-                len: chunk.len(),
-                submission,
-                mapped: rx,
-            });
-        }
-        if let Some(p) = pending {
-            self.finish(slots, p, &mut words, &mut sink)?;
-        }
-        Ok(())
-    }
-
-    /// Waits for chunk `p`, copies its hits out to `sink` and unmaps its readback buffer.
-    fn finish(
-        &self,
-        slots: &[Slot],
-        p: Pending,
-        words: &mut Vec<[u32; 2]>,
-        sink: &mut impl FnMut(usize, &[[u32; 2]]),
-    ) -> Result<(), GpuError> {
-        self.device.poll(wgpu::PollType::Wait {
-            submission_index: Some(p.submission),
-            timeout: None,
-        })?;
-        match p.mapped.recv() {
-            Ok(Ok(())) => {}
-            Ok(Err(e)) => return Err(GpuError::Readback(e.to_string())),
-            Err(e) => return Err(GpuError::Readback(e.to_string())),
-        }
-        let readback = &slots[p.slot].readback;
-        let bytes = p.len as u64 * HIT_BYTES;
-        {
-            let view = readback
-                .slice(..bytes)
-                .get_mapped_range()
-                .map_err(|e| GpuError::Readback(e.to_string()))?;
-            words.clear();
-            // Read word by word: the mapped pointer's alignment is not promised.
-            words.extend(view.chunks_exact(8).map(|b| {
-                let word = |i: usize| u32::from_ne_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
-                [word(0), word(4)]
-            }));
-        }
-        readback.unmap();
-        sink(p.offset, words);
-        Ok(())
-    }
-
-    /// Makes slot `slot` hold at least `rays` rays (growing to the chunk size at once, so a
-    /// stream of chunks allocates once).
-    fn reserve(&self, slots: &mut Vec<Slot>, slot: usize, rays: usize, scene: &Uploaded) {
-        while slots.len() <= slot {
-            slots.push(self.new_slot(1, scene));
-        }
-        if slots[slot].capacity < rays as u64 {
-            let capacity = if rays > 1 << 16 {
-                self.chunk_rays as u64
-            } else {
-                rays.next_power_of_two() as u64
-            };
-            slots[slot] = self.new_slot(capacity, scene);
-        }
-    }
-
-    fn new_slot(&self, capacity: u64, scene: &Uploaded) -> Slot {
-        use wgpu::BufferUsages as U;
-        let buffer = |label: &str, size: u64, usage: U| {
-            self.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size,
-                usage,
-                mapped_at_creation: false,
-            })
-        };
-        let params = buffer(
-            "sightline ray cast params",
-            std::mem::size_of::<Params>() as u64,
-            U::UNIFORM | U::COPY_DST,
-        );
-        let rays = buffer(
-            "sightline rays",
-            capacity * RAY_BYTES,
-            U::STORAGE | U::COPY_DST,
-        );
-        let hits = buffer(
-            "sightline hits",
-            capacity * HIT_BYTES,
-            U::STORAGE | U::COPY_SRC,
-        );
-        let readback = buffer(
-            "sightline hits readback",
-            capacity * HIT_BYTES,
-            U::MAP_READ | U::COPY_DST,
-        );
-        let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("sightline ray cast"),
-            layout: &self.bind_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: params.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: scene.nodes.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: scene.triangles.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: rays.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: hits.as_entire_binding(),
-                },
-            ],
-        });
-        Slot {
-            capacity,
-            params,
-            rays,
-            hits,
-            readback,
-            bind_group,
-        }
+        self.stream.occluded(rays, out)
     }
 }
 
@@ -630,18 +291,14 @@ impl RayCaster for GpuRayCaster {
     /// [`GpuRayCaster::try_cast`] to get those as errors.
     fn cast(&self, rays: &[Ray], hits: &mut [Hit]) {
         assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
-        if let Err(e) = self.try_cast(rays, hits) {
-            panic!("GPU ray casting failed: {e}");
-        }
+        or_panic(self.try_cast(rays, hits));
     }
 
     /// # Panics
     /// As [`GpuRayCaster::cast`].
     fn occluded(&self, rays: &[Ray], out: &mut [bool]) {
         assert_eq!(rays.len(), out.len(), "one output slot per ray");
-        if let Err(e) = self.try_occluded(rays, out) {
-            panic!("GPU ray casting failed: {e}");
-        }
+        or_panic(self.try_occluded(rays, out));
     }
 }
 

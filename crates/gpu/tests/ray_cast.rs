@@ -6,11 +6,12 @@
 //! limited ranges, unusable rays, several node widths and chunk sizes.
 
 use glam::Vec3;
-use sightline_core::scene::{self, LoadOptions, Scene, SceneBuilder};
+use sightline_core::scene::{Scene, SceneBuilder};
 use sightline_core::trace::{measure, Bvh, RayCaster};
-use sightline_core::{Camera, Hit, Ray};
+use sightline_core::{Hit, Ray};
 use sightline_gpu::{GpuError, GpuRayCaster, GpuRayCasterOptions, APPROXIMATE_T_ULPS};
 
+use super::scenes::{axis_rays, bunny, camera_rays, city, q3_map, ranged_rays};
 use super::shared_device;
 
 fn caster(scene: &Scene, options: GpuRayCasterOptions) -> GpuRayCaster {
@@ -18,77 +19,9 @@ fn caster(scene: &Scene, options: GpuRayCasterOptions) -> GpuRayCaster {
     GpuRayCaster::with_device(device, queue, info.clone(), scene, options).unwrap()
 }
 
-fn load(spec: &str) -> Scene {
-    scene::open(spec, &LoadOptions::default()).unwrap()
-}
-
-/// A file of the repository's `scenes/`, or of `$SIGHTLINE_TEST_SCENES` when set (the test
-/// binary copied to another machine by `scripts/gpu-check`).
-fn scene_file(name: &str) -> String {
-    match std::env::var("SIGHTLINE_TEST_SCENES") {
-        Ok(dir) => format!("{dir}/{name}"),
-        Err(_) => format!("{}/../../scenes/{name}", env!("CARGO_MANIFEST_DIR")),
-    }
-}
-
-fn bunny() -> Scene {
-    load(&scene_file("bunny.obj"))
-}
-
-fn q3_map() -> Scene {
-    load(&scene_file("q3dm6ish.bsp"))
-}
-
-fn city() -> Scene {
-    load("procedural:city?size=20000")
-}
-
 /// Distance in ulps between two finite floats of the same sign.
 fn ulps(a: f32, b: f32) -> u32 {
     (a.to_bits() as i64 - b.to_bits() as i64).unsigned_abs() as u32
-}
-
-/// Rays from a camera outside the scene looking at its centre, `size` x `size`.
-fn camera_rays(scene: &Scene, size: u32) -> Vec<Ray> {
-    let b = scene.bounds();
-    let eye = b.center() + Vec3::new(0.6, 0.35, 0.8) * b.diagonal();
-    let cam = Camera::look_at(eye, b.center(), scene.up.vector(), 60.0, size, size, 0.01).unwrap();
-    measure::coherent_rays(&cam)
-}
-
-/// Rays along the six axis directions from random origins in the scene's box.
-fn axis_rays(scene: &Scene, n: usize) -> Vec<Ray> {
-    let dirs = [
-        Vec3::X,
-        Vec3::NEG_X,
-        Vec3::Y,
-        Vec3::NEG_Y,
-        Vec3::Z,
-        Vec3::NEG_Z,
-    ];
-    measure::incoherent_rays(scene.bounds(), n, 11)
-        .into_iter()
-        .enumerate()
-        .map(|(i, r)| Ray::new(r.origin, dirs[i % 6]))
-        .collect()
-}
-
-/// Incoherent rays with random `[t_min, t_max]` ranges (some empty, some from 0).
-fn ranged_rays(scene: &Scene, n: usize) -> Vec<Ray> {
-    let d = scene.bounds().diagonal();
-    measure::incoherent_rays(scene.bounds(), n, 5)
-        .into_iter()
-        .enumerate()
-        .map(|(i, r)| {
-            let a = (i % 17) as f32 / 17.0 * d * 0.5;
-            let b = (i % 13) as f32 / 13.0 * d * 0.7;
-            if i % 5 == 0 {
-                r.with_range(0.0, b)
-            } else {
-                r.with_range(a, b)
-            }
-        })
-        .collect()
 }
 
 /// Casts `rays` on the CPU and the GPU and checks that every hit agrees (see the module

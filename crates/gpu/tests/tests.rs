@@ -14,9 +14,14 @@ mod cell_batching;
 /// The compute-shader ray caster against the CPU caster: same triangles, same `t` bits (with
 /// `SHADER_F64`), on the bunny, a city and a Quake 3 map; unusable rays, chunks, errors.
 mod ray_cast;
+/// The hardware ray-query caster against the CPU caster: hits, `t` within its stated tolerance,
+/// occlusion, ranges, unusable rays, chunks and threads; fails where the adapter lacks ray queries.
+mod ray_query;
 /// Against the reference rasterizer's exact depth test on random occluder scenes: no visible
 /// box is reported occluded, except at pixel-centre edge and depth ties (tolerance stated there).
 mod reference;
+/// Not tests: the scenes and ray sets the two ray casters' tests share.
+mod scenes;
 /// The simulation of The Grid with the GPU backend, within the software backend's bounds.
 mod simulation;
 /// Occluded and visible boxes behind and in front of a wall; near-plane boxes; depth kept

@@ -260,8 +260,9 @@ fn bake_batch_py<'py>(
 /// more than the cores are capped, with a warning). `progress`: see `sightline._progress`
 /// (default: a line on stderr when it is a terminal). Ctrl-C stops the bake (cells under way
 /// finish first) and raises `KeyboardInterrupt`. `device`: `"cpu"` (the default) or `"gpu"`,
-/// as `pvs bake --device` (the same sets for the same seed and rays where the GPU caster is
-/// exact; `crate::device`).
+/// as `pvs bake --device`, with the GPU caster `gpu_caster` (`"auto"`, `"compute"` or
+/// `"ray-query"`, as `--gpu-caster`; the same sets as the CPU's for the same seed and rays
+/// where the caster is exact; `crate::device`).
 ///
 /// Incremental rebake (`pvs bake --since OLD.pvs --old-scene OLD --probe-rays N`): with
 /// `since` (an earlier bake of the same cells, method, parameters, seed and budget, by the CLI,
@@ -283,7 +284,8 @@ fn bake_batch_py<'py>(
 #[pyfunction]
 #[pyo3(signature = (scene, cells, method = MethodArg::Name("gvs++".into()), rays = None,
     seed = 1, time_ms = None, threads = None, progress = None, *, since = None,
-    old_scene = None, probe_rays = DEFAULT_PROBE_RAYS, device = "cpu", bound = false,
+    old_scene = None, probe_rays = DEFAULT_PROBE_RAYS, device = "cpu", gpu_caster = "auto",
+    bound = false,
     bound_occluders = sightline_point::rv::DEFAULT_MAX_OCCLUDERS, bound_fusion_splits = 0))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn bake<'py>(
@@ -300,6 +302,7 @@ pub(crate) fn bake<'py>(
     old_scene: Option<&Bound<'py, PyScene>>,
     probe_rays: usize,
     device: &str,
+    gpu_caster: &str,
     bound: bool,
     bound_occluders: usize,
     bound_fusion_splits: u32,
@@ -337,7 +340,7 @@ pub(crate) fn bake<'py>(
     conservative.options.validate().map_err(value_error)?;
     let sampler = method.sampler()?;
     let data = scene.get().data.clone();
-    let device = BakeCaster::new(py, device, &data.scene)?;
+    let device = BakeCaster::new(py, device, gpu_caster, &data.scene)?;
     let caster = device.caster(data.bvh());
     let cells: Vec<ViewCell> = cells.into_iter().map(|c| c.cell).collect();
     // The CLI's free-space test for plain cells: their open voxels, each cell's tested when

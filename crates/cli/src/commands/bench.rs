@@ -191,6 +191,10 @@ struct PvsArgs {
     /// set differs from the CPU bake's, 0 expected except at time budgets).
     #[arg(long, value_enum, default_value_t = Device::Cpu)]
     device: Device,
+    /// With `--device gpu`: which GPU caster (see `pvs bake --gpu-caster`). With ray queries
+    /// the sets may differ from the CPU bake's where rays decide at ties.
+    #[arg(long, value_enum, default_value_t = GpuCasterChoice::Auto)]
+    gpu_caster: GpuCasterChoice,
     /// Small time budgets (milliseconds, comma-separated) at which GVS++ and RAND are also
     /// compared at equal time, the paper's equal-time comparison (issue 24: GVS++ must start
     /// exploring before such a budget is spent). `none`: no equal-time rows.
@@ -241,14 +245,19 @@ struct TraceArgs {
     /// Seconds per backend and ray set, split into 5 alternating rounds (best round kept).
     #[arg(long, default_value_t = 2.0)]
     seconds: f64,
-    /// `gpu` adds the GPU ray caster (wgpu compute shaders, on the adapter `sightline-gpu`
-    /// picks; `SIGHTLINE_GPU_ADAPTER` chooses) beside the CPU casters, on the same rays.
+    /// `gpu` adds the GPU ray casters (wgpu compute shaders, and hardware ray queries where the
+    /// adapter has them; on the adapter `sightline-gpu` picks, `SIGHTLINE_GPU_ADAPTER` chooses)
+    /// beside the CPU casters, on the same rays.
     #[arg(long, value_enum, default_value_t = Device::Cpu)]
     device: Device,
     /// Children per node of the GPU caster's BVH (2, 4 or 8), to compare layouts (default:
     /// the GPU caster's own, 4).
     #[arg(long, value_name = "N")]
     gpu_width: Option<usize>,
+    /// With `--device gpu`: which GPU casters to measure. `auto` (the default) measures the
+    /// compute caster and, where the adapter has ray queries, the ray-query caster too.
+    #[arg(long, value_enum, default_value_t = GpuCasterChoice::Auto)]
+    gpu_caster: GpuCasterChoice,
     /// Print JSON instead of a Markdown table.
     #[arg(long)]
     json: bool,
@@ -261,6 +270,33 @@ pub(crate) enum Device {
     Cpu,
     /// The CPU casters and the GPU caster.
     Gpu,
+}
+
+/// Which GPU ray caster (`--gpu-caster`, with `--device gpu`).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) enum GpuCasterChoice {
+    /// Hardware ray queries where the adapter has them (Vulkan `VK_KHR_ray_query`), else the
+    /// compute shader.
+    #[default]
+    Auto,
+    /// The compute-shader caster: hits bit-identical to the CPU caster's on adapters with
+    /// `SHADER_F64`, so a bake's sets equal a CPU bake's.
+    Compute,
+    /// Hardware ray queries (an error on an adapter without them): the driver's triangle
+    /// test, hits equal to the CPU's except at ties and edges within rounding.
+    RayQuery,
+}
+
+#[cfg(feature = "gpu")]
+impl GpuCasterChoice {
+    /// The library's name for the choice.
+    pub(crate) fn kind(self) -> sightline_gpu::GpuCasterKind {
+        match self {
+            Self::Auto => sightline_gpu::GpuCasterKind::Auto,
+            Self::Compute => sightline_gpu::GpuCasterKind::Compute,
+            Self::RayQuery => sightline_gpu::GpuCasterKind::RayQuery,
+        }
+    }
 }
 
 impl Device {
@@ -380,22 +416,38 @@ fn trace(args: TraceArgs) -> Result<()> {
         let mut backends = backends;
         #[cfg(feature = "gpu")]
         if let Some((device, queue, info)) = &gpu {
-            backends.push(TraceBackend::timed(|| {
-                let defaults = sightline_gpu::GpuRayCasterOptions::default();
-                let width = args.gpu_width.unwrap_or(defaults.width);
-                let options = sightline_gpu::GpuRayCasterOptions { width, ..defaults };
-                let caster = sightline_gpu::GpuRayCaster::with_device(
-                    device,
-                    queue,
-                    info.clone(),
-                    &scene,
-                    options,
-                )?;
-                let exact = if caster.exact() { "" } else { ", approximate" };
-                let (name, kind) = (&info.name, info.device_type);
-                let name = format!("GPU BVH{width} ({name}, {kind:?}{exact})");
-                Ok::<_, anyhow::Error>((name, Box::new(caster) as Box<dyn RayCaster>))
-            })?);
+            use sightline_gpu::{AnyGpuCaster, GpuCasterKind, RayQueryCaster};
+            let defaults = sightline_gpu::GpuRayCasterOptions::default();
+            let width = args.gpu_width.unwrap_or(defaults.width);
+            let options = sightline_gpu::GpuRayCasterOptions { width, ..defaults };
+            let kinds = match args.gpu_caster {
+                GpuCasterChoice::Auto if RayQueryCaster::supported(device) => {
+                    vec![GpuCasterKind::Compute, GpuCasterKind::RayQuery]
+                }
+                GpuCasterChoice::Auto => vec![GpuCasterKind::Compute],
+                choice => vec![choice.kind()],
+            };
+            for kind in kinds {
+                backends.push(TraceBackend::timed(|| {
+                    let caster = AnyGpuCaster::with_device(
+                        device,
+                        queue,
+                        info.clone(),
+                        &scene,
+                        kind,
+                        options,
+                    )?;
+                    let exact = if caster.exact() { "" } else { ", approximate" };
+                    let (name, device_type) = (&info.name, info.device_type);
+                    let name = match kind {
+                        GpuCasterKind::RayQuery => {
+                            format!("GPU ray queries ({name}, {device_type:?}{exact})")
+                        }
+                        _ => format!("GPU BVH{width} ({name}, {device_type:?}{exact})"),
+                    };
+                    Ok::<_, anyhow::Error>((name, Box::new(caster) as Box<dyn RayCaster>))
+                })?);
+            }
         }
         let n = scene.triangle_count();
         let seconds = args.seconds;
@@ -482,16 +534,15 @@ fn pvs(args: PvsArgs) -> Result<()> {
         #[cfg(feature = "gpu")]
         let caster = match &gpu {
             Some((device, queue, info)) => {
-                let caster = sightline_gpu::GpuRayCaster::with_device(
+                let caster = sightline_gpu::AnyGpuCaster::with_device(
                     device,
                     queue,
                     info.clone(),
                     &scene,
+                    args.gpu_caster.kind(),
                     Default::default(),
                 )?;
-                let exact = if caster.exact() { "" } else { ", approximate" };
-                let (name, kind) = (&info.name, info.device_type);
-                bar.suspend(|| eprintln!("GVS++ GPU rows: {name} ({kind:?}{exact})"));
+                bar.suspend(|| eprintln!("GVS++ GPU rows: {}", caster.describe()));
                 Some(caster)
             }
             None => None,

@@ -177,6 +177,7 @@ def bake(
     old_scene: Optional[Scene] = None,
     probe_rays: int = 16384,
     device: Literal["cpu", "gpu"] = "cpu",
+    gpu_caster: Literal["auto", "compute", "ray-query"] = "auto",
     bound: bool = False,
     bound_occluders: int = 4096,
     bound_fusion_splits: int = 0,
@@ -185,10 +186,12 @@ def bake(
     per-cell statistics). As the CLI's default, ray origins skip the parts of a cell that lie
     inside closed geometry (8x8x8 voxels a cell; ``pvs bake --help``, ``--origins-anywhere``).
 
-    ``device="gpu"`` casts the rays with the GPU ray caster, as ``pvs bake --device gpu``
-    (16 cells at once, their ray batches cast together): the same sets as on the CPU for the same
-    seed and rays where the adapter has ``SHADER_F64`` (lavapipe, NVIDIA, AMD; else a
-    ``RuntimeWarning``). ``RuntimeError`` when there is no Vulkan adapter or the package was
+    ``device="gpu"`` casts the rays on the GPU, as ``pvs bake --device gpu --gpu-caster C``
+    (16 cells at once, their ray batches cast together). ``gpu_caster="auto"`` takes hardware
+    ray queries where the adapter has them, else the compute caster. ``"compute"`` gives the same
+    sets as on the CPU for the same seed and rays where the adapter has ``SHADER_F64`` (lavapipe,
+    NVIDIA, AMD; else a ``RuntimeWarning``); ``"ray-query"`` uses the driver's triangle test, so
+    a set may differ where a ray decides at a tie or an edge within rounding. ``RuntimeError`` when there is no Vulkan adapter or the package was
     built without the cargo feature ``gpu``; ``ValueError`` for another device name.
 
     Incremental rebake (``pvs bake --since OLD.pvs --old-scene OLD --probe-rays N``): with

@@ -8,7 +8,7 @@ use sightline_region::methods::MethodOverrides;
 use sightline_region::reachable::DEFAULT_STEP;
 
 use crate::args::SceneArgs;
-use crate::commands::bench::Device;
+use crate::commands::bench::{Device, GpuCasterChoice};
 
 /// Arguments of `sightline pvs`.
 #[derive(clap::Args, Debug)]
@@ -155,12 +155,18 @@ pub(crate) struct BakeArgs {
     /// Seed of every random choice (same seed, same result).
     #[arg(long, default_value_t = 1)]
     pub(crate) seed: u64,
-    /// `gpu` casts the bake's rays with the GPU ray caster (wgpu compute shaders; see
-    /// `sightline bench trace --device gpu`). Hits are bit-identical to the CPU caster's on
-    /// adapters with `SHADER_F64`, so the PVS is the same as a CPU bake's for the same seed and
-    /// ray budget. `--gpu-cells` cells bake at once and their rays go to the GPU together.
+    /// `gpu` casts the bake's rays on the GPU (see `sightline bench trace --device gpu`), with
+    /// the caster `--gpu-caster` chooses: hardware ray queries where the adapter has them, else
+    /// wgpu compute shaders. The compute caster's hits are bit-identical to the CPU caster's
+    /// on adapters with `SHADER_F64`, so its PVS is a CPU bake's for the same seed and ray
+    /// budget; ray queries may differ where a ray decides at a tie or an edge within rounding.
+    /// `--gpu-cells` cells bake at once and their rays go to the GPU together.
     #[arg(long, value_enum, default_value_t = Device::Cpu)]
     pub(crate) device: Device,
+    /// With `--device gpu`: `auto` (ray queries where the adapter has them, else compute),
+    /// `compute` (bit-identical to a CPU bake) or `ray-query`.
+    #[arg(long, value_enum, default_value_t = GpuCasterChoice::Auto)]
+    pub(crate) gpu_caster: GpuCasterChoice,
     /// With `--device gpu`: cells baked at once (on as many threads), whose batches of rays
     /// are gathered into one GPU batch, so that many small cells still give the GPU large
     /// batches (the sets are the same for any value). 1: each cell's batches go alone, cells

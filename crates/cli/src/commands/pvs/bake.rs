@@ -336,7 +336,7 @@ fn bake_cells(
 ) -> Result<()> {
     let gpu = match args.device {
         Device::Cpu => None,
-        Device::Gpu => Some(gpu_caster(inputs.scene, args.gpu_cells.into())?),
+        Device::Gpu => Some(gpu_caster(inputs.scene, args)?),
     };
     let caster: &dyn RayCaster = match &gpu {
         Some(g) => g.caster(),

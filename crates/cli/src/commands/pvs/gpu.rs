@@ -8,11 +8,13 @@ use anyhow::Result;
 use sightline_core::trace::RayCaster;
 use sightline_core::Scene;
 
+use super::args::BakeArgs;
+
 /// The GPU caster of a bake: alone (`--gpu-cells 1`: each cell's rounds are their own
 /// batches, cells on the bake's threads) or behind the cell-batching caster.
 #[cfg(feature = "gpu")]
 pub(super) enum GpuCaster {
-    Alone(Box<sightline_gpu::GpuRayCaster>),
+    Alone(Box<sightline_gpu::AnyGpuCaster>),
     Batched(sightline_gpu::CellBatchingCaster),
 }
 
@@ -46,25 +48,19 @@ impl GpuCaster {
     }
 }
 
-/// The GPU caster for a bake, `cells` cells at once, with a line on stderr naming the adapter.
+/// The GPU caster for a bake (`--gpu-caster`), `--gpu-cells` cells at once, with lines on
+/// stderr naming the caster and the adapter.
 #[cfg(feature = "gpu")]
-pub(super) fn gpu_caster(scene: &Scene, cells: usize) -> Result<GpuCaster> {
-    let caster = sightline_gpu::GpuRayCaster::new(scene, Default::default())?;
-    let info = caster.adapter_info();
+pub(super) fn gpu_caster(scene: &Scene, args: &BakeArgs) -> Result<GpuCaster> {
+    let kind = args.gpu_caster.kind();
+    let caster = sightline_gpu::AnyGpuCaster::new(scene, kind, Default::default())?;
+    let cells = usize::from(args.gpu_cells);
     let batching = match cells {
         1 => "each cell's rounds alone".to_string(),
         n => format!("the rounds of {n} cells at once in one batch"),
     };
-    eprintln!(
-        "casting rays on {} ({:?}), {batching}",
-        info.name, info.device_type
-    );
-    if !caster.exact() {
-        eprintln!(
-            "warning: this adapter has no SHADER_F64: hit distances may differ from the CPU \
-             caster's in the last bits, and the PVS slightly from a CPU bake's"
-        );
-    }
+    eprintln!("casting rays with the GPU {}", caster.describe());
+    eprintln!("GPU batches: {batching}");
     if cells == 1 {
         return Ok(GpuCaster::Alone(Box::new(caster)));
     }
@@ -97,6 +93,6 @@ impl GpuCaster {
 
 /// A headless build has no GPU caster (`bake_command` refuses `--device gpu` before loading).
 #[cfg(not(feature = "gpu"))]
-pub(super) fn gpu_caster(_scene: &Scene, _cells: usize) -> Result<GpuCaster> {
+pub(super) fn gpu_caster(_scene: &Scene, _args: &BakeArgs) -> Result<GpuCaster> {
     Err(crate::features::not_built("gpu", "--device gpu"))
 }
