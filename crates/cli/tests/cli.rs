@@ -493,7 +493,7 @@ fn bench_rv_reports_both_views_and_passes_consistently() {
 }
 
 #[test]
-fn bench_trace_gpu_measures_the_gpu_caster_beside_the_cpu() {
+fn bench_trace_gpu_measures_the_gpu_casters_beside_the_cpu() {
     let dir = tempfile::tempdir().unwrap();
     let args = [
         "bench",
@@ -520,12 +520,35 @@ fn bench_trace_gpu_measures_the_gpu_caster_beside_the_cpu() {
         .map(|r| r["backend"].as_str().unwrap())
         .collect();
     assert_eq!(backends[0], "sightline BVH");
-    // The GPU row names its node width and the adapter (lavapipe here).
-    let gpu = rows.last().unwrap();
-    let name = gpu["backend"].as_str().unwrap();
+    // Two GPU rows on an adapter with ray queries (CI's lavapipe, Mesa 25): the compute
+    // caster, named with its node width and the adapter, and the ray-query caster.
+    let [compute, ray_query] = &rows[rows.len() - 2..] else {
+        panic!("{backends:?}");
+    };
+    let name = compute["backend"].as_str().unwrap();
     assert!(name.starts_with("GPU BVH8 ("), "{name}");
-    assert!(gpu["incoherent_mrays"].as_f64().unwrap() > 0.0);
-    assert!(gpu["coherent_mrays"].as_f64().unwrap() > 0.0);
+    let name = ray_query["backend"].as_str().unwrap();
+    assert!(name.starts_with("GPU ray queries ("), "{name}");
+    for gpu in [compute, ray_query] {
+        assert!(gpu["incoherent_mrays"].as_f64().unwrap() > 0.0);
+        assert!(gpu["coherent_mrays"].as_f64().unwrap() > 0.0);
+    }
+    // `--gpu-caster compute` measures the compute caster alone.
+    let compute_only = [&args[..4], &["--gpu-caster", "compute"], &args[4..]].concat();
+    let o = sightline(&compute_only, dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let names: Vec<&str> = v
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["backend"].as_str().unwrap())
+        .collect();
+    assert!(
+        names.iter().all(|n| !n.starts_with("GPU ray queries")),
+        "{names:?}"
+    );
+    assert!(names.last().unwrap().starts_with("GPU BVH8 ("), "{names:?}");
 }
 
 #[test]
@@ -536,6 +559,8 @@ fn bench_pvs_gpu_repeats_gvspp_on_the_gpu_with_the_same_sets() {
         "pvs",
         "--device",
         "gpu",
+        "--gpu-caster",
+        "compute",
         "--cells",
         "2",
         "--viewpoints",
@@ -559,14 +584,19 @@ fn bench_pvs_gpu_repeats_gvspp_on_the_gpu_with_the_same_sets() {
     let methods: Vec<&str> = rows.iter().map(|r| r["method"].as_str().unwrap()).collect();
     assert_eq!(methods, ["GVS++", "RAND", "GVS++ GPU"]);
     let (cpu, gpu) = (&rows[0], &rows[2]);
-    // Bit-identical hits on lavapipe (SHADER_F64): the same rays, the same sets.
+    // The compute caster's hits are bit-identical on lavapipe (SHADER_F64): the same rays,
+    // the same sets.
     assert_eq!(gpu["differing_cells"], 0);
     assert!(cpu.get("differing_cells").is_none());
     assert_eq!(gpu["budget"], cpu["budget"]);
     assert_eq!(gpu["mean_rays"], cpu["mean_rays"]);
     assert_eq!(gpu["pvs_percent"], cpu["pvs_percent"]);
     assert!(gpu["mean_seconds"].as_f64().unwrap() > 0.0);
-    assert!(stderr(&o).contains("GVS++ GPU rows: "), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("GVS++ GPU rows: compute caster on"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]
