@@ -336,6 +336,7 @@ pub(crate) fn bake<'py>(
             fusion_splits: bound_fusion_splits,
             ..Default::default()
         },
+        ..Default::default()
     };
     conservative.options.validate().map_err(value_error)?;
     let sampler = method.sampler()?;

@@ -6,6 +6,7 @@ pub mod adjacency;
 pub mod bake;
 mod border;
 pub mod bound;
+pub mod bsp_portals;
 pub mod cell_sources;
 pub mod checkpoint;
 mod guided;

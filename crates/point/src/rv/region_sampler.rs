@@ -9,7 +9,11 @@
 //! occluder hides from the whole cell, a superset of what can be seen from the cell (no false
 //! negatives, by construction), typically several times the aggressive set.
 
-use sightline_core::TriangleSet;
+use std::sync::{Arc, Mutex};
+
+use sightline_core::scene::Scene;
+use sightline_core::{Aabb, TriangleSet};
+use sightline_region::bsp_portals::{BspPortals, DEFAULT_FLOW_BUDGET};
 use sightline_region::methods::{sampler, MethodError, MethodParams, METHODS};
 use sightline_region::{Budget, CellContext, CellResult, ConvergencePoint, Sampler};
 
@@ -65,6 +69,80 @@ pub fn bake_sampler(
 pub struct ConservativeSampler {
     /// Occluders and batch size of [`conservative_from_region`].
     pub options: RegionOptions,
+    /// The portal graph of the last Quake 3 map sampled, shared by the clones that bake its
+    /// cells (built once per scene).
+    pub portals: PortalCache,
+}
+
+/// A map's [`BspPortals`], built on first use and kept for the scene it was built for.
+#[derive(Clone, Debug, Default)]
+pub struct PortalCache(Arc<Mutex<Option<CachedPortals>>>);
+
+/// The scene a [`PortalCache`] was filled for, and its portals (`None`: no usable BSP).
+type CachedPortals = (SceneKey, Option<Arc<BspPortals>>);
+
+/// What tells scenes apart for [`PortalCache`]: its address, source and counts.
+#[derive(Clone, Debug, PartialEq)]
+struct SceneKey {
+    address: usize,
+    source: String,
+    triangles: usize,
+    positions: usize,
+}
+
+impl SceneKey {
+    fn of(scene: &Scene) -> Self {
+        Self {
+            address: scene as *const Scene as usize,
+            source: scene.source.clone(),
+            triangles: scene.triangle_count(),
+            positions: scene.positions.len(),
+        }
+    }
+}
+
+impl PortalCache {
+    /// The portals of `scene`, `None` for a scene without a BSP.
+    fn of(&self, scene: &Scene) -> Option<Arc<BspPortals>> {
+        scene.bsp.as_ref()?;
+        let key = SceneKey::of(scene);
+        let mut cache = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        match &*cache {
+            Some((k, portals)) if *k == key => portals.clone(),
+            _ => {
+                let portals = BspPortals::new(scene).map(Arc::new);
+                *cache = Some((key, portals.clone()));
+                portals
+            }
+        }
+    }
+}
+
+impl ConservativeSampler {
+    /// `visible` (RV's set) without what the map's portals hide from the cell, on a Quake 3
+    /// map (`sightline_region::bsp_portals`): both sets hold everything seen from the cell, so
+    /// their intersection does too. Unchanged on other scenes, or when the flow gives up.
+    fn through_portals(&self, ctx: &CellContext<'_>, visible: TriangleSet) -> TriangleSet {
+        let Some(portals) = self.portals.of(ctx.scene) else {
+            return visible;
+        };
+        let cell = ctx.cell;
+        let bounds = Aabb::new(
+            cell.center - cell.half_extents,
+            cell.center + cell.half_extents,
+        );
+        // Every portal sequence where they are few enough, else one part per portal side.
+        let seen = portals
+            .visible_from_box(ctx.scene, &bounds, DEFAULT_FLOW_BUDGET)
+            .or_else(|| portals.visible_from_box_merged(ctx.scene, &bounds));
+        match seen {
+            Some(mut seen) => {
+                seen.intersect_with(&visible);
+                seen
+            }
+            None => visible,
+        }
+    }
 }
 
 impl Sampler for ConservativeSampler {
@@ -89,7 +167,7 @@ impl Sampler for ConservativeSampler {
             &ctx.cell.corners(),
             &self.options,
         ) {
-            Ok(r) => (r.visible, Vec::new()),
+            Ok(r) => (self.through_portals(ctx, r.visible), Vec::new()),
             Err(_) => {
                 let mut all = TriangleSet::with_capacity(n);
                 all.insert_range(..);
@@ -158,6 +236,7 @@ mod tests {
                     max_occluders,
                     ..RegionOptions::default()
                 },
+                ..Default::default()
             };
             sampler.sample(&ctx, &Budget::default(), &|_| {})
         };
@@ -168,5 +247,58 @@ mod tests {
         // Computed, not refused: the box's face towards the cell is in the set.
         assert!(computed.found_by.is_empty());
         assert!(computed.visible.count_ones(..) > 0);
+    }
+
+    #[test]
+    fn on_a_quake_map_the_portals_cut_the_bound_and_keep_the_sampled_set() {
+        // A cluster cell of q3dm6ish: RV's umbrae alone keep most of the map, the portals
+        // leave well under half of it, and a GVS++ bake's set stays inside.
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/q3dm6ish.bsp");
+        let scene = sightline_core::scene::open(path, &Default::default()).unwrap();
+        let bsp = scene.bsp.as_deref().unwrap();
+        let bvh = sightline_core::trace::Bvh::build(&scene);
+        let (cluster, cell) = sightline_region::cell_sources::q3_cluster_cells(bsp, Some(&[5]))
+            .pop()
+            .unwrap();
+        let in_cluster = |p: glam::Vec3| bsp.cluster_at(p) == Some(cluster);
+        let ctx = CellContext {
+            scene: &scene,
+            caster: &bvh,
+            cell: &cell,
+            seed: 1,
+            free_space: Some(&in_cluster),
+        };
+        let sampler = ConservativeSampler::default();
+        let bound = sampler.sample(&ctx, &Budget::default(), &|_| {}).visible;
+        let umbrae = conservative_from_region(
+            &mut SceneSource::new(&scene),
+            &cell.corners(),
+            &RegionOptions::default(),
+        )
+        .unwrap()
+        .visible;
+        let (bound_size, umbrae_size) = (bound.count_ones(..), umbrae.count_ones(..));
+        assert!(bound.is_subset(&umbrae));
+        assert!(umbrae_size * 2 > scene.triangle_count(), "{umbrae_size}");
+        assert!(bound_size * 3 < scene.triangle_count(), "{bound_size}");
+        let gvspp = sightline_region::methods::sampler("gvs++", &Default::default()).unwrap();
+        let budget = Budget {
+            max_rays: Some(1_000_000),
+            max_time: None,
+        };
+        let set = gvspp.sample(&ctx, &budget, &|_| {}).visible;
+        assert!(set.count_ones(..) > 100);
+        assert!(
+            set.is_subset(&bound),
+            "{:?}",
+            set.difference(&bound).collect::<Vec<_>>()
+        );
+        // The portal graph is built once for the sampler and its clones.
+        let again = sampler
+            .clone()
+            .sample(&ctx, &Budget::default(), &|_| {})
+            .visible;
+        assert_eq!(again, bound);
+        assert!(sampler.portals.0.lock().unwrap().is_some());
     }
 }

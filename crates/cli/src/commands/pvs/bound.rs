@@ -44,6 +44,7 @@ pub(super) fn bound_sampler(options: BoundOptionArgs) -> Result<ConservativeSamp
             fusion_resolution: options.bound_fusion_resolution,
             ..RegionOptions::default()
         },
+        ..Default::default()
     })
 }
 

@@ -1,0 +1,440 @@
+//! What a box sees through a map's portals: the portal flow of the Quake tools' `vis`, from a
+//! box instead of a portal, and down to triangles instead of leaves.
+//!
+//! Based on: Teller, Séquin. Visibility preprocessing for interactive walkthroughs. SIGGRAPH
+//! 1991 (visibility through portal sequences; a sequence is seen through when a line stabs
+//! every portal of it); Airey, Rohlf, Brooks. Towards image realism with interactive update
+//! rates in complex virtual building environments. I3D 1990 (cells and portals); the
+//! separating planes of the Quake tools' `ClipToSeperators` as the conservative stand-in for
+//! Teller's exact stabbing test.
+//!
+//! # Why it is conservative
+//! Empty leaves are convex and tile the empty space; everything else is solid. A segment from
+//! the box to a point stays in empty space, so it leaves the box's leaves (the *sources*)
+//! through a portal of one of them, and then passes from leaf to leaf only through portals:
+//! a point seen from the box is in a source leaf, or at the end of a portal sequence
+//! `p1, ..., pk` that the segment crosses in order. The flow walks every such sequence depth
+//! first and keeps of each portal only what a segment from the box through the part kept of
+//! the one before can reach: the part on the front of every *separating plane* of the box and
+//! that part (a plane with the whole box on its back and the whole part on its front: a
+//! segment from the box through the part is on the front from there on). Dropping parts
+//! only by such planes, with a sliver kept at every cut, never drops a point a segment
+//! reaches, so a triangle is kept whenever some part of it survives the same cuts in a leaf
+//! the flow enters (or it touches a source leaf).
+//!
+//! What this does not see: occluders inside leaves (detail brushes, patches, models: they do
+//! not split the tree), which the other side of a two-sided bound, RV's umbrae, handles.
+
+use glam::DVec3;
+use sightline_core::scene::q3::BspData;
+use sightline_core::scene::Scene;
+use sightline_core::TriangleSet;
+
+use super::build::{is_empty, PortalGraph, GROW, TOUCH};
+use super::winding::{keep_front, side, Plane, Side};
+
+/// Tolerance of the separating-plane test: distances f64 cannot tell from 0 at map scale.
+const SEPARATION: f64 = 1e-6;
+
+/// The triangles touching each leaf: each triangle descends the tree to every side it has a
+/// corner on or within [`TOUCH`] of, so a leaf's list holds every triangle with a point in the
+/// leaf or on its boundary (grown by `TOUCH`), and perhaps more.
+pub(crate) fn leaf_triangles(bsp: &BspData, scene: &Scene) -> Vec<Vec<u32>> {
+    let mut lists = vec![Vec::new(); bsp.leaves.len()];
+    if bsp.nodes.is_empty() {
+        if let Some(l) = lists.first_mut() {
+            *l = (0..scene.triangles.len() as u32).collect();
+        }
+        return lists;
+    }
+    let planes: Vec<Option<Plane>> = (0..bsp.nodes.len())
+        .map(|n| super::build::plane_of(bsp, n))
+        .collect();
+    let mut stack = Vec::new();
+    for (id, t) in scene.triangles.iter().enumerate() {
+        let Some(corners) = t
+            .iter()
+            .map(|&i| scene.positions.get(i as usize).map(|p| p.as_dvec3()))
+            .collect::<Option<Vec<DVec3>>>()
+        else {
+            continue;
+        };
+        if corners.iter().any(|c| !c.is_finite()) {
+            continue;
+        }
+        stack.clear();
+        stack.push(0i32);
+        let mut budget = 2 * (bsp.nodes.len() + bsp.leaves.len()) + 1;
+        while let Some(node) = stack.pop() {
+            budget = budget.saturating_sub(1);
+            if budget == 0 {
+                break;
+            }
+            if node < 0 {
+                if let Some(l) = lists.get_mut((-(node + 1)) as usize) {
+                    l.push(id as u32);
+                }
+                continue;
+            }
+            let (Some(n), Some(Some(plane))) =
+                (bsp.nodes.get(node as usize), planes.get(node as usize))
+            else {
+                continue;
+            };
+            // Closed sides: a triangle that only touches a leaf's boundary plane (an edge or a
+            // corner on it) is in the leaf too, since a ray through that edge may stop on it
+            // (the watertight test gives an edge to one of the triangles sharing it).
+            let (lo, hi) = corners.iter().fold((f64::MAX, f64::MIN), |(lo, hi), &c| {
+                let d = plane.distance(c);
+                (lo.min(d), hi.max(d))
+            });
+            if hi > -TOUCH {
+                stack.push(n.children[0]);
+            }
+            if lo < TOUCH {
+                stack.push(n.children[1]);
+            }
+        }
+    }
+    lists
+}
+
+/// The separating planes of the box `corners` (8, with `EDGES`) and the convex polygon
+/// `pass`, each turned so that `pass` is on its front.
+fn separators(corners: &[DVec3; 8], pass: &[DVec3]) -> Vec<Plane> {
+    let mut out = Vec::new();
+    let mut try_plane = |a: DVec3, b: DVec3, c: DVec3| {
+        let n = (b - a).cross(c - a);
+        let len = n.length();
+        // Degenerate (or NaN) planes separate nothing.
+        if len.is_nan() || len <= 1e-9 {
+            return;
+        }
+        let mut plane = Plane {
+            normal: n / len,
+            dist: (n / len).dot(a),
+        };
+        let box_side = side(corners, &plane, SEPARATION);
+        let pass_side = side(pass, &plane, SEPARATION);
+        match (box_side, pass_side) {
+            (Side::Back, Side::Front) => {}
+            (Side::Front, Side::Back) => plane = plane.flipped(),
+            _ => return,
+        }
+        out.push(plane);
+    };
+    for (i, &a) in pass.iter().enumerate() {
+        let b = pass[(i + 1) % pass.len()];
+        for &c in corners {
+            try_plane(a, b, c);
+        }
+    }
+    for (i, j) in EDGES {
+        for &p in pass {
+            try_plane(corners[i], corners[j], p);
+        }
+    }
+    out
+}
+
+/// The 12 edges of a box whose corner `k` has `x` from bit 0, `y` from bit 1, `z` from bit 2.
+const EDGES: [(usize, usize); 12] = [
+    (0, 1),
+    (2, 3),
+    (4, 5),
+    (6, 7),
+    (0, 2),
+    (1, 3),
+    (4, 6),
+    (5, 7),
+    (0, 4),
+    (1, 5),
+    (2, 6),
+    (3, 7),
+];
+
+/// `poly` cut by the plane of the portal passed (the side beyond it) and by `planes`, with a
+/// sliver kept at each cut; empty when nothing is left.
+fn reachable_part(poly: &[DVec3], beyond: Option<&Plane>, planes: &[Plane]) -> Vec<DVec3> {
+    let mut w = poly.to_vec();
+    for plane in beyond.into_iter().chain(planes) {
+        w = keep_front(&w, plane, GROW);
+        if w.is_empty() {
+            break;
+        }
+    }
+    w
+}
+
+/// The portal flow from one box (see the module documentation).
+pub(crate) struct Flow<'a> {
+    pub(crate) bsp: &'a BspData,
+    pub(crate) scene: &'a Scene,
+    pub(crate) graph: &'a PortalGraph,
+    pub(crate) leaf_triangles: &'a [Vec<u32>],
+    pub(crate) corners: [DVec3; 8],
+    /// Leaves entered so far; the flow gives up past its budget.
+    pub(crate) steps: u64,
+    pub(crate) budget: u64,
+    pub(crate) visible: TriangleSet,
+    /// Leaves on the current sequence (a segment enters a convex leaf once).
+    pub(crate) on_path: Vec<bool>,
+    pub(crate) sources: Vec<bool>,
+}
+
+impl Flow<'_> {
+    /// Every triangle the box may see, or `None` past the budget of leaf entries.
+    pub(crate) fn run(mut self, sources: &[usize]) -> Option<TriangleSet> {
+        for &s in sources {
+            self.sources[s] = true;
+            for &t in &self.leaf_triangles[s] {
+                self.visible.insert(t as usize);
+            }
+        }
+        for &s in sources {
+            for &p in &self.graph.of_leaf[s] {
+                let portal = &self.graph.portals[p];
+                let (next, into) = if portal.front == s {
+                    (portal.back, portal.plane.flipped())
+                } else {
+                    (portal.front, portal.plane)
+                };
+                if self.sources[next] || !is_empty(self.bsp, next) {
+                    continue;
+                }
+                let winding = portal.winding.clone();
+                self.walk(next, &winding, &into)?;
+            }
+        }
+        Some(self.visible)
+    }
+
+    /// Walks every portal sequence from `first`, entered through the part `pass` of a portal
+    /// whose plane, turned to face into it, is `into`: depth first, with an explicit stack
+    /// (a sequence may be as long as the map has leaves).
+    fn walk(&mut self, first: usize, pass: &[DVec3], into: &Plane) -> Option<()> {
+        let mut stack = vec![self.enter(first, pass, into)?];
+        while let Some(frame) = stack.last_mut() {
+            let leaf = frame.leaf;
+            let Some(&p) = self.graph.of_leaf[leaf].get(frame.next_portal) else {
+                self.on_path[leaf] = false;
+                stack.pop();
+                continue;
+            };
+            frame.next_portal += 1;
+            let portal = &self.graph.portals[p];
+            let (next, next_into) = if portal.front == leaf {
+                (portal.back, portal.plane.flipped())
+            } else {
+                (portal.front, portal.plane)
+            };
+            if self.on_path[next] || self.sources[next] || !is_empty(self.bsp, next) {
+                continue;
+            }
+            let part = reachable_part(&portal.winding, frame.beyond.as_ref(), &frame.seps);
+            if !part.is_empty() {
+                let entered = self.enter(next, &part, &next_into);
+                let Some(entered) = entered else {
+                    // Leave `on_path` clean for the caller's next walk (none follows a
+                    // failed one, but the flow stays consistent).
+                    stack.iter().for_each(|f| self.on_path[f.leaf] = false);
+                    return None;
+                };
+                stack.push(entered);
+            }
+        }
+        Some(())
+    }
+
+    /// Enters `leaf` through the part `pass` of a portal whose plane, turned to face into the
+    /// leaf, is `into`: marks the triangles seen in it and returns its frame (`None` past the
+    /// budget).
+    fn enter(&mut self, leaf: usize, pass: &[DVec3], into: &Plane) -> Option<Frame> {
+        self.steps += 1;
+        if self.steps > self.budget {
+            return None;
+        }
+        // Beyond the portal, when the whole box is behind it (else the cut could drop points
+        // a segment from the part of the box in front of it reaches).
+        let beyond =
+            matches!(side(&self.corners, into, 0.0), Side::Back | Side::On).then_some(*into);
+        let seps = separators(&self.corners, pass);
+        for &t in &self.leaf_triangles[leaf] {
+            if self.visible.contains(t as usize) {
+                continue;
+            }
+            let tri = self.scene.triangles[t as usize]
+                .map(|i| self.scene.positions[i as usize].as_dvec3());
+            if !reachable_part(&tri, beyond.as_ref(), &seps).is_empty() {
+                self.visible.insert(t as usize);
+            }
+        }
+        self.on_path[leaf] = true;
+        Some(Frame {
+            leaf,
+            beyond,
+            seps,
+            next_portal: 0,
+        })
+    }
+}
+
+/// A leaf on the current portal sequence: the cuts of the part it was entered through, and
+/// the next of its portals to try.
+struct Frame {
+    leaf: usize,
+    beyond: Option<Plane>,
+    seps: Vec<Plane>,
+    next_portal: usize,
+}
+
+/// The flow with one part per portal side instead of one per sequence: what a leaf is
+/// entered through by a portal is the convex hull of every part that reached it that way,
+/// and the walk from it is redone whenever that hull grows. Looser than the walk of every
+/// sequence (a hull holds segments no sequence carries, and no leaf is barred for being on
+/// the path), but its work is bounded: hulls only grow, inside their portals, each time by
+/// more than [`GROW`]. The fallback for open maps, where the sequences are too many.
+pub(crate) fn merged_flow(flow: &Flow<'_>, sources: &[usize]) -> TriangleSet {
+    let graph = flow.graph;
+    let mut visible = TriangleSet::with_capacity(flow.visible.len());
+    let mut is_source = vec![false; flow.bsp.leaves.len()];
+    for &s in sources {
+        is_source[s] = true;
+        for &t in &flow.leaf_triangles[s] {
+            visible.insert(t as usize);
+        }
+    }
+    // Side `2p` of portal `p` enters its front leaf, `2p + 1` its back leaf.
+    let enters = |side: usize| {
+        let portal = &graph.portals[side / 2];
+        if side.is_multiple_of(2) {
+            (portal.front, portal.plane)
+        } else {
+            (portal.back, portal.plane.flipped())
+        }
+    };
+    let side_into = |p: usize, leaf: usize| 2 * p + usize::from(graph.portals[p].front != leaf);
+    let mut hulls: Vec<Option<Vec<DVec3>>> = vec![None; 2 * graph.portals.len()];
+    let mut work = Vec::new();
+    for &s in sources {
+        for &p in &graph.of_leaf[s] {
+            let portal = &graph.portals[p];
+            let next = if portal.front == s {
+                portal.back
+            } else {
+                portal.front
+            };
+            if is_source[next] || !is_empty(flow.bsp, next) {
+                continue;
+            }
+            let side = side_into(p, next);
+            hulls[side] = Some(portal.winding.clone());
+            work.push(side);
+        }
+    }
+    while let Some(side) = work.pop() {
+        let (leaf, into) = enters(side);
+        let Some(pass) = hulls[side].clone() else {
+            continue;
+        };
+        let beyond = matches!(side_of(&flow.corners, &into), Side::Back | Side::On).then_some(into);
+        let seps = separators(&flow.corners, &pass);
+        for &t in &flow.leaf_triangles[leaf] {
+            if visible.contains(t as usize) {
+                continue;
+            }
+            let tri = flow.scene.triangles[t as usize]
+                .map(|i| flow.scene.positions[i as usize].as_dvec3());
+            if !reachable_part(&tri, beyond.as_ref(), &seps).is_empty() {
+                visible.insert(t as usize);
+            }
+        }
+        for &p in &graph.of_leaf[leaf] {
+            if p == side / 2 {
+                continue;
+            }
+            let portal = &graph.portals[p];
+            let next = if portal.front == leaf {
+                portal.back
+            } else {
+                portal.front
+            };
+            if is_source[next] || !is_empty(flow.bsp, next) {
+                continue;
+            }
+            let part = reachable_part(&portal.winding, beyond.as_ref(), &seps);
+            if part.is_empty() {
+                continue;
+            }
+            let next_side = side_into(p, next);
+            let grown = match &hulls[next_side] {
+                Some(h) if contains(h, &part, &portal.plane.normal) => continue,
+                Some(h) => convex_hull(h.iter().chain(&part).copied(), &portal.plane.normal),
+                None => part,
+            };
+            hulls[next_side] = Some(grown);
+            work.push(next_side);
+        }
+    }
+    visible
+}
+
+fn side_of(corners: &[DVec3; 8], plane: &Plane) -> Side {
+    side(corners, plane, 0.0)
+}
+
+/// Whether convex polygon `inner` lies inside convex polygon `outer` grown by [`GROW`], both
+/// on one plane with normal `normal`.
+fn contains(outer: &[DVec3], inner: &[DVec3], normal: &DVec3) -> bool {
+    let centre = outer.iter().copied().sum::<DVec3>() / outer.len() as f64;
+    (0..outer.len()).all(|i| {
+        let (a, b) = (outer[i], outer[(i + 1) % outer.len()]);
+        let n = (b - a).cross(*normal);
+        let len = n.length();
+        if len.is_nan() || len == 0.0 {
+            return true;
+        }
+        let mut n = n / len;
+        // Turned inwards.
+        if n.dot(centre - a) < 0.0 {
+            n = -n;
+        }
+        inner.iter().all(|&p| n.dot(p - a) >= -GROW)
+    })
+}
+
+/// The convex hull of `points`, all on one plane with normal `normal` (Andrew's monotone
+/// chain in the plane's coordinates).
+fn convex_hull(points: impl Iterator<Item = DVec3>, normal: &DVec3) -> Vec<DVec3> {
+    let a = if normal.x.abs() < 0.6 {
+        DVec3::X
+    } else {
+        DVec3::Y
+    };
+    let u = normal.cross(a).normalize();
+    let v = normal.cross(u);
+    let mut pts: Vec<(f64, f64, DVec3)> = points.map(|p| (p.dot(u), p.dot(v), p)).collect();
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    let cross = |o: &(f64, f64, DVec3), a: &(f64, f64, DVec3), b: &(f64, f64, DVec3)| {
+        (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0)
+    };
+    let mut hull: Vec<(f64, f64, DVec3)> = Vec::with_capacity(pts.len() * 2);
+    for pass in 0..2 {
+        let start = hull.len();
+        let ordered: Box<dyn Iterator<Item = &(f64, f64, DVec3)>> = if pass == 0 {
+            Box::new(pts.iter())
+        } else {
+            Box::new(pts.iter().rev())
+        };
+        for p in ordered {
+            while hull.len() >= start + 2
+                && cross(&hull[hull.len() - 2], &hull[hull.len() - 1], p) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(*p);
+        }
+        hull.pop();
+    }
+    hull.into_iter().map(|p| p.2).collect()
+}

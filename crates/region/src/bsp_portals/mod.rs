@@ -1,0 +1,289 @@
+//! A conservative from-region set for Quake 3 maps from the map's own cells and portals: the
+//! empty leaves of its BSP are convex cells, the openings between them portals, and what a
+//! view cell sees must be seen through a sequence of portals. This is the other half of a
+//! two-sided bound on indoor maps, where single convex occluders (RV's umbrae) hide little
+//! from a box: a wall is many small brush faces, and no one of them hides a room from a
+//! whole cell, while the portals between rooms are few and small.
+//!
+//! Based on: Teller, Séquin. Visibility preprocessing for interactive walkthroughs. SIGGRAPH
+//! 1991; Airey, Rohlf, Brooks. I3D 1990. See `build.rs` (the portals) and `flow.rs` (the
+//! flow from a box, down to triangles).
+//!
+//! # Files
+//! - `winding.rs`: convex polygons in f64, cut by planes with a sliver kept.
+//! - `build.rs`: the portal graph of a BSP tree.
+//! - `flow.rs`: the triangles a box may see through it.
+//!
+//! # Memory and time
+//! The graph: one polygon per portal (a few corners of 24 bytes), one list entry per portal
+//! end; the triangles of each leaf: 4 bytes per (triangle, leaf) pair it touches. A flow
+//! holds one bit per triangle and one path of portal parts; it visits each portal sequence
+//! that survives its cuts once, which is exponential in the worst case, so it gives up after
+//! [`DEFAULT_FLOW_BUDGET`] leaf entries; the merged flow (`flow::merged_flow`) then keeps one
+//! part per portal side (two polygons per portal at most) and its work is bounded, at the
+//! price of a looser set.
+
+mod build;
+mod flow;
+mod winding;
+
+use glam::DVec3;
+use sightline_core::scene::Scene;
+use sightline_core::{Aabb, TriangleSet};
+
+/// Leaf entries the walk of every portal sequence may make before it gives up (about a
+/// second): the shared maps' indoor cells need far fewer, the open areas of czest3ctf more
+/// than ten times as many (docs/BENCHMARKS.md), and there [`BspPortals::visible_from_box_merged`]
+/// takes over.
+pub const DEFAULT_FLOW_BUDGET: u64 = 500_000;
+
+/// A Quake 3 map's portal graph and the triangles of its leaves, built once per scene.
+#[derive(Clone, Debug)]
+pub struct BspPortals {
+    graph: build::PortalGraph,
+    leaf_triangles: Vec<Vec<u32>>,
+    triangles: usize,
+}
+
+impl BspPortals {
+    /// A flow from the box `bounds` (finite), with its source leaves.
+    fn flow<'a>(
+        &'a self,
+        scene: &'a Scene,
+        bsp: &'a sightline_core::scene::q3::BspData,
+        bounds: &Aabb,
+        budget: u64,
+    ) -> (flow::Flow<'a>, Vec<usize>) {
+        let (lo, hi) = (bounds.min.as_dvec3(), bounds.max.as_dvec3());
+        let corners: [DVec3; 8] = std::array::from_fn(|k| {
+            DVec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            )
+        });
+        let sources: Vec<usize> = bsp
+            .leaves_in_box(bounds)
+            .into_iter()
+            .filter(|&l| build::is_empty(bsp, l))
+            .collect();
+        let flow = flow::Flow {
+            bsp,
+            scene,
+            graph: &self.graph,
+            leaf_triangles: &self.leaf_triangles,
+            corners,
+            steps: 0,
+            budget,
+            visible: TriangleSet::with_capacity(self.triangles),
+            on_path: vec![false; bsp.leaves.len()],
+            sources: vec![false; bsp.leaves.len()],
+        };
+        (flow, sources)
+    }
+
+    /// The portals of `scene`'s BSP, or `None` when the scene has no BSP (not a Quake 3 map)
+    /// or its tree is malformed.
+    pub fn new(scene: &Scene) -> Option<Self> {
+        let bsp = scene.bsp.as_deref()?;
+        let graph = build::build(bsp)?;
+        let leaf_triangles = flow::leaf_triangles(bsp, scene);
+        Some(Self {
+            graph,
+            leaf_triangles,
+            triangles: scene.triangle_count(),
+        })
+    }
+
+    /// Portals between empty leaves.
+    pub fn portal_count(&self) -> usize {
+        self.graph.portals.len()
+    }
+
+    /// Every triangle of `scene` (the scene these portals were built for) that may be seen
+    /// from a point of the box `bounds` through the map's portals; `None` when the scene is
+    /// another (its triangle count differs), the box is not finite, or the flow passed
+    /// `budget` leaf entries.
+    pub fn visible_from_box(
+        &self,
+        scene: &Scene,
+        bounds: &Aabb,
+        budget: u64,
+    ) -> Option<TriangleSet> {
+        let bsp = scene.bsp.as_deref()?;
+        if scene.triangle_count() != self.triangles
+            || !bounds.min.is_finite()
+            || !bounds.max.is_finite()
+        {
+            return None;
+        }
+        let (flow, sources) = self.flow(scene, bsp, bounds, budget);
+        flow.run(&sources)
+    }
+
+    /// [`BspPortals::visible_from_box`] by the bounded flow (`flow::merged_flow`): looser, but
+    /// its work does not grow with the number of portal sequences. `None` for another scene
+    /// or a box that is not finite.
+    pub fn visible_from_box_merged(&self, scene: &Scene, bounds: &Aabb) -> Option<TriangleSet> {
+        let bsp = scene.bsp.as_deref()?;
+        if scene.triangle_count() != self.triangles
+            || !bounds.min.is_finite()
+            || !bounds.max.is_finite()
+        {
+            return None;
+        }
+        let (flow, sources) = self.flow(scene, bsp, bounds, 0);
+        Some(flow::merged_flow(&flow, &sources))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+    use sightline_core::scene::{open, LoadOptions, SceneBuilder};
+    use sightline_core::trace::{Bvh, RayCaster};
+    use sightline_core::Ray;
+
+    use super::*;
+    use crate::cell_sources::q3_cluster_cells;
+
+    fn map() -> Scene {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/q3dm6ish.bsp");
+        open(path, &LoadOptions::default()).unwrap()
+    }
+
+    /// Five clusters players reach, one leaf each (docs/BENCHMARKS.md, "Portals").
+    const CLUSTERS: [u32; 5] = [5, 20, 35, 65, 80];
+
+    fn boxes(scene: &Scene) -> Vec<(u32, Aabb)> {
+        let bsp = scene.bsp.as_deref().unwrap();
+        let cells = q3_cluster_cells(bsp, Some(&CLUSTERS));
+        let to_box = |c: &crate::viewcell::ViewCell| {
+            Aabb::new(c.center - c.half_extents, c.center + c.half_extents)
+        };
+        cells.iter().map(|(k, c)| (*k, to_box(c))).collect()
+    }
+
+    #[test]
+    fn portals_lie_on_their_planes_between_two_empty_leaves() {
+        let scene = map();
+        let bsp = scene.bsp.as_deref().unwrap();
+        let p = BspPortals::new(&scene).unwrap();
+        assert!(p.portal_count() > 100, "{}", p.portal_count());
+        // Just in front of a portal's centre is its front leaf, just behind it its back leaf
+        // (all but slivers narrower than the step off the plane).
+        let mut astray = 0;
+        for portal in &p.graph.portals {
+            assert_ne!(portal.front, portal.back);
+            assert!(build::is_empty(bsp, portal.front) && build::is_empty(bsp, portal.back));
+            let w = &portal.winding;
+            assert!(w.iter().all(|&c| portal.plane.distance(c).abs() < 1e-6));
+            let centre = w.iter().copied().sum::<DVec3>() / w.len() as f64;
+            let step = portal.plane.normal * 0.01;
+            let front = bsp.leaf_at((centre + step).as_vec3());
+            let back = bsp.leaf_at((centre - step).as_vec3());
+            // Slivers (about as wide as the cuts' growth) may be the growth alone.
+            let perimeter: f64 = (0..w.len())
+                .map(|i| (w[(i + 1) % w.len()] - w[i]).length())
+                .sum();
+            let sliver = winding::double_area(w) / perimeter < 4.0 * build::GROW;
+            if !sliver && (front, back) != (portal.front, portal.back) {
+                astray += 1;
+            }
+        }
+        assert_eq!(astray, 0, "portals not between their leaves");
+        // Every empty leaf a player reaches opens onto another.
+        for (_, b) in boxes(&scene) {
+            for l in bsp.leaves_in_box(&b) {
+                if build::is_empty(bsp, l) {
+                    assert!(!p.graph.of_leaf[l].is_empty(), "leaf {l} has no portal");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_flow_holds_every_triangle_dense_sampling_sees() {
+        // 100,000 rays a cell from random points of the cell's cluster, in random directions:
+        // every triangle they hit first is in the cell's portal set, which is well below the
+        // map (the flow culls).
+        let scene = map();
+        let bsp = scene.bsp.as_deref().unwrap();
+        let p = BspPortals::new(&scene).unwrap();
+        let bvh = Bvh::build(&scene);
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        for (cluster, b) in boxes(&scene) {
+            let seen = p.visible_from_box(&scene, &b, DEFAULT_FLOW_BUDGET).unwrap();
+            let merged = p.visible_from_box_merged(&scene, &b).unwrap();
+            let size = seen.count_ones(..);
+            assert!(
+                size * 2 < scene.triangle_count(),
+                "cluster {cluster}: {size}"
+            );
+            let merged_size = merged.count_ones(..);
+            assert!(
+                merged_size * 10 < scene.triangle_count() * 7,
+                "{merged_size}"
+            );
+            let mut rays = Vec::new();
+            while rays.len() < 100_000 {
+                let o = b.min + b.extent() * Vec3::new(next(), next(), next());
+                if bsp.cluster_at(o) != Some(cluster) {
+                    continue;
+                }
+                let d = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5);
+                if d.length_squared() > 1e-4 {
+                    rays.push(Ray::new(o, d));
+                }
+            }
+            let mut hits = vec![sightline_core::Hit::default(); rays.len()];
+            bvh.cast(&rays, &mut hits);
+            let hit: std::collections::BTreeSet<u32> = hits
+                .iter()
+                .filter(|h| h.triangle != sightline_core::Hit::NONE)
+                .map(|h| h.triangle)
+                .collect();
+            assert!(hit.len() > 50, "cluster {cluster}: {} hit", hit.len());
+            for (name, set) in [("walk", &seen), ("merged", &merged)] {
+                let missed: Vec<u32> = hit
+                    .iter()
+                    .copied()
+                    .filter(|&t| !set.contains(t as usize))
+                    .collect();
+                assert!(
+                    missed.is_empty(),
+                    "{name}: cluster {cluster} misses {missed:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn other_scenes_boxes_and_budgets_give_no_set() {
+        let scene = map();
+        let p = BspPortals::new(&scene).unwrap();
+        let (_, b) = boxes(&scene)[0];
+        // The budget is counted in leaf entries: one is too few for any real cell.
+        assert!(p.visible_from_box(&scene, &b, 1).is_none());
+        assert!(p.visible_from_box_merged(&scene, &b).is_some());
+        let nan = Aabb::new(Vec3::splat(f32::NAN), Vec3::ONE);
+        assert!(p
+            .visible_from_box(&scene, &nan, DEFAULT_FLOW_BUDGET)
+            .is_none());
+        assert!(p.visible_from_box_merged(&scene, &nan).is_none());
+        let mut builder = SceneBuilder::new("box");
+        builder.add_box(Vec3::ZERO, Vec3::ONE);
+        let plain = builder.finish();
+        assert!(BspPortals::new(&plain).is_none());
+        assert!(p
+            .visible_from_box(&plain, &b, DEFAULT_FLOW_BUDGET)
+            .is_none());
+        assert!(p.visible_from_box_merged(&plain, &b).is_none());
+    }
+}
