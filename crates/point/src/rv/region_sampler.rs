@@ -131,12 +131,9 @@ impl ConservativeSampler {
             cell.center - cell.half_extents,
             cell.center + cell.half_extents,
         );
-        // Every portal sequence where they are few enough, else one part per portal side.
-        let seen = portals
-            .visible_from_box(ctx.scene, &bounds, DEFAULT_FLOW_BUDGET)
-            .or_else(|| portals.visible_from_box_merged(ctx.scene, &bounds));
-        match seen {
-            Some(mut seen) => {
+        match portals.visible_from_box(ctx.scene, &bounds, DEFAULT_FLOW_BUDGET) {
+            Some(seen) => {
+                let mut seen = seen.visible;
                 seen.intersect_with(&visible);
                 seen
             }

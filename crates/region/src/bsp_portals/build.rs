@@ -36,6 +36,17 @@ pub(crate) struct Portal {
     pub(crate) winding: Vec<DVec3>,
 }
 
+impl Portal {
+    /// The leaf on the other side from `leaf`.
+    pub(crate) fn other(&self, leaf: usize) -> usize {
+        if self.front == leaf {
+            self.back
+        } else {
+            self.front
+        }
+    }
+}
+
 /// Every portal of a map, and the portals of each leaf.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct PortalGraph {

@@ -173,7 +173,7 @@ pub(crate) struct Flow<'a> {
     pub(crate) graph: &'a PortalGraph,
     pub(crate) leaf_triangles: &'a [Vec<u32>],
     pub(crate) corners: [DVec3; 8],
-    /// Leaves entered so far; the flow gives up past its budget.
+    /// Leaves entered so far by the walk of every sequence, which stops past its budget.
     pub(crate) steps: u64,
     pub(crate) budget: u64,
     pub(crate) visible: TriangleSet,
@@ -182,102 +182,9 @@ pub(crate) struct Flow<'a> {
     pub(crate) sources: Vec<bool>,
 }
 
-impl Flow<'_> {
-    /// Every triangle the box may see, or `None` past the budget of leaf entries.
-    pub(crate) fn run(mut self, sources: &[usize]) -> Option<TriangleSet> {
-        for &s in sources {
-            self.sources[s] = true;
-            for &t in &self.leaf_triangles[s] {
-                self.visible.insert(t as usize);
-            }
-        }
-        for &s in sources {
-            for &p in &self.graph.of_leaf[s] {
-                let portal = &self.graph.portals[p];
-                let (next, into) = if portal.front == s {
-                    (portal.back, portal.plane.flipped())
-                } else {
-                    (portal.front, portal.plane)
-                };
-                if self.sources[next] || !is_empty(self.bsp, next) {
-                    continue;
-                }
-                let winding = portal.winding.clone();
-                self.walk(next, &winding, &into)?;
-            }
-        }
-        Some(self.visible)
-    }
-
-    /// Walks every portal sequence from `first`, entered through the part `pass` of a portal
-    /// whose plane, turned to face into it, is `into`: depth first, with an explicit stack
-    /// (a sequence may be as long as the map has leaves).
-    fn walk(&mut self, first: usize, pass: &[DVec3], into: &Plane) -> Option<()> {
-        let mut stack = vec![self.enter(first, pass, into)?];
-        while let Some(frame) = stack.last_mut() {
-            let leaf = frame.leaf;
-            let Some(&p) = self.graph.of_leaf[leaf].get(frame.next_portal) else {
-                self.on_path[leaf] = false;
-                stack.pop();
-                continue;
-            };
-            frame.next_portal += 1;
-            let portal = &self.graph.portals[p];
-            let (next, next_into) = if portal.front == leaf {
-                (portal.back, portal.plane.flipped())
-            } else {
-                (portal.front, portal.plane)
-            };
-            if self.on_path[next] || self.sources[next] || !is_empty(self.bsp, next) {
-                continue;
-            }
-            let part = reachable_part(&portal.winding, frame.beyond.as_ref(), &frame.seps);
-            if !part.is_empty() {
-                let entered = self.enter(next, &part, &next_into);
-                let Some(entered) = entered else {
-                    // Leave `on_path` clean for the caller's next walk (none follows a
-                    // failed one, but the flow stays consistent).
-                    stack.iter().for_each(|f| self.on_path[f.leaf] = false);
-                    return None;
-                };
-                stack.push(entered);
-            }
-        }
-        Some(())
-    }
-
-    /// Enters `leaf` through the part `pass` of a portal whose plane, turned to face into the
-    /// leaf, is `into`: marks the triangles seen in it and returns its frame (`None` past the
-    /// budget).
-    fn enter(&mut self, leaf: usize, pass: &[DVec3], into: &Plane) -> Option<Frame> {
-        self.steps += 1;
-        if self.steps > self.budget {
-            return None;
-        }
-        // Beyond the portal, when the whole box is behind it (else the cut could drop points
-        // a segment from the part of the box in front of it reaches).
-        let beyond =
-            matches!(side(&self.corners, into, 0.0), Side::Back | Side::On).then_some(*into);
-        let seps = separators(&self.corners, pass);
-        for &t in &self.leaf_triangles[leaf] {
-            if self.visible.contains(t as usize) {
-                continue;
-            }
-            let tri = self.scene.triangles[t as usize]
-                .map(|i| self.scene.positions[i as usize].as_dvec3());
-            if !reachable_part(&tri, beyond.as_ref(), &seps).is_empty() {
-                self.visible.insert(t as usize);
-            }
-        }
-        self.on_path[leaf] = true;
-        Some(Frame {
-            leaf,
-            beyond,
-            seps,
-            next_portal: 0,
-        })
-    }
-}
+/// A portal side to go on from: side `2p` of portal `p` enters its front leaf, `2p + 1` its
+/// back leaf, through the part `part` of the portal.
+type Seed = (usize, Vec<DVec3>);
 
 /// A leaf on the current portal sequence: the cuts of the part it was entered through, and
 /// the next of its portals to try.
@@ -288,95 +195,230 @@ struct Frame {
     next_portal: usize,
 }
 
+impl Flow<'_> {
+    /// Every triangle the box may see, and whether every portal sequence was walked (else the
+    /// budget ran out and the merged flow went on from where the walk stopped).
+    pub(crate) fn run(mut self, sources: &[usize]) -> (TriangleSet, bool) {
+        for &s in sources {
+            self.sources[s] = true;
+            for &t in &self.leaf_triangles[s] {
+                self.visible.insert(t as usize);
+            }
+        }
+        let mut seeds: Vec<Seed> = Vec::new();
+        for &s in sources {
+            for &p in &self.graph.of_leaf[s] {
+                let portal = &self.graph.portals[p];
+                let next = portal.other(s);
+                if self.sources[next] || !is_empty(self.bsp, next) {
+                    continue;
+                }
+                let seed = (side_into(self.graph, p, next), portal.winding.clone());
+                if seeds.is_empty() {
+                    self.walk(seed, &mut seeds);
+                } else {
+                    seeds.push(seed);
+                }
+            }
+        }
+        let walked = seeds.is_empty();
+        let visible = if walked {
+            self.visible
+        } else {
+            let visible = std::mem::take(&mut self.visible);
+            merged_from(&self, visible, seeds)
+        };
+        (visible, walked)
+    }
+
+    /// Walks every portal sequence from `seed`, depth first with an explicit stack (a
+    /// sequence may be as long as the map has leaves). Past the budget, what is left to walk
+    /// goes to `left` as seeds, each with the part of its portal the walk would have entered.
+    fn walk(&mut self, seed: Seed, left: &mut Vec<Seed>) {
+        let mut stack = match self.enter(&seed) {
+            Some(frame) => vec![frame],
+            None => return left.push(seed),
+        };
+        while let Some(frame) = stack.last_mut() {
+            let leaf = frame.leaf;
+            let Some(&p) = self.graph.of_leaf[leaf].get(frame.next_portal) else {
+                self.on_path[leaf] = false;
+                stack.pop();
+                continue;
+            };
+            frame.next_portal += 1;
+            let portal = &self.graph.portals[p];
+            let next = portal.other(leaf);
+            if self.on_path[next] || self.sources[next] || !is_empty(self.bsp, next) {
+                continue;
+            }
+            let part = reachable_part(&portal.winding, frame.beyond.as_ref(), &frame.seps);
+            if part.is_empty() {
+                continue;
+            }
+            let seed = (side_into(self.graph, p, next), part);
+            match self.enter(&seed) {
+                Some(entered) => stack.push(entered),
+                None => {
+                    // Out of budget: this seed, and the untried portals of every leaf on the
+                    // sequence, for the merged flow.
+                    left.push(seed);
+                    for f in &stack {
+                        self.on_path[f.leaf] = false;
+                        for &q in &self.graph.of_leaf[f.leaf][f.next_portal..] {
+                            let portal = &self.graph.portals[q];
+                            let next = portal.other(f.leaf);
+                            if self.sources[next] || !is_empty(self.bsp, next) {
+                                continue;
+                            }
+                            let part = reachable_part(&portal.winding, f.beyond.as_ref(), &f.seps);
+                            if !part.is_empty() {
+                                left.push((side_into(self.graph, q, next), part));
+                            }
+                        }
+                    }
+                    return;
+                }
+            }
+        }
+    }
+
+    /// Enters a leaf through a seed: marks the triangles seen in it and returns its frame
+    /// (`None` past the budget, with nothing marked).
+    fn enter(&mut self, (side, pass): &Seed) -> Option<Frame> {
+        self.steps += 1;
+        if self.steps > self.budget {
+            return None;
+        }
+        let (leaf, into) = enters(self.graph, *side);
+        let (beyond, seps) = cuts(&self.corners, &into, pass);
+        mark_seen(
+            self.scene,
+            &self.leaf_triangles[leaf],
+            beyond.as_ref(),
+            &seps,
+            &mut self.visible,
+        );
+        self.on_path[leaf] = true;
+        Some(Frame {
+            leaf,
+            beyond,
+            seps,
+            next_portal: 0,
+        })
+    }
+}
+
+/// The leaf side `side` of a portal enters, and the portal's plane turned to face into it.
+fn enters(graph: &PortalGraph, side: usize) -> (usize, Plane) {
+    let portal = &graph.portals[side / 2];
+    if side.is_multiple_of(2) {
+        (portal.front, portal.plane)
+    } else {
+        (portal.back, portal.plane.flipped())
+    }
+}
+
+/// The side of portal `p` that enters `leaf`.
+fn side_into(graph: &PortalGraph, p: usize, leaf: usize) -> usize {
+    2 * p + usize::from(graph.portals[p].front != leaf)
+}
+
+/// The cuts for what is seen past `pass`, a part of a portal whose plane faces `into` the
+/// leaf entered: the portal's plane (only when the whole box is behind it, else the cut could
+/// drop points a segment from the part of the box in front of it reaches), and the separating
+/// planes of the box and the part.
+fn cuts(corners: &[DVec3; 8], into: &Plane, pass: &[DVec3]) -> (Option<Plane>, Vec<Plane>) {
+    let beyond = matches!(side_of(corners, into), Side::Back | Side::On).then_some(*into);
+    (beyond, separators(corners, pass))
+}
+
+/// Marks in `visible` the triangles of a leaf (`triangles`) that keep a part through the cuts.
+fn mark_seen(
+    scene: &Scene,
+    triangles: &[u32],
+    beyond: Option<&Plane>,
+    seps: &[Plane],
+    visible: &mut TriangleSet,
+) {
+    for &t in triangles {
+        if visible.contains(t as usize) {
+            continue;
+        }
+        let tri = scene.triangles[t as usize].map(|i| scene.positions[i as usize].as_dvec3());
+        if !reachable_part(&tri, beyond, seps).is_empty() {
+            visible.insert(t as usize);
+        }
+    }
+}
+
 /// The flow with one part per portal side instead of one per sequence: what a leaf is
 /// entered through by a portal is the convex hull of every part that reached it that way,
 /// and the walk from it is redone whenever that hull grows. Looser than the walk of every
 /// sequence (a hull holds segments no sequence carries, and no leaf is barred for being on
 /// the path), but its work is bounded: hulls only grow, inside their portals, each time by
-/// more than [`GROW`]. The fallback for open maps, where the sequences are too many.
-pub(crate) fn merged_flow(flow: &Flow<'_>, sources: &[usize]) -> TriangleSet {
+/// more than [`GROW`]. It goes on from `seeds`, where the walk of every sequence stopped,
+/// with what that walk saw in `visible`.
+fn merged_from(flow: &Flow<'_>, mut visible: TriangleSet, seeds: Vec<Seed>) -> TriangleSet {
     let graph = flow.graph;
-    let mut visible = TriangleSet::with_capacity(flow.visible.len());
-    let mut is_source = vec![false; flow.bsp.leaves.len()];
-    for &s in sources {
-        is_source[s] = true;
-        for &t in &flow.leaf_triangles[s] {
-            visible.insert(t as usize);
-        }
-    }
-    // Side `2p` of portal `p` enters its front leaf, `2p + 1` its back leaf.
-    let enters = |side: usize| {
-        let portal = &graph.portals[side / 2];
-        if side.is_multiple_of(2) {
-            (portal.front, portal.plane)
-        } else {
-            (portal.back, portal.plane.flipped())
-        }
-    };
-    let side_into = |p: usize, leaf: usize| 2 * p + usize::from(graph.portals[p].front != leaf);
     let mut hulls: Vec<Option<Vec<DVec3>>> = vec![None; 2 * graph.portals.len()];
     let mut work = Vec::new();
-    for &s in sources {
-        for &p in &graph.of_leaf[s] {
-            let portal = &graph.portals[p];
-            let next = if portal.front == s {
-                portal.back
-            } else {
-                portal.front
-            };
-            if is_source[next] || !is_empty(flow.bsp, next) {
-                continue;
-            }
-            let side = side_into(p, next);
-            hulls[side] = Some(portal.winding.clone());
-            work.push(side);
-        }
+    for (side, part) in seeds {
+        offer(graph, &mut hulls, &mut work, side, part);
     }
     while let Some(side) = work.pop() {
-        let (leaf, into) = enters(side);
         let Some(pass) = hulls[side].clone() else {
             continue;
         };
-        let beyond = matches!(side_of(&flow.corners, &into), Side::Back | Side::On).then_some(into);
-        let seps = separators(&flow.corners, &pass);
-        for &t in &flow.leaf_triangles[leaf] {
-            if visible.contains(t as usize) {
-                continue;
-            }
-            let tri = flow.scene.triangles[t as usize]
-                .map(|i| flow.scene.positions[i as usize].as_dvec3());
-            if !reachable_part(&tri, beyond.as_ref(), &seps).is_empty() {
-                visible.insert(t as usize);
-            }
-        }
+        let (leaf, into) = enters(graph, side);
+        let (beyond, seps) = cuts(&flow.corners, &into, &pass);
+        mark_seen(
+            flow.scene,
+            &flow.leaf_triangles[leaf],
+            beyond.as_ref(),
+            &seps,
+            &mut visible,
+        );
         for &p in &graph.of_leaf[leaf] {
             if p == side / 2 {
                 continue;
             }
-            let portal = &graph.portals[p];
-            let next = if portal.front == leaf {
-                portal.back
-            } else {
-                portal.front
-            };
-            if is_source[next] || !is_empty(flow.bsp, next) {
+            let next = graph.portals[p].other(leaf);
+            if flow.sources[next] || !is_empty(flow.bsp, next) {
                 continue;
             }
-            let part = reachable_part(&portal.winding, beyond.as_ref(), &seps);
-            if part.is_empty() {
-                continue;
+            let part = reachable_part(&graph.portals[p].winding, beyond.as_ref(), &seps);
+            if !part.is_empty() {
+                offer(
+                    graph,
+                    &mut hulls,
+                    &mut work,
+                    side_into(graph, p, next),
+                    part,
+                );
             }
-            let next_side = side_into(p, next);
-            let grown = match &hulls[next_side] {
-                Some(h) if contains(h, &part, &portal.plane.normal) => continue,
-                Some(h) => convex_hull(h.iter().chain(&part).copied(), &portal.plane.normal),
-                None => part,
-            };
-            hulls[next_side] = Some(grown);
-            work.push(next_side);
         }
     }
     visible
+}
+
+/// Joins `part` to the hull of portal side `side`, and queues the side when its hull grew by
+/// more than [`GROW`] (or is new).
+fn offer(
+    graph: &PortalGraph,
+    hulls: &mut [Option<Vec<DVec3>>],
+    work: &mut Vec<usize>,
+    side: usize,
+    part: Vec<DVec3>,
+) {
+    let normal = graph.portals[side / 2].plane.normal;
+    let grown = match &hulls[side] {
+        Some(h) if contains(h, &part, &normal) => return,
+        Some(h) => convex_hull(h.iter().chain(&part).copied(), &normal),
+        None => part,
+    };
+    hulls[side] = Some(grown);
+    work.push(side);
 }
 
 fn side_of(corners: &[DVec3; 8], plane: &Plane) -> Side {

@@ -33,8 +33,8 @@ use sightline_core::{Aabb, TriangleSet};
 
 /// Leaf entries the walk of every portal sequence may make before it gives up (about a
 /// second): the shared maps' indoor cells need far fewer, the open areas of czest3ctf more
-/// than ten times as many (docs/BENCHMARKS.md), and there [`BspPortals::visible_from_box_merged`]
-/// takes over.
+/// than ten times as many (docs/BENCHMARKS.md), and there the merged flow goes on from
+/// where the walk stopped.
 pub const DEFAULT_FLOW_BUDGET: u64 = 500_000;
 
 /// A Quake 3 map's portal graph and the triangles of its leaves, built once per scene.
@@ -101,15 +101,16 @@ impl BspPortals {
     }
 
     /// Every triangle of `scene` (the scene these portals were built for) that may be seen
-    /// from a point of the box `bounds` through the map's portals; `None` when the scene is
-    /// another (its triangle count differs), the box is not finite, or the flow passed
-    /// `budget` leaf entries.
+    /// from a point of the box `bounds` through the map's portals: every portal sequence
+    /// walked while `budget` leaf entries last, the merged flow from where that walk stopped
+    /// after. `None` when the scene is another (its triangle count differs) or has no BSP, or
+    /// the box is not finite.
     pub fn visible_from_box(
         &self,
         scene: &Scene,
         bounds: &Aabb,
         budget: u64,
-    ) -> Option<TriangleSet> {
+    ) -> Option<PortalView> {
         let bsp = scene.bsp.as_deref()?;
         if scene.triangle_count() != self.triangles
             || !bounds.min.is_finite()
@@ -118,23 +119,22 @@ impl BspPortals {
             return None;
         }
         let (flow, sources) = self.flow(scene, bsp, bounds, budget);
-        flow.run(&sources)
+        let (visible, every_sequence) = flow.run(&sources);
+        Some(PortalView {
+            visible,
+            every_sequence,
+        })
     }
+}
 
-    /// [`BspPortals::visible_from_box`] by the bounded flow (`flow::merged_flow`): looser, but
-    /// its work does not grow with the number of portal sequences. `None` for another scene
-    /// or a box that is not finite.
-    pub fn visible_from_box_merged(&self, scene: &Scene, bounds: &Aabb) -> Option<TriangleSet> {
-        let bsp = scene.bsp.as_deref()?;
-        if scene.triangle_count() != self.triangles
-            || !bounds.min.is_finite()
-            || !bounds.max.is_finite()
-        {
-            return None;
-        }
-        let (flow, sources) = self.flow(scene, bsp, bounds, 0);
-        Some(flow::merged_flow(&flow, &sources))
-    }
+/// What [`BspPortals::visible_from_box`] found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PortalView {
+    /// The triangles the box may see.
+    pub visible: TriangleSet,
+    /// True when every portal sequence was walked within the budget; false when the merged
+    /// flow (one part per portal side, looser) went on where the walk stopped.
+    pub every_sequence: bool,
 }
 
 #[cfg(test)]
@@ -219,8 +219,18 @@ mod tests {
             (state >> 40) as f32 / (1u64 << 24) as f32
         };
         for (cluster, b) in boxes(&scene) {
-            let seen = p.visible_from_box(&scene, &b, DEFAULT_FLOW_BUDGET).unwrap();
-            let merged = p.visible_from_box_merged(&scene, &b).unwrap();
+            let walk = p.visible_from_box(&scene, &b, DEFAULT_FLOW_BUDGET).unwrap();
+            assert!(walk.every_sequence);
+            let seen = walk.visible;
+            // A budget of 0: the merged flow from the cell's own portals.
+            let merged = p.visible_from_box(&scene, &b, 0).unwrap();
+            assert!(!merged.every_sequence);
+            let merged = merged.visible;
+            // A budget of a few leaves: the walk stops early and the merged flow goes on from
+            // every portal it left untried.
+            let cut = p.visible_from_box(&scene, &b, 3).unwrap();
+            assert!(!cut.every_sequence);
+            let cut = cut.visible;
             let size = seen.count_ones(..);
             assert!(
                 size * 2 < scene.triangle_count(),
@@ -250,7 +260,7 @@ mod tests {
                 .map(|h| h.triangle)
                 .collect();
             assert!(hit.len() > 50, "cluster {cluster}: {} hit", hit.len());
-            for (name, set) in [("walk", &seen), ("merged", &merged)] {
+            for (name, set) in [("walk", &seen), ("merged", &merged), ("cut", &cut)] {
                 let missed: Vec<u32> = hit
                     .iter()
                     .copied()
@@ -265,18 +275,14 @@ mod tests {
     }
 
     #[test]
-    fn other_scenes_boxes_and_budgets_give_no_set() {
+    fn other_scenes_and_boxes_give_no_set() {
         let scene = map();
         let p = BspPortals::new(&scene).unwrap();
         let (_, b) = boxes(&scene)[0];
-        // The budget is counted in leaf entries: one is too few for any real cell.
-        assert!(p.visible_from_box(&scene, &b, 1).is_none());
-        assert!(p.visible_from_box_merged(&scene, &b).is_some());
         let nan = Aabb::new(Vec3::splat(f32::NAN), Vec3::ONE);
         assert!(p
             .visible_from_box(&scene, &nan, DEFAULT_FLOW_BUDGET)
             .is_none());
-        assert!(p.visible_from_box_merged(&scene, &nan).is_none());
         let mut builder = SceneBuilder::new("box");
         builder.add_box(Vec3::ZERO, Vec3::ONE);
         let plain = builder.finish();
@@ -284,6 +290,5 @@ mod tests {
         assert!(p
             .visible_from_box(&plain, &b, DEFAULT_FLOW_BUDGET)
             .is_none());
-        assert!(p.visible_from_box_merged(&plain, &b).is_none());
     }
 }
