@@ -11,7 +11,7 @@ use sightline_core::trace::{measure, Bvh, RayCaster};
 use sightline_core::{Hit, Ray};
 use sightline_gpu::{GpuError, GpuRayCaster, GpuRayCasterOptions, APPROXIMATE_T_ULPS};
 
-use super::scenes::{axis_rays, bunny, camera_rays, city, q3_map, ranged_rays};
+use super::scenes::{self, axis_rays, bunny, camera_rays, city, q3_map, ranged_rays};
 use super::shared_device;
 
 fn caster(scene: &Scene, options: GpuRayCasterOptions) -> GpuRayCaster {
@@ -169,26 +169,12 @@ fn batch_of_many_chunks_equals_one_chunk() {
 
 #[test]
 fn concurrent_calls_equal_one_call() {
-    use rayon::prelude::*;
     let scene = q3_map();
-    let gpu = caster(
-        &scene,
-        GpuRayCasterOptions {
-            chunk_rays: 700,
-            ..Default::default()
-        },
-    );
-    let rays = measure::incoherent_rays(scene.bounds(), 12_000, 21);
-    let mut whole = vec![Hit::MISS; rays.len()];
-    gpu.cast(&rays, &mut whole);
-    // Eight threads at once, each call several chunks long.
-    let mut parts = vec![Hit::MISS; rays.len()];
-    rays.par_chunks(1500)
-        .zip(parts.par_chunks_mut(1500))
-        .with_max_len(1)
-        .for_each(|(r, h)| gpu.cast(r, h));
-    assert_eq!(whole, parts);
-    assert!(whole.iter().any(|h| h.is_hit()));
+    let options = GpuRayCasterOptions {
+        chunk_rays: 700,
+        ..Default::default()
+    };
+    scenes::concurrent_calls_equal_one_call(&scene, &caster(&scene, options));
 }
 
 #[test]

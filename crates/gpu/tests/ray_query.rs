@@ -25,7 +25,7 @@ use sightline_core::trace::{measure, Bvh, RayCaster};
 use sightline_core::{Hit, Ray};
 use sightline_gpu::{GpuError, RayQueryCaster, RayQueryOptions, RAY_QUERY_T_TOLERANCE};
 
-use super::scenes::{axis_rays, bunny, camera_rays, city, q3_map, ranged_rays};
+use super::scenes::{self, axis_rays, bunny, camera_rays, city, q3_map, ranged_rays};
 use super::shared_device;
 
 /// "Within rounding of an edge": the distance from where the ray meets the triangle's plane to
@@ -548,20 +548,9 @@ fn batch_of_many_chunks_equals_one_chunk() {
 
 #[test]
 fn concurrent_calls_equal_one_call() {
-    use rayon::prelude::*;
     let scene = q3_map();
     let gpu = caster_with(&scene, RayQueryOptions { chunk_rays: 700 });
-    let rays = measure::incoherent_rays(scene.bounds(), 12_000, 21);
-    let mut whole = vec![Hit::MISS; rays.len()];
-    gpu.cast(&rays, &mut whole);
-    // Eight threads at once, each call several chunks long.
-    let mut parts = vec![Hit::MISS; rays.len()];
-    rays.par_chunks(1500)
-        .zip(parts.par_chunks_mut(1500))
-        .with_max_len(1)
-        .for_each(|(r, h)| gpu.cast(r, h));
-    assert_eq!(whole, parts);
-    assert!(whole.iter().any(|h| h.is_hit()));
+    scenes::concurrent_calls_equal_one_call(&scene, &gpu);
 }
 
 #[test]

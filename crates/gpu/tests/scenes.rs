@@ -1,10 +1,11 @@
 //! The scenes and ray sets the GPU ray casters' tests share (`ray_cast.rs`, `ray_query.rs`):
-//! the repository's bunny and Quake 3 map, a procedural city, and camera, axis and ranged rays.
+//! the repository's bunny and Quake 3 map, a procedural city, and camera, axis and ranged rays;
+//! the check that calls from many threads equal one call.
 
 use glam::Vec3;
 use sightline_core::scene::{self, LoadOptions, Scene};
-use sightline_core::trace::measure;
-use sightline_core::{Camera, Ray};
+use sightline_core::trace::{measure, RayCaster};
+use sightline_core::{Camera, Hit, Ray};
 
 fn load(spec: &str) -> Scene {
     scene::open(spec, &LoadOptions::default()).unwrap()
@@ -72,4 +73,21 @@ pub(crate) fn ranged_rays(scene: &Scene, n: usize) -> Vec<Ray> {
             }
         })
         .collect()
+}
+
+/// Casts 12,000 incoherent rays over `scene` with `gpu` in one call and in calls of 1,500
+/// rays from eight threads at once (each several of the caster's chunks long when its chunk
+/// is small), and checks that both give the same hits, some of them hits.
+pub(crate) fn concurrent_calls_equal_one_call(scene: &Scene, gpu: &dyn RayCaster) {
+    use rayon::prelude::*;
+    let rays = measure::incoherent_rays(scene.bounds(), 12_000, 21);
+    let mut whole = vec![Hit::MISS; rays.len()];
+    gpu.cast(&rays, &mut whole);
+    let mut parts = vec![Hit::MISS; rays.len()];
+    rays.par_chunks(1500)
+        .zip(parts.par_chunks_mut(1500))
+        .with_max_len(1)
+        .for_each(|(r, h)| gpu.cast(r, h));
+    assert_eq!(whole, parts);
+    assert!(whole.iter().any(|h| h.is_hit()));
 }
