@@ -1137,3 +1137,37 @@ fn two_sided_bake_stores_both_sides_and_its_bound_misses_nothing() {
     let o = sightline(&["pvs", "bound", SCENE, "b.pvs", "-o", "b.pvs"], dir.path());
     assert_fails_with(&o, "refusing to overwrite an input");
 }
+
+#[test]
+fn quake_cluster_bounds_go_through_the_portals_and_grid_bounds_do_not() {
+    // Cluster cells keep their origins in the map's empty leaves, so their bounds are cut by
+    // the map's portals: about 1.4-1.6x these two clusters' sets, where RV's umbrae alone
+    // keep 5x. Grid boxes reach into solid space and the void, from where rays see through
+    // brushes, so their bounds are RV's alone; the sets stay inside both.
+    let dir = tempfile::tempdir().unwrap();
+    let map = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/q3dm6ish.bsp");
+    let bake = |cells: &[&str], out: &str| {
+        let base = [
+            "pvs", "bake", map, "--rays", "1000000", "--bound", "-o", out,
+        ];
+        let o = sightline(&[&base[..], cells].concat(), dir.path());
+        assert!(o.status.success(), "{}", stderr(&o));
+        let o = sightline(&["pvs", "show", out, "--json"], dir.path());
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        v["metadata"]["bound"].clone()
+    };
+    let clusters = bake(&["--q3-clusters", "--clusters", "5,20"], "c.pvs");
+    let ratio = clusters["mean_ratio"].as_f64().unwrap();
+    assert!(ratio < 2.0, "{clusters}");
+    let grid = bake(&["--grid", "2,2,1"], "g.pvs");
+    assert_eq!(grid["cells_not_contained"], 0, "{grid}");
+    // `pvs bound` on the cluster file finds its cells' clusters in the metadata.
+    let o = sightline(
+        &["pvs", "bound", map, "c.pvs", "-o", "c2.pvs", "--json"],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["mean_ratio"], clusters["mean_ratio"], "{v}");
+}

@@ -559,7 +559,8 @@ pub(crate) fn bake_q3<'py>(
     use sightline_region::cell_sources::{q3_cells, Q3CellKind, Q3Origins, Q3_ORIGINS_KEY};
     let threads = thread_count(py, threads)?;
     let method = method.resolve()?;
-    let sampler = method.sampler()?;
+    // Its cells keep their origins in the map's empty leaves: the portals apply.
+    let sampler = method.sampler_for_q3_cells()?;
     let budget = budget(rays, time_ms)?;
     let kind = match cells {
         "leaves" => Q3CellKind::Leaves,

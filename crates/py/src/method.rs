@@ -4,7 +4,7 @@
 
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
-use sightline_point::rv::bake_sampler;
+use sightline_point::rv::{bake_sampler, bake_sampler_for_q3_cells};
 use sightline_region::methods::{MethodOverrides, MethodParams};
 use sightline_region::Sampler;
 
@@ -64,6 +64,12 @@ impl PyMethod {
     /// A sampler of this method with its parameters.
     pub(crate) fn sampler(&self) -> PyResult<Box<dyn Sampler>> {
         bake_sampler(&self.name, &self.params).map_err(value_error)
+    }
+
+    /// [`PyMethod::sampler`] for Quake 3 leaf or cluster cells (`conservative` goes through the
+    /// map's portals there).
+    pub(crate) fn sampler_for_q3_cells(&self) -> PyResult<Box<dyn Sampler>> {
+        bake_sampler_for_q3_cells(&self.name, &self.params).map_err(value_error)
     }
 }
 

@@ -99,7 +99,8 @@ pub use from_region::{
     MAX_OCCLUDERS,
 };
 pub use region_sampler::{
-    bake_sampler, BakeMethodError, ConservativeSampler, BAKE_METHODS, CONSERVATIVE, REFUSED,
+    bake_sampler, bake_sampler_for_q3_cells, BakeMethodError, ConservativeSampler, PortalCache,
+    BAKE_METHODS, CONSERVATIVE, REFUSED,
 };
 pub use source::{SceneSource, SourceTriangle, TriangleSource};
 pub use types::{Guarantee, HiddenOccluders, RvError, RvOptions, RvResult, RvStats};

@@ -130,9 +130,10 @@ pub(crate) struct BakeArgs {
     /// The method: `gvs++` (the default), `gvs`, `rand` and `raster` sample the cell with rays
     /// and give aggressive sets (small; what they miss is measured by `eval`); `conservative`
     /// casts no rays and gives RV's from-region set: every triangle that no single large convex
-    /// occluder hides from the whole cell, and on a Quake 3 map only those the cell may see
-    /// through the map's portals (never misses a visible triangle; typically several times
-    /// larger in cities, 1.4-2.6x on the shared maps; --rays and --time do not apply).
+    /// occluder hides from the whole cell, and for Quake 3 leaf and cluster cells only those
+    /// the cell may see through the map's portals (never misses a visible triangle; typically
+    /// several times larger in cities, 1.4-2.6x on the shared maps' clusters; --rays and
+    /// --time do not apply).
     #[arg(long, default_value = "gvs++",
         value_parser = clap::builder::PossibleValuesParser::new(BAKE_METHODS))]
     pub(crate) method: String,
@@ -220,7 +221,7 @@ pub(crate) struct BakeArgs {
     #[arg(long)]
     pub(crate) share_rays: bool,
     /// Two-sided bake: after the sampled sets, give every cell a conservative bound (RV's
-    /// from-region set, through the portals on a Quake 3 map, as `--method conservative`,
+    /// from-region set, through the map's portals for Quake 3 cells, as `--method conservative`,
     /// joined with the sampled set) and store both
     /// (docs/pvs-format.md, "Two-sided files"). The file then says per cell which triangles are
     /// surely visible (the set) and which might be (the bound): the gap is the set's error bar,

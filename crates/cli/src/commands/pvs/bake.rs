@@ -10,7 +10,9 @@ use glam::Vec3;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use serde::Serialize;
 use sightline_core::trace::{Bvh, RayCaster};
-use sightline_point::rv::{bake_sampler, ConservativeSampler, CONSERVATIVE};
+use sightline_point::rv::{
+    bake_sampler, bake_sampler_for_q3_cells, ConservativeSampler, CONSERVATIVE,
+};
 use sightline_region::bake::BakeSetup;
 use sightline_region::bound::BoundTotals;
 use sightline_region::cell_sources::{write_cells_file, Q3Cells, Q3OriginsSummary, Q3_ORIGINS_KEY};
@@ -168,11 +170,16 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
             );
         }
     }
-    let sampler = bake_sampler(&args.method, &params)?;
+    // Quake 3 cells keep their origins in the map's empty leaves, so their conservative sets
+    // may also go through the map's portals.
+    let sampler = match &q3 {
+        Some(_) => bake_sampler_for_q3_cells(&args.method, &params)?,
+        None => bake_sampler(&args.method, &params)?,
+    };
     let (shard, budget) = check_bake_args(args, &params)?;
     let bound = args
         .bound
-        .then(|| bound_sampler(args.bound_options))
+        .then(|| bound_sampler(args.bound_options, q3.is_some()))
         .transpose()?;
     if bound.is_some() && args.method == CONSERVATIVE {
         bail!("--bound adds the conservative set to a sampled one: --method conservative already is the bound");

@@ -18,7 +18,13 @@ use crate::args::thread_count;
 use crate::output::{print_json, refuse_overwriting_inputs};
 
 /// The conservative sampler of `--bound-occluders` and `--bound-fusion-*`.
-pub(super) fn bound_sampler(options: BoundOptionArgs) -> Result<ConservativeSampler> {
+/// The conservative sampler of `--bound` and `pvs bound` with `options`; `q3_cells`: the
+/// cells are Quake 3 leaves or clusters, whose origins keep to the map's empty leaves, so the
+/// bound may go through the map's portals (`ConservativeSampler::through_portals`).
+pub(super) fn bound_sampler(
+    options: BoundOptionArgs,
+    q3_cells: bool,
+) -> Result<ConservativeSampler> {
     if !(1..=MAX_OCCLUDERS).contains(&options.bound_occluders) {
         bail!(
             "--bound-occluders must be 1 to {MAX_OCCLUDERS} (got {})",
@@ -44,6 +50,7 @@ pub(super) fn bound_sampler(options: BoundOptionArgs) -> Result<ConservativeSamp
             fusion_resolution: options.bound_fusion_resolution,
             ..RegionOptions::default()
         },
+        through_portals: q3_cells,
         ..Default::default()
     })
 }
@@ -107,9 +114,11 @@ fn bound_command(args: &BoundArgs) -> Result<()> {
         bail!("no .pvs file to bound: sightline pvs bound SCENE PVS -o OUTPUT");
     };
     refuse_overwriting_inputs(&[&args.output], &[path])?;
-    let sampler = bound_sampler(args.options)?;
     let scene = args.scene.load()?;
     let mut file = PvsFile::load(path).with_context(|| format!("reading {}", path.display()))?;
+    // A Quake 3 bake records its cells' clusters (`pvs bake --q3-leaves | --q3-clusters`).
+    let q3_cells = scene.bsp.is_some() && file.metadata["clusters"].is_array();
+    let sampler = bound_sampler(args.options, q3_cells)?;
     file.check_scene(&scene)
         .with_context(|| format!("{} and {}", path.display(), args.scene.scene))?;
     let bvh = Bvh::build(&scene);
