@@ -4,7 +4,7 @@
 
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
-use sightline_point::rv::{bake_sampler, bake_sampler_for_q3_cells};
+use sightline_point::rv::{bake_sampler, bake_sampler_for_cells};
 use sightline_region::methods::{MethodOverrides, MethodParams};
 use sightline_region::Sampler;
 
@@ -69,7 +69,7 @@ impl PyMethod {
     /// [`PyMethod::sampler`] for Quake 3 leaf or cluster cells (`conservative` goes through the
     /// map's portals there).
     pub(crate) fn sampler_for_q3_cells(&self) -> PyResult<Box<dyn Sampler>> {
-        bake_sampler_for_q3_cells(&self.name, &self.params).map_err(value_error)
+        bake_sampler_for_cells(&self.name, &self.params, true).map_err(value_error)
     }
 }
 

@@ -99,7 +99,7 @@ pub use from_region::{
     MAX_OCCLUDERS,
 };
 pub use region_sampler::{
-    bake_sampler, bake_sampler_for_q3_cells, BakeMethodError, ConservativeSampler, PortalCache,
+    bake_sampler, bake_sampler_for_cells, BakeMethodError, ConservativeSampler, PortalCache,
     BAKE_METHODS, CONSERVATIVE, REFUSED,
 };
 pub use source::{SceneSource, SourceTriangle, TriangleSource};

@@ -64,19 +64,20 @@ pub fn bake_sampler(
     })
 }
 
-/// [`bake_sampler`] for Quake 3 leaf or cluster cells, whose viewpoints keep to the map's
-/// empty leaves: `conservative` then also goes through the map's portals
-/// ([`ConservativeSampler::through_portals`]).
+/// [`bake_sampler`], where `q3_cells` says the cells are Quake 3 leaves or clusters, whose
+/// viewpoints keep to the map's empty leaves: `conservative` then also goes through the map's
+/// portals ([`ConservativeSampler::through_portals`]).
 ///
 /// # Errors
 /// As [`bake_sampler`].
-pub fn bake_sampler_for_q3_cells(
+pub fn bake_sampler_for_cells(
     name: &str,
     params: &MethodParams,
+    q3_cells: bool,
 ) -> Result<Box<dyn Sampler>, BakeMethodError> {
     if name == CONSERVATIVE {
         return Ok(Box::new(ConservativeSampler {
-            through_portals: true,
+            through_portals: q3_cells,
             ..ConservativeSampler::default()
         }));
     }
@@ -94,7 +95,7 @@ pub struct ConservativeSampler {
     /// portals assume solid space opaque, and from a point inside it a ray sees through
     /// brushes whose outside faces the compiler removed (the bake of a 4x4x2 grid over
     /// q3dm6ish, whose boxes reach into the void, keeps 47-367 set triangles a cell outside
-    /// the portals' set). [`bake_sampler_for_q3_cells`] sets it.
+    /// the portals' set). [`bake_sampler_for_cells`] sets it.
     pub through_portals: bool,
     /// The portal graph of the last Quake 3 map sampled, shared by the clones that bake its
     /// cells (built once per scene).

@@ -10,9 +10,7 @@ use glam::Vec3;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use serde::Serialize;
 use sightline_core::trace::{Bvh, RayCaster};
-use sightline_point::rv::{
-    bake_sampler, bake_sampler_for_q3_cells, ConservativeSampler, CONSERVATIVE,
-};
+use sightline_point::rv::{bake_sampler_for_cells, ConservativeSampler, CONSERVATIVE};
 use sightline_region::bake::BakeSetup;
 use sightline_region::bound::BoundTotals;
 use sightline_region::cell_sources::{write_cells_file, Q3Cells, Q3OriginsSummary, Q3_ORIGINS_KEY};
@@ -170,12 +168,7 @@ fn bake_command(args: &BakeArgs) -> Result<()> {
             );
         }
     }
-    // Quake 3 cells keep their origins in the map's empty leaves, so their conservative sets
-    // may also go through the map's portals.
-    let sampler = match &q3 {
-        Some(_) => bake_sampler_for_q3_cells(&args.method, &params)?,
-        None => bake_sampler(&args.method, &params)?,
-    };
+    let sampler = bake_sampler_for_cells(&args.method, &params, q3.is_some())?;
     let (shard, budget) = check_bake_args(args, &params)?;
     let bound = args
         .bound
