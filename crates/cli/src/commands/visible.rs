@@ -67,7 +67,9 @@ pub(crate) struct Args {
     no_check: bool,
     /// With --conservative: visibility from a whole view cell instead of a point: every
     /// triangle seen from any point of the cell is kept (umbrae of the largest convex
-    /// occluders, two passes over the scene). Syntax as `pvs bake --cell`:
+    /// occluders, two passes over the scene; the portal cut of Quake 3 cluster bakes does not
+    /// apply, since the box's points need not lie in the map's empty leaves). Syntax as
+    /// `pvs bake --cell`:
     /// `box:MINX,MINY,MINZ,MAXX,MAXY,MAXZ` or `point:X,Y,Z,R`.
     #[arg(
         long,
