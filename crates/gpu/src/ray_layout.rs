@@ -151,6 +151,19 @@ pub(crate) struct GpuRay {
     flags: u32,
 }
 
+/// False for a ray the CPU caster never lets hit anything: a non-finite or zero direction, a
+/// non-finite origin, an empty or NaN range, or a range that lies wholly at an infinity. Both
+/// GPU casters mark such rays dead before their shader sees them (shader compilers may assume
+/// no NaN or infinity, and Vulkan's ray queries require a finite range).
+pub(crate) fn can_hit(ray: &Ray) -> bool {
+    ray.origin.is_finite()
+        && ray.dir.is_finite()
+        && ray.dir != Vec3::ZERO
+        && ray.t_min <= ray.t_max
+        && ray.t_min < f32::INFINITY
+        && ray.t_max > f32::NEG_INFINITY
+}
+
 impl GpuRay {
     /// The ray prepared as the CPU caster prepares it (`ShearedRay::new` and `BoxRay::new` of
     /// `sightline-core`), with the same operations, so the shader starts from the same bits.
@@ -158,13 +171,7 @@ impl GpuRay {
     /// the CPU caster never lets hit anything is marked dead.
     pub(crate) fn new(ray: &Ray) -> Self {
         let d = ray.dir;
-        let usable = ray.origin.is_finite()
-            && d.is_finite()
-            && d != Vec3::ZERO
-            && ray.t_min <= ray.t_max
-            && ray.t_min < f32::INFINITY
-            && ray.t_max > f32::NEG_INFINITY;
-        if !usable {
+        if !can_hit(ray) {
             return Self {
                 flags: DEAD,
                 ..Self::zeroed()

@@ -73,11 +73,13 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use sightline_core::scene::Scene;
+use sightline_core::trace::bvh::hittable_corners;
 use sightline_core::trace::RayCaster;
 use sightline_core::{Aabb, Hit, Ray};
 use wgpu::{AdapterInfo, Device, Queue};
 
 use crate::device::{vulkan_device, GpuError};
+use crate::ray_layout::can_hit;
 use crate::stream::{chunk_cap, or_panic, CastPipelines, ChunkShader, Streamer};
 
 /// How far the ray-query caster's `t` may lie from the CPU caster's for the same triangle,
@@ -156,17 +158,10 @@ impl QueryRay {
     /// lets it hit; with a negative `t_min`, moved back to where it enters `bounds` (the box
     /// of the triangles that can be hit, already enlarged).
     fn new(ray: &Ray, bounds: &Aabb) -> Self {
-        let d = ray.dir;
-        // The conditions of `GpuRay::new` (ray_layout.rs), the CPU caster's.
-        let usable = ray.origin.is_finite()
-            && d.is_finite()
-            && d != Vec3::ZERO
-            && ray.t_min <= ray.t_max
-            && ray.t_min < f32::INFINITY
-            && ray.t_max > f32::NEG_INFINITY;
-        if !usable {
+        if !can_hit(ray) {
             return Self::DEAD;
         }
+        let d = ray.dir;
         let live = |origin: Vec3, t_max: f32, t_offset: f32| {
             if !origin.is_finite() || t_max < 0.0 {
                 return Self::DEAD;
@@ -219,17 +214,6 @@ fn entry(bounds: &Aabb, origin: Vec3, dir: Vec3) -> Option<f32> {
         }
     }
     (enter <= exit).then_some(enter)
-}
-
-/// The corners of triangle `t` if the CPU caster can ever hit it (the conditions of its BVH
-/// build, `sightline_core::trace::bvh`): indices in range, finite corners and a non-zero cross
-/// product.
-fn hittable_corners(scene: &Scene, t: &[u32; 3]) -> Option<[Vec3; 3]> {
-    let p = |i: u32| scene.positions.get(i as usize).copied();
-    let c = [p(t[0])?, p(t[1])?, p(t[2])?];
-    let [a, b, e] = c;
-    let ok = a.is_finite() && b.is_finite() && e.is_finite() && (b - a).cross(e - a) != Vec3::ZERO;
-    ok.then_some(c)
 }
 
 /// The BLAS's build input: positions with one NaN vertex after them, indices (unusable

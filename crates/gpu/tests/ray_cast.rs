@@ -214,20 +214,7 @@ fn empty_batch_is_fine() {
 
 #[test]
 fn empty_scene_misses_everything() {
-    let gpu = caster(&Scene::default(), GpuRayCasterOptions::default());
-    let rays = measure::incoherent_rays(sightline_core::Aabb::EMPTY, 10, 1);
-    let mut hits = vec![
-        Hit {
-            triangle: 0,
-            t: 0.0
-        };
-        rays.len()
-    ];
-    gpu.cast(&rays, &mut hits);
-    assert!(hits.iter().all(|h| *h == Hit::MISS));
-    let mut occ = vec![true; rays.len()];
-    gpu.occluded(&rays, &mut occ);
-    assert!(occ.iter().all(|o| !o));
+    scenes::misses_everything(&caster(&Scene::default(), GpuRayCasterOptions::default()));
 }
 
 #[test]

@@ -441,20 +441,7 @@ fn unusable_triangles_are_never_hit() {
 fn empty_scene_misses_everything() {
     let gpu = caster(&Scene::default());
     assert_eq!(gpu.memory().blas, None);
-    let rays = measure::incoherent_rays(sightline_core::Aabb::EMPTY, 10, 1);
-    let mut hits = vec![
-        Hit {
-            triangle: 0,
-            t: 0.0
-        };
-        rays.len()
-    ];
-    gpu.cast(&rays, &mut hits);
-    assert!(hits.iter().all(|h| *h == Hit::MISS));
-    let mut occ = vec![true; rays.len()];
-    gpu.occluded(&rays, &mut occ);
-    assert!(occ.iter().all(|o| !o));
-    gpu.cast(&[], &mut []);
+    scenes::misses_everything(&gpu);
 }
 
 #[test]

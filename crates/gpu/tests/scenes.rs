@@ -1,6 +1,6 @@
 //! The scenes and ray sets the GPU ray casters' tests share (`ray_cast.rs`, `ray_query.rs`):
 //! the repository's bunny and Quake 3 map, a procedural city, and camera, axis and ranged rays;
-//! the check that calls from many threads equal one call.
+//! the checks that calls from many threads equal one call and that an empty scene misses.
 
 use glam::Vec3;
 use sightline_core::scene::{self, LoadOptions, Scene};
@@ -90,4 +90,23 @@ pub(crate) fn concurrent_calls_equal_one_call(scene: &Scene, gpu: &dyn RayCaster
         .for_each(|(r, h)| gpu.cast(r, h));
     assert_eq!(whole, parts);
     assert!(whole.iter().any(|h| h.is_hit()));
+}
+
+/// Checks that `gpu`, a caster of an empty scene, misses with every ray, closest hit and
+/// any hit alike, and takes an empty batch.
+pub(crate) fn misses_everything(gpu: &dyn RayCaster) {
+    let rays = measure::incoherent_rays(sightline_core::Aabb::EMPTY, 10, 1);
+    let mut hits = vec![
+        Hit {
+            triangle: 0,
+            t: 0.0
+        };
+        rays.len()
+    ];
+    gpu.cast(&rays, &mut hits);
+    assert!(hits.iter().all(|h| *h == Hit::MISS));
+    let mut occ = vec![true; rays.len()];
+    gpu.occluded(&rays, &mut occ);
+    assert!(occ.iter().all(|o| !o));
+    gpu.cast(&[], &mut []);
 }

@@ -21,7 +21,6 @@
 use std::ffi::{c_char, c_int, c_uint, c_void};
 use std::ptr;
 
-use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::geometry::{Hit, Ray};
@@ -158,12 +157,6 @@ unsafe impl Send for EmbreeCaster {}
 // SAFETY: see `Send`: every `&self` method only issues concurrent-safe queries.
 unsafe impl Sync for EmbreeCaster {}
 
-/// True when the triangle can ever be hit: finite corners and a non-zero cross product.
-fn usable(corners: [Vec3; 3]) -> bool {
-    let [a, b, c] = corners;
-    a.is_finite() && b.is_finite() && c.is_finite() && (b - a).cross(c - a) != Vec3::ZERO
-}
-
 impl EmbreeCaster {
     /// Builds an Embree scene (high build quality) over `scene`'s triangles.
     pub fn build(scene: &Scene) -> Result<Self, EmbreeError> {
@@ -270,11 +263,8 @@ impl EmbreeCaster {
             .par_iter_mut()
             .zip(scene.triangles.par_iter())
             .for_each(|(dst, t)| {
-                let p = |i: u32| scene.positions.get(i as usize).copied();
-                let ok = match (p(t[0]), p(t[1]), p(t[2])) {
-                    (Some(a), Some(b), Some(c)) => usable([a, b, c]),
-                    _ => false,
-                };
+                // The BVH's rule, so that both casters leave out the same triangles.
+                let ok = super::bvh::hittable_corners(scene, t).is_some();
                 *dst = if ok { *t } else { [spare; 3] };
             });
         // SAFETY: `geometry` is live, its buffers are filled; the scene keeps its own
@@ -392,6 +382,7 @@ mod tests {
     use crate::random::SplitMix64;
     use crate::scene::SceneBuilder;
     use crate::trace::bvh::Bvh;
+    use glam::Vec3;
 
     /// Random points and directions from the project's generator, fixed seeds.
     struct Rng(SplitMix64);

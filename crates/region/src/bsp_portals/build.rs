@@ -60,19 +60,24 @@ pub(crate) fn is_empty(bsp: &BspData, l: usize) -> bool {
     bsp.leaves.get(l).is_some_and(|leaf| leaf.cluster >= 0)
 }
 
-pub(crate) fn plane_of(bsp: &BspData, node: usize) -> Option<Plane> {
-    let n = bsp.nodes.get(node)?;
-    let p = bsp.planes.get(n.plane as usize)?;
-    let normal = p.normal.as_dvec3();
-    let len = normal.length();
-    (len > 0.0 && len.is_finite()).then(|| Plane {
-        normal: normal / len,
-        dist: f64::from(p.dist) / len,
-    })
+/// The plane of every node of `bsp` in f64, normalised (`None` for a node whose plane index is
+/// out of range or whose normal is zero or not finite): made once, read by every descent.
+pub(crate) fn node_planes(bsp: &BspData) -> Vec<Option<Plane>> {
+    let plane_of = |n: &sightline_core::scene::q3::Node| {
+        let p = bsp.planes.get(n.plane as usize)?;
+        let normal = p.normal.as_dvec3();
+        let len = normal.length();
+        (len > 0.0 && len.is_finite()).then(|| Plane {
+            normal: normal / len,
+            dist: f64::from(p.dist) / len,
+        })
+    };
+    bsp.nodes.iter().map(plane_of).collect()
 }
 
-/// The box the map lives in (its leaves' bounds, grown): the region of the root node.
-fn world_planes(bsp: &BspData) -> Vec<Plane> {
+/// The box the map lives in (its leaves' bounds, grown): the region of the root node, as its
+/// six planes, with the box's largest extent.
+fn world(bsp: &BspData) -> (Vec<Plane>, f64) {
     let (mut lo, mut hi) = (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN));
     for leaf in &bsp.leaves {
         let b = leaf.bounds();
@@ -80,7 +85,7 @@ fn world_planes(bsp: &BspData) -> Vec<Plane> {
         hi = hi.max(b.max.as_dvec3());
     }
     if lo.x > hi.x {
-        return Vec::new();
+        return (Vec::new(), 0.0);
     }
     let (lo, hi) = (lo - 16.0, hi + 16.0);
     let mut planes = Vec::new();
@@ -96,12 +101,12 @@ fn world_planes(bsp: &BspData) -> Vec<Plane> {
             dist: -hi[a],
         });
     }
-    planes
+    (planes, (hi - lo).max_element())
 }
 
-/// The portal graph of `bsp` (empty for a map without nodes). `None` when the tree is
-/// malformed (a child index out of range or a cycle).
-pub(crate) fn build(bsp: &BspData) -> Option<PortalGraph> {
+/// The portal graph of `bsp`, whose [`node_planes`] are `planes` (empty for a map without
+/// nodes). `None` when the tree is malformed (a child index out of range or a cycle).
+pub(crate) fn build(bsp: &BspData, planes: &[Option<Plane>]) -> Option<PortalGraph> {
     let mut graph = PortalGraph {
         portals: Vec::new(),
         of_leaf: vec![Vec::new(); bsp.leaves.len()],
@@ -109,12 +114,8 @@ pub(crate) fn build(bsp: &BspData) -> Option<PortalGraph> {
     if bsp.nodes.is_empty() {
         return Some(graph);
     }
-    let world = world_planes(bsp);
-    let half = world
-        .chunks(2)
-        .map(|p| (-p[1].dist - p[0].dist).abs())
-        .fold(0.0f64, f64::max)
-        * 2.0;
+    let (world, extent) = world(bsp);
+    let half = 2.0 * extent;
     // Depth-first over the nodes with the half-spaces of their ancestors; the loader checked
     // that the nodes form a tree, and the visit count guards hand-built data.
     let mut stack: Vec<(usize, Vec<Plane>)> = vec![(0, world)];
@@ -125,7 +126,7 @@ pub(crate) fn build(bsp: &BspData) -> Option<PortalGraph> {
             return None;
         }
         let n = bsp.nodes.get(node)?;
-        let plane = plane_of(bsp, node)?;
+        let plane = (*planes.get(node)?)?;
         let mut w = base_winding(&plane, half);
         for b in &bounds {
             w = keep_front(&w, b, GROW);
@@ -135,13 +136,13 @@ pub(crate) fn build(bsp: &BspData) -> Option<PortalGraph> {
         }
         if !w.is_empty() {
             let mut fronts = Vec::new();
-            filter(bsp, n.children[0], w, &mut fronts, 0)?;
+            filter(bsp, planes, n.children[0], w, &mut fronts, 0)?;
             for (front, piece) in fronts {
                 if !is_empty(bsp, front) {
                     continue;
                 }
                 let mut backs = Vec::new();
-                filter(bsp, n.children[1], piece, &mut backs, 0)?;
+                filter(bsp, planes, n.children[1], piece, &mut backs, 0)?;
                 for (back, winding) in backs {
                     if is_empty(bsp, back) && double_area(&winding) > 0.0 {
                         let i = graph.portals.len();
@@ -171,6 +172,7 @@ pub(crate) fn build(bsp: &BspData) -> Option<PortalGraph> {
 /// Splits `w` down the subtree `node` into the pieces over each of its leaves.
 fn filter(
     bsp: &BspData,
+    planes: &[Option<Plane>],
     node: i32,
     w: Vec<DVec3>,
     out: &mut Vec<(usize, Vec<DVec3>)>,
@@ -187,22 +189,22 @@ fn filter(
         return Some(());
     }
     let n = bsp.nodes.get(node as usize)?;
-    let plane = plane_of(bsp, node as usize)?;
+    let plane = (*planes.get(node as usize)?)?;
     match side(&w, &plane, GROW) {
-        Side::Front => filter(bsp, n.children[0], w, out, depth + 1),
-        Side::Back => filter(bsp, n.children[1], w, out, depth + 1),
+        Side::Front => filter(bsp, planes, n.children[0], w, out, depth + 1),
+        Side::Back => filter(bsp, planes, n.children[1], w, out, depth + 1),
         Side::On => {
-            filter(bsp, n.children[0], w.clone(), out, depth + 1)?;
-            filter(bsp, n.children[1], w, out, depth + 1)
+            filter(bsp, planes, n.children[0], w.clone(), out, depth + 1)?;
+            filter(bsp, planes, n.children[1], w, out, depth + 1)
         }
         Side::Both => {
             let front = keep_front(&w, &plane, GROW);
             let back = keep_front(&w, &plane.flipped(), GROW);
             if !front.is_empty() {
-                filter(bsp, n.children[0], front, out, depth + 1)?;
+                filter(bsp, planes, n.children[0], front, out, depth + 1)?;
             }
             if !back.is_empty() {
-                filter(bsp, n.children[1], back, out, depth + 1)?;
+                filter(bsp, planes, n.children[1], back, out, depth + 1)?;
             }
             Some(())
         }

@@ -39,7 +39,11 @@ const SEPARATION: f64 = 1e-6;
 /// The triangles touching each leaf: each triangle descends the tree to every side it has a
 /// corner on or within [`TOUCH`] of, so a leaf's list holds every triangle with a point in the
 /// leaf or on its boundary (grown by `TOUCH`), and perhaps more.
-pub(crate) fn leaf_triangles(bsp: &BspData, scene: &Scene) -> Vec<Vec<u32>> {
+pub(crate) fn leaf_triangles(
+    bsp: &BspData,
+    planes: &[Option<Plane>],
+    scene: &Scene,
+) -> Vec<Vec<u32>> {
     let mut lists = vec![Vec::new(); bsp.leaves.len()];
     if bsp.nodes.is_empty() {
         if let Some(l) = lists.first_mut() {
@@ -47,9 +51,6 @@ pub(crate) fn leaf_triangles(bsp: &BspData, scene: &Scene) -> Vec<Vec<u32>> {
         }
         return lists;
     }
-    let planes: Vec<Option<Plane>> = (0..bsp.nodes.len())
-        .map(|n| super::build::plane_of(bsp, n))
-        .collect();
     let mut stack = Vec::new();
     for (id, t) in scene.triangles.iter().enumerate() {
         let Some(corners) = t
@@ -329,7 +330,7 @@ fn side_into(graph: &PortalGraph, p: usize, leaf: usize) -> usize {
 /// drop points a segment from the part of the box in front of it reaches), and the separating
 /// planes of the box and the part.
 fn cuts(corners: &[DVec3; 8], into: &Plane, pass: &[DVec3]) -> (Option<Plane>, Vec<Plane>) {
-    let beyond = matches!(side_of(corners, into), Side::Back | Side::On).then_some(*into);
+    let beyond = matches!(side(corners, into, 0.0), Side::Back | Side::On).then_some(*into);
     (beyond, separators(corners, pass))
 }
 
@@ -419,10 +420,6 @@ fn offer(
     };
     hulls[side] = Some(grown);
     work.push(side);
-}
-
-fn side_of(corners: &[DVec3; 8], plane: &Plane) -> Side {
-    side(corners, plane, 0.0)
 }
 
 /// Whether convex polygon `inner` lies inside convex polygon `outer` grown by [`GROW`], both

@@ -86,8 +86,9 @@ impl BspPortals {
     /// or its tree is malformed.
     pub fn new(scene: &Scene) -> Option<Self> {
         let bsp = scene.bsp.as_deref()?;
-        let graph = build::build(bsp)?;
-        let leaf_triangles = flow::leaf_triangles(bsp, scene);
+        let planes = build::node_planes(bsp);
+        let graph = build::build(bsp, &planes)?;
+        let leaf_triangles = flow::leaf_triangles(bsp, &planes, scene);
         Some(Self {
             graph,
             leaf_triangles,

@@ -14,6 +14,14 @@ fn usable(corners: [Vec3; 3]) -> bool {
     a.is_finite() && b.is_finite() && c.is_finite() && (b - a).cross(c - a) != Vec3::ZERO
 }
 
+/// The corners of triangle `t` of `scene` when the leaf test can ever hit it (indices in
+/// range, finite corners, non-zero area), else `None`: the triangles the BVH leaves out, and
+/// those every other caster (Embree, the GPU's ray queries) must leave out too to give the
+/// same hits.
+pub fn hittable_corners(scene: &Scene, t: &[u32; 3]) -> Option<[Vec3; 3]> {
+    corners(scene, t).filter(|&c| usable(c))
+}
+
 /// The corners of triangle `t` of `scene`; `None` when an index is out of range.
 pub(super) fn corners(scene: &Scene, t: &[u32; 3]) -> Option<[Vec3; 3]> {
     let p = |i: u32| scene.positions.get(i as usize).copied();
@@ -26,9 +34,6 @@ pub(super) fn triangle_boxes(scene: &Scene) -> Vec<Aabb> {
     scene
         .triangles
         .par_iter()
-        .map(|t| match corners(scene, t) {
-            Some(c) if usable(c) => Aabb::from_points(c),
-            _ => Aabb::EMPTY,
-        })
+        .map(|t| hittable_corners(scene, t).map_or(Aabb::EMPTY, Aabb::from_points))
         .collect()
 }

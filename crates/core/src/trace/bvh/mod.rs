@@ -80,6 +80,7 @@ use super::tri4::Tri4;
 use collapse::collapse;
 pub use flatten::{FlatBvh, FlatChild, FlatLink};
 use huge::onto_huge_pages;
+pub use input::hittable_corners;
 use input::{corners, triangle_boxes};
 use node::{Tree, WideNode};
 use node4::Node4;
