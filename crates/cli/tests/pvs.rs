@@ -1170,4 +1170,10 @@ fn quake_cluster_bounds_go_through_the_portals_and_grid_bounds_do_not() {
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["mean_ratio"], clusters["mean_ratio"], "{v}");
+    // --bound-no-portals: RV's umbrae alone, which keep most of the map from these cells.
+    let args = ["pvs", "bound", map, "c.pvs", "-o", "c3.pvs", "--json"];
+    let o = sightline(&[&args[..], &["--bound-no-portals"]].concat(), dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["mean_ratio"].as_f64().unwrap() > 2.0 * ratio, "{v}");
 }

@@ -253,6 +253,11 @@ pub(crate) struct BoundOptionArgs {
     /// left on maps four times finer).
     #[arg(long, value_name = "PIXELS", default_value_t = sightline_point::rv::DEFAULT_FUSION_RESOLUTION)]
     pub(crate) bound_fusion_resolution: usize,
+    /// Quake 3 leaf and cluster cells: leave out the cut by the map's portals (RV's umbrae
+    /// alone, 3-18x looser on the shared maps; docs/BENCHMARKS.md, "Two-sided bakes on Quake 3
+    /// maps"), to compare the two. Other cells never use the portals.
+    #[arg(long)]
+    pub(crate) bound_no_portals: bool,
 }
 
 /// Arguments of `pvs bound`.

@@ -20,7 +20,8 @@ use crate::output::{print_json, refuse_overwriting_inputs};
 /// The conservative sampler of `--bound-occluders` and `--bound-fusion-*`.
 /// The conservative sampler of `--bound` and `pvs bound` with `options`; `q3_cells`: the
 /// cells are Quake 3 leaves or clusters, whose origins keep to the map's empty leaves, so the
-/// bound may go through the map's portals (`ConservativeSampler::through_portals`).
+/// bound goes through the map's portals (`ConservativeSampler::through_portals`) unless
+/// `--bound-no-portals`.
 pub(super) fn bound_sampler(
     options: BoundOptionArgs,
     q3_cells: bool,
@@ -50,7 +51,7 @@ pub(super) fn bound_sampler(
             fusion_resolution: options.bound_fusion_resolution,
             ..RegionOptions::default()
         },
-        through_portals: q3_cells,
+        through_portals: q3_cells && !options.bound_no_portals,
         ..Default::default()
     })
 }
