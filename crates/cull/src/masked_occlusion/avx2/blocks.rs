@@ -15,9 +15,9 @@
 use std::arch::x86_64::*;
 
 use super::super::constants::TILE_H;
-use super::super::per_tile::{tile_column_offsets, EMPTY_HI, EMPTY_LO};
+use super::super::per_tile::{EMPTY_HI, EMPTY_LO};
 use super::super::tiles::{Block, Tiles};
-use super::setup::{EdgeRoles, Setup8};
+use super::setup::Setup8;
 
 /// The block grid of a buffer, apart from its blocks (which the kernel borrows mutably).
 pub(super) struct BlockGrid {
@@ -48,7 +48,7 @@ type Edge8 = (__m256, __m256, __m256);
 /// The setup of one triangle (lane `l` of a [`Setup8`]) broadcast to the 8 lanes, as the
 /// block loop reads it.
 struct Triangle {
-    /// The edges in the order of [`EdgeRoles`]: left, right, third.
+    /// The edges by role (`setup::store_edges`): left, right, third.
     edges: [Edge8; 3],
     /// What the third edge adds to the left and right bounds (0 or -inf, 0 or +inf).
     third_bias_l: __m256,
@@ -79,15 +79,13 @@ impl Triangle {
     #[target_feature(enable = "avx2")]
     fn new(t: &Setup8, l: usize) -> Self {
         let set1 = _mm256_set1_ps;
-        let (far_col, near_col) = tile_column_offsets(t.ra[l], t.x0[l]);
-        let roles = EdgeRoles::of(t, l);
         let edge = |i: usize| (set1(t.ex0[i][l]), set1(t.ey0[i][l]), set1(t.slope[i][l]));
         Triangle {
-            edges: [edge(roles.left), edge(roles.right), edge(roles.third)],
-            third_bias_l: set1(roles.third_bias_l),
-            third_bias_r: set1(roles.third_bias_r),
-            far_col: set1(far_col),
-            near_col: set1(near_col),
+            edges: [edge(0), edge(1), edge(2)],
+            third_bias_l: set1(t.third_bias_l[l]),
+            third_bias_r: set1(t.third_bias_r[l]),
+            far_col: set1(t.far_col[l]),
+            near_col: set1(t.near_col[l]),
             y0: set1(t.y0[l]),
             r0: set1(t.r0[l]),
             ra: set1(t.ra[l]),
@@ -274,7 +272,7 @@ fn row_spans(tri: &Triangle, by: u32) -> Option<(__m256i, __m256i, u32, u32)> {
     let x_of =
         |(ex0, ey0, slope): Edge8| _mm256_add_ps(ex0, _mm256_mul_ps(_mm256_sub_ps(yc, ey0), slope));
     let [left, right, third] = tri.edges.map(x_of);
-    // See `EdgeRoles` for why this is the per-tile kernels' maximum and minimum.
+    // See `setup::store_edges` for why this is the per-tile kernels' maximum and minimum.
     let xl = _mm256_max_ps(
         _mm256_add_ps(third, tri.third_bias_l),
         _mm256_max_ps(left, neg_inf),

@@ -17,10 +17,10 @@
 
 use std::arch::x86_64::*;
 
-use super::super::per_tile::{tile_column_offsets, EMPTY_HI, EMPTY_LO};
+use super::super::per_tile::{EMPTY_HI, EMPTY_LO};
 use super::super::tiles::Block;
 use super::blocks::BlockGrid;
-use super::setup::{EdgeRoles, Setup8};
+use super::setup::Setup8;
 
 /// The features every function here needs.
 macro_rules! avx512 {
@@ -32,7 +32,7 @@ macro_rules! avx512 {
 
 /// One triangle (lane `l` of a [`Setup8`]) broadcast to 16 lanes.
 struct Triangle16 {
-    /// Edges `(x0, y0, slope)` in the order of [`EdgeRoles`] (left, right, third), and what
+    /// Edges `(x0, y0, slope)` by role (`setup::store_edges`: left, right, third), and what
     /// the third adds to the left and right bounds.
     edges: [(__m512, __m512, __m512); 3],
     third_bias_l: __m512,
@@ -61,15 +61,13 @@ impl Triangle16 {
         #[inline]
         fn new(t: &Setup8, l: usize) -> Self {
             let set1 = _mm512_set1_ps;
-            let (far_col, near_col) = tile_column_offsets(t.ra[l], t.x0[l]);
-            let roles = EdgeRoles::of(t, l);
             Triangle16 {
-                edges: [roles.left, roles.right, roles.third]
+                edges: [0, 1, 2]
                     .map(|i| (set1(t.ex0[i][l]), set1(t.ey0[i][l]), set1(t.slope[i][l]))),
-                third_bias_l: set1(roles.third_bias_l),
-                third_bias_r: set1(roles.third_bias_r),
-                far_col: set1(far_col),
-                near_col: set1(near_col),
+                third_bias_l: set1(t.third_bias_l[l]),
+                third_bias_r: set1(t.third_bias_r[l]),
+                far_col: set1(t.far_col[l]),
+                near_col: set1(t.near_col[l]),
                 y0: set1(t.y0[l]),
                 r0: set1(t.r0[l]),
                 ra: set1(t.ra[l]),
@@ -263,7 +261,7 @@ avx512! {
             _mm512_add_ps(ex0, _mm512_mul_ps(_mm512_sub_ps(yc, ey0), slope))
         };
         let [left, right, third] = [0, 1, 2].map(|i| x_of(&tri.edges[i]));
-        // See `EdgeRoles` for why this is the per-tile kernels' maximum and minimum.
+        // See `setup::store_edges` for why this is the per-tile kernels' maximum and minimum.
         let xl = _mm512_max_ps(
             _mm512_add_ps(third, tri.third_bias_l),
             _mm512_max_ps(left, _mm512_set1_ps(f32::NEG_INFINITY)),

@@ -8,6 +8,8 @@
 
 use std::arch::x86_64::*;
 
+use super::super::constants::TILE_W;
+
 /// Screen-space corners `[sx, sy, 1/z]` of up to 8 triangles, one per lane: `x[corner][lane]`.
 #[repr(C, align(32))]
 #[derive(Default)]
@@ -32,12 +34,18 @@ pub(super) struct Setup8 {
     pub(super) r_far: [f32; 8],
     /// -1 when the plane is well conditioned (area of a pixel at least).
     pub(super) plane_ok: [i32; 8],
-    /// Edge `i`: `x = ex0 + (y - ey0) * slope`; bounds spans from the left / right (-1).
+    /// The edges by role (see [`store_edges`]): `role` 0 bounds spans from the left, 1 from the
+    /// right, 2 is the third edge; edge `x = ex0 + (y - ey0) * slope`.
     pub(super) ex0: [[f32; 8]; 3],
     pub(super) ey0: [[f32; 8]; 3],
     pub(super) slope: [[f32; 8]; 3],
-    pub(super) bound_l: [[i32; 8]; 3],
-    pub(super) bound_r: [[i32; 8]; 3],
+    /// What the third edge adds to the left and right bounds (see [`store_edges`]).
+    pub(super) third_bias_l: [f32; 8],
+    pub(super) third_bias_r: [f32; 8],
+    /// `per_tile::tile_column_offsets`: from a tile's first column to its farthest and nearest
+    /// pixel centres, minus `x0`.
+    pub(super) far_col: [f32; 8],
+    pub(super) near_col: [f32; 8],
     /// Span clamps, see `per_tile::ColClamp`.
     pub(super) a_lo: [f32; 8],
     pub(super) a_hi: [f32; 8],
@@ -114,6 +122,12 @@ pub(super) fn setup8(s: &Screen8, width: u32, height: u32, out: &mut Setup8) -> 
     st(&mut out.r_far, _mm256_min_ps(_mm256_min_ps(r0, r1), r2));
     sti(&mut out.plane_ok, _mm256_castps_si256(plane_ok));
     store_edges(out, [x0, x1, x2], [y0, y1, y2]);
+    // `per_tile::tile_column_offsets` of the stored (masked) `ra`, lane by lane.
+    let ra_neg = _mm256_cmp_ps::<_CMP_LT_OQ>(_mm256_and_ps(ra, plane_ok), zero);
+    let first = _mm256_sub_ps(_mm256_set1_ps(0.5), x0);
+    let last = _mm256_sub_ps(_mm256_set1_ps((TILE_W - 1) as f32 + 0.5), x0);
+    st(&mut out.far_col, _mm256_blendv_ps(first, last, ra_neg));
+    st(&mut out.near_col, _mm256_blendv_ps(last, first, ra_neg));
     let one = _mm256_set1_epi32(1);
     st(&mut out.a_lo, _mm256_cvtepi32_ps(col0));
     st(
@@ -173,78 +187,74 @@ fn bbox8(xs: [__m256; 3], ys: [__m256; 3], width: u32, height: u32) -> [__m256i;
     [row0, row1, col0, col1]
 }
 
-/// The edges of 8 counter-clockwise triangles into `out`: edges a -> b with the interior on
-/// the left (y down): going up (dy < 0) bounds spans from the left, going down from the
-/// right; horizontal edges bound nothing.
-#[inline]
-#[target_feature(enable = "avx2")]
-fn store_edges(out: &mut Setup8, xs: [__m256; 3], ys: [__m256; 3]) {
-    // SAFETY (both): aligned stores into 32-byte arrays of the `#[repr(C, align(32))]` setup.
-    let st = |a: &mut [f32; 8], v: __m256| unsafe { _mm256_store_ps(a.as_mut_ptr(), v) };
-    let sti =
-        |a: &mut [i32; 8], v: __m256i| unsafe { _mm256_store_si256(a.as_mut_ptr().cast(), v) };
-    let zero = _mm256_setzero_ps();
-    for i in 0..3 {
-        let j = (i + 1) % 3;
-        let dy = _mm256_sub_ps(ys[j], ys[i]);
-        st(&mut out.ex0[i], xs[i]);
-        st(&mut out.ey0[i], ys[i]);
-        st(
-            &mut out.slope[i],
-            _mm256_div_ps(_mm256_sub_ps(xs[j], xs[i]), dy),
-        );
-        sti(
-            &mut out.bound_l[i],
-            _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LT_OQ>(dy, zero)),
-        );
-        sti(
-            &mut out.bound_r[i],
-            _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(dy, zero)),
-        );
-    }
-}
-
-/// Which edge of a set-up triangle plays which part in its spans: every triangle with an area
-/// has an edge bounding its spans from the left and one from the right; the third bounds
-/// either side, or neither when it is horizontal. The span loops evaluate the three edges in
-/// this order and add `third_bias_l` / `third_bias_r` (0 where the third edge bounds that
-/// side, -inf / +inf where it does not) to the third before the `max` / `min`, which
-/// replaces a select per edge with one add (Hasselgren et al. 2016 sort the edges in their
-/// setup for the same reason).
+/// The edges of 8 counter-clockwise triangles into `out`, by role, chosen per lane by selects
+/// (edge roles). Edges a -> b with the interior on the left (y down): going up (dy < 0)
+/// bounds spans from the left, going down from the right; horizontal edges bound nothing.
+/// Every triangle with an area has an edge bounding its spans from the left (the first that
+/// goes up) and one from the right (the first that goes down); the third bounds either side,
+/// or neither when it is horizontal. The span loops evaluate the three edges in this order
+/// and add `third_bias_l` / `third_bias_r` (0 where the third edge bounds that side, -inf /
+/// +inf where it does not) to the third before the `max` / `min`, which replaces a select
+/// per edge with one add (Hasselgren et al. 2016 sort the edges in their setup for the same
+/// reason).
 ///
 /// Bit-exactness: the left bound is `max(third + bias, max(left, -inf))`, the maximum of the
 /// edges that bound the left side that are not NaN (an edge's `x` is NaN for a horizontal
 /// edge, or a near-horizontal one whose slope overflowed), which is what the per-tile kernels
 /// compute in edge order: `max` of values that are not NaN does not depend on the order, and
 /// `maxps` returns its second operand when either is NaN. The same for the right bound.
-pub(super) struct EdgeRoles {
-    pub(super) left: usize,
-    pub(super) right: usize,
-    pub(super) third: usize,
-    pub(super) third_bias_l: f32,
-    pub(super) third_bias_r: f32,
-}
-
-impl EdgeRoles {
-    /// The roles of lane `l`'s edges (a lane that [`setup8`] said to draw).
-    #[inline(always)]
-    pub(super) fn of(t: &Setup8, l: usize) -> Self {
-        let bounds_l = |i: usize| t.bound_l[i][l] != 0;
-        let bounds_r = |i: usize| t.bound_r[i][l] != 0;
-        // A drawn triangle has an area, so an edge going up and one going down.
-        let left = (0..3).find(|&i| bounds_l(i)).unwrap_or(0);
-        let right = (0..3).find(|&i| bounds_r(i)).unwrap_or(1);
-        let third = 3 - left - right;
-        EdgeRoles {
-            left,
-            right,
-            third,
-            third_bias_l: if bounds_l(third) {
-                0.0
-            } else {
-                f32::NEG_INFINITY
-            },
-            third_bias_r: if bounds_r(third) { 0.0 } else { f32::INFINITY },
-        }
+#[inline]
+#[target_feature(enable = "avx2")]
+fn store_edges(out: &mut Setup8, xs: [__m256; 3], ys: [__m256; 3]) {
+    // SAFETY: aligned stores into 32-byte arrays of the `#[repr(C, align(32))]` setup.
+    let st = |a: &mut [f32; 8], v: __m256| unsafe { _mm256_store_ps(a.as_mut_ptr(), v) };
+    let zero = _mm256_setzero_ps();
+    let mut x = [zero; 3];
+    let mut y = [zero; 3];
+    let mut slope = [zero; 3];
+    let mut up = [zero; 3];
+    let mut down = [zero; 3];
+    for i in 0..3 {
+        let j = (i + 1) % 3;
+        let dy = _mm256_sub_ps(ys[j], ys[i]);
+        (x[i], y[i]) = (xs[i], ys[i]);
+        slope[i] = _mm256_div_ps(_mm256_sub_ps(xs[j], xs[i]), dy);
+        up[i] = _mm256_cmp_ps::<_CMP_LT_OQ>(dy, zero);
+        down[i] = _mm256_cmp_ps::<_CMP_GT_OQ>(dy, zero);
     }
+    // `pick(first, second)`: edge 0 where `first`, else edge 1 where `second`, else edge 2.
+    let pick = |v: &[__m256; 3], first: __m256, second: __m256| {
+        _mm256_blendv_ps(_mm256_blendv_ps(v[2], v[1], second), v[0], first)
+    };
+    let left0 = up[0];
+    let left1 = _mm256_andnot_ps(up[0], up[1]);
+    let right0 = down[0];
+    let right1 = _mm256_andnot_ps(down[0], down[1]);
+    // The third edge: the one neither role took.
+    let third0 = _mm256_andnot_ps(
+        _mm256_or_ps(left0, right0),
+        _mm256_castsi256_ps(_mm256_set1_epi32(-1)),
+    );
+    let third1 = _mm256_andnot_ps(
+        _mm256_or_ps(_mm256_or_ps(left1, right1), third0),
+        _mm256_castsi256_ps(_mm256_set1_epi32(-1)),
+    );
+    for (role, (first, second)) in [(left0, left1), (right0, right1), (third0, third1)]
+        .into_iter()
+        .enumerate()
+    {
+        st(&mut out.ex0[role], pick(&x, first, second));
+        st(&mut out.ey0[role], pick(&y, first, second));
+        st(&mut out.slope[role], pick(&slope, first, second));
+    }
+    let third_up = pick(&up, third0, third1);
+    let third_down = pick(&down, third0, third1);
+    st(
+        &mut out.third_bias_l,
+        _mm256_andnot_ps(third_up, _mm256_set1_ps(f32::NEG_INFINITY)),
+    );
+    st(
+        &mut out.third_bias_r,
+        _mm256_andnot_ps(third_down, _mm256_set1_ps(f32::INFINITY)),
+    );
 }
