@@ -303,12 +303,14 @@ fn row_spans(tri: &Triangle, by: u32) -> Option<(__m256i, __m256i, u32, u32)> {
     );
     let a = _mm256_blendv_epi8(a, _mm256_set1_epi32(EMPTY_LO), invalid);
     let b = _mm256_blendv_epi8(b, _mm256_set1_epi32(EMPTY_HI), invalid);
-    let (bx0, bx1) = if tri.col0 / 32 == tri.col1 / 32 {
-        // A bounding box one block wide: that block, unless every scanline is empty.
+    let (bx0, bx1) = if tri.col1 / 32 - tri.col0 / 32 <= 2 {
+        // A bounding box at most three blocks wide: its blocks, unless every scanline is
+        // empty (a block no span reaches gets empty masks, which the merge keeps; finding
+        // the spans' extent costs more than drawing it).
         if _mm256_movemask_ps(_mm256_castsi256_ps(invalid)) == 0xFF {
             return None;
         }
-        (tri.col0 as u32 / 32, tri.col0 as u32 / 32)
+        (tri.col0 as u32 / 32, tri.col1 as u32 / 32)
     } else {
         let (lo_all, hi_all) = (hmin_epi32(a), hmax_epi32(b));
         if lo_all > hi_all {

@@ -287,8 +287,10 @@ avx512! {
         }
         let a = _mm512_mask_mov_epi32(a, invalid, _mm512_set1_epi32(EMPTY_LO));
         let b = _mm512_mask_mov_epi32(b, invalid, _mm512_set1_epi32(EMPTY_HI));
-        let (bx0, bx1) = if tri.col0 / 32 == tri.col1 / 32 {
-            (tri.col0 as u32 / 32, tri.col0 as u32 / 32)
+        let (bx0, bx1) = if tri.col1 / 32 - tri.col0 / 32 <= 2 {
+            // At most three blocks wide: the bounding box's blocks (a block no span reaches
+            // gets empty masks, which the merge keeps).
+            (tri.col0 as u32 / 32, tri.col1 as u32 / 32)
         } else {
             (
                 _mm512_reduce_min_epi32(a) as u32 / 32,
