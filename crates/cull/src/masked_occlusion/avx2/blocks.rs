@@ -42,65 +42,65 @@ impl BlockGrid {
     }
 }
 
-/// One edge of lane `l` broadcast: `x = x0 + (y - y0) * slope` as `(x0, y0, slope)`.
+/// One edge broadcast: `x = x0 + (y - y0) * slope` as `(x0, y0, slope)`.
 type Edge8 = (__m256, __m256, __m256);
 
-/// The setup of one triangle (lane `l` of a [`Setup8`]) broadcast to the 8 lanes, as the
-/// block loop reads it.
-struct Triangle {
-    /// The edges by role (`setup::store_edges`): left, right, third.
-    edges: [Edge8; 3],
-    /// What the third edge adds to the left and right bounds (0 or -inf, 0 or +inf).
-    third_bias_l: __m256,
-    third_bias_r: __m256,
+/// One triangle (lane `l` of a [`Setup8`]): what every block reads broadcast to the 8 lanes;
+/// what a block row reads once is broadcast from the setup where it is used
+/// ([`Triangle::lane`]), which keeps the registers free of values used once.
+struct Triangle<'a> {
+    t: &'a Setup8,
+    l: usize,
     /// Offsets from a tile's first column to its farthest and nearest pixel centres, minus
     /// `x0` (`per_tile::tile_column_offsets`).
     far_col: __m256,
     near_col: __m256,
-    y0: __m256,
-    r0: __m256,
     ra: __m256,
-    rb: __m256,
     r_far: __m256,
     plane_ok: bool,
-    /// Span clamps.
-    a_lo: __m256,
-    a_hi: __m256,
-    b_lo: __m256,
-    b_hi: __m256,
     row0: i32,
     row1: i32,
     col0: i32,
     col1: i32,
 }
 
-impl Triangle {
+impl<'a> Triangle<'a> {
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn new(t: &Setup8, l: usize) -> Self {
+    fn new(t: &'a Setup8, l: usize) -> Self {
         let set1 = _mm256_set1_ps;
-        let edge = |i: usize| (set1(t.ex0[i][l]), set1(t.ey0[i][l]), set1(t.slope[i][l]));
         Triangle {
-            edges: [edge(0), edge(1), edge(2)],
-            third_bias_l: set1(t.third_bias_l[l]),
-            third_bias_r: set1(t.third_bias_r[l]),
+            t,
+            l,
             far_col: set1(t.far_col[l]),
             near_col: set1(t.near_col[l]),
-            y0: set1(t.y0[l]),
-            r0: set1(t.r0[l]),
             ra: set1(t.ra[l]),
-            rb: set1(t.rb[l]),
             r_far: set1(t.r_far[l]),
             plane_ok: t.plane_ok[l] != 0,
-            a_lo: set1(t.a_lo[l]),
-            a_hi: set1(t.a_hi[l]),
-            b_lo: set1(t.b_lo[l]),
-            b_hi: set1(t.b_hi[l]),
             row0: t.row0[l],
             row1: t.row1[l],
             col0: t.col0[l],
             col1: t.col1[l],
         }
+    }
+
+    /// The triangle's value in `field` broadcast.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn lane(&self, field: &[f32; 8]) -> __m256 {
+        _mm256_set1_ps(field[self.l])
+    }
+
+    /// Edge `role` (`setup::store_edges`: left, right, third).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn edge(&self, role: usize) -> Edge8 {
+        let t = self.t;
+        (
+            self.lane(&t.ex0[role]),
+            self.lane(&t.ey0[role]),
+            self.lane(&t.slope[role]),
+        )
     }
 }
 
@@ -212,11 +212,16 @@ impl BlockRowDepth {
             _mm256_set1_ps(0.5),
         );
         let yb = _mm256_add_ps(ya, _mm256_set1_ps((TILE_H - 1) as f32));
-        let da = _mm256_mul_ps(tri.rb, _mm256_sub_ps(ya, tri.y0));
-        let db = _mm256_mul_ps(tri.rb, _mm256_sub_ps(yb, tri.y0));
+        let (rb, y0, r0) = (
+            tri.lane(&tri.t.rb),
+            tri.lane(&tri.t.y0),
+            tri.lane(&tri.t.r0),
+        );
+        let da = _mm256_mul_ps(rb, _mm256_sub_ps(ya, y0));
+        let db = _mm256_mul_ps(rb, _mm256_sub_ps(yb, y0));
         BlockRowDepth {
-            r_rows: _mm256_add_ps(tri.r0, min_like_f32(da, db)),
-            r_rows_max: _mm256_add_ps(tri.r0, _mm256_max_ps(da, db)),
+            r_rows: _mm256_add_ps(r0, min_like_f32(da, db)),
+            r_rows_max: _mm256_add_ps(r0, _mm256_max_ps(da, db)),
             outside_y: _mm256_and_si256(
                 _mm256_cmpeq_epi32(tyv, _mm256_set1_epi32(g.last_ty as i32)),
                 _mm256_set1_epi32(g.outside_y as i32),
@@ -271,18 +276,21 @@ fn row_spans(tri: &Triangle, by: u32) -> Option<(__m256i, __m256i, u32, u32)> {
     );
     let x_of =
         |(ex0, ey0, slope): Edge8| _mm256_add_ps(ex0, _mm256_mul_ps(_mm256_sub_ps(yc, ey0), slope));
-    let [left, right, third] = tri.edges.map(x_of);
+    let [left, right, third] = [0, 1, 2].map(|role| x_of(tri.edge(role)));
+    let t = tri.t;
     // See `setup::store_edges` for why this is the per-tile kernels' maximum and minimum.
     let xl = _mm256_max_ps(
-        _mm256_add_ps(third, tri.third_bias_l),
+        _mm256_add_ps(third, tri.lane(&t.third_bias_l)),
         _mm256_max_ps(left, neg_inf),
     );
     let xr = _mm256_min_ps(
-        _mm256_add_ps(third, tri.third_bias_r),
+        _mm256_add_ps(third, tri.lane(&t.third_bias_r)),
         _mm256_min_ps(right, pos_inf),
     );
-    let xa = _mm256_min_ps(_mm256_max_ps(_mm256_sub_ps(xl, half), tri.a_lo), tri.a_hi);
-    let xb = _mm256_min_ps(_mm256_max_ps(_mm256_sub_ps(xr, half), tri.b_lo), tri.b_hi);
+    let xa = _mm256_sub_ps(xl, half);
+    let xa = _mm256_min_ps(_mm256_max_ps(xa, tri.lane(&t.a_lo)), tri.lane(&t.a_hi));
+    let xb = _mm256_sub_ps(xr, half);
+    let xb = _mm256_min_ps(_mm256_max_ps(xb, tri.lane(&t.b_lo)), tri.lane(&t.b_hi));
     // `ceil_i` / `floor_i` of the clamped (finite, small) values: exact either way.
     let a = _mm256_cvttps_epi32(_mm256_round_ps::<
         { _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC },

@@ -30,59 +30,55 @@ macro_rules! avx512 {
     )*};
 }
 
-/// One triangle (lane `l` of a [`Setup8`]) broadcast to 16 lanes.
-struct Triangle16 {
-    /// Edges `(x0, y0, slope)` by role (`setup::store_edges`: left, right, third), and what
-    /// the third adds to the left and right bounds.
-    edges: [(__m512, __m512, __m512); 3],
-    third_bias_l: __m512,
-    third_bias_r: __m512,
+/// One triangle (lane `l` of a [`Setup8`]): what every block reads broadcast to 16 lanes;
+/// what a pair of block rows reads once is broadcast from the setup where it is used
+/// ([`Triangle16::lane`]), which keeps the registers free of values used once.
+struct Triangle16<'a> {
+    t: &'a Setup8,
+    l: usize,
     /// `per_tile::tile_column_offsets`: a tile's farthest and nearest pixel centres.
     far_col: __m512,
     near_col: __m512,
-    y0: __m512,
-    r0: __m512,
     ra: __m512,
-    rb: __m512,
     r_far: __m512,
     plane_ok: bool,
-    a_lo: __m512,
-    a_hi: __m512,
-    b_lo: __m512,
-    b_hi: __m512,
     row0: i32,
     row1: i32,
     col0: i32,
     col1: i32,
 }
 
-impl Triangle16 {
+impl<'a> Triangle16<'a> {
     avx512! {
         #[inline]
-        fn new(t: &Setup8, l: usize) -> Self {
+        fn new(t: &'a Setup8, l: usize) -> Self {
             let set1 = _mm512_set1_ps;
             Triangle16 {
-                edges: [0, 1, 2]
-                    .map(|i| (set1(t.ex0[i][l]), set1(t.ey0[i][l]), set1(t.slope[i][l]))),
-                third_bias_l: set1(t.third_bias_l[l]),
-                third_bias_r: set1(t.third_bias_r[l]),
+                t,
+                l,
                 far_col: set1(t.far_col[l]),
                 near_col: set1(t.near_col[l]),
-                y0: set1(t.y0[l]),
-                r0: set1(t.r0[l]),
                 ra: set1(t.ra[l]),
-                rb: set1(t.rb[l]),
                 r_far: set1(t.r_far[l]),
                 plane_ok: t.plane_ok[l] != 0,
-                a_lo: set1(t.a_lo[l]),
-                a_hi: set1(t.a_hi[l]),
-                b_lo: set1(t.b_lo[l]),
-                b_hi: set1(t.b_hi[l]),
                 row0: t.row0[l],
                 row1: t.row1[l],
                 col0: t.col0[l],
                 col1: t.col1[l],
             }
+        }
+
+        /// The triangle's value in `field` broadcast.
+        #[inline]
+        fn lane(&self, field: &[f32; 8]) -> __m512 {
+            _mm512_set1_ps(field[self.l])
+        }
+
+        /// Edge `role` (`setup::store_edges`: left, right, third) as `(x0, y0, slope)`.
+        #[inline]
+        fn edge(&self, role: usize) -> (__m512, __m512, __m512) {
+            let t = self.t;
+            (self.lane(&t.ex0[role]), self.lane(&t.ey0[role]), self.lane(&t.slope[role]))
         }
     }
 }
@@ -215,11 +211,12 @@ impl PairDepth {
                 _mm512_set1_ps(0.5),
             );
             let yb = _mm512_add_ps(ya, _mm512_set1_ps(3.0));
-            let da = _mm512_mul_ps(tri.rb, _mm512_sub_ps(ya, tri.y0));
-            let db = _mm512_mul_ps(tri.rb, _mm512_sub_ps(yb, tri.y0));
+            let (rb, y0, r0) = (tri.lane(&tri.t.rb), tri.lane(&tri.t.y0), tri.lane(&tri.t.r0));
+            let da = _mm512_mul_ps(rb, _mm512_sub_ps(ya, y0));
+            let db = _mm512_mul_ps(rb, _mm512_sub_ps(yb, y0));
             PairDepth {
-                r_rows: _mm512_add_ps(tri.r0, min_like(da, db)),
-                r_rows_max: _mm512_add_ps(tri.r0, _mm512_max_ps(da, db)),
+                r_rows: _mm512_add_ps(r0, min_like(da, db)),
+                r_rows_max: _mm512_add_ps(r0, _mm512_max_ps(da, db)),
                 outside_y: _mm512_maskz_mov_epi32(
                     _mm512_cmpeq_epi32_mask(tyv, _mm512_set1_epi32(g.last_ty as i32)),
                     _mm512_set1_epi32(g.outside_y as i32),
@@ -257,21 +254,24 @@ avx512! {
             0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0, 13.0, 14.0, 15.0,
         );
         let yc = _mm512_add_ps(_mm512_set1_ps(row_base as f32 + 0.5), lane_f);
-        let x_of = |&(ex0, ey0, slope): &(__m512, __m512, __m512)| {
+        let x_of = |(ex0, ey0, slope): (__m512, __m512, __m512)| {
             _mm512_add_ps(ex0, _mm512_mul_ps(_mm512_sub_ps(yc, ey0), slope))
         };
-        let [left, right, third] = [0, 1, 2].map(|i| x_of(&tri.edges[i]));
+        let [left, right, third] = [0, 1, 2].map(|role| x_of(tri.edge(role)));
+        let t = tri.t;
         // See `setup::store_edges` for why this is the per-tile kernels' maximum and minimum.
         let xl = _mm512_max_ps(
-            _mm512_add_ps(third, tri.third_bias_l),
+            _mm512_add_ps(third, tri.lane(&t.third_bias_l)),
             _mm512_max_ps(left, _mm512_set1_ps(f32::NEG_INFINITY)),
         );
         let xr = _mm512_min_ps(
-            _mm512_add_ps(third, tri.third_bias_r),
+            _mm512_add_ps(third, tri.lane(&t.third_bias_r)),
             _mm512_min_ps(right, _mm512_set1_ps(f32::INFINITY)),
         );
-        let xa = _mm512_min_ps(_mm512_max_ps(_mm512_sub_ps(xl, half), tri.a_lo), tri.a_hi);
-        let xb = _mm512_min_ps(_mm512_max_ps(_mm512_sub_ps(xr, half), tri.b_lo), tri.b_hi);
+        let xa = _mm512_sub_ps(xl, half);
+        let xa = _mm512_min_ps(_mm512_max_ps(xa, tri.lane(&t.a_lo)), tri.lane(&t.a_hi));
+        let xb = _mm512_sub_ps(xr, half);
+        let xb = _mm512_min_ps(_mm512_max_ps(xb, tri.lane(&t.b_lo)), tri.lane(&t.b_hi));
         // Ceiling of `xa`, floor of `xb`, as `blocks::row_spans` rounds them.
         let a = _mm512_cvt_roundps_epi32::<{ _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC }>(xa);
         let b = _mm512_cvt_roundps_epi32::<{ _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC }>(xb);
