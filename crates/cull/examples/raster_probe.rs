@@ -4,6 +4,7 @@
 //! are identical.
 //!
 //! Run: `cargo run --release -p sightline-cull --example raster_probe -- [ROUNDS] [LEGS...]`
+//! (`RASTER_PROBE_SCALE=2`: a 3840x2160 image with four times the triangles).
 
 use sightline_core::cpu_time::thread_cpu_ns;
 use sightline_cull::bench_sets::{self, HEIGHT as H, WIDTH as W};
@@ -22,12 +23,21 @@ fn main() {
         .filter(|k| k.available())
         .collect();
     for leg in legs {
-        let (tris, cam) = bench_sets::occluder_set(leg);
+        // `RASTER_PROBE_SCALE=k`: a k-times wider and taller image with k² times the
+        // triangles (the same density), for buffers beyond the caches.
+        let scale: u32 = std::env::var("RASTER_PROBE_SCALE")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(1);
+        let mut cam = bench_sets::camera();
+        (cam.width, cam.height) = (W * scale, H * scale);
+        let count = bench_sets::TRIANGLES * (scale * scale) as usize;
+        let tris = bench_sets::right_triangles(&cam, count, leg, 1);
         let n = tris.len() / 3;
         let mut buffers: Vec<OcclusionBuffer> = kernels
             .iter()
             .map(|&k| {
-                let mut b = OcclusionBuffer::new(W, H);
+                let mut b = OcclusionBuffer::new(cam.width, cam.height);
                 b.set_kernel(k);
                 b
             })
@@ -43,7 +53,10 @@ fn main() {
                 times[i].push((thread_cpu_ns() - t0) as f64 / 5.0 / n as f64);
             }
         }
-        let mut scalar = OcclusionBuffer::new(W, H);
+        if std::env::var("RASTER_PROBE_AGREE").is_ok() {
+            agreement(&tris, &cam);
+        }
+        let mut scalar = OcclusionBuffer::new(cam.width, cam.height);
         scalar.set_kernel(Kernel::Scalar);
         scalar.render_occluders(&tris, &cam);
         for (i, k) in kernels.iter().enumerate() {
@@ -57,4 +70,44 @@ fn main() {
             );
         }
     }
+}
+
+/// `RASTER_PROBE_AGREE=1`: which kernels give identical buffers, and the first pixels where
+/// the scalar and AVX2 kernels differ.
+fn agreement(tris: &[glam::Vec3], cam: &sightline_core::Camera) {
+    let render = |k: Kernel| {
+        let mut b = OcclusionBuffer::new(cam.width, cam.height);
+        assert!(b.set_kernel(k));
+        b.render_occluders(tris, cam);
+        b
+    };
+    let all: Vec<(Kernel, OcclusionBuffer)> = Kernel::ALL
+        .into_iter()
+        .filter(|k| k.available())
+        .map(|k| (k, render(k)))
+        .collect();
+    for (k, b) in &all {
+        let same: Vec<&str> = all
+            .iter()
+            .filter(|(_, o)| o.same_contents(b))
+            .map(|(k2, _)| k2.name())
+            .collect();
+        println!("{} agrees with {:?}", k.name(), same);
+    }
+    let mut diff = 0;
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            if all[0].1.depth_at(x, y) != all[2].1.depth_at(x, y) {
+                if diff < 5 {
+                    println!(
+                        "pixel {x},{y}: scalar {:?} avx2 {:?}",
+                        all[0].1.depth_at(x, y),
+                        all[2].1.depth_at(x, y)
+                    );
+                }
+                diff += 1;
+            }
+        }
+    }
+    println!("{diff} pixels differ");
 }
