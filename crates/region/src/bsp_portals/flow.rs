@@ -11,13 +11,15 @@
 //! # Why it is conservative
 //! Empty leaves are convex and tile the empty space; everything else is solid. A segment from
 //! the box to a point stays in empty space, so it leaves the box's leaves (the *sources*)
-//! through a portal of one of them, and then passes from leaf to leaf only through portals:
-//! a point seen from the box is in a source leaf, or at the end of a portal sequence
-//! `p1, ..., pk` that the segment crosses in order. The flow walks every such sequence depth
-//! first and keeps of each portal only what a segment from the box through the part kept of
-//! the one before can reach: the part on the front of every *separating plane* of the box and
-//! that part (a plane with the whole box on its back and the whole part on its front: a
-//! segment from the box through the part is on the front from there on). Dropping parts
+//! for the last time through a portal `p1` of one of them, and then passes from leaf to leaf
+//! only through portals: a point seen from the box is in a source leaf, or at the end of a
+//! portal sequence `p1, ..., pk` that the segment crosses in order. The flow walks every such
+//! sequence depth first and keeps of each portal only what a segment from the box through the
+//! part kept of the one before can reach: the part on the front of every *separating plane*
+//! of the box and that part (a plane with the whole box on its back and the whole part on its
+//! front: a segment from the box through the part is on the front from there on), and past
+//! `p1` of every separating plane of `p1` and that part (the segment crosses `p1` too, and
+//! the box alone lets through segments no point of `p1` sends). Dropping parts
 //! only by such planes, with a sliver kept at every cut, never drops a point a segment
 //! reaches, so a triangle is kept whenever some part of it survives the same cuts in a leaf
 //! the flow enters (or it touches a source leaf).
@@ -103,6 +105,24 @@ pub(crate) fn leaf_triangles(
 /// The separating planes of the box `corners` (8, with `EDGES`) and the convex polygon
 /// `pass`, each turned so that `pass` is on its front.
 fn separators(corners: &[DVec3; 8], pass: &[DVec3]) -> Vec<Plane> {
+    let box_edges = EDGES.map(|(i, j)| (corners[i], corners[j]));
+    separators_of(corners, &box_edges, pass)
+}
+
+/// The separating planes of the convex polygon `source` (a portal every segment of the
+/// sequence crosses) and the convex polygon `pass`, each turned so that `pass` is on its front.
+fn polygon_separators(source: &[DVec3], pass: &[DVec3]) -> Vec<Plane> {
+    let edges: Vec<(DVec3, DVec3)> = (0..source.len())
+        .map(|i| (source[i], source[(i + 1) % source.len()]))
+        .collect();
+    separators_of(source, &edges, pass)
+}
+
+/// The separating planes of a convex body (its `points` and `edges`) and the convex polygon
+/// `pass`: planes through an edge of one and a point of the other with the body on the back
+/// and `pass` on the front (Teller and Séquin's, as the Quake tools' `ClipToSeperators` finds
+/// them).
+fn separators_of(points: &[DVec3], edges: &[(DVec3, DVec3)], pass: &[DVec3]) -> Vec<Plane> {
     let mut out = Vec::new();
     let mut try_plane = |a: DVec3, b: DVec3, c: DVec3| {
         let n = (b - a).cross(c - a);
@@ -115,9 +135,9 @@ fn separators(corners: &[DVec3; 8], pass: &[DVec3]) -> Vec<Plane> {
             normal: n / len,
             dist: (n / len).dot(a),
         };
-        let box_side = side(corners, &plane, SEPARATION);
+        let body_side = side(points, &plane, SEPARATION);
         let pass_side = side(pass, &plane, SEPARATION);
-        match (box_side, pass_side) {
+        match (body_side, pass_side) {
             (Side::Back, Side::Front) => {}
             (Side::Front, Side::Back) => plane = plane.flipped(),
             _ => return,
@@ -126,13 +146,13 @@ fn separators(corners: &[DVec3; 8], pass: &[DVec3]) -> Vec<Plane> {
     };
     for (i, &a) in pass.iter().enumerate() {
         let b = pass[(i + 1) % pass.len()];
-        for &c in corners {
+        for &c in points {
             try_plane(a, b, c);
         }
     }
-    for (i, j) in EDGES {
+    for &(a, b) in edges {
         for &p in pass {
-            try_plane(corners[i], corners[j], p);
+            try_plane(a, b, p);
         }
     }
     out
@@ -181,6 +201,9 @@ pub(crate) struct Flow<'a> {
     /// Leaves on the current sequence (a segment enters a convex leaf once).
     pub(crate) on_path: Vec<bool>,
     pub(crate) sources: Vec<bool>,
+    /// Whether parts past a sequence's first leaf are also cut by the separating planes of
+    /// its first portal (always, but in the test that measures what they take off).
+    pub(crate) first_portal_cuts: bool,
 }
 
 /// A portal side to go on from: side `2p` of portal `p` enters its front leaf, `2p + 1` its
@@ -236,7 +259,11 @@ impl Flow<'_> {
     /// sequence may be as long as the map has leaves). Past the budget, what is left to walk
     /// goes to `left` as seeds, each with the part of its portal the walk would have entered.
     fn walk(&mut self, seed: Seed, left: &mut Vec<Seed>) {
-        let mut stack = match self.enter(&seed) {
+        // Every segment of the sequences from this seed crosses its portal (it leaves the
+        // sources there for the last time): past the first leaf, the cuts separate the part
+        // from that portal as well as from the box.
+        let source = self.first_portal_cuts.then(|| seed.1.clone());
+        let mut stack = match self.enter(&seed, None) {
             Some(frame) => vec![frame],
             None => return left.push(seed),
         };
@@ -258,7 +285,7 @@ impl Flow<'_> {
                 continue;
             }
             let seed = (side_into(self.graph, p, next), part);
-            match self.enter(&seed) {
+            match self.enter(&seed, source.as_deref()) {
                 Some(entered) => stack.push(entered),
                 None => {
                     // Out of budget: this seed, and the untried portals of every leaf on the
@@ -285,14 +312,15 @@ impl Flow<'_> {
     }
 
     /// Enters a leaf through a seed: marks the triangles seen in it and returns its frame
-    /// (`None` past the budget, with nothing marked).
-    fn enter(&mut self, (side, pass): &Seed) -> Option<Frame> {
+    /// (`None` past the budget, with nothing marked). `source`: the portal every segment
+    /// through the seed crossed before, if it is not the seed's own.
+    fn enter(&mut self, (side, pass): &Seed, source: Option<&[DVec3]>) -> Option<Frame> {
         self.steps += 1;
         if self.steps > self.budget {
             return None;
         }
         let (leaf, into) = enters(self.graph, *side);
-        let (beyond, seps) = cuts(&self.corners, &into, pass);
+        let (beyond, seps) = cuts(&self.corners, &into, pass, source);
         mark_seen(
             self.scene,
             &self.leaf_triangles[leaf],
@@ -327,11 +355,21 @@ fn side_into(graph: &PortalGraph, p: usize, leaf: usize) -> usize {
 
 /// The cuts for what is seen past `pass`, a part of a portal whose plane faces `into` the
 /// leaf entered: the portal's plane (only when the whole box is behind it, else the cut could
-/// drop points a segment from the part of the box in front of it reaches), and the separating
-/// planes of the box and the part.
-fn cuts(corners: &[DVec3; 8], into: &Plane, pass: &[DVec3]) -> (Option<Plane>, Vec<Plane>) {
+/// drop points a segment from the part of the box in front of it reaches), the separating
+/// planes of the box and the part, and those of `source` (a portal every segment through
+/// `pass` crossed before) and the part.
+fn cuts(
+    corners: &[DVec3; 8],
+    into: &Plane,
+    pass: &[DVec3],
+    source: Option<&[DVec3]>,
+) -> (Option<Plane>, Vec<Plane>) {
     let beyond = matches!(side(corners, into, 0.0), Side::Back | Side::On).then_some(*into);
-    (beyond, separators(corners, pass))
+    let mut seps = separators(corners, pass);
+    if let Some(source) = source {
+        seps.extend(polygon_separators(source, pass));
+    }
+    (beyond, seps)
 }
 
 /// Marks in `visible` the triangles of a leaf (`triangles`) that keep a part through the cuts.
@@ -372,7 +410,7 @@ fn merged_from(flow: &Flow<'_>, mut visible: TriangleSet, seeds: Vec<Seed>) -> T
             continue;
         };
         let (leaf, into) = enters(graph, side);
-        let (beyond, seps) = cuts(&flow.corners, &into, &pass);
+        let (beyond, seps) = cuts(&flow.corners, &into, &pass, None);
         mark_seen(
             flow.scene,
             &flow.leaf_triangles[leaf],

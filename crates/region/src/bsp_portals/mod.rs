@@ -78,6 +78,7 @@ impl BspPortals {
             visible: TriangleSet::with_capacity(self.triangles),
             on_path: vec![false; bsp.leaves.len()],
             sources: vec![false; bsp.leaves.len()],
+            first_portal_cuts: true,
         };
         (flow, sources)
     }
@@ -201,6 +202,32 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_sequences_first_portal_cuts_the_flow_tighter_than_the_box_alone() {
+        // The box lets through segments that no point of the portal a sequence starts with
+        // sends: cutting by that portal's separating planes too keeps a subset, and on
+        // q3dm6ish's clusters a smaller one (the dense-sampling test below shows it still
+        // holds what the cluster sees).
+        let scene = map();
+        let bsp = scene.bsp.as_deref().unwrap();
+        let p = BspPortals::new(&scene).unwrap();
+        let (mut with, mut without) = (0, 0);
+        for (cluster, b) in boxes(&scene) {
+            let (flow, sources) = p.flow(&scene, bsp, &b, DEFAULT_FLOW_BUDGET);
+            let (tight, walked) = flow.run(&sources);
+            assert!(walked);
+            let (mut flow, sources) = p.flow(&scene, bsp, &b, DEFAULT_FLOW_BUDGET);
+            flow.first_portal_cuts = false;
+            let (loose, walked) = flow.run(&sources);
+            assert!(walked);
+            assert!(tight.is_subset(&loose), "cluster {cluster}");
+            with += tight.count_ones(..);
+            without += loose.count_ones(..);
+        }
+        // 3,741 against 3,899 when this test was written.
+        assert!(with * 100 < without * 97, "{with} against {without}");
     }
 
     #[test]
