@@ -19,7 +19,9 @@
 //! of the box and that part (a plane with the whole box on its back and the whole part on its
 //! front: a segment from the box through the part is on the front from there on), and past
 //! `p1` of every separating plane of `p1` and that part (the segment crosses `p1` too, and
-//! the box alone lets through segments no point of `p1` sends). Dropping parts
+//! the box alone lets through segments no point of `p1` sends); `p1` itself narrowed, as the
+//! walk goes deeper, to what sends segments through the last two parts (the front of their
+//! separating planes, as `vis` narrows its source portal). Dropping parts
 //! only by such planes, with a sliver kept at every cut, never drops a point a segment
 //! reaches, so a triangle is kept whenever some part of it survives the same cuts in a leaf
 //! the flow enters (or it touches a source leaf).
@@ -217,6 +219,11 @@ struct Frame {
     beyond: Option<Plane>,
     seps: Vec<Plane>,
     next_portal: usize,
+    /// The part of the portal the leaf was entered through.
+    pass: Vec<DVec3>,
+    /// The part of the sequence's first portal that segments reaching `pass` cross (with
+    /// `first_portal_cuts`).
+    source: Option<Vec<DVec3>>,
 }
 
 impl Flow<'_> {
@@ -263,11 +270,15 @@ impl Flow<'_> {
         // sources there for the last time): past the first leaf, the cuts separate the part
         // from that portal as well as from the box.
         let source = self.first_portal_cuts.then(|| seed.1.clone());
-        let mut stack = match self.enter(&seed, None) {
+        let mut stack = match self.enter(&seed, source) {
             Some(frame) => vec![frame],
             None => return left.push(seed),
         };
-        while let Some(frame) = stack.last_mut() {
+        loop {
+            let depth = stack.len();
+            let Some(frame) = stack.last_mut() else {
+                break;
+            };
             let leaf = frame.leaf;
             let Some(&p) = self.graph.of_leaf[leaf].get(frame.next_portal) else {
                 self.on_path[leaf] = false;
@@ -284,8 +295,22 @@ impl Flow<'_> {
             if part.is_empty() {
                 continue;
             }
+            // Of the first portal, only what sends segments through the pass to this part:
+            // the front of every separating plane of the part and the pass (Quake's `vis`
+            // narrows its source portal the same way).
+            let source = match &frame.source {
+                Some(source) if depth > 1 => {
+                    let narrowed =
+                        reachable_part(source, None, &polygon_separators(&part, &frame.pass));
+                    if narrowed.is_empty() {
+                        continue;
+                    }
+                    Some(narrowed)
+                }
+                other => other.clone(),
+            };
             let seed = (side_into(self.graph, p, next), part);
-            match self.enter(&seed, source.as_deref()) {
+            match self.enter(&seed, source) {
                 Some(entered) => stack.push(entered),
                 None => {
                     // Out of budget: this seed, and the untried portals of every leaf on the
@@ -314,13 +339,20 @@ impl Flow<'_> {
     /// Enters a leaf through a seed: marks the triangles seen in it and returns its frame
     /// (`None` past the budget, with nothing marked). `source`: the portal every segment
     /// through the seed crossed before, if it is not the seed's own.
-    fn enter(&mut self, (side, pass): &Seed, source: Option<&[DVec3]>) -> Option<Frame> {
+    fn enter(&mut self, (side, pass): &Seed, source: Option<Vec<DVec3>>) -> Option<Frame> {
         self.steps += 1;
         if self.steps > self.budget {
             return None;
         }
         let (leaf, into) = enters(self.graph, *side);
-        let (beyond, seps) = cuts(&self.corners, &into, pass, source);
+        // The first leaf is entered through the first portal itself: nothing to separate.
+        let first = source.as_ref().is_some_and(|s| s == pass);
+        let (beyond, seps) = cuts(
+            &self.corners,
+            &into,
+            pass,
+            source.as_deref().filter(|_| !first),
+        );
         mark_seen(
             self.scene,
             &self.leaf_triangles[leaf],
@@ -334,6 +366,8 @@ impl Flow<'_> {
             beyond,
             seps,
             next_portal: 0,
+            pass: pass.clone(),
+            source,
         })
     }
 }
