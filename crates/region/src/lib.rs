@@ -9,6 +9,7 @@ pub mod bound;
 pub mod bsp_portals;
 pub mod cell_sources;
 pub mod checkpoint;
+pub mod closed_solids;
 mod guided;
 pub mod gvs;
 pub mod gvspp;

@@ -15,6 +15,7 @@ use sightline_point::rv::{
     conservative_from_region, conservative_visible, Guarantee, HiddenOccluders, RegionOptions,
     RvOptions, SceneSource, StreamingCity,
 };
+use sightline_region::closed_solids::ClosedSolids;
 use sightline_region::ViewCell;
 
 use crate::args::{CameraArgs, SceneArgs};
@@ -196,7 +197,12 @@ fn run_from_region(args: &Args, spec: &str, start: Instant) -> Result<()> {
         (r, None)
     } else {
         let scene = args.scene.load()?;
-        let r = conservative_from_region(&mut SceneSource::new(&scene), &cell.corners(), &options)?;
+        let mut r =
+            conservative_from_region(&mut SceneSource::new(&scene), &cell.corners(), &options)?;
+        // The scene is in memory: the back faces of its closed solids go too.
+        let solids = ClosedSolids::new(&scene);
+        let removed = solids.remove_back_faces(&scene, &cell.corners(), &mut r.visible);
+        r.stats.hidden += removed as u64;
         let seconds = start.elapsed().as_secs_f64();
         let bvh = Bvh::build(&scene);
         let seen = sampled_from_cell(&bvh, &cell, 200_000);
@@ -206,7 +212,11 @@ fn run_from_region(args: &Args, spec: &str, start: Instant) -> Result<()> {
     let n = r.visible.count_ones(..);
     let seconds = check.map_or(start.elapsed().as_secs_f64(), |c| c.2);
     let summary = Summary {
-        method: "conservative from a view cell (umbrae of convex occluders)",
+        method: if check.is_some() {
+            "conservative from a view cell (umbrae of convex occluders, back faces of closed solids)"
+        } else {
+            "conservative from a view cell (umbrae of convex occluders)"
+        },
         triangles: r.stats.triangles_streamed as usize,
         visible: n,
         seconds,

@@ -6,14 +6,17 @@
 //! 2021, chapter 8 (from-region visibility as future work); see `from_region.rs`.
 //!
 //! It casts no rays and has no budget: its set is every triangle that no single large convex
-//! occluder hides from the whole cell, a superset of what can be seen from the cell (no false
-//! negatives, by construction), typically several times the aggressive set.
+//! occluder hides from the whole cell, less the back faces of closed solids the cell lies
+//! outside of (`sightline_region::closed_solids`) and, on Quake 3 maps, what the map's portals
+//! hide: a superset of what can be seen from the cell (no false negatives, by construction),
+//! typically several times the aggressive set.
 
 use std::sync::{Arc, Mutex};
 
 use sightline_core::scene::Scene;
 use sightline_core::{Aabb, TriangleSet};
 use sightline_region::bsp_portals::{BspPortals, DEFAULT_FLOW_BUDGET};
+use sightline_region::closed_solids::ClosedSolids;
 use sightline_region::methods::{sampler, MethodError, MethodParams, METHODS};
 use sightline_region::{Budget, CellContext, CellResult, ConvergencePoint, Sampler};
 
@@ -85,7 +88,7 @@ pub fn bake_sampler_for_cells(
 }
 
 /// The conservative from-region sampler.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct ConservativeSampler {
     /// Occluders and batch size of [`conservative_from_region`].
     pub options: RegionOptions,
@@ -97,19 +100,52 @@ pub struct ConservativeSampler {
     /// q3dm6ish, whose boxes reach into the void, keeps 47-367 set triangles a cell outside
     /// the portals' set). [`bake_sampler_for_cells`] sets it.
     pub through_portals: bool,
+    /// Also leave out the back faces of closed solids the cell lies outside of
+    /// (`sightline_region::closed_solids`; on by default: it holds for any cell).
+    pub back_faces_of_solids: bool,
     /// The portal graph of the last Quake 3 map sampled, shared by the clones that bake its
     /// cells (built once per scene).
     pub portals: PortalCache,
+    /// The closed solids of the last scene sampled, shared the same way.
+    pub solids: SceneCache<ClosedSolids>,
 }
 
-/// A map's [`BspPortals`], built on first use and kept for the scene it was built for.
-#[derive(Clone, Debug, Default)]
-pub struct PortalCache(Arc<Mutex<Option<CachedPortals>>>);
+impl Default for ConservativeSampler {
+    fn default() -> Self {
+        Self {
+            options: RegionOptions::default(),
+            through_portals: false,
+            back_faces_of_solids: true,
+            portals: PortalCache::default(),
+            solids: SceneCache::default(),
+        }
+    }
+}
 
-/// The scene a [`PortalCache`] was filled for, and its portals (`None`: no usable BSP).
-type CachedPortals = (SceneKey, Option<Arc<BspPortals>>);
+/// Something built from a scene on first use and kept for the scene it was built for, shared
+/// by the clones of a sampler (the cells of a bake run on clones, one per thread).
+#[derive(Debug)]
+pub struct SceneCache<T>(Arc<Mutex<Option<Cached<T>>>>);
 
-/// What tells scenes apart for [`PortalCache`]: its address, source and counts.
+/// A map's [`BspPortals`], built once per scene.
+pub type PortalCache = SceneCache<BspPortals>;
+
+/// The scene a [`SceneCache`] was filled for, and what it holds (`None`: nothing to build).
+type Cached<T> = (SceneKey, Option<Arc<T>>);
+
+impl<T> Default for SceneCache<T> {
+    fn default() -> Self {
+        Self(Arc::new(Mutex::new(None)))
+    }
+}
+
+impl<T> Clone for SceneCache<T> {
+    fn clone(&self) -> Self {
+        Self(Arc::clone(&self.0))
+    }
+}
+
+/// What tells scenes apart for [`SceneCache`]: its address, source and counts.
 #[derive(Clone, Debug, PartialEq)]
 struct SceneKey {
     address: usize,
@@ -129,18 +165,17 @@ impl SceneKey {
     }
 }
 
-impl PortalCache {
-    /// The portals of `scene`, `None` for a scene without a BSP.
-    fn of(&self, scene: &Scene) -> Option<Arc<BspPortals>> {
-        scene.bsp.as_ref()?;
+impl<T> SceneCache<T> {
+    /// What `build` gives for `scene`, built on the first call for this scene.
+    fn of(&self, scene: &Scene, build: impl FnOnce(&Scene) -> Option<T>) -> Option<Arc<T>> {
         let key = SceneKey::of(scene);
         let mut cache = self.0.lock().unwrap_or_else(|e| e.into_inner());
         match &*cache {
-            Some((k, portals)) if *k == key => portals.clone(),
+            Some((k, built)) if *k == key => built.clone(),
             _ => {
-                let portals = BspPortals::new(scene).map(Arc::new);
-                *cache = Some((key, portals.clone()));
-                portals
+                let built = build(scene).map(Arc::new);
+                *cache = Some((key, built.clone()));
+                built
             }
         }
     }
@@ -151,10 +186,10 @@ impl ConservativeSampler {
     /// map (`sightline_region::bsp_portals`): both sets hold everything seen from the cell, so
     /// their intersection does too. Unchanged on other scenes, or when the flow gives up.
     fn through_portals(&self, ctx: &CellContext<'_>, visible: TriangleSet) -> TriangleSet {
-        if !self.through_portals {
+        if !self.through_portals || ctx.scene.bsp.is_none() {
             return visible;
         }
-        let Some(portals) = self.portals.of(ctx.scene) else {
+        let Some(portals) = self.portals.of(ctx.scene, BspPortals::new) else {
             return visible;
         };
         let cell = ctx.cell;
@@ -170,6 +205,17 @@ impl ConservativeSampler {
             }
             None => visible,
         }
+    }
+
+    /// `visible` without the back faces of closed solids the cell lies outside of.
+    fn without_back_faces(&self, ctx: &CellContext<'_>, mut visible: TriangleSet) -> TriangleSet {
+        if !self.back_faces_of_solids {
+            return visible;
+        }
+        if let Some(solids) = self.solids.of(ctx.scene, |s| Some(ClosedSolids::new(s))) {
+            solids.remove_back_faces(ctx.scene, &ctx.cell.corners(), &mut visible);
+        }
+        visible
     }
 }
 
@@ -195,7 +241,10 @@ impl Sampler for ConservativeSampler {
             &ctx.cell.corners(),
             &self.options,
         ) {
-            Ok(r) => (self.through_portals(ctx, r.visible), Vec::new()),
+            Ok(r) => {
+                let visible = self.through_portals(ctx, r.visible);
+                (self.without_back_faces(ctx, visible), Vec::new())
+            }
             Err(_) => {
                 let mut all = TriangleSet::with_capacity(n);
                 all.insert_range(..);
@@ -301,8 +350,15 @@ mod tests {
             ..ConservativeSampler::default()
         };
         let bound = sampler.sample(&ctx, &Budget::default(), &|_| {}).visible;
-        // Without the switch (cells whose viewpoints may lie in solid space) RV's set alone.
-        let plain = ConservativeSampler::default();
+        // Without the switch (cells whose viewpoints may lie in solid space) RV's set alone
+        // (and without the back faces of closed solids, which leave out a few more).
+        let plain = ConservativeSampler {
+            back_faces_of_solids: false,
+            ..ConservativeSampler::default()
+        };
+        let with_solids = ConservativeSampler::default()
+            .sample(&ctx, &Budget::default(), &|_| {})
+            .visible;
         let umbrae_only = plain.sample(&ctx, &Budget::default(), &|_| {}).visible;
         let umbrae = conservative_from_region(
             &mut SceneSource::new(&scene),
@@ -312,6 +368,7 @@ mod tests {
         .unwrap()
         .visible;
         assert_eq!(umbrae_only, umbrae);
+        assert!(with_solids.is_subset(&umbrae));
         let (bound_size, umbrae_size) = (bound.count_ones(..), umbrae.count_ones(..));
         assert!(bound.is_subset(&umbrae));
         assert!(umbrae_size * 2 > scene.triangle_count(), "{umbrae_size}");

@@ -258,6 +258,13 @@ pub(crate) struct BoundOptionArgs {
     /// maps"), to compare the two. Other cells never use the portals.
     #[arg(long)]
     pub(crate) bound_no_portals: bool,
+    /// Leave out the back-face rule of closed solids (a face of a closed solid, such as a
+    /// building standing on the ground, that faces away from the whole cell is hidden when the
+    /// cell is outside the solid; on the shared city cells it takes the bound down by 21 %
+    /// (munich) and 41 % (etoile)), to compare the two. docs/BENCHMARKS.md, "Back faces of
+    /// closed solids".
+    #[arg(long)]
+    pub(crate) bound_no_solids: bool,
 }
 
 /// Arguments of `pvs bound`.

@@ -52,6 +52,7 @@ pub(super) fn bound_sampler(
             ..RegionOptions::default()
         },
         through_portals: q3_cells && !options.bound_no_portals,
+        back_faces_of_solids: !options.bound_no_solids,
         ..Default::default()
     })
 }
@@ -77,7 +78,10 @@ pub(super) fn bound_with_progress(
         eprintln!(
             "warning: in {not_contained} cells the conservative set lacks triangles the rays \
              found visible (kept in the bound; `metadata.cells[i].not_in_conservative` counts \
-             them): please report this with the scene"
+             them). The conservative set holds every triangle seen over some area; a ray that \
+             meets a triangle only where another surface touches it (a T-junction, a wall \
+             against a neighbour's, a tie in f32 depth) finds such ones too, a few per cell on \
+             city scenes. Many more would be a bug: please report it with the scene"
         );
     }
     Ok(summary)
