@@ -99,70 +99,9 @@ pub(super) fn candidates(scene: &Scene) -> Vec<Candidate> {
     let welded = weld(scene);
     let corner_ids = |t: u32| scene.triangles[t as usize].map(|i| welded[i as usize]);
     let (internal, mut state) = internal_walls(n, &corner_ids);
-    let mut uses: Vec<EdgeUse> = Vec::with_capacity(3 * n);
-    for t in 0..n as u32 {
-        if internal[t as usize] {
-            continue;
-        }
-        let c = corner_ids(t);
-        for e in 0..3 {
-            let (a, b) = (c[e], c[(e + 1) % 3]);
-            if a == b {
-                continue; // a collapsed edge: the triangle is degenerate, rejected below
-            }
-            let (lo, hi) = (a.min(b), a.max(b));
-            uses.push(EdgeUse {
-                key: (u64::from(lo) << 32) | u64::from(hi),
-                triangle: t,
-                forward: a < b,
-            });
-        }
-    }
+    let mut uses = edge_uses(n, &internal, &corner_ids);
     uses.sort_unstable_by_key(|u| u.key);
-
-    let mut parent: Vec<u32> = (0..n as u32).collect();
-    let mut open_edges: Vec<(u32, u64)> = Vec::new();
-    let mut k = 0;
-    while k < uses.len() {
-        let mut end = k + 1;
-        while end < uses.len() && uses[end].key == uses[k].key {
-            end += 1;
-        }
-        let group = &uses[k..end];
-        match group {
-            [one] => {
-                state[one.triangle as usize] |= OPEN;
-                open_edges.push((one.triangle, one.key));
-            }
-            [a, b]
-                if a.forward != b.forward
-                    && a.triangle != b.triangle
-                    && embedded::fold_onto_each_other(
-                        &corners_of(scene, a.triangle),
-                        &corners_of(scene, b.triangle),
-                    ) =>
-            {
-                // Folded back onto each other (two buildings' walls on one footing): not a
-                // surface going on, but where each of two surfaces ends.
-                for u in group {
-                    state[u.triangle as usize] |= OPEN;
-                    open_edges.push((u.triangle, u.key));
-                }
-            }
-            [a, b] if a.forward != b.forward && a.triangle != b.triangle => {
-                let (ra, rb) = (find(&mut parent, a.triangle), find(&mut parent, b.triangle));
-                if ra != rb {
-                    parent[ra as usize] = rb;
-                }
-            }
-            _ => {
-                for u in group {
-                    state[u.triangle as usize] |= BROKEN;
-                }
-            }
-        }
-        k = end;
-    }
+    let (mut parent, open_edges) = join_across_edges(scene, &uses, &mut state);
     drop(uses);
     for t in 0..n as u32 {
         let c = scene.triangle(t);
@@ -230,6 +169,84 @@ pub(super) fn candidates(scene: &Scene) -> Vec<Candidate> {
         }
     }
     out
+}
+
+/// Every directed use of an edge by a triangle that is not an internal wall.
+fn edge_uses(n: usize, internal: &[bool], corner_ids: &dyn Fn(u32) -> [u32; 3]) -> Vec<EdgeUse> {
+    let mut uses: Vec<EdgeUse> = Vec::with_capacity(3 * n);
+    for t in 0..n as u32 {
+        if internal[t as usize] {
+            continue;
+        }
+        let c = corner_ids(t);
+        for e in 0..3 {
+            let (a, b) = (c[e], c[(e + 1) % 3]);
+            if a == b {
+                continue; // a collapsed edge: the triangle is degenerate, rejected below
+            }
+            let (lo, hi) = (a.min(b), a.max(b));
+            uses.push(EdgeUse {
+                key: (u64::from(lo) << 32) | u64::from(hi),
+                triangle: t,
+                forward: a < b,
+            });
+        }
+    }
+    uses
+}
+
+/// Over edge uses sorted by key: joins (union-find parents) the two triangles of every edge
+/// used twice in opposite directions, and marks the triangles of open edges [`OPEN`] (with the
+/// edges, by triangle) and those of edges used otherwise [`BROKEN`].
+fn join_across_edges(
+    scene: &Scene,
+    uses: &[EdgeUse],
+    state: &mut [u8],
+) -> (Vec<u32>, Vec<(u32, u64)>) {
+    let mut parent: Vec<u32> = (0..state.len() as u32).collect();
+    let mut open_edges: Vec<(u32, u64)> = Vec::new();
+    let mut k = 0;
+    while k < uses.len() {
+        let mut end = k + 1;
+        while end < uses.len() && uses[end].key == uses[k].key {
+            end += 1;
+        }
+        let group = &uses[k..end];
+        match group {
+            [one] => {
+                state[one.triangle as usize] |= OPEN;
+                open_edges.push((one.triangle, one.key));
+            }
+            [a, b]
+                if a.forward != b.forward
+                    && a.triangle != b.triangle
+                    && embedded::fold_onto_each_other(
+                        &corners_of(scene, a.triangle),
+                        &corners_of(scene, b.triangle),
+                    ) =>
+            {
+                // Folded back onto each other (two buildings' walls on one footing): not a
+                // surface going on, but where each of two surfaces ends.
+                for u in group {
+                    state[u.triangle as usize] |= OPEN;
+                    open_edges.push((u.triangle, u.key));
+                }
+            }
+            [a, b] if a.forward != b.forward && a.triangle != b.triangle => {
+                let (ra, rb) = (find(&mut parent, a.triangle), find(&mut parent, b.triangle));
+                if ra != rb {
+                    parent[ra as usize] = rb;
+                }
+            }
+            _ => {
+                for u in group {
+                    state[u.triangle as usize] |= BROKEN;
+                }
+            }
+        }
+        k = end;
+    }
+    (parent, open_edges)
 }
 
 /// Per triangle: a state of 0 = fine so far, [`OPEN`] = has an edge no other triangle has,
