@@ -105,6 +105,9 @@ impl ClosedSolids {
     pub fn new(scene: &Scene) -> Self {
         let bounds = scene.bounds();
         let tie_distance = TIE_DISTANCE * f64::from((bounds.max - bounds.min).length());
+        if !tie_distance.is_finite() || tie_distance <= 0.0 {
+            return Self::default(); // empty, flat to a point, or non-finite corners
+        }
         let candidates = topology::candidates(scene);
         let kept: Vec<topology::Candidate> = candidates
             .into_par_iter()

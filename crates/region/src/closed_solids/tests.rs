@@ -188,3 +188,38 @@ fn removed_triangles_are_never_hit_from_inside_the_cell() {
     // Most cells are outside every building, and about half the walls face away.
     assert!(total_removed > 24 * 10, "{total_removed}");
 }
+
+#[test]
+fn empty_and_non_finite_scenes_give_no_solids_and_remove_nothing() {
+    let empty = SceneBuilder::new("empty").finish();
+    assert_eq!(ClosedSolids::new(&empty).solid_count(), 0);
+    // A box beside a triangle with a NaN corner: the triangle belongs to no solid and stays,
+    // the box is a solid as without it.
+    let mut b = SceneBuilder::new("nan");
+    b.add_box(Vec3::ZERO, Vec3::ONE);
+    let v = [
+        b.add_vertex(Vec3::new(f32::NAN, 0.0, 0.0)),
+        b.add_vertex(Vec3::new(5.0, 0.0, 0.0)),
+        b.add_vertex(Vec3::new(5.0, 1.0, 0.0)),
+    ];
+    b.add_triangle(v);
+    let scene = b.finish();
+    let solids = ClosedSolids::new(&scene);
+    let mut visible = all(&scene);
+    let c = cell([3.0, 0.25, 0.25], [4.0, 0.75, 0.75]);
+    assert_eq!(solids.solid_count(), 1);
+    assert_eq!(
+        solids.remove_back_faces(&scene, &c.corners(), &mut visible),
+        10
+    );
+    assert!(visible.contains(12));
+    // Non-finite cell corners remove nothing either.
+    let box_scene = boxes(&[([0.0; 3], [1.0; 3])]);
+    let solids = ClosedSolids::new(&box_scene);
+    let mut visible = all(&box_scene);
+    let corners = [Vec3::new(f32::NAN, 0.5, 0.5); 8];
+    assert_eq!(
+        solids.remove_back_faces(&box_scene, &corners, &mut visible),
+        0
+    );
+}
