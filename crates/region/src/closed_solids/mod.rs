@@ -22,8 +22,8 @@
 //! - `embedded.rs`: no two triangles of the group meet except at shared corners and edges
 //!   (a self-crossing surface, such as a footprint drawn as a bow tie, encloses space twice or
 //!   with the wrong hand, and "behind a face is inside" fails).
-//! - `ties.rs`: a face another triangle lies on (two walls drawn in one plane) ties with it
-//!   in depth and may show; it is never removed.
+//! - `ties.rs`: a face another triangle lies on (two walls drawn in one plane) is never
+//!   removed, nor a narrow face: a margin against f32 depth ties near edges.
 //! - `cell.rs`, per cell: the cell's box lies on the group's side of its cap plane, meets no
 //!   triangle of it, and its centre has winding number 0.
 //!
@@ -64,8 +64,8 @@ const PAIR_TEST_ALLOWANCE: usize = 1 << 16;
 const RELATIVE_MARGIN: f64 = 1e-7;
 
 /// Another triangle within this distance of a face's plane (relative to the scene's
-/// diagonal) and over it ties with it in depth (`ties.rs`): f32 depths along a ray at 500 m
-/// are about 3e-5 m apart, so 1e-5 of a 1.5 km city (1.5 cm) leaves a wide margin.
+/// diagonal) and over it lies on the face (`ties.rs`): f32 depths along a ray at 500 m are
+/// about 3e-5 m apart, so 1e-5 of a 1.5 km city (1.5 cm) leaves a wide margin.
 const TIE_DISTANCE: f64 = 1e-5;
 
 /// Solids thinner than this many tie distances (volume over surface, half a slab's
@@ -85,7 +85,8 @@ pub struct ClosedSolids {
     solids: Vec<Solid>,
     /// The solids' triangles, solid after solid.
     members: Vec<u32>,
-    /// Per triangle, whether another triangle lies on it (`ties.rs`): never removed.
+    /// Per triangle, whether another triangle lies on it or it is narrow (`ties.rs`): never
+    /// removed.
     tied: Vec<bool>,
 }
 
