@@ -4,27 +4,16 @@
 //! and the set contains GVS++'s aggressive PVS of the same cell. Prints both sizes.
 #![allow(clippy::unwrap_used)]
 
-use glam::Vec3;
-use sightline_core::random::SplitMix64;
 use sightline_core::scene::{open, LoadOptions};
 use sightline_core::trace::{Bvh, RayCaster};
-use sightline_core::{Hit, Ray, Scene};
+use sightline_core::{Hit, Scene};
 use sightline_point::rv::{conservative_from_region, RegionOptions, SceneSource};
 use sightline_region::cell_sources::random_free_cells;
 use sightline_region::{Budget, CellContext, GvsPlusPlus, GvsPlusPlusParams, Sampler};
 
-/// Random rays from random points of the cell, in uniformly random directions.
+/// The triangles first hit by random rays from random points of the cell.
 fn sampled_hits(bvh: &Bvh, cell: &sightline_region::ViewCell, rays: usize, seed: u64) -> Vec<u32> {
-    let mut rng = SplitMix64::new(seed);
-    let batch: Vec<Ray> = (0..rays)
-        .map(|_| {
-            let o = cell.interior_point([rng.next_f32(), rng.next_f32(), rng.next_f32()]);
-            let z = rng.range_f32(-1.0, 1.0);
-            let a = rng.range_f32(0.0, std::f32::consts::TAU);
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            Ray::new(o, Vec3::new(r * a.cos(), r * a.sin(), z))
-        })
-        .collect();
+    let batch = cell.random_rays(rays, seed);
     let mut hits = vec![Hit::default(); batch.len()];
     bvh.cast(&batch, &mut hits);
     hits.iter()

@@ -328,6 +328,22 @@ impl ViewCell {
             + az * h.z * (2.0 * s[2] - 1.0)
     }
 
+    /// `count` rays from uniformly random points of the cell in uniformly random directions,
+    /// the same for the same `seed`: the dense sampling that conservative sets are checked
+    /// against (no triangle a ray from inside the cell hits first may be missing).
+    pub fn random_rays(&self, count: usize, seed: u64) -> Vec<sightline_core::Ray> {
+        let mut rng = sightline_core::random::SplitMix64::new(seed);
+        (0..count)
+            .map(|_| {
+                let o = self.interior_point([rng.next_f32(), rng.next_f32(), rng.next_f32()]);
+                let z = rng.range_f32(-1.0, 1.0);
+                let a = rng.range_f32(0.0, std::f32::consts::TAU);
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                sightline_core::Ray::new(o, Vec3::new(r * a.cos(), r * a.sin(), z))
+            })
+            .collect()
+    }
+
     /// True when `p` is inside or on the cell (with a relative tolerance for flat cells).
     pub fn contains(&self, p: Vec3) -> bool {
         let d = p - self.center;

@@ -262,16 +262,7 @@ fn write_ids(path: &std::path::Path, set: &TriangleSet) -> Result<()> {
 
 /// Triangles hit by `rays` rays from random points of `cell` in random directions.
 fn sampled_from_cell(bvh: &Bvh, cell: &ViewCell, rays: usize) -> TriangleSet {
-    let mut rng = sightline_core::random::SplitMix64::new(0x5eed);
-    let batch: Vec<sightline_core::Ray> = (0..rays)
-        .map(|_| {
-            let o = cell.interior_point([rng.next_f32(), rng.next_f32(), rng.next_f32()]);
-            let z = rng.range_f32(-1.0, 1.0);
-            let a = rng.range_f32(0.0, std::f32::consts::TAU);
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            sightline_core::Ray::new(o, glam::Vec3::new(r * a.cos(), r * a.sin(), z))
-        })
-        .collect();
+    let batch = cell.random_rays(rays, 0x5eed);
     let mut hits = vec![sightline_core::Hit::default(); batch.len()];
     bvh.cast(&batch, &mut hits);
     let mut seen = TriangleSet::with_capacity(bvh.triangle_count());

@@ -5,6 +5,8 @@
 
 use glam::DVec3;
 
+use super::span_along;
+
 /// Tolerances relative to the sizes involved (f64 rounding of f32 inputs is about 1e-16).
 const RELATIVE_TOLERANCE: f64 = 1e-7;
 
@@ -21,12 +23,7 @@ pub(super) fn may_meet_box(t: &[DVec3; 3], min: DVec3, max: DVec3) -> bool {
     let v = t.map(|p| p - centre);
     let apart_on = |axis: DVec3| {
         let r = half.dot(axis.abs());
-        let (lo, hi) = v
-            .iter()
-            .map(|p| p.dot(axis))
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
-                (lo.min(x), hi.max(x))
-            });
+        let (lo, hi) = span_along(&v, axis);
         lo > r || hi < -r
     };
     let edges = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];

@@ -8,6 +8,8 @@
 
 use glam::DVec3;
 
+use super::span_along;
+
 /// Tolerances relative to the size of the pair of triangles tested (f64 rounding of their
 /// f32 corners is about 1e-16 of it).
 const RELATIVE_TOLERANCE: f64 = 1e-7;
@@ -50,9 +52,10 @@ pub(super) fn may_meet_itself(triangles: &[[DVec3; 3]], max_pair_tests: usize) -
     false
 }
 
-/// Whether two non-degenerate triangles may meet anywhere but at corners they share exactly
-/// (bit-identical) and along an edge they share exactly.
-pub(super) fn may_meet_improperly(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
+/// The corners two triangles share (bit-identical), as (index in `a`, index in `b`), with
+/// their count (3 or more only for a repeated triangle), and the tolerance of their tests
+/// (relative to the pair's size).
+fn shared_corners(a: &[DVec3; 3], b: &[DVec3; 3]) -> ([(usize, usize); 3], usize, f64) {
     let mut shared = [(0usize, 0usize); 3];
     let mut count = 0;
     for (i, p) in a.iter().enumerate() {
@@ -67,7 +70,13 @@ pub(super) fn may_meet_improperly(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
         .iter()
         .chain(b)
         .fold((a[0], a[0]), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
-    let tolerance = RELATIVE_TOLERANCE * (hi - lo).max_element();
+    (shared, count, RELATIVE_TOLERANCE * (hi - lo).max_element())
+}
+
+/// Whether two non-degenerate triangles may meet anywhere but at corners they share exactly
+/// (bit-identical) and along an edge they share exactly.
+pub(super) fn may_meet_improperly(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
+    let (shared, count, tolerance) = shared_corners(a, b);
     match count {
         0 => meet_apart(a, b, tolerance),
         1 => meet_beyond_corner(a, b, shared[0]),
@@ -80,28 +89,8 @@ pub(super) fn may_meet_improperly(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
 /// other across it (or may, under rounding): the wall two abutting buildings of different
 /// heights both stand on.
 pub(super) fn fold_onto_each_other(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
-    let mut shared = Vec::with_capacity(2);
-    for (i, p) in a.iter().enumerate() {
-        for (j, q) in b.iter().enumerate() {
-            if p == q {
-                shared.push((i, j));
-            }
-        }
-    }
-    if shared.len() != 2 {
-        return true;
-    }
-    let (lo, hi) = a
-        .iter()
-        .chain(b)
-        .fold((a[0], a[0]), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
-    fold_over_edge(
-        a,
-        b,
-        shared[0],
-        shared[1],
-        RELATIVE_TOLERANCE * (hi - lo).max_element(),
-    )
+    let (shared, count, tolerance) = shared_corners(a, b);
+    count != 2 || fold_over_edge(a, b, shared[0], shared[1], tolerance)
 }
 
 fn unit_normal(t: &[DVec3; 3]) -> DVec3 {
@@ -187,15 +176,8 @@ fn meet_apart(a: &[DVec3; 3], b: &[DVec3; 3], tolerance: f64) -> bool {
         axes.extend(cross_axis(na, u));
     }
     axes.extend(eb.iter().filter_map(|&v| cross_axis(nb, v)));
-    let span = |t: &[DVec3; 3], m: DVec3| {
-        t.iter()
-            .map(|p| m.dot(*p))
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
-                (lo.min(x), hi.max(x))
-            })
-    };
     !axes.into_iter().any(|m| {
-        let ((alo, ahi), (blo, bhi)) = (span(&a, m), span(&b, m));
+        let ((alo, ahi), (blo, bhi)) = (span_along(&a, m), span_along(&b, m));
         blo > ahi + tolerance || alo > bhi + tolerance
     })
 }

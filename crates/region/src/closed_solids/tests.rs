@@ -2,7 +2,7 @@ use glam::Vec3;
 use sightline_core::random::SplitMix64;
 use sightline_core::scene::SceneBuilder;
 use sightline_core::trace::{Bvh, RayCaster};
-use sightline_core::{Hit, Ray, Scene, TriangleSet};
+use sightline_core::{Hit, Scene, TriangleSet};
 
 use super::ClosedSolids;
 use crate::ViewCell;
@@ -152,7 +152,7 @@ fn removed_triangles_are_never_hit_from_inside_the_cell() {
     let bvh = Bvh::build(&scene);
     let mut rng = SplitMix64::new(11);
     let mut total_removed = 0;
-    for k in 0..24 {
+    for k in 0..24u64 {
         let lo = Vec3::new(
             rng.range_f32(-15.0, 12.0),
             rng.range_f32(-15.0, 12.0),
@@ -166,15 +166,7 @@ fn removed_triangles_are_never_hit_from_inside_the_cell() {
         let c = cell(lo.into(), (lo + size).into());
         let mut visible = all(&scene);
         total_removed += solids.remove_back_faces(&scene, &c.corners(), &mut visible);
-        let rays: Vec<Ray> = (0..20_000)
-            .map(|_| {
-                let o = c.interior_point([rng.next_f32(), rng.next_f32(), rng.next_f32()]);
-                let z = rng.range_f32(-1.0, 1.0);
-                let a = rng.range_f32(0.0, std::f32::consts::TAU);
-                let r = (1.0 - z * z).max(0.0).sqrt();
-                Ray::new(o, Vec3::new(r * a.cos(), r * a.sin(), z))
-            })
-            .collect();
+        let rays = c.random_rays(20_000, k);
         let mut hits = vec![Hit::default(); rays.len()];
         bvh.cast(&rays, &mut hits);
         for h in hits.iter().filter(|h| h.triangle != Hit::NONE) {

@@ -18,6 +18,7 @@
 use glam::DVec3;
 use sightline_core::Scene;
 
+use super::span_along;
 use super::topology::{corners_of, normal_of};
 
 /// Per triangle, whether it is a face of a solid (`in_solid`) that another triangle lies on
@@ -48,6 +49,7 @@ pub(super) fn tied_faces(
     let mut tests = 0usize;
     for (k, &i) in order.iter().enumerate() {
         let (lo_i, hi_i) = boxes[i as usize];
+        let a = corners_of(scene, i);
         for &j in &order[k + 1..] {
             let (lo_j, hi_j) = boxes[j as usize];
             if lo_j.x > hi_i.x {
@@ -61,7 +63,7 @@ pub(super) fn tied_faces(
             if tests > max_pair_tests {
                 return None;
             }
-            let (a, b) = (corners_of(scene, i), corners_of(scene, j));
+            let b = corners_of(scene, j);
             if solid_i && lies_on(&b, &a, tie_distance) {
                 tied[i as usize] = true;
             }
@@ -97,6 +99,8 @@ fn lies_on(other: &[DVec3; 3], face: &[DVec3; 3], distance: f64) -> bool {
     if other.iter().any(|p| n.dot(*p - face[0]).abs() > distance) {
         return false;
     }
+    // Measured from the face's first corner, where rounding scales with the pair's size.
+    let (face_local, other_local) = (face.map(|p| p - face[0]), other.map(|p| p - face[0]));
     let edges = (0..3)
         .map(|k| face[(k + 1) % 3] - face[k])
         .chain((0..3).map(|k| other[(k + 1) % 3] - other[k]));
@@ -107,16 +111,9 @@ fn lies_on(other: &[DVec3; 3], face: &[DVec3; 3], distance: f64) -> bool {
             continue;
         }
         let m = m / m_length;
-        let span = |t: &[DVec3; 3]| {
-            t.iter()
-                .map(|p| m.dot(*p - face[0]))
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
-                    (lo.min(x), hi.max(x))
-                })
-        };
         // Touching along an edge or at a corner (the next triangle of the same wall) is no
         // overlap; any overlap wider than rounding is.
-        let ((flo, fhi), (olo, ohi)) = (span(face), span(other));
+        let ((flo, fhi), (olo, ohi)) = (span_along(&face_local, m), span_along(&other_local, m));
         let rounding = 1e-9 * (fhi - flo).max(ohi - olo);
         if olo >= fhi - rounding || flo >= ohi - rounding {
             return false;
