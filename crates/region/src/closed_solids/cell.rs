@@ -5,7 +5,7 @@
 
 use glam::DVec3;
 
-use super::span_along;
+use super::span::span_along;
 
 /// Tolerances relative to the sizes involved (f64 rounding of f32 inputs is about 1e-16).
 const RELATIVE_TOLERANCE: f64 = 1e-7;

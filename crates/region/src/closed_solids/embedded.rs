@@ -8,7 +8,7 @@
 
 use glam::DVec3;
 
-use super::span_along;
+use super::span::span_along;
 
 /// Tolerances relative to the size of the pair of triangles tested (f64 rounding of their
 /// f32 corners is about 1e-16 of it).

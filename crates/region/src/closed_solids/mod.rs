@@ -42,6 +42,7 @@
 
 mod cell;
 mod embedded;
+mod span;
 mod ties;
 mod topology;
 
@@ -253,15 +254,6 @@ impl ClosedSolids {
         }
         hidden.len()
     }
-}
-
-/// The interval a triangle's corners span along `axis` (measured from the origin).
-fn span_along(t: &[DVec3; 3], axis: DVec3) -> (f64, f64) {
-    t.iter()
-        .map(|p| axis.dot(*p))
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
-            (lo.min(x), hi.max(x))
-        })
 }
 
 #[cfg(test)]

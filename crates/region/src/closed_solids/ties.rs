@@ -18,7 +18,7 @@
 use glam::DVec3;
 use sightline_core::Scene;
 
-use super::span_along;
+use super::span::span_along;
 use super::topology::{corners_of, normal_of};
 
 /// Per triangle, whether it is a face of a solid (`in_solid`) that another triangle lies on
