@@ -1177,3 +1177,74 @@ fn quake_cluster_bounds_go_through_the_portals_and_grid_bounds_do_not() {
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert!(v["mean_ratio"].as_f64().unwrap() > 2.0 * ratio, "{v}");
 }
+
+#[test]
+fn solid_fusion_takes_a_street_bound_down_and_misses_nothing() {
+    // A street cell of the procedural city, whose houses are closed solids open at the
+    // ground: the union of the houses, shrunk by 3 m, hides what whole blocks hide together.
+    const CITY: &str = "procedural:city?size=5000";
+    let dir = tempfile::tempdir().unwrap();
+    let bake = [
+        "pvs",
+        "bake",
+        CITY,
+        "--cell",
+        "box:-10,-10,1,10,10,2",
+        "--rays",
+        "100000",
+        "-o",
+        "p.pvs",
+    ];
+    assert!(sightline(&bake, dir.path()).status.success());
+    let bound = |extra: &[&str], out: &str| {
+        let args = [&["pvs", "bound", CITY, "p.pvs", "-o", out][..], extra].concat();
+        sightline(&args, dir.path())
+    };
+    let gap_of = |file: &str| {
+        let o = sightline(&["pvs", "show", file, "--json"], dir.path());
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        v["cells"][0]["gap"].as_array().unwrap().clone()
+    };
+    let o = bound(&[], "plain.pvs");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = bound(&["--bound-solid-fusion", "3"], "fused.pvs");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (plain, fused) = (gap_of("plain.pvs"), gap_of("fused.pvs"));
+    assert!(fused.iter().all(|t| plain.contains(t)));
+    assert!(
+        fused.len() * 10 < plain.len() * 9,
+        "fusion removed only {} of {}",
+        plain.len() - fused.len(),
+        plain.len()
+    );
+    // Views from inside the cell see nothing outside the fused bound.
+    let args = [
+        "eval",
+        CITY,
+        "fused.pvs",
+        "--views",
+        "40",
+        "--size",
+        "96",
+        "--side",
+        "bound",
+        "--json",
+    ];
+    let o = sightline(&args, dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(rows[0]["ground_truth_size"].as_u64().unwrap() > 0, "{rows}");
+    assert_eq!(rows[0]["false_negatives"], 0, "{rows}");
+    // Values that make no sense say so.
+    let o = bound(&["--bound-solid-fusion=-2"], "x.pvs");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("expected a positive radius, auto or off (got -2)"));
+    assert_fails_with(
+        &bound(
+            &["--bound-solid-fusion", "auto", "--bound-no-solids"],
+            "x.pvs",
+        ),
+        "--bound-solid-fusion needs the closed solids",
+    );
+}

@@ -30,6 +30,7 @@ pub mod rebake;
 pub mod sampler;
 pub mod segment_cells;
 pub mod shards;
+pub mod shrunk_occluders;
 pub mod viewcell;
 pub mod walkable;
 

@@ -100,7 +100,7 @@ pub use from_region::{
 };
 pub use region_sampler::{
     bake_sampler, bake_sampler_for_cells, BakeMethodError, ConservativeSampler, PortalCache,
-    SceneCache, BAKE_METHODS, CONSERVATIVE, REFUSED,
+    SceneCache, SolidFusion, BAKE_METHODS, CONSERVATIVE, REFUSED,
 };
 pub use source::{SceneSource, SourceTriangle, TriangleSource};
 pub use types::{Guarantee, HiddenOccluders, RvError, RvOptions, RvResult, RvStats};

@@ -18,6 +18,7 @@ use sightline_core::{Aabb, TriangleSet};
 use sightline_region::bsp_portals::{BspPortals, DEFAULT_FLOW_BUDGET};
 use sightline_region::closed_solids::ClosedSolids;
 use sightline_region::methods::{sampler, MethodError, MethodParams, METHODS};
+use sightline_region::shrunk_occluders::{FusionOptions, ShrunkOccluders};
 use sightline_region::{Budget, CellContext, CellResult, ConvergencePoint, Sampler};
 
 use super::from_region::{conservative_from_region, RegionOptions};
@@ -103,11 +104,24 @@ pub struct ConservativeSampler {
     /// Also leave out the back faces of closed solids the cell lies outside of
     /// (`sightline_region::closed_solids`; on by default: it holds for any cell).
     pub back_faces_of_solids: bool,
+    /// Also leave out what the union of the closed solids, shrunk, hides from every viewpoint
+    /// sample of the cell (`sightline_region::shrunk_occluders`: occluder fusion over whole
+    /// blocks of buildings); needs `back_faces_of_solids`. `None`: off.
+    pub solid_fusion: Option<SolidFusion>,
     /// The portal graph of the last Quake 3 map sampled, shared by the clones that bake its
     /// cells (built once per scene).
     pub portals: PortalCache,
     /// The closed solids of the last scene sampled, shared the same way.
     pub solids: SceneCache<ClosedSolids>,
+    /// The shrunk union of those solids, shared the same way.
+    pub shrunk: SceneCache<ShrunkOccluders>,
+}
+
+/// How [`ConservativeSampler::solid_fusion`] shrinks the solids.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SolidFusion {
+    /// The shrink (scene units); `None`: [`FusionOptions::for_scene`]'s.
+    pub radius: Option<f64>,
 }
 
 impl Default for ConservativeSampler {
@@ -116,8 +130,10 @@ impl Default for ConservativeSampler {
             options: RegionOptions::default(),
             through_portals: false,
             back_faces_of_solids: true,
+            solid_fusion: None,
             portals: PortalCache::default(),
             solids: SceneCache::default(),
+            shrunk: SceneCache::default(),
         }
     }
 }
@@ -214,6 +230,18 @@ impl ConservativeSampler {
         }
         if let Some(solids) = self.solids.of(ctx.scene, |s| Some(ClosedSolids::new(s))) {
             solids.remove_back_faces(ctx.scene, &ctx.cell.corners(), &mut visible);
+            if let Some(fusion) = self.solid_fusion {
+                let shrunk = self.shrunk.of(ctx.scene, |s| {
+                    let mut options = FusionOptions::for_scene(s);
+                    if let Some(r) = fusion.radius {
+                        options.radius = r;
+                    }
+                    ShrunkOccluders::new(s, &solids, options)
+                });
+                if let Some(shrunk) = shrunk {
+                    shrunk.remove_hidden(ctx.scene, &solids, ctx.cell, &mut visible);
+                }
+            }
         }
         visible
     }

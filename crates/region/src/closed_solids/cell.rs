@@ -12,7 +12,7 @@ const RELATIVE_TOLERANCE: f64 = 1e-7;
 
 /// Whether triangle `t` may meet the box `min..max` (separating axis test on the box grown by
 /// the tolerance: `false` only when they are surely apart).
-pub(super) fn may_meet_box(t: &[DVec3; 3], min: DVec3, max: DVec3) -> bool {
+pub(crate) fn may_meet_box(t: &[DVec3; 3], min: DVec3, max: DVec3) -> bool {
     let centre = (min + max) * 0.5;
     let scale = (max - min).max_element().max(
         t.iter()
@@ -38,7 +38,7 @@ pub(super) fn may_meet_box(t: &[DVec3; 3], min: DVec3, max: DVec3) -> bool {
 /// is +1) at `point`, counted along the ray from `point` in direction `sign` on `axis`: exits
 /// minus entries. `None` when the ray passes within the tolerance of an edge or corner, or
 /// `point` lies on a triangle's plane where it crosses.
-pub(super) fn winding_number(
+pub(crate) fn winding_number(
     triangles: impl Iterator<Item = [DVec3; 3]>,
     orientation: f64,
     point: DVec3,

@@ -40,7 +40,7 @@
 //! cell: one box test per solid, the precise tests for solids whose box meets the cell's, and
 //! four plane tests per set triangle of a solid.
 
-mod cell;
+pub(crate) mod cell;
 mod embedded;
 mod span;
 mod ties;
@@ -77,6 +77,17 @@ const TIE_DISTANCE: f64 = 1e-5;
 const THIN_SOLID: f64 = 4.0;
 
 const NO_SOLID: u32 = u32::MAX;
+
+/// A closed solid as other rules read it (`ClosedSolids::solid`).
+pub(crate) struct SolidView<'a> {
+    /// Its triangles.
+    pub triangles: &'a [u32],
+    /// +1 when the triangles' winding faces out of the solid, -1 when it faces in.
+    pub orientation: f64,
+    /// The plane of its open bottom, where it has one: axis, coordinate and the side the
+    /// solid lies on (+1 above).
+    pub open_at: Option<(usize, f64, f64)>,
+}
 
 /// The closed solids of a scene (see the module documentation).
 #[derive(Clone, Debug, Default)]
@@ -171,9 +182,19 @@ impl ClosedSolids {
         self.members.len()
     }
 
+    /// Solid `index` as other rules read it.
+    pub(crate) fn solid(&self, index: usize) -> SolidView<'_> {
+        let s = &self.solids[index];
+        SolidView {
+            triangles: &self.members[s.members.clone()],
+            orientation: s.orientation,
+            open_at: s.cap.map(|c| (c.axis, c.at, c.side)),
+        }
+    }
+
     /// Per solid, whether the convex cell with `corners` lies wholly outside it (and on its
     /// side of its cap plane).
-    fn outside_for(&self, scene: &Scene, corners: &[DVec3]) -> Vec<bool> {
+    pub(crate) fn outside_for(&self, scene: &Scene, corners: &[DVec3]) -> Vec<bool> {
         let (mut lo, mut hi) = (corners[0], corners[0]);
         for c in corners {
             lo = lo.min(*c);

@@ -8,12 +8,13 @@ use serde::Serialize;
 use sightline_core::trace::Bvh;
 use sightline_core::Scene;
 use sightline_point::rv::{
-    ConservativeSampler, RegionOptions, MAX_FUSION_RESOLUTION, MAX_FUSION_SPLITS, MAX_OCCLUDERS,
+    ConservativeSampler, RegionOptions, SolidFusion, MAX_FUSION_RESOLUTION, MAX_FUSION_SPLITS,
+    MAX_OCCLUDERS,
 };
 use sightline_region::bound::{add_bounds, BoundSummary, BoundTotals, CellBound};
 use sightline_region::PvsFile;
 
-use super::args::{BoundArgs, BoundOptionArgs};
+use super::args::{BoundArgs, BoundOptionArgs, SolidFusionArg};
 use crate::args::thread_count;
 use crate::output::{print_json, refuse_overwriting_inputs};
 
@@ -44,6 +45,14 @@ pub(super) fn bound_sampler(
             options.bound_fusion_resolution
         );
     }
+    let solid_fusion = match options.bound_solid_fusion {
+        SolidFusionArg::Off => None,
+        SolidFusionArg::Auto => Some(SolidFusion { radius: None }),
+        SolidFusionArg::Radius(r) => Some(SolidFusion { radius: Some(r) }),
+    };
+    if solid_fusion.is_some() && options.bound_no_solids {
+        bail!("--bound-solid-fusion needs the closed solids (drop --bound-no-solids)");
+    }
     Ok(ConservativeSampler {
         options: RegionOptions {
             max_occluders: options.bound_occluders,
@@ -53,6 +62,7 @@ pub(super) fn bound_sampler(
         },
         through_portals: q3_cells && !options.bound_no_portals,
         back_faces_of_solids: !options.bound_no_solids,
+        solid_fusion,
         ..Default::default()
     })
 }

@@ -1,0 +1,441 @@
+//! A depth cube around one viewpoint: per pixel of six 90-degree faces, the depth (along the
+//! face's axis) at which the ray through the pixel's centre enters the nearest occluder box,
+//! and the test whether a triangle lies behind those depths over every pixel it may cover.
+//!
+//! Only pixel centres are rendered, so a ray through another point of a pixel may pass beside
+//! the box its centre hits; at depth `z` it is at most `z * sqrt(2) / resolution` from the
+//! centre ray (half a pixel in both directions on a face spanning -1..1). `mod.rs` grows the
+//! required shrink by that much up to the farthest depth rendered, which makes the test
+//! conservative (Wonka, Wimmer, Schmalstieg 2000, section 4: the shrink absorbs both the
+//! viewpoint's freedom and the sampling).
+
+use glam::DVec3;
+
+use crate::closed_solids::cell::may_meet_box;
+
+/// A box as the cube renders it: it blocks segments between points above `cap` (along the
+/// up axis given to [`CubeDepth::hides`]); `-inf` for every segment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct DepthBox {
+    pub min: DVec3,
+    pub max: DVec3,
+    pub cap: f64,
+    /// Entries deeper than this are not written (the box's shrink does not cover the pixels'
+    /// reach there).
+    pub max_depth: f64,
+}
+
+/// Slack in face coordinates for the pixels a triangle covers (rounding of the projection).
+const ROUNDING: f64 = 1e-9;
+
+/// Pixels along a tile's side (the coarse level that skips hidden boxes and pixels).
+const TILE: usize = 16;
+
+/// The depth cube (see the module documentation).
+pub(super) struct CubeDepth {
+    resolution: usize,
+    tiles: usize,
+    /// Per face, per pixel (row after row), the depth; `INFINITY` where no box was hit.
+    depth: Vec<f32>,
+    /// Per pixel, the cap of the box its depth comes from (`erosion::OccluderBox::cap`):
+    /// that box only stands for the union above it.
+    cap: Vec<f32>,
+    /// Per face, per tile, the largest depth of its pixels.
+    tile_max: Vec<f32>,
+}
+
+/// Face `f`'s axis (0-2), its sign and the two axes across it.
+fn face_axes(f: usize) -> (usize, f64, usize, usize) {
+    let a = f / 2;
+    let sign = if f.is_multiple_of(2) { 1.0 } else { -1.0 };
+    (a, sign, (a + 1) % 3, (a + 2) % 3)
+}
+
+impl CubeDepth {
+    /// An empty cube of `resolution` pixels a face side (a multiple of the tile size).
+    pub fn new(resolution: usize) -> Self {
+        let resolution = resolution.div_ceil(TILE).max(1) * TILE;
+        let tiles = resolution / TILE;
+        Self {
+            resolution,
+            tiles,
+            depth: vec![f32::INFINITY; 6 * resolution * resolution],
+            cap: vec![f32::NEG_INFINITY; 6 * resolution * resolution],
+            tile_max: vec![f32::INFINITY; 6 * tiles * tiles],
+        }
+    }
+
+    /// Renders `boxes` (nearest first renders fastest) as seen from `eye`, from depth `near`
+    /// up to each box's `max_depth` (nearer and farther entries are not written: less
+    /// occlusion), in the tiles `needed` marks (per face, per tile; all when `None`).
+    pub fn render(&mut self, eye: DVec3, boxes: &[DepthBox], near: f64, needed: Option<&[bool]>) {
+        self.depth.fill(f32::INFINITY);
+        self.cap.fill(f32::NEG_INFINITY);
+        self.tile_max.fill(f32::INFINITY);
+        let (r, n) = (self.resolution, self.tiles);
+        for f in 0..6 {
+            let (a, sign, b, c) = face_axes(f);
+            for bx in boxes {
+                let (lo, hi) = (bx.min - eye, bx.max - eye);
+                let (z_lo, z_hi) = if sign > 0.0 {
+                    (lo[a], hi[a])
+                } else {
+                    (-hi[a], -lo[a])
+                };
+                let max_depth = bx.max_depth;
+                if z_hi <= near || z_lo > max_depth {
+                    continue;
+                }
+                let z_lo = z_lo.max(near);
+                let Some((x0, x1, y0, y1)) =
+                    self.pixel_range(z_lo, z_hi, [lo[b], hi[b]], [lo[c], hi[c]])
+                else {
+                    continue;
+                };
+                let cap = round_up(bx.cap);
+                for ty in y0 / TILE..=y1 / TILE {
+                    for tx in x0 / TILE..=x1 / TILE {
+                        let tile = f * n * n + ty * n + tx;
+                        if needed.is_some_and(|m| !m[tile]) || self.tile_max[tile] < z_lo as f32 {
+                            continue;
+                        }
+                        for y in (ty * TILE).max(y0)..=((ty + 1) * TILE - 1).min(y1) {
+                            let v = self.centre(y);
+                            for x in (tx * TILE).max(x0)..=((tx + 1) * TILE - 1).min(x1) {
+                                let mut dir = DVec3::ZERO;
+                                dir[a] = sign;
+                                dir[b] = self.centre(x);
+                                dir[c] = v;
+                                let Some(t) = entry(dir, lo, hi, near) else {
+                                    continue;
+                                };
+                                if t <= max_depth {
+                                    // Round up: a depth never reads nearer than the box.
+                                    let stored = (t * (1.0 + 1e-6)) as f32;
+                                    let at = f * r * r + y * r + x;
+                                    if stored < self.depth[at] {
+                                        self.depth[at] = stored;
+                                        self.cap[at] = cap;
+                                    }
+                                }
+                            }
+                        }
+                        self.update_tile(f, ty, tx);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Marks in `needed` (per face, per tile) the tiles triangle `t` may cover from `eye`.
+    pub fn mark(&self, eye: DVec3, t: &[DVec3; 3], near: f64, needed: &mut [bool]) {
+        let n = self.tiles;
+        let all = self.covered_rows(eye, t, near, |f, y, x0, x1, _| {
+            for tx in x0 / TILE..=x1 / TILE {
+                needed[f * n * n + (y / TILE) * n + tx] = true;
+            }
+            true
+        });
+        if !all {
+            needed.fill(true); // within `near` of the eye: it is seen anyway
+        }
+    }
+
+    /// An all-false tile mask for [`Self::mark`].
+    pub fn no_tiles(&self) -> Vec<bool> {
+        vec![false; 6 * self.tiles * self.tiles]
+    }
+
+    /// Whether triangle `t` lies behind the rendered depths from `eye` over every pixel it
+    /// may cover (on every face). A pixel's box must moreover stand for the union where the
+    /// segments from the cell to the triangle pass it: its cap (`DepthBox::cap`) lies below
+    /// the triangle's lowest point along axis `up`, or below the lowest height a segment from
+    /// a viewpoint at `cell_lowest` or above can have at the pixel's depth (a fraction
+    /// `depth / nearest depth of the triangle` of the way). `false` when the triangle comes
+    /// within `near` of `eye`.
+    pub fn hides(
+        &self,
+        eye: DVec3,
+        t: &[DVec3; 3],
+        up: usize,
+        near: f64,
+        cell_lowest: f64,
+    ) -> bool {
+        let lowest = t[0][up].min(t[1][up]).min(t[2][up]);
+        let r = self.resolution;
+        self.covered_rows(eye, t, near, |f, y, x0, x1, z_min| {
+            let row = f * r * r + y * r + x0..=f * r * r + y * r + x1;
+            let blocks = |d: f32, c: f32| {
+                let (d, c) = (f64::from(d), f64::from(c));
+                d < z_min
+                    && (c <= lowest || d / z_min <= (cell_lowest - c) / (cell_lowest - lowest))
+            };
+            self.depth[row.clone()]
+                .iter()
+                .zip(&self.cap[row])
+                .all(|(&d, &c)| blocks(d, c))
+        })
+    }
+
+    /// Calls `row(face, y, x0, x1, nearest depth)` for each row of pixels (`x0..=x1`) whose
+    /// squares may meet triangle `t` seen from `eye`, until it returns `false`; returns
+    /// `false` then, or when the triangle comes within `near` of the eye.
+    fn covered_rows(
+        &self,
+        eye: DVec3,
+        t: &[DVec3; 3],
+        near: f64,
+        mut row: impl FnMut(usize, usize, usize, usize, f64) -> bool,
+    ) -> bool {
+        if may_meet_box(t, eye - DVec3::splat(near), eye + DVec3::splat(near)) {
+            return false;
+        }
+        let rel = t.map(|p| p - eye);
+        for f in 0..6 {
+            let (a, sign, b, c) = face_axes(f);
+            // The part inside the face's frustum (slightly widened for rounding) and in front of
+            // its near plane (what is nearer lies within `near` of the eye).
+            let depth = |p: DVec3| p[a] * sign;
+            let widen = 1.0 + 1e-9;
+            let planes: [&dyn Fn(DVec3) -> f64; 5] = [
+                &|p| depth(p) - near,
+                &|p| depth(p) * widen - p[b],
+                &|p| depth(p) * widen + p[b],
+                &|p| depth(p) * widen - p[c],
+                &|p| depth(p) * widen + p[c],
+            ];
+            let mut polygon = rel.to_vec();
+            for plane in planes {
+                polygon = clip_by(&polygon, plane);
+                if polygon.is_empty() {
+                    break;
+                }
+            }
+            if polygon.is_empty() {
+                continue;
+            }
+            let mut z_min = f64::INFINITY;
+            let projected: Vec<(f64, f64)> = polygon
+                .iter()
+                .map(|p| {
+                    let z = (p[a] * sign).max(near);
+                    z_min = z_min.min(z);
+                    (p[b] / z, p[c] / z)
+                })
+                .collect();
+            let (v0, v1) = projected
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                    (lo.min(p.1), hi.max(p.1))
+                });
+            let Some((_, _, y0, y1)) = self.pixels_over(-1.0, 1.0, v0, v1) else {
+                continue;
+            };
+            for y in y0..=y1 {
+                // The pixels of this row whose square meets the triangle's projection.
+                let band = (self.edge(y) - ROUNDING, self.edge(y + 1) + ROUNDING);
+                let Some((u0, u1)) = span_in_band(&projected, band) else {
+                    continue;
+                };
+                let Some((x0, x1, _, _)) =
+                    self.pixels_over(u0 - ROUNDING, u1 + ROUNDING, band.0, band.1)
+                else {
+                    continue;
+                };
+                if !row(f, y, x0, x1, z_min) {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
+    /// The lower edge of pixel `x` along a face's side, in -1..1.
+    fn edge(&self, x: usize) -> f64 {
+        x as f64 / self.resolution as f64 * 2.0 - 1.0
+    }
+
+    /// The centre of pixel `x` along a face's side, in -1..1.
+    fn centre(&self, x: usize) -> f64 {
+        (x as f64 + 0.5) / self.resolution as f64 * 2.0 - 1.0
+    }
+
+    /// The pixels whose area meets `u0..u1` x `v0..v1` (face coordinates), if any.
+    fn pixels_over(
+        &self,
+        u0: f64,
+        u1: f64,
+        v0: f64,
+        v1: f64,
+    ) -> Option<(usize, usize, usize, usize)> {
+        if !(u0 <= 1.0 && u1 >= -1.0 && v0 <= 1.0 && v1 >= -1.0) {
+            return None; // also NaN
+        }
+        let r = self.resolution as f64;
+        let to_pixel = |s: f64| (((s + 1.0) * 0.5 * r).floor().clamp(0.0, r - 1.0)) as usize;
+        Some((to_pixel(u0), to_pixel(u1), to_pixel(v0), to_pixel(v1)))
+    }
+
+    /// The pixels a box spanning depths `z_lo..z_hi` (`z_lo` at least `near` > 0) and `bu`,
+    /// `bv` across may cover.
+    fn pixel_range(
+        &self,
+        z_lo: f64,
+        z_hi: f64,
+        bu: [f64; 2],
+        bv: [f64; 2],
+    ) -> Option<(usize, usize, usize, usize)> {
+        let extent = |s: [f64; 2]| {
+            let c = [s[0] / z_lo, s[0] / z_hi, s[1] / z_lo, s[1] / z_hi];
+            (
+                c.iter().copied().fold(f64::INFINITY, f64::min),
+                c.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            )
+        };
+        let (u0, u1) = extent(bu);
+        let (v0, v1) = extent(bv);
+        self.pixels_over(u0, u1, v0, v1)
+    }
+
+    /// Recomputes a tile's largest depth after writing to it.
+    fn update_tile(&mut self, f: usize, ty: usize, tx: usize) {
+        let (n, r) = (self.tiles, self.resolution);
+        let mut max = 0.0f32;
+        for y in ty * TILE..(ty + 1) * TILE {
+            let row = &self.depth[f * r * r + y * r + tx * TILE..][..TILE];
+            max = row.iter().copied().fold(max, f32::max);
+        }
+        self.tile_max[f * n * n + ty * n + tx] = max;
+    }
+}
+
+/// The part of convex `polygon` where `plane(p) >= 0` (`plane` affine).
+fn clip_by(polygon: &[DVec3], plane: &dyn Fn(DVec3) -> f64) -> Vec<DVec3> {
+    let mut out = Vec::with_capacity(polygon.len() + 1);
+    for (k, &p) in polygon.iter().enumerate() {
+        let q = polygon[(k + 1) % polygon.len()];
+        let (dp, dq) = (plane(p), plane(q));
+        if dp >= 0.0 {
+            out.push(p);
+        }
+        if (dp >= 0.0) != (dq >= 0.0) {
+            out.push(p + (q - p) * (dp / (dp - dq)));
+        }
+    }
+    out
+}
+
+/// The range of `u` over the part of convex polygon `points` (u, v) with `v` in `band`.
+fn span_in_band(points: &[(f64, f64)], band: (f64, f64)) -> Option<(f64, f64)> {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut take = |u: f64| {
+        lo = lo.min(u);
+        hi = hi.max(u);
+    };
+    for (k, &(u, v)) in points.iter().enumerate() {
+        if band.0 <= v && v <= band.1 {
+            take(u);
+        }
+        // Where the edge to the next corner crosses either side of the band.
+        let (u2, v2) = points[(k + 1) % points.len()];
+        for side in [band.0, band.1] {
+            if (v - side) * (v2 - side) < 0.0 {
+                take(u + (u2 - u) * (side - v) / (v2 - v));
+            }
+        }
+    }
+    (lo <= hi).then_some((lo, hi))
+}
+
+/// `x` as the nearest f32 at or above it.
+fn round_up(x: f64) -> f32 {
+    let y = x as f32;
+    if f64::from(y) < x {
+        y.next_up()
+    } else {
+        y
+    }
+}
+
+/// Where the ray from the origin along `dir`, from parameter `near` on, enters the box
+/// `lo..hi` (`near` when it is inside there), or `None` when it misses it.
+fn entry(dir: DVec3, lo: DVec3, hi: DVec3, near: f64) -> Option<f64> {
+    let (mut t0, mut t1) = (near, f64::INFINITY);
+    for k in 0..3 {
+        if dir[k] == 0.0 {
+            if lo[k] > 0.0 || hi[k] < 0.0 {
+                return None;
+            }
+            continue;
+        }
+        let (a, b) = (lo[k] / dir[k], hi[k] / dir[k]);
+        t0 = t0.max(a.min(b));
+        t1 = t1.min(a.max(b));
+    }
+    (t0 <= t1).then_some(t0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn wall() -> DepthBox {
+        // A wall 10 m ahead along +x, 20 m wide and high, 1 m thick.
+        DepthBox {
+            min: DVec3::new(10.0, -10.0, -10.0),
+            max: DVec3::new(11.0, 10.0, 10.0),
+            cap: f64::NEG_INFINITY,
+            max_depth: 100.0,
+        }
+    }
+
+    #[test]
+    fn a_triangle_behind_a_wall_is_hidden_and_one_beside_it_is_not() {
+        let mut cube = CubeDepth::new(64);
+        cube.render(DVec3::ZERO, &[wall()], 1e-3, None);
+        let behind = [
+            DVec3::new(20.0, -1.0, -1.0),
+            DVec3::new(20.0, 1.0, -1.0),
+            DVec3::new(20.0, 0.0, 1.0),
+        ];
+        assert!(cube.hides(DVec3::ZERO, &behind, 2, 1e-3, f64::NEG_INFINITY));
+        // In front of the wall.
+        let front = behind.map(|p| p - DVec3::new(15.0, 0.0, 0.0));
+        assert!(!cube.hides(DVec3::ZERO, &front, 2, 1e-3, f64::NEG_INFINITY));
+        // Behind, but reaching past the wall's edge (seen past it).
+        let past = behind.map(|p| p + DVec3::new(0.0, 25.0, 0.0));
+        assert!(!cube.hides(DVec3::ZERO, &past, 2, 1e-3, f64::NEG_INFINITY));
+        // Behind the eye (another face, nothing rendered there).
+        let back = behind.map(|p| -p);
+        assert!(!cube.hides(DVec3::ZERO, &back, 2, 1e-3, f64::NEG_INFINITY));
+        // Beyond the rendered depth, the wall is not there.
+        let mut short = CubeDepth::new(64);
+        let near_only = DepthBox {
+            max_depth: 5.0,
+            ..wall()
+        };
+        short.render(DVec3::ZERO, &[near_only], 1e-3, None);
+        assert!(!short.hides(DVec3::ZERO, &behind, 2, 1e-3, f64::NEG_INFINITY));
+    }
+
+    #[test]
+    fn the_eye_inside_a_box_sees_nothing_beyond_it_past_the_near_depth() {
+        let mut cube = CubeDepth::new(32);
+        let room = DepthBox {
+            min: DVec3::splat(-1.0),
+            max: DVec3::splat(1.0),
+            cap: f64::NEG_INFINITY,
+            max_depth: 10.0,
+        };
+        cube.render(DVec3::ZERO, &[room], 1e-3, None);
+        let far = [
+            DVec3::new(5.0, 0.0, 0.0),
+            DVec3::new(0.0, 5.0, 0.0),
+            DVec3::new(0.0, 0.0, 5.0),
+        ];
+        assert!(cube.hides(DVec3::ZERO, &far, 2, 1e-3, f64::NEG_INFINITY));
+        // A triangle nearer than the near depth is in front of everything rendered.
+        let close = far.map(|p| p * 1e-4);
+        assert!(!cube.hides(DVec3::ZERO, &close, 2, 1e-6, f64::NEG_INFINITY));
+    }
+}

@@ -1,0 +1,145 @@
+use glam::Vec3;
+use sightline_core::random::SplitMix64;
+use sightline_core::scene::{SceneBuilder, UpAxis};
+use sightline_core::trace::{Bvh, RayCaster};
+use sightline_core::{Hit, Scene, TriangleSet};
+
+use super::{FusionOptions, ShrunkOccluders};
+use crate::closed_solids::ClosedSolids;
+use crate::ViewCell;
+
+fn boxes(list: &[([f32; 3], [f32; 3])]) -> Scene {
+    let mut b = SceneBuilder::new("boxes");
+    b.set_up(UpAxis::Z);
+    for (min, max) in list {
+        b.add_box(Vec3::from(*min), Vec3::from(*max));
+    }
+    b.finish()
+}
+
+const OPTIONS: FusionOptions = FusionOptions {
+    radius: 1.0,
+    resolution: 128,
+    levels: 2,
+};
+
+/// The set after the rule, from every triangle, and how many samples it used.
+fn fused(scene: &Scene, cell: &ViewCell, options: FusionOptions) -> (TriangleSet, usize) {
+    let solids = ClosedSolids::new(scene);
+    let mut visible = TriangleSet::with_capacity(scene.triangle_count());
+    visible.insert_range(..);
+    let Some(shrunk) = ShrunkOccluders::new(scene, &solids, options) else {
+        return (visible, 0);
+    };
+    let report = shrunk.remove_hidden(scene, &solids, cell, &mut visible);
+    eprintln!(
+        "{report:?} solids {} boxes {}",
+        solids.solid_count(),
+        shrunk.box_count()
+    );
+    assert_eq!(
+        report.removed,
+        scene.triangle_count() - visible.count_ones(..)
+    );
+    (visible, report.samples)
+}
+
+/// How many of `rays` random rays from the cell first hit a triangle outside `set`.
+fn misses(scene: &Scene, cell: &ViewCell, set: &TriangleSet, rays: usize) -> usize {
+    let bvh = Bvh::build(scene);
+    let rays = cell.random_rays(rays, 11);
+    let mut hits = vec![Hit::default(); rays.len()];
+    bvh.cast(&rays, &mut hits);
+    hits.iter()
+        .filter(|h| h.triangle != Hit::NONE && !set.contains(h.triangle as usize))
+        .count()
+}
+
+fn cell(min: [f32; 3], max: [f32; 3]) -> ViewCell {
+    ViewCell::aabb(Vec3::from(min), Vec3::from(max)).unwrap()
+}
+
+/// The triangles of box `k` (12 each, in order).
+fn box_triangles(k: usize) -> std::ops::Range<usize> {
+    12 * k..12 * (k + 1)
+}
+
+#[test]
+fn a_row_of_houses_sharing_walls_hides_what_is_behind_it_together() {
+    // Three houses in a row, sharing walls at x = 10 and 20, and a shed behind the middle
+    // one. No single house hides the whole shed from the street cell; the row does.
+    let scene = boxes(&[
+        ([0.0, 0.0, 0.0], [10.0, 10.0, 10.0]),
+        ([10.0, 0.0, 0.0], [20.0, 10.0, 10.0]),
+        ([20.0, 0.0, 0.0], [30.0, 10.0, 10.0]),
+        ([8.0, 15.0, 0.0], [22.0, 16.0, 3.0]),
+    ]);
+    let street = cell([5.0, -12.0, 1.0], [25.0, -8.0, 2.0]);
+    let (set, samples) = fused(&scene, &street, OPTIONS);
+    assert!(samples > 1);
+    for t in box_triangles(3) {
+        assert!(!set.contains(t), "shed triangle {t} kept");
+    }
+    // The houses' street faces stay.
+    assert!(box_triangles(1).any(|t| set.contains(t)));
+    assert_eq!(misses(&scene, &street, &set, 100_000), 0);
+}
+
+#[test]
+fn a_gap_between_houses_keeps_what_is_seen_through_it() {
+    let scene = boxes(&[
+        ([0.0, 0.0, 0.0], [14.0, 10.0, 10.0]),
+        ([16.0, 0.0, 0.0], [30.0, 10.0, 10.0]),
+        ([8.0, 15.0, 0.0], [22.0, 16.0, 3.0]),
+    ]);
+    let street = cell([5.0, -12.0, 1.0], [25.0, -8.0, 2.0]);
+    let (set, _) = fused(&scene, &street, OPTIONS);
+    assert!(
+        box_triangles(2).any(|t| set.contains(t)),
+        "the shed seen through the gap"
+    );
+    assert_eq!(misses(&scene, &street, &set, 100_000), 0);
+}
+
+#[test]
+fn a_cell_reaching_into_a_house_keeps_that_house_and_what_it_sees_from_inside() {
+    let scene = boxes(&[
+        ([0.0, 0.0, 0.0], [30.0, 10.0, 10.0]),
+        ([8.0, 15.0, 0.0], [22.0, 16.0, 3.0]),
+    ]);
+    let across = cell([5.0, -4.0, 1.0], [25.0, 2.0, 2.0]);
+    let (set, _) = fused(&scene, &across, OPTIONS);
+    assert!(box_triangles(0).all(|t| set.contains(t)));
+    assert_eq!(misses(&scene, &across, &set, 100_000), 0);
+}
+
+#[test]
+fn random_blocks_of_touching_houses_lose_no_seen_triangle() {
+    let mut rng = SplitMix64::new(7);
+    let mut removed_somewhere = false;
+    for _ in 0..6 {
+        // Two or three rows of houses along x, touching or with gaps, random heights.
+        let mut list = Vec::new();
+        for row in 0..3 {
+            let y0 = row as f32 * 16.0;
+            let mut x = 0.0f32;
+            while x < 40.0 {
+                let w = 4.0 + 6.0 * rng.next_f32();
+                let h = 3.0 + 12.0 * rng.next_f32();
+                list.push(([x, y0, 0.0], [x + w, y0 + 8.0, h]));
+                x += w + if rng.next_f32() < 0.3 {
+                    1.5 * rng.next_f32()
+                } else {
+                    0.0
+                };
+            }
+        }
+        let scene = boxes(&list);
+        let x = 30.0 * rng.next_f32();
+        let street = cell([x, -8.0, 1.0], [x + 8.0, -4.0, 1.5]);
+        let (set, _) = fused(&scene, &street, OPTIONS);
+        removed_somewhere |= set.count_ones(..) < scene.triangle_count();
+        assert_eq!(misses(&scene, &street, &set, 60_000), 0);
+    }
+    assert!(removed_somewhere);
+}
