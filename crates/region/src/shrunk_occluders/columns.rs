@@ -14,6 +14,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use sightline_core::Scene;
 
+use super::polygon::clip_by;
 use crate::closed_solids::cell::winding_number;
 use crate::closed_solids::ClosedSolids;
 
@@ -362,8 +363,8 @@ impl Columns {
         let margin = 1e-9 * scale;
         let mut polygon: Vec<DVec3> = t.to_vec();
         for (&axis, side) in self.across.iter().zip(square) {
-            polygon = clip(&polygon, axis, side[0] - margin, 1.0);
-            polygon = clip(&polygon, axis, side[1] + margin, -1.0);
+            polygon = clip_by(&polygon, |p| p[axis] - (side[0] - margin));
+            polygon = clip_by(&polygon, |p| (side[1] + margin) - p[axis]);
         }
         polygon
     }
@@ -373,40 +374,6 @@ impl Columns {
         let c = i + j * self.dims[0];
         &self.spans[self.offsets[c] as usize..self.offsets[c + 1] as usize]
     }
-}
-
-/// The part of convex `polygon` where `side * (p[axis] - at) >= 0` (Sutherland-Hodgman).
-fn clip(polygon: &[DVec3], axis: usize, at: f64, side: f64) -> Vec<DVec3> {
-    let mut out = Vec::with_capacity(polygon.len() + 1);
-    for (k, &a) in polygon.iter().enumerate() {
-        let b = polygon[(k + 1) % polygon.len()];
-        let (da, db) = ((a[axis] - at) * side, (b[axis] - at) * side);
-        if da >= 0.0 {
-            out.push(a);
-        }
-        if (da >= 0.0) != (db >= 0.0) {
-            let mut p = a + (b - a) * (da / (da - db));
-            p[axis] = at; // exactly on the plane
-            out.push(p);
-        }
-    }
-    out
-}
-
-/// The part of convex `polygon` where `normal . (p - at) >= 0`.
-fn clip_by_plane(polygon: &[DVec3], normal: DVec3, at: DVec3) -> Vec<DVec3> {
-    let mut out = Vec::with_capacity(polygon.len() + 1);
-    for (k, &a) in polygon.iter().enumerate() {
-        let b = polygon[(k + 1) % polygon.len()];
-        let (da, db) = (normal.dot(a - at), normal.dot(b - at));
-        if da >= 0.0 {
-            out.push(a);
-        }
-        if (da >= 0.0) != (db >= 0.0) {
-            out.push(a + (b - a) * (da / (da - db)));
-        }
-    }
-    out
 }
 
 /// The convex pieces of planar `polygon` (on the plane with unit normal `unit`) outside
@@ -428,11 +395,11 @@ fn outside_of(polygon: &[DVec3], s: &[DVec3; 3], unit: DVec3, rounding: f64) -> 
             return vec![polygon.to_vec()];
         }
         let out = out / length;
-        let beyond = clip_by_plane(&rest, out, a);
+        let beyond = clip_by(&rest, |p| out.dot(p - a));
         if beyond.iter().any(|v| out.dot(*v - a) > rounding) {
             pieces.push(beyond);
         }
-        rest = clip_by_plane(&rest, -out, a);
+        rest = clip_by(&rest, |p| -out.dot(p - a));
         if rest.len() < 3 {
             break;
         }

@@ -11,6 +11,7 @@
 
 use glam::DVec3;
 
+use super::polygon::clip_by;
 use crate::closed_solids::cell::may_meet_box;
 
 /// A box as the cube renders it: it blocks segments between points above `cap` (along the
@@ -307,22 +308,6 @@ impl CubeDepth {
         }
         self.tile_max[f * n * n + ty * n + tx] = max;
     }
-}
-
-/// The part of convex `polygon` where `plane(p) >= 0` (`plane` affine).
-fn clip_by(polygon: &[DVec3], plane: &dyn Fn(DVec3) -> f64) -> Vec<DVec3> {
-    let mut out = Vec::with_capacity(polygon.len() + 1);
-    for (k, &p) in polygon.iter().enumerate() {
-        let q = polygon[(k + 1) % polygon.len()];
-        let (dp, dq) = (plane(p), plane(q));
-        if dp >= 0.0 {
-            out.push(p);
-        }
-        if (dp >= 0.0) != (dq >= 0.0) {
-            out.push(p + (q - p) * (dp / (dp - dq)));
-        }
-    }
-    out
 }
 
 /// The range of `u` over the part of convex polygon `points` (u, v) with `v` in `band`.

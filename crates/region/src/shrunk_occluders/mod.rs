@@ -39,6 +39,7 @@
 mod columns;
 mod cube_depth;
 mod erosion;
+mod polygon;
 
 use std::sync::OnceLock;
 
