@@ -183,6 +183,35 @@ pub(crate) fn bake_cell<'py>(
 /// the ray budget per cell (`None`: no budget, GVS++ and GVS run until their termination rule
 /// holds); `time_ms`: a time budget per cell in milliseconds (`None`: none); `seed`: the bake's
 /// seed (each cell's own derives from it and the cell's index: `cell_seed`).
+/// `bound_solid_fusion`: a radius, or `"auto"` / `"off"`.
+#[derive(FromPyObject)]
+pub(crate) enum SolidFusionArg {
+    /// A radius in scene units.
+    Radius(f64),
+    /// `"auto"` or `"off"`.
+    Name(String),
+}
+
+impl SolidFusionArg {
+    /// The sampler's setting, as `--bound-solid-fusion` reads it.
+    fn resolve(self) -> PyResult<Option<sightline_point::rv::SolidFusion>> {
+        use sightline_point::rv::SolidFusion;
+        match self {
+            Self::Radius(r) if r.is_finite() && r > 0.0 => {
+                Ok(Some(SolidFusion { radius: Some(r) }))
+            }
+            Self::Name(n) if n == "auto" => Ok(Some(SolidFusion { radius: None })),
+            Self::Name(n) if n == "off" => Ok(None),
+            Self::Radius(r) => Err(value_error(format!(
+                "bound_solid_fusion must be a positive radius, \"auto\" or \"off\" (got {r})"
+            ))),
+            Self::Name(n) => Err(value_error(format!(
+                "bound_solid_fusion must be a positive radius, \"auto\" or \"off\" (got {n:?})"
+            ))),
+        }
+    }
+}
+
 #[pyfunction]
 #[pyo3(signature = (scene, cells, method = MethodArg::Name("gvs++".into()), rays = None,
     seed = 1, indices = None, time_ms = None, threads = None, progress = None, stats = false))]
@@ -275,7 +304,8 @@ fn bake_batch_py<'py>(
 /// conservative from-region set joined with its sampled set (`Pvs.bound(i)`; the file's
 /// `metadata["bound"]` and `metadata["cells"][i]["gap"]` say how far apart the sides are);
 /// `bound_occluders` and `bound_fusion_splits` as `--bound-occluders` and
-/// `--bound-fusion-splits` (more time for a tighter bound).
+/// `--bound-fusion-splits` (more time for a tighter bound); `bound_solid_fusion` as
+/// `--bound-solid-fusion` (`None` or `"off"`, `"auto"`, or a radius).
 ///
 /// `scene`: the `Scene`; `method`: a `Method` or a method's name (default `"gvs++"`); `rays`:
 /// the ray budget per cell (`None`: no budget, GVS++ and GVS run until their termination rule
@@ -286,7 +316,8 @@ fn bake_batch_py<'py>(
     seed = 1, time_ms = None, threads = None, progress = None, *, since = None,
     old_scene = None, probe_rays = DEFAULT_PROBE_RAYS, device = "cpu", gpu_caster = "auto",
     bound = false,
-    bound_occluders = sightline_point::rv::DEFAULT_MAX_OCCLUDERS, bound_fusion_splits = 0))]
+    bound_occluders = sightline_point::rv::DEFAULT_MAX_OCCLUDERS, bound_fusion_splits = 0,
+    bound_solid_fusion = None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn bake<'py>(
     py: Python<'py>,
@@ -306,6 +337,7 @@ pub(crate) fn bake<'py>(
     bound: bool,
     bound_occluders: usize,
     bound_fusion_splits: u32,
+    bound_solid_fusion: Option<SolidFusionArg>,
 ) -> PyResult<PyPvs> {
     let since = match (since, old_scene) {
         (Some(pvs), Some(old)) => Some(Since {
@@ -329,13 +361,14 @@ pub(crate) fn bake<'py>(
              already is the bound",
         ));
     }
-    // As `pvs bake --bound-occluders N --bound-fusion-splits S`.
+    // As `pvs bake --bound-occluders N --bound-fusion-splits S --bound-solid-fusion R`.
     let conservative = sightline_point::rv::ConservativeSampler {
         options: sightline_point::rv::RegionOptions {
             max_occluders: bound_occluders,
             fusion_splits: bound_fusion_splits,
             ..Default::default()
         },
+        solid_fusion: bound_solid_fusion.map_or(Ok(None), SolidFusionArg::resolve)?,
         ..Default::default()
     };
     conservative.options.validate().map_err(value_error)?;

@@ -670,6 +670,15 @@ def test_two_sided_bake_keeps_the_sampled_set_inside_its_bound(city, city_cells)
     for i, s in enumerate(fused.sets()):
         f = fused.bound(i)
         assert np.isin(s, f).all() and np.isin(f, pvs.bound(i)).all()
+    # Fusion of closed solids from a street cell: inside the plain bound, holding the set.
+    street = [sl.ViewCell.box((-10, -10, 1), (10, 10, 2))]
+    plain_street = sl.bake(city, street, method, rays=50_000, bound=True)
+    solid = sl.bake(city, street, method, rays=50_000, bound=True, bound_solid_fusion=3.0)
+    s, b, p = solid.visible(0), solid.bound(0), plain_street.bound(0)
+    assert np.isin(s, b).all() and np.isin(b, p).all() and len(b) < len(p)
+    for wrong in (-1.0, "sometimes"):
+        with pytest.raises(ValueError, match="bound_solid_fusion must be a positive radius"):
+            sl.bake(city, street, method, rays=1000, bound=True, bound_solid_fusion=wrong)
     with pytest.raises(ValueError, match="fusion_splits 13 is more than 12"):
         sl.bake(city, city_cells, method, rays=1000, bound=True, bound_fusion_splits=13)
     with pytest.raises(ValueError, match="max_occluders 0"):
