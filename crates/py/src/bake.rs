@@ -173,16 +173,6 @@ pub(crate) fn bake_cell<'py>(
     Ok(ids_array(py, &set))
 }
 
-/// Bakes a batch of cells (`cells`: a list of `ViewCell`): one id array per cell. `indices` are the cells' global indices in
-/// the whole bake (default `0..len(cells)`); they pick each cell's seed. With `stats=True`,
-/// returns `(sets, stats)`: `stats` holds one dict per cell (`rays`, `seconds`, `pvs_size`,
-/// `found_by`, `convergence`, as in a `.pvs` file's `metadata["cells"]`). `threads` and
-/// `progress` as for `bake`.
-///
-/// `scene`: the `Scene`; `method`: a `Method` or a method's name (default `"gvs++"`); `rays`:
-/// the ray budget per cell (`None`: no budget, GVS++ and GVS run until their termination rule
-/// holds); `time_ms`: a time budget per cell in milliseconds (`None`: none); `seed`: the bake's
-/// seed (each cell's own derives from it and the cell's index: `cell_seed`).
 /// `bound_solid_fusion`: a radius, or `"auto"` / `"off"`.
 #[derive(FromPyObject)]
 pub(crate) enum SolidFusionArg {
@@ -212,6 +202,16 @@ impl SolidFusionArg {
     }
 }
 
+/// Bakes a batch of cells (`cells`: a list of `ViewCell`): one id array per cell. `indices` are the cells' global indices in
+/// the whole bake (default `0..len(cells)`); they pick each cell's seed. With `stats=True`,
+/// returns `(sets, stats)`: `stats` holds one dict per cell (`rays`, `seconds`, `pvs_size`,
+/// `found_by`, `convergence`, as in a `.pvs` file's `metadata["cells"]`). `threads` and
+/// `progress` as for `bake`.
+///
+/// `scene`: the `Scene`; `method`: a `Method` or a method's name (default `"gvs++"`); `rays`:
+/// the ray budget per cell (`None`: no budget, GVS++ and GVS run until their termination rule
+/// holds); `time_ms`: a time budget per cell in milliseconds (`None`: none); `seed`: the bake's
+/// seed (each cell's own derives from it and the cell's index: `cell_seed`).
 #[pyfunction]
 #[pyo3(signature = (scene, cells, method = MethodArg::Name("gvs++".into()), rays = None,
     seed = 1, indices = None, time_ms = None, threads = None, progress = None, stats = false))]
