@@ -168,11 +168,6 @@ impl ShrunkOccluders {
         })
     }
 
-    /// How many boxes the first level has.
-    pub fn box_count(&self) -> usize {
-        self.level(0).len()
-    }
-
     /// Removes from `visible` the triangles that the shrunk union hides from every sample of
     /// `cell`; `solids` and `scene` must be those it was built from.
     pub fn remove_hidden(
@@ -195,38 +190,44 @@ impl ShrunkOccluders {
         let up = scene.up.index();
         let boxes = self.boxes_for(lo, hi, up, first);
         let keep = kept_for(scene, solids, &corners);
-        let mut targets: Vec<u32> = visible
+        // The triangles in doubt, with their corners (read once for all samples).
+        let mut targets: Vec<(u32, [DVec3; 3])> = visible
             .ones()
             .filter(|&t| !keep.get(t).copied().unwrap_or(true))
-            .map(|t| t as u32)
+            .map(|t| (t as u32, scene.triangle(t as u32).map(|p| p.as_dvec3())))
             .collect();
+        // Nearest the cell first: the samples lie within it, and near boxes drawn first let
+        // the tiles' depths skip the far ones.
+        let mut boxes = boxes;
+        let centre = cell.center.as_dvec3();
+        boxes.sort_by(|a, b| distance(centre, a).total_cmp(&distance(centre, b)));
         let near = SEEN_NEAR * self.options.radius;
         let batch = rayon::current_num_threads().max(1);
+        let mut cubes: Vec<CubeDepth> = (0..batch)
+            .map(|_| CubeDepth::new(self.options.resolution))
+            .collect();
         for chunk in samples.chunks(batch) {
             if targets.is_empty() {
                 break;
             }
             let seen: Vec<Vec<bool>> = chunk
                 .par_iter()
-                .map(|&eye| {
-                    let mut order = boxes.clone();
-                    order.sort_by(|a, b| distance(eye, a).total_cmp(&distance(eye, b)));
-                    let corners_of = |t: u32| scene.triangle(t).map(|p| p.as_dvec3());
-                    let mut cube = CubeDepth::new(self.options.resolution);
+                .zip(cubes.par_iter_mut())
+                .map(|(&eye, cube)| {
                     // Only where the triangles still in doubt may be seen.
                     let mut needed = cube.no_tiles();
-                    for &t in &targets {
-                        cube.mark(eye, &corners_of(t), near, &mut needed);
+                    for (_, t) in &targets {
+                        cube.mark(eye, t, near, &mut needed);
                     }
                     cube.render(
                         eye,
-                        &order,
+                        &boxes,
                         RENDER_NEAR * self.options.radius,
                         Some(&needed),
                     );
                     targets
                         .iter()
-                        .map(|&t| !cube.hides(eye, &corners_of(t), up, near, lo[up]))
+                        .map(|(_, t)| !cube.hides(eye, t, up, near, lo[up]))
                         .collect()
                 })
                 .collect();
@@ -237,7 +238,7 @@ impl ShrunkOccluders {
                 !any
             });
         }
-        for &t in &targets {
+        for &(t, _) in &targets {
             visible.set(t as usize, false);
         }
         FusionReport {

@@ -32,11 +32,6 @@ fn fused(scene: &Scene, cell: &ViewCell, options: FusionOptions) -> (TriangleSet
         return (visible, 0);
     };
     let report = shrunk.remove_hidden(scene, &solids, cell, &mut visible);
-    eprintln!(
-        "{report:?} solids {} boxes {}",
-        solids.solid_count(),
-        shrunk.box_count()
-    );
     assert_eq!(
         report.removed,
         scene.triangle_count() - visible.count_ones(..)
