@@ -223,8 +223,13 @@ impl ConservativeSampler {
         }
     }
 
-    /// `visible` without the back faces of closed solids the cell lies outside of.
-    fn without_back_faces(&self, ctx: &CellContext<'_>, mut visible: TriangleSet) -> TriangleSet {
+    /// `visible` without what the closed solids hide: the back faces of those the cell lies
+    /// outside of, and, with `solid_fusion`, what their shrunk union hides from the cell.
+    fn without_hidden_by_solids(
+        &self,
+        ctx: &CellContext<'_>,
+        mut visible: TriangleSet,
+    ) -> TriangleSet {
         if !self.back_faces_of_solids {
             return visible;
         }
@@ -271,7 +276,7 @@ impl Sampler for ConservativeSampler {
         ) {
             Ok(r) => {
                 let visible = self.through_portals(ctx, r.visible);
-                (self.without_back_faces(ctx, visible), Vec::new())
+                (self.without_hidden_by_solids(ctx, visible), Vec::new())
             }
             Err(_) => {
                 let mut all = TriangleSet::with_capacity(n);
