@@ -271,7 +271,7 @@ pub(crate) struct BoundOptionArgs {
     /// (Wonka et al. 2000). "auto": 1/1000 of the scene's diagonal. A cell that would need
     /// over 1,024 viewpoints at RADIUS uses twice it (or four times, ...). On the shared city
     /// cells it takes the bound from 2.49x to 1.90x the GVS++ sets (etoile) and from 3.58x to
-    /// 3.33x (munich, where the terrain does much of the hiding) at 30-80x the bound's time
+    /// 3.33x (munich, where the terrain does much of the hiding) at 34-143x the bound's time
     /// (docs/BENCHMARKS.md, "Occluder fusion of closed solids"). "off" (the default) turns it
     /// off.
     #[arg(long, value_name = "RADIUS|auto|off", default_value = "off", value_parser = solid_fusion)]
