@@ -24,6 +24,10 @@ pub(super) struct DepthBox {
     /// Entries deeper than this are not written (the box's shrink does not cover the pixels'
     /// reach there).
     pub max_depth: f64,
+    /// Whether the box's top and bottom along the up axis (given to [`CubeDepth::render`])
+    /// still move in by the pixels' reach, per pixel at the depth the ray leaves the box
+    /// (its sides have that reach in their shrink already, up to `max_depth`).
+    pub reach_ends: [bool; 2],
 }
 
 /// Slack in face coordinates for the pixels a triangle covers (rounding of the projection).
@@ -68,8 +72,21 @@ impl CubeDepth {
 
     /// Renders `boxes` (nearest first renders fastest) as seen from `eye`, from depth `near`
     /// up to each box's `max_depth` (nearer and farther entries are not written: less
-    /// occlusion), in the tiles `needed` marks (per face, per tile; all when `None`).
-    pub fn render(&mut self, eye: DVec3, boxes: &[DepthBox], near: f64, needed: Option<&[bool]>) {
+    /// occlusion), in the tiles `needed` marks (per face, per tile; all when `None`). Along
+    /// axis `up` the boxes' marked ends move in by the pixels' reach at the depth where the
+    /// pixel's centre ray leaves the box (`DepthBox::reach_ends`): a shrink that grows with
+    /// depth, so near roofs are lowered by centimetres, not by the far boxes' metres.
+    pub fn render(
+        &mut self,
+        eye: DVec3,
+        boxes: &[DepthBox],
+        up: usize,
+        near: f64,
+        needed: Option<&[bool]>,
+    ) {
+        // A pixel's rays lie within this many depths of its centre ray (half a pixel both
+        // ways across the face), with a margin for rounding.
+        let reach_per_depth = std::f64::consts::SQRT_2 / self.resolution as f64 * (1.0 + 1e-6);
         self.depth.fill(f32::INFINITY);
         self.cap.fill(f32::NEG_INFINITY);
         self.tile_max.fill(f32::INFINITY);
@@ -107,8 +124,24 @@ impl CubeDepth {
                                 dir[a] = sign;
                                 dir[b] = self.centre(x);
                                 dir[c] = v;
-                                let Some(t) = entry(dir, lo, hi, near) else {
+                                let Some((t, leaves)) = entry(dir, lo, hi, near) else {
                                     continue;
+                                };
+                                let t = if bx.reach_ends == [false, false] || t > max_depth {
+                                    t
+                                } else {
+                                    let reach = leaves.min(max_depth) * reach_per_depth;
+                                    let (mut lo, mut hi) = (lo, hi);
+                                    if bx.reach_ends[0] {
+                                        hi[up] -= reach;
+                                    }
+                                    if bx.reach_ends[1] {
+                                        lo[up] += reach;
+                                    }
+                                    match entry(dir, lo, hi, near) {
+                                        Some((t, _)) if lo[up] < hi[up] => t,
+                                        _ => continue,
+                                    }
                                 };
                                 if t <= max_depth {
                                     // Round up: a depth never reads nearer than the box.
@@ -343,8 +376,9 @@ fn round_up(x: f64) -> f32 {
 }
 
 /// Where the ray from the origin along `dir`, from parameter `near` on, enters the box
-/// `lo..hi` (`near` when it is inside there), or `None` when it misses it.
-fn entry(dir: DVec3, lo: DVec3, hi: DVec3, near: f64) -> Option<f64> {
+/// `lo..hi` (`near` when it is inside there) and where it leaves it, or `None` when it misses
+/// it.
+fn entry(dir: DVec3, lo: DVec3, hi: DVec3, near: f64) -> Option<(f64, f64)> {
     let (mut t0, mut t1) = (near, f64::INFINITY);
     for k in 0..3 {
         if dir[k] == 0.0 {
@@ -357,7 +391,7 @@ fn entry(dir: DVec3, lo: DVec3, hi: DVec3, near: f64) -> Option<f64> {
         t0 = t0.max(a.min(b));
         t1 = t1.min(a.max(b));
     }
-    (t0 <= t1).then_some(t0)
+    (t0 <= t1).then_some((t0, t1))
 }
 
 #[cfg(test)]
@@ -371,13 +405,14 @@ mod tests {
             max: DVec3::new(11.0, 10.0, 10.0),
             cap: f64::NEG_INFINITY,
             max_depth: 100.0,
+            reach_ends: [false, false],
         }
     }
 
     #[test]
     fn a_triangle_behind_a_wall_is_hidden_and_one_beside_it_is_not() {
         let mut cube = CubeDepth::new(64);
-        cube.render(DVec3::ZERO, &[wall()], 1e-3, None);
+        cube.render(DVec3::ZERO, &[wall()], 2, 1e-3, None);
         let behind = [
             DVec3::new(20.0, -1.0, -1.0),
             DVec3::new(20.0, 1.0, -1.0),
@@ -399,7 +434,7 @@ mod tests {
             max_depth: 5.0,
             ..wall()
         };
-        short.render(DVec3::ZERO, &[near_only], 1e-3, None);
+        short.render(DVec3::ZERO, &[near_only], 2, 1e-3, None);
         assert!(!short.hides(DVec3::ZERO, &behind, 2, 1e-3, f64::NEG_INFINITY));
     }
 
@@ -411,8 +446,9 @@ mod tests {
             max: DVec3::splat(1.0),
             cap: f64::NEG_INFINITY,
             max_depth: 10.0,
+            reach_ends: [false, false],
         };
-        cube.render(DVec3::ZERO, &[room], 1e-3, None);
+        cube.render(DVec3::ZERO, &[room], 2, 1e-3, None);
         let far = [
             DVec3::new(5.0, 0.0, 0.0),
             DVec3::new(0.0, 5.0, 0.0),

@@ -19,16 +19,24 @@
 //! cuts it into boxes. Solids open other than at their bottom are left out.
 //!
 //! # Why it is conservative
-//! For a viewpoint `v` of the cell outside every solid, a sample `p` within `e` of it, and a
-//! target point `x` whose pixel's centre ray from `p` enters a shrunk box at depth `d` before
-//! `x`'s depth: the ray from `p` to `x` passes within `d * sqrt(2) / resolution` (`cube_depth.rs`)
-//! of that entry at depth `d`, and the segment from `v` to `x` within `e` more, so it passes
-//! through the union shrunk by `radius - e - d * sqrt(2) / resolution >= 0` strictly before
-//! `x`: it enters a solid through one of its faces before reaching `x`. Depths are rendered only
-//! up to the `max_depth` for which this holds. Open bottoms are faces too only for viewpoints
-//! above them: boxes near a solid whose open bottom lies above the cell's lowest corner are
-//! not used. Viewpoints inside a solid see only that solid and what lies within its box:
-//! where the cell reaches into a solid, those triangles are kept.
+//! Per axis, not per ball: for a viewpoint `v` of the cell outside every solid, a sample `p`
+//! whose sub-box of the cell holds `v` (so `|v - p|` is at most the sub-box's half-extent `h`
+//! along each world axis), and a target point `x` whose pixel's centre ray from `p` enters a
+//! shrunk box at depth `d` before `x`'s depth: the ray from `p` to `x` passes within
+//! `d * sqrt(2) / resolution` (`cube_depth.rs`) of that entry at depth `d`, and the segment from
+//! `v` to `x` runs beside it displaced by `(1 - t) (v - p)`, at most `h` along each axis. So
+//! it passes through the union wherever that is shrunk, along each axis, by `h` plus the
+//! pixels' reach at that depth, strictly before `x`: it enters a solid through one of its faces
+//! before reaching `x`. Sideways the boxes are shrunk by the level's radius (`erosion.rs`, a
+//! square window: per axis too), and depths are rendered only up to the `max_depth` where that
+//! covers `h` and the pixels' reach. Along the up axis the boxes are shrunk by the samples'
+//! half-height and, per pixel, by the pixels' reach at the depth where that pixel's ray leaves
+//! the box: a flat cell's view over near roofs loses centimetres, not the radius (roofs seen at
+//! a grazing angle from a cell at their height are what most of a city's far view hides
+//! behind). Open bottoms are faces too only for viewpoints above them: boxes near a solid
+//! whose open bottom lies above the cell's lowest corner are not used. Viewpoints inside a
+//! solid see only that solid and what lies within its box: where the cell reaches into a
+//! solid, those triangles are kept.
 //!
 //! # Memory and time
 //! Built once per scene and radius: 8 bytes per column plus 16 per span while the columns are
@@ -70,8 +78,8 @@ const SEEN_NEAR: f64 = 1e-3;
 /// The most shrink levels ([`FusionOptions::levels`]).
 pub const MAX_LEVELS: usize = 8;
 
-/// The part of the first level's shrink spent on the pixel sampling (the rest on the
-/// viewpoints').
+/// The part of the first level's sideways shrink spent on the pixel sampling (the rest on
+/// the viewpoints').
 const PIXEL_SHARE: f64 = 0.4;
 
 /// How the occluders are shrunk and the cells sampled.
@@ -114,7 +122,8 @@ impl FusionOptions {
             / 1.001
     }
 
-    /// How far a sample may be from the viewpoints it stands for, starting at level `first`.
+    /// How far a sample may be from the viewpoints it stands for along each world axis,
+    /// starting at level `first`.
     fn sample_reach(&self, first: usize) -> f64 {
         (1.0 - PIXEL_SHARE) * self.radius_of(first) / 1.001
     }
@@ -181,14 +190,14 @@ impl ShrunkOccluders {
         if corners.iter().any(|c| !c.is_finite()) {
             return FusionReport::default();
         }
-        let Some((first, samples)) = (0..MAX_LEVELS)
+        let Some((first, (samples, half))) = (0..MAX_LEVELS)
             .find_map(|k| samples_of(cell, self.options.sample_reach(k)).map(|s| (k, s)))
         else {
             return FusionReport::default();
         };
         let (lo, hi) = bounds_of(&corners);
         let up = scene.up.index();
-        let boxes = self.boxes_for(lo, hi, up, first);
+        let boxes = self.boxes_for(lo, hi, up, first, half[up]);
         let keep = kept_for(scene, solids, &corners);
         // The triangles in doubt, with their corners (read once for all samples).
         let mut targets: Vec<(u32, [DVec3; 3])> = visible
@@ -222,6 +231,7 @@ impl ShrunkOccluders {
                     cube.render(
                         eye,
                         &boxes,
+                        up,
                         RENDER_NEAR * self.options.radius,
                         Some(&needed),
                     );
@@ -256,9 +266,20 @@ impl ShrunkOccluders {
     /// there; the box keeps that bottom as its cap for the targets); otherwise a box resting
     /// on a closed floor is shrunk at both ends, and one resting on an open bottom is not used
     /// (a viewpoint below it might look in from beneath).
-    fn boxes_for(&self, lo: DVec3, hi: DVec3, up: usize, first: usize) -> Vec<DepthBox> {
+    fn boxes_for(
+        &self,
+        lo: DVec3,
+        hi: DVec3,
+        up: usize,
+        first: usize,
+        viewpoints_up: f64,
+    ) -> Vec<DepthBox> {
         let lowest = lo[up];
         let margin = 1e-9 * lowest.abs().max(self.options.radius);
+        // Along the up axis the boxes shrink by the viewpoints' reach that way (the samples'
+        // half-height), here, and by the pixels' reach at each pixel's depth as the cube
+        // renders them; sideways by the level's radius, which covers both up to `max_depth`.
+        let vertical = viewpoints_up * (1.0 + 1e-6) + margin;
         let mut out = Vec::new();
         for level in first..(first + self.options.levels).min(MAX_LEVELS) {
             let boxes = self.level(level);
@@ -267,16 +288,17 @@ impl ShrunkOccluders {
             let reach = max_depth * 3f64.sqrt();
             let deepest = lowest - max_depth - r;
             out.extend(boxes.iter().filter_map(|b| {
-                let (bottom, cap) = if b.span.lo < lowest - margin {
+                let (bottom, cap, reach_ends) = if b.span.lo < lowest - margin {
                     // The span's bottom lies a rounding margin above the face it rests on
                     // (`columns.rs`); a target standing on that face is above it too.
-                    (deepest, b.span.lo - 1e-6 * b.span.lo.abs().max(r))
+                    let cap = b.span.lo - 1e-6 * b.span.lo.abs().max(r);
+                    (deepest, cap, [true, false])
                 } else if !b.span.open {
-                    (b.span.lo + r, f64::NEG_INFINITY)
+                    (b.span.lo + vertical, f64::NEG_INFINITY, [true, true])
                 } else {
                     return None;
                 };
-                let top = b.span.hi - r;
+                let top = b.span.hi - vertical;
                 let (mut min, mut max) = (b.min, b.max);
                 min[up] = bottom;
                 max[up] = top;
@@ -286,6 +308,7 @@ impl ShrunkOccluders {
                     max,
                     cap,
                     max_depth,
+                    reach_ends,
                 })
             }));
         }
@@ -307,18 +330,20 @@ fn distance(eye: DVec3, b: &DepthBox) -> f64 {
     (b.min - eye).max(eye - b.max).max(DVec3::ZERO).length()
 }
 
-/// Viewpoint samples of `cell`, the centres of a grid of sub-boxes each within `reach` of its
-/// centre, or `None` when more than [`MAX_SAMPLES`] would be needed.
-fn samples_of(cell: &ViewCell, reach: f64) -> Option<Vec<DVec3>> {
+/// Viewpoint samples of `cell`, the centres of a grid of sub-boxes, with the half-extents along
+/// the world axes of each sub-box's bounding box: a viewpoint of a sub-box is within those of
+/// its centre along each axis. Each half-extent is at most `reach`; `None` when more than
+/// [`MAX_SAMPLES`] samples would be needed.
+fn samples_of(cell: &ViewCell, reach: f64) -> Option<(Vec<DVec3>, DVec3)> {
     let extents = (cell.half_extents * 2.0).as_dvec3();
+    let axes = cell.axes.map(|a| a.as_dvec3());
     let mut counts = [1usize; 3];
-    let half_diagonal = |counts: &[usize; 3]| {
-        0.5 * (0..3)
-            .map(|k| (extents[k] / counts[k] as f64).powi(2))
-            .sum::<f64>()
-            .sqrt()
+    let half_of = |counts: &[usize; 3]| {
+        (0..3).fold(DVec3::ZERO, |h, k| {
+            h + axes[k].abs() * (0.5 * extents[k] / counts[k] as f64)
+        })
     };
-    while half_diagonal(&counts) > reach {
+    while half_of(&counts).max_element() > reach {
         let k = (0..3)
             .max_by(|&a, &b| {
                 (extents[a] / counts[a] as f64).total_cmp(&(extents[b] / counts[b] as f64))
@@ -329,7 +354,6 @@ fn samples_of(cell: &ViewCell, reach: f64) -> Option<Vec<DVec3>> {
             return None;
         }
     }
-    let axes = cell.axes.map(|a| a.as_dvec3());
     let centre = cell.center.as_dvec3();
     let mut samples = Vec::with_capacity(counts.iter().product());
     for i in 0..counts[0] {
@@ -345,7 +369,7 @@ fn samples_of(cell: &ViewCell, reach: f64) -> Option<Vec<DVec3>> {
             }
         }
     }
-    Some(spread(samples))
+    Some((spread(samples), half_of(&counts)))
 }
 
 /// `points` reordered so that each comes as far as possible from those before it (the

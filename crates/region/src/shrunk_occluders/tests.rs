@@ -81,6 +81,29 @@ fn a_row_of_houses_sharing_walls_hides_what_is_behind_it_together() {
 }
 
 #[test]
+fn a_flat_cell_just_below_a_roof_sees_nothing_over_it() {
+    // Lines of sight from the cell (5.9-6.1 m up) to the shed (6.2 m high) pass at most
+    // 6.18 m up over the 6.5 m house: hidden. A shrink as deep as the radius (1 m) would
+    // lower the roof below the cell; the roof comes down by the cell's half-height and the
+    // pixels' reach only (0.1 m and under 0.2 m at 512 px).
+    let scene = boxes(&[
+        ([0.0, -20.0, 0.0], [30.0, 20.0, 6.5]),
+        ([40.0, -5.0, 0.0], [45.0, 5.0, 6.2]),
+    ]);
+    let ledge = cell([-9.0, -2.0, 5.9], [-5.0, 2.0, 6.1]);
+    let options = FusionOptions {
+        resolution: 512,
+        ..OPTIONS
+    };
+    let (set, samples) = fused(&scene, &ledge, options);
+    assert!(samples > 1);
+    for t in box_triangles(1) {
+        assert!(!set.contains(t), "shed triangle {t} kept");
+    }
+    assert_eq!(misses(&scene, &ledge, &set, 100_000), 0);
+}
+
+#[test]
 fn a_gap_between_houses_keeps_what_is_seen_through_it() {
     let scene = boxes(&[
         ([0.0, 0.0, 0.0], [14.0, 10.0, 10.0]),
@@ -135,6 +158,12 @@ fn random_blocks_of_touching_houses_lose_no_seen_triangle() {
         let (set, _) = fused(&scene, &street, OPTIONS);
         removed_somewhere |= set.count_ones(..) < scene.triangle_count();
         assert_eq!(misses(&scene, &street, &set, 60_000), 0);
+        // A cell up at roof height: its lines of sight graze the roofs, which are lowered
+        // by the cell's half-height and the pixels' reach only.
+        let z = 2.0 + 14.0 * rng.next_f32();
+        let raised = cell([x, -8.0, z], [x + 8.0, -4.0, z + 0.5]);
+        let (set, _) = fused(&scene, &raised, OPTIONS);
+        assert_eq!(misses(&scene, &raised, &set, 60_000), 0);
     }
     assert!(removed_somewhere);
 }
