@@ -91,6 +91,8 @@ impl CubeDepth {
         self.cap.fill(f32::NEG_INFINITY);
         self.tile_max.fill(f32::INFINITY);
         let (r, n) = (self.resolution, self.tiles);
+        let mut columns: Vec<Option<(f64, f64)>> = Vec::with_capacity(r);
+        let mut rows: Vec<Option<(f64, f64)>> = Vec::with_capacity(r);
         for f in 0..6 {
             let (a, sign, b, c) = face_axes(f);
             for bx in boxes {
@@ -111,20 +113,46 @@ impl CubeDepth {
                     continue;
                 };
                 let cap = round_up(bx.cap);
+                // Rounded down: a depth at or below it is nearer than any entry.
+                let z_lo_f32 = round_down(z_lo);
+                // The slabs of the box along the face's axis, and across it per column and
+                // per row of pixels (a pixel's ray is in the box between the latest entry
+                // and the earliest exit of its three slabs, as `entry` finds them).
+                let Some(along) = slab(lo[a], hi[a], sign) else {
+                    continue;
+                };
+                // Made when the first tile needs them (most boxes have none to draw).
+                columns.clear();
+                rows.clear();
                 for ty in y0 / TILE..=y1 / TILE {
                     for tx in x0 / TILE..=x1 / TILE {
                         let tile = f * n * n + ty * n + tx;
                         if needed.is_some_and(|m| !m[tile]) || self.tile_max[tile] < z_lo as f32 {
                             continue;
                         }
+                        if rows.is_empty() {
+                            columns.extend((x0..=x1).map(|x| slab(lo[b], hi[b], self.centre(x))));
+                            rows.extend((y0..=y1).map(|y| slab(lo[c], hi[c], self.centre(y))));
+                        }
                         for y in (ty * TILE).max(y0)..=((ty + 1) * TILE - 1).min(y1) {
-                            let v = self.centre(y);
+                            let Some(across_row) = rows[y - y0] else {
+                                continue;
+                            };
                             for x in (tx * TILE).max(x0)..=((tx + 1) * TILE - 1).min(x1) {
-                                let mut dir = DVec3::ZERO;
-                                dir[a] = sign;
-                                dir[b] = self.centre(x);
-                                dir[c] = v;
-                                let Some((t, leaves)) = entry(dir, lo, hi, near) else {
+                                // No entry comes nearer than the box's near side: a pixel
+                                // already that near keeps its depth (most of them, nearest
+                                // boxes first), without the slab test.
+                                let at = f * r * r + y * r + x;
+                                if self.depth[at] <= z_lo_f32 {
+                                    continue;
+                                }
+                                let Some(across_column) = columns[x - x0] else {
+                                    continue;
+                                };
+                                let mut slabs = [along; 3];
+                                slabs[b] = across_column;
+                                slabs[c] = across_row;
+                                let Some((t, leaves)) = through(&slabs, near) else {
                                     continue;
                                 };
                                 let t = if bx.reach_ends == [false, false] || t > max_depth {
@@ -138,15 +166,25 @@ impl CubeDepth {
                                     if bx.reach_ends[1] {
                                         lo[up] += reach;
                                     }
-                                    match entry(dir, lo, hi, near) {
-                                        Some((t, _)) if lo[up] < hi[up] => t,
+                                    let d = if up == a {
+                                        sign
+                                    } else {
+                                        self.centre(if up == b { x } else { y })
+                                    };
+                                    match slab(lo[up], hi[up], d) {
+                                        Some(lowered) if lo[up] < hi[up] => {
+                                            slabs[up] = lowered;
+                                            match through(&slabs, near) {
+                                                Some((t, _)) => t,
+                                                None => continue,
+                                            }
+                                        }
                                         _ => continue,
                                     }
                                 };
                                 if t <= max_depth {
                                     // Round up: a depth never reads nearer than the box.
                                     let stored = (t * (1.0 + 1e-6)) as f32;
-                                    let at = f * r * r + y * r + x;
                                     if stored < self.depth[at] {
                                         self.depth[at] = stored;
                                         self.cap[at] = cap;
@@ -365,6 +403,16 @@ fn span_in_band(points: &[(f64, f64)], band: (f64, f64)) -> Option<(f64, f64)> {
     (lo <= hi).then_some((lo, hi))
 }
 
+/// `x` as the nearest f32 at or below it.
+fn round_down(x: f64) -> f32 {
+    let y = x as f32;
+    if f64::from(y) > x {
+        y.next_down()
+    } else {
+        y
+    }
+}
+
 /// `x` as the nearest f32 at or above it.
 fn round_up(x: f64) -> f32 {
     let y = x as f32;
@@ -375,22 +423,23 @@ fn round_up(x: f64) -> f32 {
     }
 }
 
-/// Where the ray from the origin along `dir`, from parameter `near` on, enters the box
-/// `lo..hi` (`near` when it is inside there) and where it leaves it, or `None` when it misses
-/// it.
-fn entry(dir: DVec3, lo: DVec3, hi: DVec3, near: f64) -> Option<(f64, f64)> {
-    let (mut t0, mut t1) = (near, f64::INFINITY);
-    for k in 0..3 {
-        if dir[k] == 0.0 {
-            if lo[k] > 0.0 || hi[k] < 0.0 {
-                return None;
-            }
-            continue;
-        }
-        let (a, b) = (lo[k] / dir[k], hi[k] / dir[k]);
-        t0 = t0.max(a.min(b));
-        t1 = t1.min(a.max(b));
+/// The parameters at which the ray from the origin with direction component `d` along one
+/// axis is between `lo` and `hi` on it (all of them when `d` is 0 and the origin is between),
+/// or `None` when it never is.
+fn slab(lo: f64, hi: f64, d: f64) -> Option<(f64, f64)> {
+    if d == 0.0 {
+        return (lo <= 0.0 && hi >= 0.0).then_some((f64::NEG_INFINITY, f64::INFINITY));
     }
+    let (near, far) = (lo / d, hi / d);
+    Some((near.min(far), near.max(far)))
+}
+
+/// Where a ray within the three `slabs` (per axis, from [`slab`]) from parameter `near` on
+/// enters their box (`near` when it is inside there) and where it leaves it, or `None` when
+/// it misses it.
+fn through(slabs: &[(f64, f64); 3], near: f64) -> Option<(f64, f64)> {
+    let t0 = near.max(slabs[0].0).max(slabs[1].0).max(slabs[2].0);
+    let t1 = slabs[0].1.min(slabs[1].1).min(slabs[2].1);
     (t0 <= t1).then_some((t0, t1))
 }
 
