@@ -30,6 +30,92 @@ pub(super) struct DepthBox {
     pub reach_ends: [bool; 2],
 }
 
+/// Boxes to render, in groups of nearby boxes with the box around each group: a group that
+/// projects onto no tile still to draw is skipped without projecting its boxes.
+pub(super) struct BoxGroups {
+    boxes: Vec<DepthBox>,
+    groups: Vec<BoxGroup>,
+}
+
+struct BoxGroup {
+    min: DVec3,
+    max: DVec3,
+    max_depth: f64,
+    range: std::ops::Range<usize>,
+}
+
+/// Boxes a group holds at most.
+const GROUP: usize = 64;
+
+impl BoxGroups {
+    /// `boxes` in groups of those whose centres share a cube of side `size`, at most
+    /// [`GROUP`] a group; groups and the boxes in each nearest `centre` first (the near boxes
+    /// drawn first let the pixels' depths skip the far ones).
+    pub fn new(mut boxes: Vec<DepthBox>, centre: DVec3, size: f64) -> Self {
+        let cube_of = |b: &DepthBox| {
+            let mid = (b.min + b.max) * 0.5 / size;
+            [
+                mid.x.floor() as i64,
+                mid.y.floor() as i64,
+                mid.z.floor() as i64,
+            ]
+        };
+        boxes.sort_by(|p, q| {
+            cube_of(p)
+                .cmp(&cube_of(q))
+                .then(distance(centre, p).total_cmp(&distance(centre, q)))
+        });
+        let mut groups = Vec::new();
+        let mut start = 0;
+        while start < boxes.len() {
+            let key = cube_of(&boxes[start]);
+            let mut end = start + 1;
+            while end < boxes.len() && end - start < GROUP && cube_of(&boxes[end]) == key {
+                end += 1;
+            }
+            let members = &boxes[start..end];
+            groups.push(BoxGroup {
+                min: members.iter().fold(DVec3::INFINITY, |m, b| m.min(b.min)),
+                max: members
+                    .iter()
+                    .fold(DVec3::NEG_INFINITY, |m, b| m.max(b.max)),
+                max_depth: members.iter().fold(0.0, |m: f64, b| m.max(b.max_depth)),
+                range: start..end,
+            });
+            start = end;
+        }
+        groups.sort_by(|p, q| {
+            let d = |g: &BoxGroup| {
+                (g.min - centre)
+                    .max(centre - g.max)
+                    .max(DVec3::ZERO)
+                    .length()
+            };
+            d(p).total_cmp(&d(q))
+        });
+        Self { boxes, groups }
+    }
+
+    /// How many boxes there are.
+    pub fn len(&self) -> usize {
+        self.boxes.len()
+    }
+}
+
+/// The distance from `eye` to box `b`.
+fn distance(eye: DVec3, b: &DepthBox) -> f64 {
+    (b.min - eye).max(eye - b.max).max(DVec3::ZERO).length()
+}
+
+/// What drawing the boxes of one cube reuses: the slabs per column and row of pixels.
+struct Scratch {
+    columns: Vec<Option<(f64, f64)>>,
+    rows: Vec<Option<(f64, f64)>>,
+    up: usize,
+    near: f64,
+    reach_per_depth: f64,
+}
+
 /// Slack in face coordinates for the pixels a triangle covers (rounding of the projection).
 const ROUNDING: f64 = 1e-9;
 
@@ -79,31 +165,35 @@ impl CubeDepth {
     pub fn render(
         &mut self,
         eye: DVec3,
-        boxes: &[DepthBox],
+        boxes: &BoxGroups,
         up: usize,
         near: f64,
         needed: Option<&[bool]>,
     ) {
-        // A pixel's rays lie within this many depths of its centre ray (half a pixel both
-        // ways across the face), with a margin for rounding.
-        let reach_per_depth = std::f64::consts::SQRT_2 / self.resolution as f64 * (1.0 + 1e-6);
         self.depth.fill(f32::INFINITY);
         self.cap.fill(f32::NEG_INFINITY);
         self.tile_max.fill(f32::INFINITY);
-        let (r, n) = (self.resolution, self.tiles);
-        let mut columns: Vec<Option<(f64, f64)>> = Vec::with_capacity(r);
-        let mut rows: Vec<Option<(f64, f64)>> = Vec::with_capacity(r);
+        let mut scratch = Scratch {
+            columns: Vec::with_capacity(self.resolution),
+            rows: Vec::with_capacity(self.resolution),
+            up,
+            near,
+            // A pixel's rays lie within this many depths of its centre ray (half a pixel
+            // both ways across the face), with a margin for rounding.
+            reach_per_depth: std::f64::consts::SQRT_2 / self.resolution as f64 * (1.0 + 1e-6),
+        };
         for f in 0..6 {
-            let (a, sign, b, c) = face_axes(f);
-            for bx in boxes {
-                let (lo, hi) = (bx.min - eye, bx.max - eye);
+            for group in &boxes.groups {
+                // A group whose box reaches no tile to draw, or only tiles already nearer
+                // than it, is skipped whole.
+                let (a, sign, b, c) = face_axes(f);
+                let (lo, hi) = (group.min - eye, group.max - eye);
                 let (z_lo, z_hi) = if sign > 0.0 {
                     (lo[a], hi[a])
                 } else {
                     (-hi[a], -lo[a])
                 };
-                let max_depth = bx.max_depth;
-                if z_hi <= near || z_lo > max_depth {
+                if z_hi <= near || z_lo > group.max_depth {
                     continue;
                 }
                 let z_lo = z_lo.max(near);
@@ -112,88 +202,140 @@ impl CubeDepth {
                 else {
                     continue;
                 };
-                let cap = round_up(bx.cap);
-                // Rounded down: a depth at or below it is nearer than any entry.
-                let z_lo_f32 = round_down(z_lo);
-                // The slabs of the box along the face's axis, and across it per column and
-                // per row of pixels (a pixel's ray is in the box between the latest entry
-                // and the earliest exit of its three slabs, as `entry` finds them).
-                let Some(along) = slab(lo[a], hi[a], sign) else {
-                    continue;
-                };
-                // Made when the first tile needs them (most boxes have none to draw).
-                columns.clear();
-                rows.clear();
-                for ty in y0 / TILE..=y1 / TILE {
-                    for tx in x0 / TILE..=x1 / TILE {
+                let n = self.tiles;
+                let open = (y0 / TILE..=y1 / TILE).any(|ty| {
+                    (x0 / TILE..=x1 / TILE).any(|tx| {
                         let tile = f * n * n + ty * n + tx;
-                        if needed.is_some_and(|m| !m[tile]) || self.tile_max[tile] < z_lo as f32 {
+                        needed.is_none_or(|m| m[tile]) && self.tile_max[tile] >= z_lo as f32
+                    })
+                });
+                if open {
+                    for bx in &boxes.boxes[group.range.clone()] {
+                        self.draw(f, bx, eye, needed, &mut scratch);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Draws box `bx` on face `f` (see [`Self::render`]).
+    fn draw(
+        &mut self,
+        f: usize,
+        bx: &DepthBox,
+        eye: DVec3,
+        needed: Option<&[bool]>,
+        scratch: &mut Scratch,
+    ) {
+        let (r, n) = (self.resolution, self.tiles);
+        let (a, sign, b, c) = face_axes(f);
+        let (up, near, reach_per_depth) = (scratch.up, scratch.near, scratch.reach_per_depth);
+        let (columns, rows) = (&mut scratch.columns, &mut scratch.rows);
+        let (lo, hi) = (bx.min - eye, bx.max - eye);
+        let (z_lo, z_hi) = if sign > 0.0 {
+            (lo[a], hi[a])
+        } else {
+            (-hi[a], -lo[a])
+        };
+        let max_depth = bx.max_depth;
+        if z_hi <= near || z_lo > max_depth {
+            return;
+        }
+        let z_lo = z_lo.max(near);
+        let Some((x0, x1, y0, y1)) = self.pixel_range(z_lo, z_hi, [lo[b], hi[b]], [lo[c], hi[c]])
+        else {
+            return;
+        };
+        let cap = round_up(bx.cap);
+        // Rounded down: a depth at or below it is nearer than any entry.
+        let z_lo_f32 = round_down(z_lo);
+        // The slabs of the box along the face's axis, and across it per column and
+        // per row of pixels (a pixel's ray is in the box between the latest entry
+        // and the earliest exit of its three slabs, as `entry` finds them).
+        let Some(along) = slab(lo[a], hi[a], sign) else {
+            return;
+        };
+        // Made when the first tile needs them (most boxes have none to draw).
+        columns.clear();
+        rows.clear();
+        for ty in y0 / TILE..=y1 / TILE {
+            for tx in x0 / TILE..=x1 / TILE {
+                let tile = f * n * n + ty * n + tx;
+                if needed.is_some_and(|m| !m[tile]) || self.tile_max[tile] < z_lo as f32 {
+                    continue;
+                }
+                // Only a tile with a pixel written needs its largest depth found again.
+                let mut wrote = false;
+                if rows.is_empty() {
+                    columns.extend((x0..=x1).map(|x| slab(lo[b], hi[b], self.centre(x))));
+                    rows.extend((y0..=y1).map(|y| slab(lo[c], hi[c], self.centre(y))));
+                }
+                for y in (ty * TILE).max(y0)..=((ty + 1) * TILE - 1).min(y1) {
+                    let Some(across_row) = rows[y - y0] else {
+                        continue;
+                    };
+                    // The row's part of `through`: what varies along it is the column's slab.
+                    let row_in = near.max(along.0).max(across_row.0);
+                    let row_out = along.1.min(across_row.1);
+                    for x in (tx * TILE).max(x0)..=((tx + 1) * TILE - 1).min(x1) {
+                        // No entry comes nearer than the box's near side: a pixel
+                        // already that near keeps its depth (most of them, nearest
+                        // boxes first), without the slab test.
+                        let at = f * r * r + y * r + x;
+                        if self.depth[at] <= z_lo_f32 {
                             continue;
                         }
-                        if rows.is_empty() {
-                            columns.extend((x0..=x1).map(|x| slab(lo[b], hi[b], self.centre(x))));
-                            rows.extend((y0..=y1).map(|y| slab(lo[c], hi[c], self.centre(y))));
+                        let Some(across_column) = columns[x - x0] else {
+                            continue;
+                        };
+                        let (t, leaves) =
+                            (row_in.max(across_column.0), row_out.min(across_column.1));
+                        if t > leaves {
+                            continue;
                         }
-                        for y in (ty * TILE).max(y0)..=((ty + 1) * TILE - 1).min(y1) {
-                            let Some(across_row) = rows[y - y0] else {
-                                continue;
+                        let t = if bx.reach_ends == [false, false] || t > max_depth {
+                            t
+                        } else {
+                            let mut slabs = [along; 3];
+                            slabs[b] = across_column;
+                            slabs[c] = across_row;
+                            let reach = leaves.min(max_depth) * reach_per_depth;
+                            let (mut lo, mut hi) = (lo, hi);
+                            if bx.reach_ends[0] {
+                                hi[up] -= reach;
+                            }
+                            if bx.reach_ends[1] {
+                                lo[up] += reach;
+                            }
+                            let d = if up == a {
+                                sign
+                            } else {
+                                self.centre(if up == b { x } else { y })
                             };
-                            for x in (tx * TILE).max(x0)..=((tx + 1) * TILE - 1).min(x1) {
-                                // No entry comes nearer than the box's near side: a pixel
-                                // already that near keeps its depth (most of them, nearest
-                                // boxes first), without the slab test.
-                                let at = f * r * r + y * r + x;
-                                if self.depth[at] <= z_lo_f32 {
-                                    continue;
-                                }
-                                let Some(across_column) = columns[x - x0] else {
-                                    continue;
-                                };
-                                let mut slabs = [along; 3];
-                                slabs[b] = across_column;
-                                slabs[c] = across_row;
-                                let Some((t, leaves)) = through(&slabs, near) else {
-                                    continue;
-                                };
-                                let t = if bx.reach_ends == [false, false] || t > max_depth {
-                                    t
-                                } else {
-                                    let reach = leaves.min(max_depth) * reach_per_depth;
-                                    let (mut lo, mut hi) = (lo, hi);
-                                    if bx.reach_ends[0] {
-                                        hi[up] -= reach;
-                                    }
-                                    if bx.reach_ends[1] {
-                                        lo[up] += reach;
-                                    }
-                                    let d = if up == a {
-                                        sign
-                                    } else {
-                                        self.centre(if up == b { x } else { y })
-                                    };
-                                    match slab(lo[up], hi[up], d) {
-                                        Some(lowered) if lo[up] < hi[up] => {
-                                            slabs[up] = lowered;
-                                            match through(&slabs, near) {
-                                                Some((t, _)) => t,
-                                                None => continue,
-                                            }
-                                        }
-                                        _ => continue,
-                                    }
-                                };
-                                if t <= max_depth {
-                                    // Round up: a depth never reads nearer than the box.
-                                    let stored = (t * (1.0 + 1e-6)) as f32;
-                                    if stored < self.depth[at] {
-                                        self.depth[at] = stored;
-                                        self.cap[at] = cap;
+                            match slab(lo[up], hi[up], d) {
+                                Some(lowered) if lo[up] < hi[up] => {
+                                    slabs[up] = lowered;
+                                    match through(&slabs, near) {
+                                        Some((t, _)) => t,
+                                        None => continue,
                                     }
                                 }
+                                _ => continue,
+                            }
+                        };
+                        if t <= max_depth {
+                            // Round up: a depth never reads nearer than the box.
+                            let stored = (t * (1.0 + 1e-6)) as f32;
+                            if stored < self.depth[at] {
+                                self.depth[at] = stored;
+                                self.cap[at] = cap;
+                                wrote = true;
                             }
                         }
-                        self.update_tile(f, ty, tx);
                     }
+                }
+                if wrote {
+                    self.update_tile(f, ty, tx);
                 }
             }
         }
@@ -447,6 +589,10 @@ fn through(slabs: &[(f64, f64); 3], near: f64) -> Option<(f64, f64)> {
 mod tests {
     use super::*;
 
+    fn group(b: DepthBox) -> BoxGroups {
+        BoxGroups::new(vec![b], DVec3::ZERO, 16.0)
+    }
+
     fn wall() -> DepthBox {
         // A wall 10 m ahead along +x, 20 m wide and high, 1 m thick.
         DepthBox {
@@ -461,7 +607,7 @@ mod tests {
     #[test]
     fn a_triangle_behind_a_wall_is_hidden_and_one_beside_it_is_not() {
         let mut cube = CubeDepth::new(64);
-        cube.render(DVec3::ZERO, &[wall()], 2, 1e-3, None);
+        cube.render(DVec3::ZERO, &group(wall()), 2, 1e-3, None);
         let behind = [
             DVec3::new(20.0, -1.0, -1.0),
             DVec3::new(20.0, 1.0, -1.0),
@@ -483,7 +629,7 @@ mod tests {
             max_depth: 5.0,
             ..wall()
         };
-        short.render(DVec3::ZERO, &[near_only], 2, 1e-3, None);
+        short.render(DVec3::ZERO, &group(near_only), 2, 1e-3, None);
         assert!(!short.hides(DVec3::ZERO, &behind, 2, 1e-3, f64::NEG_INFINITY));
     }
 
@@ -497,7 +643,7 @@ mod tests {
             max_depth: 10.0,
             reach_ends: [false, false],
         };
-        cube.render(DVec3::ZERO, &[room], 2, 1e-3, None);
+        cube.render(DVec3::ZERO, &group(room), 2, 1e-3, None);
         let far = [
             DVec3::new(5.0, 0.0, 0.0),
             DVec3::new(0.0, 5.0, 0.0),

@@ -58,7 +58,7 @@ use sightline_core::{Scene, TriangleSet};
 use crate::closed_solids::ClosedSolids;
 use crate::viewcell::ViewCell;
 use columns::Columns;
-use cube_depth::{CubeDepth, DepthBox};
+use cube_depth::{BoxGroups, CubeDepth, DepthBox};
 use erosion::{shrunk_boxes, OccluderBox};
 
 /// Column grids larger than this are not built (the rule is then not used).
@@ -74,6 +74,10 @@ const RENDER_NEAR: f64 = 0.02;
 
 /// Distance (relative to the radius) within which a triangle counts as seen from a sample.
 const SEEN_NEAR: f64 = 1e-3;
+
+/// The side of the cubes whose boxes are drawn as a group (relative to the radius): a
+/// group the tiles still to draw do not reach is skipped whole.
+const GROUP_SIZE: f64 = 16.0;
 
 /// The most shrink levels ([`FusionOptions::levels`]).
 pub const MAX_LEVELS: usize = 8;
@@ -205,11 +209,13 @@ impl ShrunkOccluders {
             .filter(|&t| !keep.get(t).copied().unwrap_or(true))
             .map(|t| (t as u32, scene.triangle(t as u32).map(|p| p.as_dvec3())))
             .collect();
-        // Nearest the cell first: the samples lie within it, and near boxes drawn first let
-        // the tiles' depths skip the far ones.
-        let mut boxes = boxes;
-        let centre = cell.center.as_dvec3();
-        boxes.sort_by(|a, b| distance(centre, a).total_cmp(&distance(centre, b)));
+        // In groups of neighbours, nearest the cell first: the samples lie within it, and
+        // near boxes drawn first let the pixels' depths skip the far ones.
+        let boxes = BoxGroups::new(
+            boxes,
+            cell.center.as_dvec3(),
+            GROUP_SIZE * self.options.radius,
+        );
         let near = SEEN_NEAR * self.options.radius;
         let batch = rayon::current_num_threads().max(1);
         let mut cubes: Vec<CubeDepth> = (0..batch)
@@ -323,11 +329,6 @@ fn bounds_of(corners: &[DVec3]) -> (DVec3, DVec3) {
         .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), c| {
             (lo.min(*c), hi.max(*c))
         })
-}
-
-/// The distance from `eye` to box `b`.
-fn distance(eye: DVec3, b: &DepthBox) -> f64 {
-    (b.min - eye).max(eye - b.max).max(DVec3::ZERO).length()
 }
 
 /// Viewpoint samples of `cell`, the centres of a grid of sub-boxes, with the half-extents along
