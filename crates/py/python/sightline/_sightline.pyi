@@ -209,7 +209,7 @@ def bake(
     occluder fusion give a tighter bound for more time (``ValueError`` out of range).
     ``bound_solid_fusion`` is ``--bound-solid-fusion``: ``"auto"`` or a radius (scene units)
     also leaves out what the union of the scene's closed solids, shrunk by it, hides from a
-    grid of viewpoints of the cell (blocks of houses hiding together; 36-109x the bound's time
+    grid of viewpoints of the cell (blocks of houses hiding together; 11-35x the bound's time
     on the shared city cells); ``None`` or ``"off"``: not.
     Pass both or neither. The result equals the CLI's, and ``metadata["incremental"]`` counts
     the ``kept_cells`` and ``rebaked_cells``. A ``since`` that cannot serve (baked

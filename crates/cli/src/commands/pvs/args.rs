@@ -271,9 +271,9 @@ pub(crate) struct BoundOptionArgs {
     /// (Wonka et al. 2000). "auto": 1/1000 of the scene's diagonal. A cell that would need
     /// over 1,024 viewpoints at RADIUS uses twice it (or four times, ...). On the shared city
     /// cells it takes the bound from 2.49x to 1.86x the GVS++ sets (etoile) and from 3.58x to
-    /// 3.20x (munich, whose cells look over roofs at grazing angles) at 36-109x the bound's
-    /// time (docs/BENCHMARKS.md, "Solid fusion shrunk per axis"). "off" (the default) turns
-    /// it off.
+    /// 3.20x (munich, whose cells look over roofs at grazing angles) at 11-35x the bound's
+    /// time, about 2.5 s of CPU a 20x20 m cell (docs/BENCHMARKS.md, "Solid fusion shrunk per
+    /// axis"). "off" (the default) turns it off.
     #[arg(long, value_name = "RADIUS|auto|off", default_value = "off", value_parser = solid_fusion)]
     pub(crate) bound_solid_fusion: SolidFusionArg,
 }
