@@ -686,7 +686,7 @@ mod tests {
             });
         }
         let eye = DVec3::new(1.0, -2.0, 0.5);
-        let mut mask = vec![false; 6 * 4 * 4];
+        let mut mask = [false; 6 * 4 * 4];
         for (k, m) in mask.iter_mut().enumerate() {
             *m = k % 3 != 0;
         }
