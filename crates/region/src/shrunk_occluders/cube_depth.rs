@@ -299,28 +299,18 @@ impl CubeDepth {
                             let mut slabs = [along; 3];
                             slabs[b] = across_column;
                             slabs[c] = across_row;
-                            let reach = leaves.min(max_depth) * reach_per_depth;
-                            let (mut lo, mut hi) = (lo, hi);
-                            if bx.reach_ends[0] {
-                                hi[up] -= reach;
-                            }
-                            if bx.reach_ends[1] {
-                                lo[up] += reach;
-                            }
                             let d = if up == a {
                                 sign
                             } else {
                                 self.centre(if up == b { x } else { y })
                             };
-                            match slab(lo[up], hi[up], d) {
-                                Some(lowered) if lo[up] < hi[up] => {
-                                    slabs[up] = lowered;
-                                    match through(&slabs, near) {
-                                        Some((t, _)) => t,
-                                        None => continue,
-                                    }
-                                }
-                                _ => continue,
+                            let reach = leaves.min(max_depth) * reach_per_depth;
+                            match ends_moved_in(slabs, (lo, hi), bx.reach_ends, up, d, reach) {
+                                Some(slabs) => match through(&slabs, near) {
+                                    Some((t, _)) => t,
+                                    None => continue,
+                                },
+                                None => continue,
                             }
                         };
                         if t <= max_depth {
@@ -574,6 +564,30 @@ fn slab(lo: f64, hi: f64, d: f64) -> Option<(f64, f64)> {
     }
     let (near, far) = (lo / d, hi / d);
     Some((near.min(far), near.max(far)))
+}
+
+/// `slabs` (of the box `lo..hi`, from [`slab`]) with the box's `ends` along axis `up` (top,
+/// bottom) moved in by `reach`, for a ray whose direction component along `up` is `d`; `None`
+/// when the box has no height left or the ray is never within it along `up`.
+fn ends_moved_in(
+    mut slabs: [(f64, f64); 3],
+    (mut lo, mut hi): (DVec3, DVec3),
+    ends: [bool; 2],
+    up: usize,
+    d: f64,
+    reach: f64,
+) -> Option<[(f64, f64); 3]> {
+    if ends[0] {
+        hi[up] -= reach;
+    }
+    if ends[1] {
+        lo[up] += reach;
+    }
+    if lo[up] >= hi[up] {
+        return None;
+    }
+    slabs[up] = slab(lo[up], hi[up], d)?;
+    Some(slabs)
 }
 
 /// Where a ray within the three `slabs` (per axis, from [`slab`]) from parameter `near` on
