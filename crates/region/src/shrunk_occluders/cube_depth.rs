@@ -116,6 +116,18 @@ struct Scratch {
     reach_per_depth: f64,
 }
 
+/// Per triangle in doubt, the rows of pixels it may cover from one eye: found once per sample
+/// for both marking the tiles to draw and testing the triangle against what was drawn.
+#[derive(Default)]
+pub(super) struct Footprints {
+    /// Face, row, first and last pixel, and the triangle's nearest depth on that face.
+    rows: Vec<(usize, usize, usize, usize, f64)>,
+    /// Per triangle, the end of its rows.
+    ends: Vec<usize>,
+    /// Per triangle, whether it comes within `near` of the eye (seen anyway).
+    near: Vec<bool>,
+}
+
 /// Slack in face coordinates for the pixels a triangle covers (rounding of the projection).
 const ROUNDING: f64 = 1e-9;
 
@@ -331,17 +343,40 @@ impl CubeDepth {
         }
     }
 
-    /// Marks in `needed` (per face, per tile) the tiles triangle `t` may cover from `eye`.
-    pub fn mark(&self, eye: DVec3, t: &[DVec3; 3], near: f64, needed: &mut [bool]) {
+    /// The rows of pixels each of `triangles` may cover from `eye`, into `out` (see
+    /// [`Footprints`]).
+    pub fn footprints<'a>(
+        &self,
+        eye: DVec3,
+        triangles: impl Iterator<Item = &'a [DVec3; 3]>,
+        near: f64,
+        out: &mut Footprints,
+    ) {
+        out.rows.clear();
+        out.ends.clear();
+        out.near.clear();
+        for t in triangles {
+            let all = self.covered_rows(eye, t, near, |f, y, x0, x1, z_min| {
+                out.rows.push((f, y, x0, x1, z_min));
+                true
+            });
+            out.ends.push(out.rows.len());
+            out.near.push(!all);
+        }
+    }
+
+    /// Marks in `needed` (per face, per tile) the tiles the triangles of `footprints` may
+    /// cover; all of them when one comes within `near` of the eye (it is seen anyway).
+    pub fn mark(&self, footprints: &Footprints, needed: &mut [bool]) {
+        if footprints.near.iter().any(|&near| near) {
+            needed.fill(true);
+            return;
+        }
         let n = self.tiles;
-        let all = self.covered_rows(eye, t, near, |f, y, x0, x1, _| {
+        for &(f, y, x0, x1, _) in &footprints.rows {
             for tx in x0 / TILE..=x1 / TILE {
                 needed[f * n * n + (y / TILE) * n + tx] = true;
             }
-            true
-        });
-        if !all {
-            needed.fill(true); // within `near` of the eye: it is seen anyway
         }
     }
 
@@ -350,35 +385,33 @@ impl CubeDepth {
         vec![false; 6 * self.tiles * self.tiles]
     }
 
-    /// Whether triangle `t` lies behind the rendered depths from `eye` over every pixel it
-    /// may cover (on every face). A pixel's box must moreover stand for the union where the
-    /// segments from the cell to the triangle pass it: its cap (`DepthBox::cap`) lies below
-    /// the triangle's lowest point along axis `up`, or below the lowest height a segment from
-    /// a viewpoint at `cell_lowest` or above can have at the pixel's depth (a fraction
-    /// `depth / nearest depth of the triangle` of the way). `false` when the triangle comes
-    /// within `near` of `eye`.
-    pub fn hides(
-        &self,
-        eye: DVec3,
-        t: &[DVec3; 3],
-        up: usize,
-        near: f64,
-        cell_lowest: f64,
-    ) -> bool {
-        let lowest = t[0][up].min(t[1][up]).min(t[2][up]);
+    /// Whether triangle `k` of `footprints` lies behind the rendered depths over every pixel
+    /// it may cover (on every face). A pixel's box must moreover stand for the union where
+    /// the segments from the cell to the triangle pass it: its cap (`DepthBox::cap`) lies
+    /// below the triangle's `lowest` point along the up axis, or below the lowest height a
+    /// segment from a viewpoint at `cell_lowest` or above can have at the pixel's depth (a
+    /// fraction `depth / nearest depth of the triangle` of the way). `false` when the
+    /// triangle comes within `near` of the eye.
+    pub fn hides(&self, footprints: &Footprints, k: usize, lowest: f64, cell_lowest: f64) -> bool {
+        if footprints.near[k] {
+            return false;
+        }
+        let start = if k == 0 { 0 } else { footprints.ends[k - 1] };
         let r = self.resolution;
-        self.covered_rows(eye, t, near, |f, y, x0, x1, z_min| {
-            let row = f * r * r + y * r + x0..=f * r * r + y * r + x1;
-            let blocks = |d: f32, c: f32| {
-                let (d, c) = (f64::from(d), f64::from(c));
-                d < z_min
-                    && (c <= lowest || d / z_min <= (cell_lowest - c) / (cell_lowest - lowest))
-            };
-            self.depth[row.clone()]
-                .iter()
-                .zip(&self.cap[row])
-                .all(|(&d, &c)| blocks(d, c))
-        })
+        footprints.rows[start..footprints.ends[k]]
+            .iter()
+            .all(|&(f, y, x0, x1, z_min)| {
+                let row = f * r * r + y * r + x0..=f * r * r + y * r + x1;
+                let blocks = |d: f32, c: f32| {
+                    let (d, c) = (f64::from(d), f64::from(c));
+                    d < z_min
+                        && (c <= lowest || d / z_min <= (cell_lowest - c) / (cell_lowest - lowest))
+                };
+                self.depth[row.clone()]
+                    .iter()
+                    .zip(&self.cap[row])
+                    .all(|(&d, &c)| blocks(d, c))
+            })
     }
 
     /// Calls `row(face, y, x0, x1, nearest depth)` for each row of pixels (`x0..=x1`) whose
@@ -603,6 +636,14 @@ fn through(slabs: &[(f64, f64); 3], near: f64) -> Option<(f64, f64)> {
 mod tests {
     use super::*;
 
+    /// Whether `cube`, drawn from the origin, hides triangle `t` (up axis z, no cell below).
+    fn hides(cube: &CubeDepth, t: &[DVec3; 3], near: f64) -> bool {
+        let mut footprints = Footprints::default();
+        cube.footprints(DVec3::ZERO, std::iter::once(t), near, &mut footprints);
+        let lowest = t[0].z.min(t[1].z).min(t[2].z);
+        cube.hides(&footprints, 0, lowest, f64::NEG_INFINITY)
+    }
+
     fn group(b: DepthBox) -> BoxGroups {
         BoxGroups::new(vec![b], DVec3::ZERO, 16.0)
     }
@@ -627,16 +668,16 @@ mod tests {
             DVec3::new(20.0, 1.0, -1.0),
             DVec3::new(20.0, 0.0, 1.0),
         ];
-        assert!(cube.hides(DVec3::ZERO, &behind, 2, 1e-3, f64::NEG_INFINITY));
+        assert!(hides(&cube, &behind, 1e-3));
         // In front of the wall.
         let front = behind.map(|p| p - DVec3::new(15.0, 0.0, 0.0));
-        assert!(!cube.hides(DVec3::ZERO, &front, 2, 1e-3, f64::NEG_INFINITY));
+        assert!(!hides(&cube, &front, 1e-3));
         // Behind, but reaching past the wall's edge (seen past it).
         let past = behind.map(|p| p + DVec3::new(0.0, 25.0, 0.0));
-        assert!(!cube.hides(DVec3::ZERO, &past, 2, 1e-3, f64::NEG_INFINITY));
+        assert!(!hides(&cube, &past, 1e-3));
         // Behind the eye (another face, nothing rendered there).
         let back = behind.map(|p| -p);
-        assert!(!cube.hides(DVec3::ZERO, &back, 2, 1e-3, f64::NEG_INFINITY));
+        assert!(!hides(&cube, &back, 1e-3));
         // Beyond the rendered depth, the wall is not there.
         let mut short = CubeDepth::new(64);
         let near_only = DepthBox {
@@ -644,7 +685,7 @@ mod tests {
             ..wall()
         };
         short.render(DVec3::ZERO, &group(near_only), 2, 1e-3, None);
-        assert!(!short.hides(DVec3::ZERO, &behind, 2, 1e-3, f64::NEG_INFINITY));
+        assert!(!hides(&short, &behind, 1e-3));
     }
 
     #[test]
@@ -663,10 +704,10 @@ mod tests {
             DVec3::new(0.0, 5.0, 0.0),
             DVec3::new(0.0, 0.0, 5.0),
         ];
-        assert!(cube.hides(DVec3::ZERO, &far, 2, 1e-3, f64::NEG_INFINITY));
+        assert!(hides(&cube, &far, 1e-3));
         // A triangle nearer than the near depth is in front of everything rendered.
         let close = far.map(|p| p * 1e-4);
-        assert!(!cube.hides(DVec3::ZERO, &close, 2, 1e-6, f64::NEG_INFINITY));
+        assert!(!hides(&cube, &close, 1e-6));
     }
 
     #[test]

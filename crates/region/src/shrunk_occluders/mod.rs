@@ -58,7 +58,7 @@ use sightline_core::{Scene, TriangleSet};
 use crate::closed_solids::ClosedSolids;
 use crate::viewcell::ViewCell;
 use columns::Columns;
-use cube_depth::{BoxGroups, CubeDepth, DepthBox};
+use cube_depth::{BoxGroups, CubeDepth, DepthBox, Footprints};
 use erosion::{shrunk_boxes, OccluderBox};
 
 /// Column grids larger than this are not built (the rule is then not used).
@@ -218,8 +218,13 @@ impl ShrunkOccluders {
         );
         let near = SEEN_NEAR * self.options.radius;
         let batch = rayon::current_num_threads().max(1);
-        let mut cubes: Vec<CubeDepth> = (0..batch)
-            .map(|_| CubeDepth::new(self.options.resolution))
+        let mut cubes: Vec<(CubeDepth, Footprints)> = (0..batch)
+            .map(|_| {
+                (
+                    CubeDepth::new(self.options.resolution),
+                    Footprints::default(),
+                )
+            })
             .collect();
         for chunk in samples.chunks(batch) {
             if targets.is_empty() {
@@ -228,12 +233,11 @@ impl ShrunkOccluders {
             let seen: Vec<Vec<bool>> = chunk
                 .par_iter()
                 .zip(cubes.par_iter_mut())
-                .map(|(&eye, cube)| {
+                .map(|(&eye, (cube, footprints))| {
                     // Only where the triangles still in doubt may be seen.
+                    cube.footprints(eye, targets.iter().map(|(_, t)| t), near, footprints);
                     let mut needed = cube.no_tiles();
-                    for (_, t) in &targets {
-                        cube.mark(eye, t, near, &mut needed);
-                    }
+                    cube.mark(footprints, &mut needed);
                     cube.render(
                         eye,
                         &boxes,
@@ -243,7 +247,11 @@ impl ShrunkOccluders {
                     );
                     targets
                         .iter()
-                        .map(|(_, t)| !cube.hides(eye, t, up, near, lo[up]))
+                        .enumerate()
+                        .map(|(k, (_, t))| {
+                            let lowest = t[0][up].min(t[1][up]).min(t[2][up]);
+                            !cube.hides(footprints, k, lowest, lo[up])
+                        })
                         .collect()
                 })
                 .collect();
