@@ -60,17 +60,20 @@ impl BoxGroups {
                 mid.z.floor() as i64,
             ]
         };
-        boxes.sort_by(|p, q| {
-            cube_of(p)
-                .cmp(&cube_of(q))
-                .then(distance(centre, p).total_cmp(&distance(centre, q)))
-        });
+        // Each box's cube and distance found once, not once per comparison.
+        let mut keyed: Vec<([i64; 3], f64, DepthBox)> = boxes
+            .drain(..)
+            .map(|b| (cube_of(&b), distance(centre, &b), b))
+            .collect();
+        keyed.sort_by(|p, q| p.0.cmp(&q.0).then(p.1.total_cmp(&q.1)));
+        let keys: Vec<[i64; 3]> = keyed.iter().map(|k| k.0).collect();
+        boxes.extend(keyed.into_iter().map(|k| k.2));
         let mut groups = Vec::new();
         let mut start = 0;
         while start < boxes.len() {
-            let key = cube_of(&boxes[start]);
+            let key = keys[start];
             let mut end = start + 1;
-            while end < boxes.len() && end - start < GROUP && cube_of(&boxes[end]) == key {
+            while end < boxes.len() && end - start < GROUP && keys[end] == key {
                 end += 1;
             }
             let members = &boxes[start..end];
@@ -195,10 +198,10 @@ impl CubeDepth {
             reach_per_depth: std::f64::consts::SQRT_2 / self.resolution as f64 * (1.0 + 1e-6),
         };
         for f in 0..6 {
+            let (a, sign, b, c) = face_axes(f);
             for group in &boxes.groups {
                 // A group whose box reaches no tile to draw, or only tiles already nearer
                 // than it, is skipped whole.
-                let (a, sign, b, c) = face_axes(f);
                 let (lo, hi) = (group.min - eye, group.max - eye);
                 let (z_lo, z_hi) = if sign > 0.0 {
                     (lo[a], hi[a])

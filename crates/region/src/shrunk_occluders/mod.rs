@@ -203,11 +203,16 @@ impl ShrunkOccluders {
         let up = scene.up.index();
         let boxes = self.boxes_for(lo, hi, up, first, half[up]);
         let keep = kept_for(scene, solids, &corners);
-        // The triangles in doubt, with their corners (read once for all samples).
-        let mut targets: Vec<(u32, [DVec3; 3])> = visible
+        // The triangles in doubt, with their corners and lowest point along the up axis (found
+        // once for all samples).
+        let mut targets: Vec<(u32, [DVec3; 3], f64)> = visible
             .ones()
             .filter(|&t| !keep.get(t).copied().unwrap_or(true))
-            .map(|t| (t as u32, scene.triangle(t as u32).map(|p| p.as_dvec3())))
+            .map(|t| {
+                let corners = scene.triangle(t as u32).map(|p| p.as_dvec3());
+                let lowest = corners[0][up].min(corners[1][up]).min(corners[2][up]);
+                (t as u32, corners, lowest)
+            })
             .collect();
         // In groups of neighbours, nearest the cell first: the samples lie within it, and
         // near boxes drawn first let the pixels' depths skip the far ones.
@@ -235,7 +240,7 @@ impl ShrunkOccluders {
                 .zip(cubes.par_iter_mut())
                 .map(|(&eye, (cube, footprints))| {
                     // Only where the triangles still in doubt may be seen.
-                    cube.footprints(eye, targets.iter().map(|(_, t)| t), near, footprints);
+                    cube.footprints(eye, targets.iter().map(|(_, t, _)| t), near, footprints);
                     let mut needed = cube.no_tiles();
                     cube.mark(footprints, &mut needed);
                     cube.render(
@@ -248,10 +253,7 @@ impl ShrunkOccluders {
                     targets
                         .iter()
                         .enumerate()
-                        .map(|(k, (_, t))| {
-                            let lowest = t[0][up].min(t[1][up]).min(t[2][up]);
-                            !cube.hides(footprints, k, lowest, lo[up])
-                        })
+                        .map(|(k, &(_, _, lowest))| !cube.hides(footprints, k, lowest, lo[up]))
                         .collect()
                 })
                 .collect();
@@ -262,7 +264,7 @@ impl ShrunkOccluders {
                 !any
             });
         }
-        for &(t, _) in &targets {
+        for &(t, _, _) in &targets {
             visible.set(t as usize, false);
         }
         FusionReport {
