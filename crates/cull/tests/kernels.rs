@@ -238,8 +238,9 @@ fn batched_avx2_path_equals_previous_kernels_on_small_edge_and_near_triangles() 
         let part = &tris[..3 * n];
         assert!(render(avx2, part).same_contents(&render(avx2_per_tile, part)));
     }
-    // The AVX-512 step (two block rows at once, the last of an odd count half masked) on the
-    // same triangles, at the image's edges and near plane.
+    // The AVX-512 step (two block rows at once, the last of an odd count with the row below
+    // it, or the storage's spare row) on the same triangles, at the image's edges and near
+    // plane.
     if Kernel::Avx512.available() {
         let avx512 = AnyKernel::Public(Kernel::Avx512);
         assert!(

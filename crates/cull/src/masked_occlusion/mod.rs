@@ -30,8 +30,8 @@
 //! - A tile's reference layer `z0` is a lower bound on `r` for every pixel of the tile, the
 //!   working layer `z1` a lower bound for the pixels of `mask`. Both only ever come from the
 //!   farthest value of an occluder over the pixels it covers (the plane's minimum over the tile,
-//!   but never below the triangle's farthest vertex), so they never claim an occluder nearer
-//!   than it is.
+//!   but never below the triangle's farthest vertex nor above its nearest), so they never
+//!   claim an occluder nearer than it is.
 //! - Coverage is the pixel-centre rule evaluated in `f32`: it agrees with the exact rule except
 //!   for pixel centres within about 1/100 of a pixel of an edge. The box test widens a box's
 //!   screen rectangle by one pixel on each side, so a box peeking out next to a silhouette is

@@ -95,6 +95,8 @@ struct DepthPlane {
     rb: f32,
     /// The farthest corner's `1/z`, a lower bound in every case.
     r_far: f32,
+    /// The nearest corner's `1/z`: no tile's depth is nearer (see [`tile_depth`]).
+    r_near: f32,
     /// The offset from a tile's first column to its farthest pixel centres, minus `x0` (see
     /// [`tile_column_offsets`]).
     far_col: f32,
@@ -117,6 +119,24 @@ pub(super) fn tile_column_offsets(ra: f32, x0: f32) -> (f32, f32) {
         (last - x0, first - x0)
     } else {
         (first - x0, last - x0)
+    }
+}
+
+/// The depth a triangle gives a tile whose first column is `base` (`r_rows`: the plane's
+/// `y` part, its minimum over the tile row): the plane's farthest value over the tile (see
+/// [`tile_column_offsets`]), never farther than the farthest corner and never nearer than the
+/// nearest one. The exact plane never leaves that range where the triangle covers a pixel;
+/// the clamp to the nearest corner keeps its `f32` rounding from doing so either, so that a
+/// triangle whose nearest corner lies behind every tile of its bounding box changes nothing,
+/// which is what lets the block kernels test a block against the nearest corner alone.
+#[inline(always)]
+fn tile_depth(plane: &DepthPlane, r_rows: f32, base: i32) -> f32 {
+    if plane.ok {
+        (r_rows + plane.ra * (base as f32 + plane.far_col))
+            .max(plane.r_far)
+            .min(plane.r_near)
+    } else {
+        plane.r_far
     }
 }
 
@@ -206,6 +226,7 @@ pub(super) unsafe fn raster_triangle<T: TileSteps>(tiles: &mut Tiles, mut p: [[f
     // 1/z over the screen: r = r0 + ra (x - x0) + rb (y - y0). For slivers (less than a
     // pixel of area) the gradient is ill-conditioned: use the farthest corner only.
     let r_far = p[0][2].min(p[1][2]).min(p[2][2]);
+    let r_near = p[0][2].max(p[1][2]).max(p[2][2]);
     let (ra, rb) = if area >= 1.0 {
         let (d1x, d1y, d1r) = (p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]);
         let (d2x, d2y, d2r) = (p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]);
@@ -222,6 +243,7 @@ pub(super) unsafe fn raster_triangle<T: TileSteps>(tiles: &mut Tiles, mut p: [[f
         ra,
         rb,
         r_far,
+        r_near,
         far_col: tile_column_offsets(ra, p[0][0]).0,
         ok: area >= 1.0,
     };
@@ -304,13 +326,6 @@ unsafe fn raster_tile_row<T: TileSteps>(
         if ty == tiles.tiles_y - 1 {
             mask |= tiles.outside_y;
         }
-        // The plane's farthest value over the tile (see `tile_column_offsets`), never
-        // farther than the farthest corner.
-        let r = if plane.ok {
-            (r_rows + plane.ra * (base as f32 + plane.far_col)).max(plane.r_far)
-        } else {
-            plane.r_far
-        };
-        tiles.update(tx, ty, mask, r);
+        tiles.update(tx, ty, mask, tile_depth(&plane, r_rows, base));
     }
 }

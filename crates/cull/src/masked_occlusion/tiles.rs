@@ -60,7 +60,7 @@ pub(super) struct Tiles {
     pub tiles_x: u32,
     pub tiles_y: u32,
     /// Blocks across (`tiles_x / 4` rounded up); tiles beyond the image in the last block
-    /// column / row are never drawn.
+    /// column / row are never drawn, nor is the spare block row after the last.
     pub blocks_x: u32,
     /// Mask bits of the last tile column / row that lie outside the image: they count as
     /// covered by every occluder, so that edge tiles can become full.
@@ -87,8 +87,11 @@ impl Tiles {
             blocks_x: tiles_x.div_ceil(BLOCK_TX),
             outside_x,
             outside_y,
+            // One block row more than the image needs: the AVX-512 kernel draws block rows
+            // in pairs, and a pair that starts at the last row loads and stores the spare
+            // row below it unchanged (`avx2/pairs.rs`) instead of masking it off.
             blocks: BlockStorage::new(
-                (tiles_x.div_ceil(BLOCK_TX) * tiles_y.div_ceil(BLOCK_TY)) as usize,
+                (tiles_x.div_ceil(BLOCK_TX) * (tiles_y.div_ceil(BLOCK_TY) + 1)) as usize,
                 CLEAR_BLOCK,
             ),
         }

@@ -57,6 +57,7 @@ struct Triangle<'a> {
     near_col: __m256,
     ra: __m256,
     r_far: __m256,
+    r_near: __m256,
     plane_ok: bool,
     row0: i32,
     row1: i32,
@@ -76,6 +77,7 @@ impl<'a> Triangle<'a> {
             near_col: set1(t.near_col[l]),
             ra: set1(t.ra[l]),
             r_far: set1(t.r_far[l]),
+            r_near: set1(t.r_near[l]),
             plane_ok: t.plane_ok[l] != 0,
             row0: t.row0[l],
             row1: t.row1[l],
@@ -167,7 +169,7 @@ pub(super) fn raster_blocks(blocks: &mut [Block], g: &BlockGrid, t: &Setup8, l: 
                     let m = _mm256_add_ps(depth.r_rows, _mm256_mul_ps(tri.ra, far));
                     // `f32::max` without a NaN select: `r_far` is never NaN (corners are
                     // finite and in front of the near plane).
-                    _mm256_max_ps(m, tri.r_far)
+                    _mm256_min_ps(_mm256_max_ps(m, tri.r_far), tri.r_near)
                 } else {
                     tri.r_far
                 };
@@ -247,13 +249,18 @@ impl BlockRowDepth {
         if _mm256_movemask_ps(behind_far) != 0xFF {
             return false;
         }
-        let behind = if tri.plane_ok {
-            let near = _mm256_add_ps(tile_columns(bx), tri.near_col);
-            let bound = _mm256_add_ps(self.r_rows_max, _mm256_mul_ps(tri.ra, near));
-            _mm256_and_ps(behind_far, _mm256_cmp_ps::<_CMP_LE_OQ>(bound, z0))
-        } else {
-            behind_far
-        };
+        if !tri.plane_ok {
+            return true;
+        }
+        // Behind where the nearest corner is (Hasselgren et al.'s test: the merge's depth is
+        // never nearer, see `per_tile::tile_depth`), or else the plane's bound is.
+        let behind_near = _mm256_cmp_ps::<_CMP_LE_OQ>(tri.r_near, z0);
+        if _mm256_movemask_ps(behind_near) == 0xFF {
+            return true;
+        }
+        let near = _mm256_add_ps(tile_columns(bx), tri.near_col);
+        let bound = _mm256_add_ps(self.r_rows_max, _mm256_mul_ps(tri.ra, near));
+        let behind = _mm256_or_ps(behind_near, _mm256_cmp_ps::<_CMP_LE_OQ>(bound, z0));
         _mm256_movemask_ps(behind) == 0xFF
     }
 }

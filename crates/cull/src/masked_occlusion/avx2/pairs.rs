@@ -2,9 +2,11 @@
 //! scanlines, the 8 tiles of a block), done for two block rows at once in 512-bit registers
 //! ([`raster_pairs`]): the spans of 16 scanlines in one register, the masks, depths and merges
 //! of two vertically adjacent blocks (16 tiles) in one register each. A triangle that covers
-//! an odd number of block rows draws its last one with the upper half of every register
-//! masked off (loads and stores of that half are not made), so no block outside the buffer is
-//! touched. The triangle setup stays the AVX2 kernel's (`setup.rs`, 8 triangles at once).
+//! an odd number of block rows draws its last one with the row below it, whose scanlines lie
+//! outside the triangle (empty masks, so the merge keeps its tiles); the storage has a spare
+//! block row after the image for a last row that is odd. Block rows are indexed without
+//! checks, after one check per triangle. The triangle setup stays the AVX2 kernel's
+//! (`setup.rs`, 8 triangles at once).
 //!
 //! Based on: Hasselgren, Andersson, Akenine-Möller. Masked Software Occlusion Culling. 2016,
 //! section 4 (the SIMD layout, scaled to 16 lanes as its AVX-512 form does); Andersson,
@@ -16,6 +18,7 @@
 //! are identical bit for bit (checked by the tests).
 
 use std::arch::x86_64::*;
+use std::mem::offset_of;
 
 use super::super::per_tile::{EMPTY_HI, EMPTY_LO};
 use super::super::tiles::Block;
@@ -41,6 +44,7 @@ struct Triangle16<'a> {
     near_col: __m512,
     ra: __m512,
     r_far: __m512,
+    r_near: __m512,
     plane_ok: bool,
     row0: i32,
     row1: i32,
@@ -60,6 +64,7 @@ impl<'a> Triangle16<'a> {
                 near_col: set1(t.near_col[l]),
                 ra: set1(t.ra[l]),
                 r_far: set1(t.r_far[l]),
+                r_near: set1(t.r_near[l]),
                 plane_ok: t.plane_ok[l] != 0,
                 row0: t.row0[l],
                 row1: t.row1[l],
@@ -94,71 +99,95 @@ avx512! {
     #[inline]
     pub(super) unsafe fn raster_pairs(blocks: &mut [Block], g: &BlockGrid, t: &Setup8, l: usize) {
         let tri = Triangle16::new(t, l);
+        let (by0, by1) = (tri.row0 as u32 / 8, tri.row1 as u32 / 8);
+        // Every block a pair below touches lies in the buffer (the bounding box is clamped to
+        // the image, and the storage has a block row beyond it, see `Tiles::new`): checked
+        // once here, so that the block loops index without checks.
+        assert!(
+            (tri.col1 as u32 / 32) < g.blocks_x
+                && ((by1 + 2) * g.blocks_x) as usize <= blocks.len()
+        );
+        for by in (by0..=by1).step_by(2) {
+            // SAFETY: rows `by` and `by + 1` are in the storage (asserted above).
+            unsafe { pair_row(blocks, g, &tri, by, by < by1) };
+        }
+    }
+
+    /// Block rows `by` (lanes 0-7) and `by + 1` (lanes 8-15) of a triangle, the second only
+    /// when `both` (else it is loaded and stored unchanged: its scanlines lie outside the
+    /// triangle, so their masks are empty and the merge keeps its tiles).
+    ///
+    /// # Safety
+    /// Block rows `by` and `by + 1` lie in `blocks`, and so does block column
+    /// `tri.col1 / 32`.
+    #[inline]
+    unsafe fn pair_row(blocks: &mut [Block], g: &BlockGrid, tri: &Triangle16, by: u32, both: bool) {
+        // Lanes of the rows the triangle reaches (the depth tests ignore the others).
+        let lanes: __mmask16 = if both { 0xFFFF } else { 0x00FF };
         let (bbox_bx0, bbox_bx1) = (tri.col0 as u32 / 32, tri.col1 as u32 / 32);
         let last_bx = g.last_tx / 4;
-        let (by0, by1) = (tri.row0 as u32 / 8, tri.row1 as u32 / 8);
-        for by in (by0..=by1).step_by(2) {
-            // Lanes 8-15 exist when the triangle reaches block row `by + 1`.
-            let lanes: __mmask16 = if by < by1 { 0xFFFF } else { 0x00FF };
-            let depth = PairDepth::new(&tri, by, g);
-            let (lo, hi) = ((by * g.blocks_x) as usize, ((by + 1) * g.blocks_x) as usize);
-            let first_open = (bbox_bx0..=bbox_bx1).find(|&bx| {
-                let z0 = load_z0(blocks, lo + bx as usize, hi + bx as usize, lanes);
-                !depth.behind(&tri, bx, z0, lanes)
-            });
-            let Some(first_open) = first_open else {
-                continue;
-            };
-            let Some((rel_a, rel_b, bx0, bx1)) = pair_spans(&tri, by) else {
-                continue;
-            };
-            let (mut rel_a, mut rel_b) = (rel_a, rel_b);
-            for bx in bx0..=bx1 {
-                let (i, j) = (lo + bx as usize, hi + bx as usize);
-                let z0 = load_z0(blocks, i, j, lanes);
-                let skip = bx < first_open || (bx > first_open && depth.behind(&tri, bx, z0, lanes));
-                if !skip {
-                    // Inside the triangle (every scanline of the pair spans the whole block):
-                    // full masks.
-                    let inside = _mm512_cmple_epi32_mask(rel_a, _mm512_setzero_si512())
-                        & _mm512_cmpge_epi32_mask(rel_b, _mm512_set1_epi32(32))
-                        | !lanes;
-                    let mask = if inside == 0xFFFF {
-                        _mm512_maskz_mov_epi32(lanes, _mm512_set1_epi32(-1))
-                    } else {
-                        pair_masks(rel_a, rel_b)
-                    };
-                    let cov = if bx == last_bx || depth.last_row {
-                        let outside_x = _mm512_maskz_mov_epi32(
-                            _mm512_cmpeq_epi32_mask(
-                                _mm512_add_epi32(
-                                    _mm512_set1_epi32((4 * bx) as i32),
-                                    _mm512_setr_epi32(0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3),
-                                ),
-                                _mm512_set1_epi32(g.last_tx as i32),
+        let depth = PairDepth::new(tri, by, g);
+        let row = blocks.as_mut_ptr().wrapping_add((by * g.blocks_x) as usize);
+        let pair = |bx: u32| PairPtrs::new(row, g.blocks_x, bx);
+        let first_open = (bbox_bx0..=bbox_bx1).find(|&bx| {
+            // SAFETY: `bx` is in the bounding box (this function's contract).
+            let z0 = unsafe { pair(bx).load_z0() };
+            !depth.behind(tri, bx, z0, lanes)
+        });
+        let Some(first_open) = first_open else {
+            return;
+        };
+        let Some((rel_a, rel_b, bx0, bx1)) = pair_spans(tri, by) else {
+            return;
+        };
+        let (mut rel_a, mut rel_b) = (rel_a, rel_b);
+        for bx in bx0..=bx1 {
+            let blocks = pair(bx);
+            // SAFETY: `bx0..=bx1` lies in the bounding box (`pair_spans`).
+            let z0 = unsafe { blocks.load_z0() };
+            let skip = bx < first_open || (bx > first_open && depth.behind(tri, bx, z0, lanes));
+            if !skip {
+                // Inside the triangle (every scanline of the pair spans the whole block):
+                // full masks.
+                let inside = _mm512_cmple_epi32_mask(rel_a, _mm512_setzero_si512())
+                    & _mm512_cmpge_epi32_mask(rel_b, _mm512_set1_epi32(32))
+                    | !lanes;
+                let mask = if inside == 0xFFFF {
+                    _mm512_maskz_mov_epi32(lanes, _mm512_set1_epi32(-1))
+                } else {
+                    pair_masks(rel_a, rel_b)
+                };
+                let cov = if bx == last_bx || depth.last_row {
+                    let outside_x = _mm512_maskz_mov_epi32(
+                        _mm512_cmpeq_epi32_mask(
+                            _mm512_add_epi32(
+                                _mm512_set1_epi32((4 * bx) as i32),
+                                _mm512_setr_epi32(0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3),
                             ),
-                            _mm512_set1_epi32(g.outside_x as i32),
-                        );
-                        let outside = _mm512_or_si512(outside_x, depth.outside_y);
-                        let touched = _mm512_test_epi32_mask(mask, mask);
-                        _mm512_mask_or_epi32(mask, touched, mask, outside)
-                    } else {
-                        mask
-                    };
-                    // The plane's farthest value over each tile, as `per_tile.rs` computes it.
-                    let r = if tri.plane_ok {
-                        let far = _mm512_add_ps(tile_columns(bx), tri.far_col);
-                        let m = _mm512_add_ps(depth.r_rows, _mm512_mul_ps(tri.ra, far));
-                        // `f32::max` without a NaN select: `r_far` is never NaN.
-                        _mm512_max_ps(m, tri.r_far)
-                    } else {
-                        tri.r_far
-                    };
-                    merge_pair(blocks, i, j, lanes, z0, cov, r);
-                }
-                rel_a = _mm512_sub_epi32(rel_a, _mm512_set1_epi32(32));
-                rel_b = _mm512_sub_epi32(rel_b, _mm512_set1_epi32(32));
+                            _mm512_set1_epi32(g.last_tx as i32),
+                        ),
+                        _mm512_set1_epi32(g.outside_x as i32),
+                    );
+                    let outside = _mm512_or_si512(outside_x, depth.outside_y);
+                    let touched = _mm512_test_epi32_mask(mask, mask);
+                    _mm512_mask_or_epi32(mask, touched, mask, outside)
+                } else {
+                    mask
+                };
+                // The plane's farthest value over each tile, as `per_tile.rs` computes it.
+                let r = if tri.plane_ok {
+                    let far = _mm512_add_ps(tile_columns(bx), tri.far_col);
+                    let m = _mm512_add_ps(depth.r_rows, _mm512_mul_ps(tri.ra, far));
+                    // `f32::max` without a NaN select: `r_far` is never NaN.
+                    _mm512_min_ps(_mm512_max_ps(m, tri.r_far), tri.r_near)
+                } else {
+                    tri.r_far
+                };
+                // SAFETY: as for the load.
+                unsafe { merge_pair(blocks, z0, cov, r) };
             }
+            rel_a = _mm512_sub_epi32(rel_a, _mm512_set1_epi32(32));
+            rel_b = _mm512_sub_epi32(rel_b, _mm512_set1_epi32(32));
         }
     }
 
@@ -171,19 +200,70 @@ avx512! {
         _mm512_add_ps(_mm512_set1_ps((32 * bx) as f32), lane_x)
     }
 
-    /// The reference layers of blocks `i` (lanes 0-7) and `j` (lanes 8-15, when `lanes` has
-    /// them; else zero and not read).
-    #[inline]
-    fn load_z0(blocks: &[Block], i: usize, j: usize, lanes: __mmask16) -> __m512 {
-        // SAFETY: aligned 32-byte loads of the `z0` arrays of `#[repr(align(32))]` blocks; `j`
-        // is only read when the triangle reaches its block row, which lies in the buffer.
-        unsafe {
-            let lo = _mm256_load_ps(blocks[i].z0.as_ptr());
-            let v = _mm512_castps256_ps512(lo);
-            if lanes == 0xFFFF {
-                _mm512_insertf32x8::<1>(v, _mm256_load_ps(blocks[j].z0.as_ptr()))
-            } else {
-                _mm512_insertf32x8::<1>(v, _mm256_setzero_ps())
+}
+
+/// Block `bx` of a block row and the block below it: where [`pair_row`] loads and stores a
+/// field of 16 tiles (lanes 0-7 from the first block, 8-15 from the second).
+#[derive(Clone, Copy)]
+struct PairPtrs {
+    lo: *mut Block,
+    hi: *mut Block,
+}
+
+impl PairPtrs {
+    /// Block `bx` of the row starting at `row`, and the one `blocks_x` further on.
+    #[inline(always)]
+    fn new(row: *mut Block, blocks_x: u32, bx: u32) -> Self {
+        let lo = row.wrapping_add(bx as usize);
+        PairPtrs {
+            lo,
+            hi: lo.wrapping_add(blocks_x as usize),
+        }
+    }
+
+    /// The field at byte offset `field` of block `b`, as `f32` lanes.
+    #[inline(always)]
+    fn at(b: *mut Block, field: usize) -> *mut f32 {
+        b.cast::<u8>().wrapping_add(field).cast()
+    }
+
+    avx512! {
+        /// Field `field` (a byte offset in [`Block`]) of the pair's 16 tiles.
+        ///
+        /// # Safety
+        /// `lo` and `hi` point to blocks of the storage, with no other reference to them
+        /// alive.
+        #[inline]
+        unsafe fn load(self, field: usize) -> __m512 {
+            // SAFETY: aligned 32-byte loads of a field of `#[repr(align(32))]` blocks (every
+            // field is 32 bytes at an offset that is a multiple of 32), in the buffer (this
+            // function's contract).
+            unsafe {
+                let v = _mm512_castps256_ps512(_mm256_load_ps(Self::at(self.lo, field)));
+                _mm512_insertf32x8::<1>(v, _mm256_load_ps(Self::at(self.hi, field)))
+            }
+        }
+
+        /// The reference layers of the pair.
+        ///
+        /// # Safety
+        /// As [`PairPtrs::load`].
+        #[inline]
+        unsafe fn load_z0(self) -> __m512 {
+            // SAFETY: this function's contract.
+            unsafe { self.load(offset_of!(Block, z0)) }
+        }
+
+        /// Stores `v` into field `field` of the pair.
+        ///
+        /// # Safety
+        /// As [`PairPtrs::load`].
+        #[inline]
+        unsafe fn store(self, field: usize, v: __m512) {
+            // SAFETY: as in `load`.
+            unsafe {
+                _mm256_store_ps(Self::at(self.lo, field), _mm512_castps512_ps256(v));
+                _mm256_store_ps(Self::at(self.hi, field), _mm512_extractf32x8_ps::<1>(v));
             }
         }
     }
@@ -236,9 +316,15 @@ impl PairDepth {
             if !tri.plane_ok {
                 return true;
             }
+            // Behind where the nearest corner is (the merge's depth is never nearer, see
+            // `per_tile::tile_depth`), or else the plane's bound is.
+            let behind_near = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(tri.r_near, z0) | !lanes;
+            if behind_near == 0xFFFF {
+                return true;
+            }
             let near = _mm512_add_ps(tile_columns(bx), tri.near_col);
             let bound = _mm512_add_ps(self.r_rows_max, _mm512_mul_ps(tri.ra, near));
-            (_mm512_cmp_ps_mask::<_CMP_LE_OQ>(bound, z0) | !lanes) == 0xFFFF
+            (_mm512_cmp_ps_mask::<_CMP_LE_OQ>(bound, z0) | behind_near) == 0xFFFF
         }
     }
 }
@@ -319,40 +405,16 @@ avx512! {
         _mm512_shuffle_epi8(rows, transpose)
     }
 
-    /// `blocks::merge_block` for blocks `i` (lanes 0-7) and `j` (lanes 8-15, when `lanes` has
-    /// them), with mask registers for its selects; `z0` is their reference layers, already
-    /// loaded.
+    /// `blocks::merge_block` for the block pair (lanes 0-7 and 8-15), with mask registers for
+    /// its selects; `z0` is their reference layers, already loaded.
+    ///
+    /// # Safety
+    /// As [`PairPtrs::load_z0`].
     #[inline]
-    fn merge_pair(
-        blocks: &mut [Block],
-        i: usize,
-        j: usize,
-        lanes: __mmask16,
-        z0: __m512,
-        cov: __m512i,
-        r: __m512,
-    ) {
-        let both = lanes == 0xFFFF;
-        // SAFETY: aligned 32-byte loads of the arrays of `#[repr(align(32))]` blocks (block `j`
-        // only when the pair has it).
-        let (z1, m) = unsafe {
-            let (z1_lo, m_lo) = (
-                _mm256_load_ps(blocks[i].z1.as_ptr()),
-                _mm256_load_si256(blocks[i].mask.as_ptr().cast()),
-            );
-            let (z1_hi, m_hi) = if both {
-                (
-                    _mm256_load_ps(blocks[j].z1.as_ptr()),
-                    _mm256_load_si256(blocks[j].mask.as_ptr().cast()),
-                )
-            } else {
-                (_mm256_setzero_ps(), _mm256_setzero_si256())
-            };
-            (
-                _mm512_insertf32x8::<1>(_mm512_castps256_ps512(z1_lo), z1_hi),
-                _mm512_inserti32x8::<1>(_mm512_castsi256_si512(m_lo), m_hi),
-            )
-        };
+    unsafe fn merge_pair(p: PairPtrs, z0: __m512, cov: __m512i, r: __m512) {
+        // SAFETY: the blocks are in the buffer (this function's contract).
+        let (z1, m) = unsafe { (p.load(offset_of!(Block, z1)), p.load(offset_of!(Block, mask))) };
+        let m = _mm512_castps_si512(m);
         let zero = _mm512_setzero_si512();
         let all = _mm512_set1_epi32(-1);
         // Unchanged: nothing covered, or not nearer than the reference layer (or NaN).
@@ -370,19 +432,11 @@ avx512! {
         let z0n = _mm512_mask_mov_ps(z0n, keep, z0);
         let z1n = _mm512_mask_mov_ps(z1n, keep, z1);
         let mn = _mm512_mask_mov_epi32(mn, keep, m);
-        // SAFETY: aligned 32-byte stores into the same arrays.
+        // SAFETY: as above.
         unsafe {
-            _mm256_store_ps(blocks[i].z0.as_mut_ptr(), _mm512_castps512_ps256(z0n));
-            _mm256_store_ps(blocks[i].z1.as_mut_ptr(), _mm512_castps512_ps256(z1n));
-            _mm256_store_si256(blocks[i].mask.as_mut_ptr().cast(), _mm512_castsi512_si256(mn));
-            if both {
-                _mm256_store_ps(blocks[j].z0.as_mut_ptr(), _mm512_extractf32x8_ps::<1>(z0n));
-                _mm256_store_ps(blocks[j].z1.as_mut_ptr(), _mm512_extractf32x8_ps::<1>(z1n));
-                _mm256_store_si256(
-                    blocks[j].mask.as_mut_ptr().cast(),
-                    _mm512_extracti32x8_epi32::<1>(mn),
-                );
-            }
+            p.store(offset_of!(Block, z0), z0n);
+            p.store(offset_of!(Block, z1), z1n);
+            p.store(offset_of!(Block, mask), _mm512_castsi512_ps(mn));
         }
     }
 

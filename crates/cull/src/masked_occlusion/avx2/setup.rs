@@ -32,6 +32,8 @@ pub(super) struct Setup8 {
     pub(super) rb: [f32; 8],
     /// The farthest corner's `1/z`, a lower bound in every case.
     pub(super) r_far: [f32; 8],
+    /// The nearest corner's `1/z`, an upper bound of every tile's depth.
+    pub(super) r_near: [f32; 8],
     /// -1 when the plane is well conditioned (area of a pixel at least).
     pub(super) plane_ok: [i32; 8],
     /// The edges by role (see [`store_edges`]): `role` 0 bounds spans from the left, 1 from the
@@ -120,6 +122,7 @@ pub(super) fn setup8(s: &Screen8, width: u32, height: u32, out: &mut Setup8) -> 
     st(&mut out.ra, _mm256_and_ps(ra, plane_ok));
     st(&mut out.rb, _mm256_and_ps(rb, plane_ok));
     st(&mut out.r_far, _mm256_min_ps(_mm256_min_ps(r0, r1), r2));
+    st(&mut out.r_near, _mm256_max_ps(_mm256_max_ps(r0, r1), r2));
     sti(&mut out.plane_ok, _mm256_castps_si256(plane_ok));
     store_edges(out, [x0, x1, x2], [y0, y1, y2]);
     // `per_tile::tile_column_offsets` of the stored (masked) `ra`, lane by lane.
