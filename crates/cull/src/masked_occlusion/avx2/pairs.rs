@@ -126,17 +126,32 @@ avx512! {
         let lanes: __mmask16 = if both { 0xFFFF } else { 0x00FF };
         let (bbox_bx0, bbox_bx1) = (tri.col0 as u32 / 32, tri.col1 as u32 / 32);
         let last_bx = g.last_tx / 4;
-        let depth = PairDepth::new(tri, by, g);
         let row = blocks.as_mut_ptr().wrapping_add((by * g.blocks_x) as usize);
         let pair = |bx: u32| PairPtrs::new(row, g.blocks_x, bx);
+        // The first block not behind the triangle. Most blocks looked at here are behind its
+        // nearest corner (a hidden triangle's are), so that test comes first, and the depth
+        // plane's rows are set up only when a block needs its bound.
+        let mut plane: Option<PairDepth> = None;
         let first_open = (bbox_bx0..=bbox_bx1).find(|&bx| {
             // SAFETY: `bx` is in the bounding box (this function's contract).
             let z0 = unsafe { pair(bx).load_z0() };
-            !depth.behind(tri, bx, z0, lanes)
+            let behind_near = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(tri.r_near, z0) | !lanes;
+            if behind_near == 0xFFFF {
+                return false;
+            }
+            let behind_far = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(tri.r_far, z0) | !lanes;
+            if behind_far != 0xFFFF {
+                return true;
+            }
+            tri.plane_ok
+                && !plane
+                    .get_or_insert_with(|| PairDepth::new(tri, by, g))
+                    .plane_behind(tri, bx, z0, behind_near)
         });
         let Some(first_open) = first_open else {
             return;
         };
+        let depth = plane.unwrap_or_else(|| PairDepth::new(tri, by, g));
         let Some((rel_a, rel_b, bx0, bx1)) = pair_spans(tri, by) else {
             return;
         };
@@ -147,16 +162,7 @@ avx512! {
             let z0 = unsafe { blocks.load_z0() };
             let skip = bx < first_open || (bx > first_open && depth.behind(tri, bx, z0, lanes));
             if !skip {
-                // Inside the triangle (every scanline of the pair spans the whole block):
-                // full masks.
-                let inside = _mm512_cmple_epi32_mask(rel_a, _mm512_setzero_si512())
-                    & _mm512_cmpge_epi32_mask(rel_b, _mm512_set1_epi32(32))
-                    | !lanes;
-                let mask = if inside == 0xFFFF {
-                    _mm512_maskz_mov_epi32(lanes, _mm512_set1_epi32(-1))
-                } else {
-                    pair_masks(rel_a, rel_b)
-                };
+                let mask = pair_masks(rel_a, rel_b);
                 let cov = if bx == last_bx || depth.last_row {
                     let outside_x = _mm512_maskz_mov_epi32(
                         _mm512_cmpeq_epi32_mask(
@@ -319,9 +325,15 @@ impl PairDepth {
             // Behind where the nearest corner is (the merge's depth is never nearer, see
             // `per_tile::tile_depth`), or else the plane's bound is.
             let behind_near = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(tri.r_near, z0) | !lanes;
-            if behind_near == 0xFFFF {
-                return true;
-            }
+            behind_near == 0xFFFF || self.plane_behind(tri, bx, z0, behind_near)
+        }
+
+        /// Whether every tile of block column `bx` (reference layers `z0`) that is not in
+        /// `behind_near` lies behind the triangle's depth plane: its bound at the tile's nearest
+        /// pixel centres, which is never below the merge's depth (f32 rounding is monotonic,
+        /// see `per_tile::tile_column_offsets`), is not nearer than `z0`.
+        #[inline]
+        fn plane_behind(&self, tri: &Triangle16, bx: u32, z0: __m512, behind_near: __mmask16) -> bool {
             let near = _mm512_add_ps(tile_columns(bx), tri.near_col);
             let bound = _mm512_add_ps(self.r_rows_max, _mm512_mul_ps(tri.ra, near));
             (_mm512_cmp_ps_mask::<_CMP_LE_OQ>(bound, z0) | behind_near) == 0xFFFF
@@ -415,23 +427,24 @@ avx512! {
         // SAFETY: the blocks are in the buffer (this function's contract).
         let (z1, m) = unsafe { (p.load(offset_of!(Block, z1)), p.load(offset_of!(Block, mask))) };
         let m = _mm512_castps_si512(m);
-        let zero = _mm512_setzero_si512();
-        let all = _mm512_set1_epi32(-1);
-        // Unchanged: nothing covered, or not nearer than the reference layer (or NaN).
-        let keep = _mm512_cmpeq_epi32_mask(cov, zero) | !_mm512_cmp_ps_mask::<_CMP_GT_OQ>(r, z0);
+        // Changed: covered, and nearer than the reference layer (not NaN). The other lanes
+        // keep their three fields, which every select below does by masking with `update`.
+        let update = _mm512_mask_cmp_ps_mask::<_CMP_GT_OQ>(_mm512_test_epi32_mask(cov, cov), r, z0);
         // Dropped: no working layer, or (with a reference layer) much nearer than it.
-        let much_nearer = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(z0, _mm512_setzero_ps())
-            & _mm512_cmp_ps_mask::<_CMP_GT_OQ>(_mm512_sub_ps(r, z1), _mm512_sub_ps(z1, z0));
-        let discard = _mm512_cmpeq_epi32_mask(m, zero) | much_nearer;
-        let z1n = _mm512_mask_mov_ps(min_like(z1, r), discard, r);
-        let mn = _mm512_mask_mov_epi32(_mm512_or_si512(m, cov), discard, cov);
-        let full = _mm512_cmpeq_epi32_mask(mn, all);
+        let much_nearer = _mm512_mask_cmp_ps_mask::<_CMP_GT_OQ>(
+            _mm512_cmp_ps_mask::<_CMP_GT_OQ>(z0, _mm512_setzero_ps()),
+            _mm512_sub_ps(r, z1),
+            _mm512_sub_ps(z1, z0),
+        );
+        let discard = _mm512_testn_epi32_mask(m, m) | much_nearer;
+        // `min` without a NaN select: neither `z1` nor `r` is NaN in a lane that changes.
+        let z1n = _mm512_mask_mov_ps(_mm512_min_ps(z1, r), discard, r);
+        let mn = _mm512_mask_or_epi32(cov, !discard, m, cov);
+        let full = _mm512_mask_cmpeq_epi32_mask(update, mn, _mm512_set1_epi32(-1));
+        // A full working layer becomes the reference layer, and the working layer restarts.
         let z0n = _mm512_mask_mov_ps(z0, full, z1n);
-        let z1n = _mm512_maskz_mov_ps(!full, z1n);
-        let mn = _mm512_maskz_mov_epi32(!full, mn);
-        let z0n = _mm512_mask_mov_ps(z0n, keep, z0);
-        let z1n = _mm512_mask_mov_ps(z1n, keep, z1);
-        let mn = _mm512_mask_mov_epi32(mn, keep, m);
+        let z1n = _mm512_mask_mov_ps(_mm512_mask_mov_ps(z1, update, z1n), full, _mm512_setzero_ps());
+        let mn = _mm512_maskz_mov_epi32(!full, _mm512_mask_mov_epi32(m, update, mn));
         // SAFETY: as above.
         unsafe {
             p.store(offset_of!(Block, z0), z0n);
