@@ -126,17 +126,31 @@ pub(super) fn raster_blocks(blocks: &mut [Block], g: &BlockGrid, t: &Setup8, l: 
     let (bbox_bx0, bbox_bx1) = (tri.col0 as u32 / 32, tri.col1 as u32 / 32);
     let last_bx = g.last_tx / 4;
     for by in tri.row0 as u32 / (2 * TILE_H)..=tri.row1 as u32 / (2 * TILE_H) {
-        let depth = BlockRowDepth::new(&tri, by, g);
         let block_row = &mut blocks[(by * g.blocks_x) as usize..][..g.blocks_x as usize];
         // The first block of the bounding box that does not lie behind the triangle; the
-        // row is done when there is none.
+        // row is done when there is none. Most blocks looked at here are behind the
+        // triangle's nearest corner (a hidden triangle's are), so that test comes first, and
+        // the depth plane's rows are set up only when a block needs its bound.
+        let mut plane: Option<BlockRowDepth> = None;
         let first_open = (bbox_bx0..=bbox_bx1).find(|&bx| {
             // SAFETY: an aligned load of the 32-byte `z0` array of a `#[repr(align(32))]` block.
-            !depth.behind(&tri, bx, unsafe { load_z0(&block_row[bx as usize]) })
+            let z0 = unsafe { load_z0(&block_row[bx as usize]) };
+            let behind_near = _mm256_cmp_ps::<_CMP_LE_OQ>(tri.r_near, z0);
+            if _mm256_movemask_ps(behind_near) == 0xFF {
+                return false;
+            }
+            if _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tri.r_far, z0)) != 0xFF {
+                return true;
+            }
+            tri.plane_ok
+                && !plane
+                    .get_or_insert_with(|| BlockRowDepth::new(&tri, by, g))
+                    .plane_behind(&tri, bx, z0, behind_near)
         });
         let Some(first_open) = first_open else {
             continue;
         };
+        let depth = plane.unwrap_or_else(|| BlockRowDepth::new(&tri, by, g));
         let Some((rel_a, rel_b, bx0, bx1)) = row_spans(&tri, by) else {
             continue;
         };
@@ -255,9 +269,16 @@ impl BlockRowDepth {
         // Behind where the nearest corner is (Hasselgren et al.'s test: the merge's depth is
         // never nearer, see `per_tile::tile_depth`), or else the plane's bound is.
         let behind_near = _mm256_cmp_ps::<_CMP_LE_OQ>(tri.r_near, z0);
-        if _mm256_movemask_ps(behind_near) == 0xFF {
-            return true;
-        }
+        _mm256_movemask_ps(behind_near) == 0xFF || self.plane_behind(tri, bx, z0, behind_near)
+    }
+
+    /// Whether every tile of block column `bx` (reference layers `z0`) that is not in
+    /// `behind_near` lies behind the triangle's depth plane: its bound at the tile's nearest
+    /// pixel centres, which is never below the merge's depth (f32 rounding is monotonic, see
+    /// `per_tile::tile_column_offsets`), is not nearer than `z0`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn plane_behind(&self, tri: &Triangle, bx: u32, z0: __m256, behind_near: __m256) -> bool {
         let near = _mm256_add_ps(tile_columns(bx), tri.near_col);
         let bound = _mm256_add_ps(self.r_rows_max, _mm256_mul_ps(tri.ra, near));
         let behind = _mm256_or_ps(behind_near, _mm256_cmp_ps::<_CMP_LE_OQ>(bound, z0));
@@ -398,7 +419,8 @@ fn merge_block(block: &mut Block, z0: __m256, cov: __m256i, r: __m256, all: __m2
         _mm256_cmpeq_epi32(m, zero),
         _mm256_castps_si256(much_nearer),
     );
-    let z1n = _mm256_blendv_ps(min_like_f32(z1, r), r, _mm256_castsi256_ps(discard));
+    // `min` without a NaN select: neither `z1` nor `r` is NaN in a lane that changes.
+    let z1n = _mm256_blendv_ps(_mm256_min_ps(z1, r), r, _mm256_castsi256_ps(discard));
     let mn = _mm256_blendv_epi8(_mm256_or_si256(m, cov), cov, discard);
     let full = _mm256_cmpeq_epi32(mn, all);
     let z0n = _mm256_blendv_ps(z0, z1n, _mm256_castsi256_ps(full));
