@@ -649,9 +649,21 @@ fn bench_peers_without_harnesses_measures_ours_and_says_so() {
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("peers.json")).unwrap()).unwrap();
     let rows = json["occluders"].as_array().unwrap();
-    assert_eq!(rows.len(), 2);
-    assert!(rows[1]["set"].as_str().unwrap().ends_with("frame 2"));
-    assert!(rows[1]["triangles"].as_u64().unwrap() > 0);
+    // A row per set and kernel of ours: the CPU's best, then AVX2 where the best is AVX-512.
+    let sets: Vec<&str> = rows.iter().map(|r| r["set"].as_str().unwrap()).collect();
+    let per_set = if rows[0]["side"] == "sightline avx512" { 2 } else { 1 };
+    assert_eq!(rows.len(), 2 * per_set, "{rows:?}");
+    assert!(sets[0].starts_with("random 10 px"), "{sets:?}");
+    assert!(sets[rows.len() - 1].ends_with("frame 2"), "{sets:?}");
+    for set in rows.chunks(per_set) {
+        assert_eq!(set[0]["time_over_ours"], 1.0, "{set:?}");
+        assert!(set[0]["triangles"].as_u64().unwrap() > 0);
+        if per_set == 2 {
+            assert_eq!(set[1]["side"], "sightline avx2", "{set:?}");
+            assert_eq!(set[1]["set"], set[0]["set"]);
+            assert!(set[1]["time_over_ours"].as_f64().unwrap() > 0.0);
+        }
+    }
     assert!(json["rays"].as_array().unwrap().is_empty());
 }
 

@@ -27,7 +27,7 @@ use serde::Serialize;
 use sightline_core::cpu_time::thread_cpu_ns;
 use sightline_core::trace::RayCaster;
 use sightline_core::{Hit, Ray, Scene};
-use sightline_cull::OcclusionBuffer;
+use sightline_cull::{Kernel, OcclusionBuffer};
 
 use super::common::{report, sorted, OnProgress, Progress};
 use super::peer_sets::{read_depth, read_hits, OccluderSet, PeerSetError};
@@ -269,7 +269,8 @@ pub struct OccluderRow {
     pub side: String,
     /// Time per rendering (clear + render).
     pub timing: Timing,
-    /// Its median time over ours (above 1: ours is faster); 1 for ours.
+    /// Its median time over ours with the CPU's best kernel (above 1: ours is faster); 1 for
+    /// that side.
     pub time_over_ours: f64,
     /// Peers only: the coverage check after the first round.
     pub check: Option<CoverageCheck>,
@@ -289,8 +290,16 @@ pub fn bench_occluders(
     for case in cases {
         let cam = &case.set.camera;
         let mut buffer = OcclusionBuffer::new(cam.width, cam.height);
-        let ours_name = format!("sightline {}", buffer.kernel().name());
-        let mut ours_ns = Vec::new();
+        // Ours with the CPU's best kernel and, where that is AVX-512, with AVX2 too (the
+        // kernel of CPUs without AVX-512, to set beside MOC's AVX2 path); the best runs last,
+        // so that the coverage check reads its buffer (every kernel's is the same, bit for bit).
+        let best = buffer.kernel();
+        let kernels: Vec<Kernel> = if best == Kernel::Avx512 {
+            vec![Kernel::Avx2, best]
+        } else {
+            vec![best]
+        };
+        let mut ours_ns = vec![Vec::new(); kernels.len()];
         let mut peer_ns = vec![Vec::new(); peers.len()];
         let mut checks = vec![None; peers.len()];
         let path = case.path.display().to_string();
@@ -304,13 +313,16 @@ pub fn bench_occluders(
                 },
             );
             let reps = options.reps + usize::from(round == 0);
-            for rep in 0..reps {
-                let t = thread_cpu_ns();
-                buffer.clear();
-                buffer.render_occluders(&case.set.triangles, cam);
-                let dt = thread_cpu_ns() - t;
-                if round > 0 || rep > 0 {
-                    ours_ns.push(dt);
+            for (&kernel, ns) in kernels.iter().zip(&mut ours_ns) {
+                buffer.set_kernel(kernel);
+                for rep in 0..reps {
+                    let t = thread_cpu_ns();
+                    buffer.clear();
+                    buffer.render_occluders(&case.set.triangles, cam);
+                    let dt = thread_cpu_ns() - t;
+                    if round > 0 || rep > 0 {
+                        ns.push(dt);
+                    }
                 }
             }
             for (i, peer) in peers.iter_mut().enumerate() {
@@ -325,16 +337,19 @@ pub fn bench_occluders(
                 }
             }
         }
-        let ours = Timing::of_ns(&ours_ns);
+        let timings: Vec<Timing> = ours_ns.iter().map(|ns| Timing::of_ns(ns)).collect();
+        let ours = timings[timings.len() - 1];
         let triangles = case.set.triangles.len() / 3;
-        rows.push(OccluderRow {
-            set: case.name.clone(),
-            triangles,
-            side: ours_name,
-            timing: ours,
-            time_over_ours: 1.0,
-            check: None,
-        });
+        for (kernel, timing) in kernels.iter().zip(timings).rev() {
+            rows.push(OccluderRow {
+                set: case.name.clone(),
+                triangles,
+                side: format!("sightline {}", kernel.name()),
+                timing,
+                time_over_ours: timing.median_s / ours.median_s,
+                check: None,
+            });
+        }
         for (i, peer) in peers.iter().enumerate() {
             let timing = Timing::of_ns(&peer_ns[i]);
             rows.push(OccluderRow {

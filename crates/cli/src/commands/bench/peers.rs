@@ -279,7 +279,8 @@ fn print_occluders(rows: &[OccluderRow], o: &PeerBenchOptions, moc: bool) -> Res
     outln!(
         "Occluder rasterization at 1920x1080, one thread, CPU time per frame (clear + render), \
          median of {} rounds x {} reps (fastest-slowest). `peer/ours`: the side's median time \
-         over ours (above 1: ours is faster).\n",
+         over ours with the CPU's best kernel (above 1: ours is faster); on a CPU with \
+         AVX-512 ours also runs its AVX2 kernel, the one of CPUs without it.\n",
         o.rounds,
         o.reps
     );
