@@ -651,7 +651,11 @@ fn bench_peers_without_harnesses_measures_ours_and_says_so() {
     let rows = json["occluders"].as_array().unwrap();
     // A row per set and kernel of ours: the CPU's best, then AVX2 where the best is AVX-512.
     let sets: Vec<&str> = rows.iter().map(|r| r["set"].as_str().unwrap()).collect();
-    let per_set = if rows[0]["side"] == "sightline avx512" { 2 } else { 1 };
+    let per_set = if rows[0]["side"] == "sightline avx512" {
+        2
+    } else {
+        1
+    };
     assert_eq!(rows.len(), 2 * per_set, "{rows:?}");
     assert!(sets[0].starts_with("random 10 px"), "{sets:?}");
     assert!(sets[rows.len() - 1].ends_with("frame 2"), "{sets:?}");
