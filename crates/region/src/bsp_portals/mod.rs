@@ -13,28 +13,34 @@
 //! - `winding.rs`: convex polygons in f64, cut by planes with a sliver kept.
 //! - `build.rs`: the portal graph of a BSP tree.
 //! - `flow.rs`: the triangles a box may see through it.
+//! - `might.rs`: the leaves a sequence through each portal side might enter, with which the
+//!   walk skips portals that can mark nothing new.
 //!
 //! # Memory and time
 //! The graph: one polygon per portal (a few corners of 24 bytes), one list entry per portal
-//! end; the triangles of each leaf: 4 bytes per (triangle, leaf) pair it touches. A flow
-//! holds one bit per triangle and one path of portal parts; it visits each portal sequence
-//! that survives its cuts once, which is exponential in the worst case, so it gives up after
-//! [`DEFAULT_FLOW_BUDGET`] leaf entries; the merged flow (`flow::merged_flow`) then keeps one
+//! end; the triangles of each leaf: 4 bytes per (triangle, leaf) pair it touches, twice (a
+//! list per leaf and its inverse); one bit per (portal side, leaf) for `might.rs`
+//! (czest3ctf: 5 MB). A flow holds one bit per triangle, one count per leaf and one path of
+//! portal parts, each with a bit per leaf; it visits each portal sequence that survives its
+//! cuts once, which is exponential in the worst case, so it gives up after a fifth of
+//! [`DEFAULT_FLOW_BUDGET`] leaf entries; the merged flow (`flow::merged_from`) then keeps one
 //! part per portal side (two polygons per portal at most) and its work is bounded, at the
-//! price of a looser set.
+//! price of a looser set; and a second walk, pruned against that set, gets the whole budget
+//! (on czest3ctf one of three open cells finishes this way).
 
 mod build;
 mod flow;
+mod might;
 mod winding;
 
 use glam::DVec3;
 use sightline_core::scene::Scene;
 use sightline_core::{Aabb, TriangleSet};
 
-/// Leaf entries the walk of every portal sequence may make before it gives up (about a
-/// second): the shared maps' indoor cells need far fewer, the open areas of czest3ctf more
-/// than ten times as many (docs/BENCHMARKS.md), and there the merged flow goes on from
-/// where the walk stopped.
+/// Leaf entries the walk of every portal sequence may make before it gives up (about 8 s on
+/// czest3ctf's open areas): the shared maps' indoor cells need far fewer (at most 53,000),
+/// the first walk gets a fifth of it, and the walk pruned against the merged flow after it
+/// all of it (docs/BENCHMARKS.md).
 pub const DEFAULT_FLOW_BUDGET: u64 = 500_000;
 
 /// A Quake 3 map's portal graph and the triangles of its leaves, built once per scene.
@@ -42,6 +48,10 @@ pub const DEFAULT_FLOW_BUDGET: u64 = 500_000;
 pub struct BspPortals {
     graph: build::PortalGraph,
     leaf_triangles: Vec<Vec<u32>>,
+    /// The leaves of each triangle (the inverse of `leaf_triangles`).
+    leaves_of: Vec<Vec<u32>>,
+    /// Per portal side, the leaves a sequence through it might enter (`might.rs`).
+    might: Vec<fixedbitset::FixedBitSet>,
     triangles: usize,
 }
 
@@ -73,12 +83,14 @@ impl BspPortals {
             graph: &self.graph,
             leaf_triangles: &self.leaf_triangles,
             corners,
+            might: &self.might,
             steps: 0,
             budget,
-            visible: TriangleSet::with_capacity(self.triangles),
+            marks: flow::Marks::new(self.triangles, &self.leaf_triangles, &self.leaves_of),
             on_path: vec![false; bsp.leaves.len()],
             sources: vec![false; bsp.leaves.len()],
             first_portal_cuts: true,
+            prune: true,
         };
         (flow, sources)
     }
@@ -90,9 +102,18 @@ impl BspPortals {
         let planes = build::node_planes(bsp);
         let graph = build::build(bsp, &planes)?;
         let leaf_triangles = flow::leaf_triangles(bsp, &planes, scene);
+        let mut leaves_of = vec![Vec::new(); scene.triangle_count()];
+        for (leaf, list) in leaf_triangles.iter().enumerate() {
+            for &t in list {
+                leaves_of[t as usize].push(leaf as u32);
+            }
+        }
+        let might = might::might_see(&graph, bsp.leaves.len());
         Some(Self {
             graph,
             leaf_triangles,
+            leaves_of,
+            might,
             triangles: scene.triangle_count(),
         })
     }
@@ -231,6 +252,38 @@ mod tests {
     }
 
     #[test]
+    fn a_walk_pruned_against_the_merged_flow_marks_what_the_whole_walk_marks() {
+        // With a budget whose fifth is too small for the first walk, the second walk (pruned
+        // against the merged flow) finishes on some clusters: its set is the one the walk of
+        // every sequence finds. And pruning changes no set where the first walk finishes.
+        let scene = map();
+        let bsp = scene.bsp.as_deref().unwrap();
+        let p = BspPortals::new(&scene).unwrap();
+        let mut second_walks = 0;
+        for (cluster, b) in boxes(&scene) {
+            let whole = p.visible_from_box(&scene, &b, DEFAULT_FLOW_BUDGET).unwrap();
+            assert!(whole.every_sequence, "cluster {cluster}");
+            let (mut flow, sources) = p.flow(&scene, bsp, &b, DEFAULT_FLOW_BUDGET);
+            flow.prune = false;
+            let (unpruned, walked) = flow.run(&sources);
+            assert!(walked);
+            assert_eq!(unpruned, whole.visible, "cluster {cluster}");
+            // Past the first walk's budget (600 leaf entries) on every cluster here.
+            let (mut flow, sources) = p.flow(&scene, bsp, &b, 3_000);
+            flow.budget = 3_000 / flow::FIRST_WALK_SHARE;
+            let (_, first_alone) = flow.run_first_walk(&sources);
+            assert!(!first_alone, "cluster {cluster}");
+            let small = p.visible_from_box(&scene, &b, 3_000).unwrap();
+            if small.every_sequence {
+                assert_eq!(small.visible, whole.visible, "cluster {cluster}");
+                second_walks += 1;
+            }
+        }
+        // Clusters 35 and 65 when this test was written.
+        assert!(second_walks >= 2, "{second_walks}");
+    }
+
+    #[test]
     fn the_flow_holds_every_triangle_dense_sampling_sees() {
         // 100,000 rays a cell from random points of the cell's cluster, in random directions:
         // every triangle they hit first is in the cell's portal set, which is well below the
@@ -254,11 +307,14 @@ mod tests {
             let merged = p.visible_from_box(&scene, &b, 0).unwrap();
             assert!(!merged.every_sequence);
             let merged = merged.visible;
-            // A budget of a few leaves: the walk stops early and the merged flow goes on from
-            // every portal it left untried.
+            // A budget of a few leaves: both walks stop early, and the set is the merged
+            // flow's.
             let cut = p.visible_from_box(&scene, &b, 3).unwrap();
             assert!(!cut.every_sequence);
             let cut = cut.visible;
+            // A budget too small for the first walk (a fifth of it) on some clusters: the
+            // second walk, pruned against the merged flow, finishes or not.
+            let second = p.visible_from_box(&scene, &b, 3_000).unwrap().visible;
             let size = seen.count_ones(..);
             assert!(
                 size * 2 < scene.triangle_count(),
@@ -288,7 +344,12 @@ mod tests {
                 .map(|h| h.triangle)
                 .collect();
             assert!(hit.len() > 50, "cluster {cluster}: {} hit", hit.len());
-            for (name, set) in [("walk", &seen), ("merged", &merged), ("cut", &cut)] {
+            for (name, set) in [
+                ("walk", &seen),
+                ("merged", &merged),
+                ("cut", &cut),
+                ("second walk", &second),
+            ] {
                 let missed: Vec<u32> = hit
                     .iter()
                     .copied()
