@@ -606,8 +606,8 @@ fn mark_seen(
 /// and the walk from it is redone whenever that hull grows. Looser than the walk of every
 /// sequence (a hull holds segments no sequence carries, and no leaf is barred for being on
 /// the path), but its work is bounded: hulls only grow, inside their portals, each time by
-/// more than [`GROW`]. It goes on from `seeds`, where the walk of every sequence stopped,
-/// with what that walk saw in `visible`.
+/// more than [`GROW`]. It starts from `seeds` (the sources' portals), with what is already
+/// marked in `marks`.
 fn merged_from(flow: &Flow<'_>, mut marks: Marks<'_>, seeds: Vec<Seed>) -> TriangleSet {
     let graph = flow.graph;
     let mut hulls: Vec<Option<Vec<DVec3>>> = vec![None; 2 * graph.portals.len()];

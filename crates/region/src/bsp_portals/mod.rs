@@ -125,9 +125,10 @@ impl BspPortals {
 
     /// Every triangle of `scene` (the scene these portals were built for) that may be seen
     /// from a point of the box `bounds` through the map's portals: every portal sequence
-    /// walked while `budget` leaf entries last, the merged flow from where that walk stopped
-    /// after. `None` when the scene is another (its triangle count differs) or has no BSP, or
-    /// the box is not finite.
+    /// walked while a fifth of `budget` leaf entries last; past that, every sequence walked
+    /// again with the whole budget, pruned against the merged flow, or that merged flow when
+    /// the budget runs out again. `None` when the scene is another (its triangle count
+    /// differs) or has no BSP, or the box is not finite.
     pub fn visible_from_box(
         &self,
         scene: &Scene,
@@ -155,8 +156,8 @@ impl BspPortals {
 pub struct PortalView {
     /// The triangles the box may see.
     pub visible: TriangleSet,
-    /// True when every portal sequence was walked within the budget; false when the merged
-    /// flow (one part per portal side, looser) went on where the walk stopped.
+    /// True when every portal sequence was walked within the budget; false when the set is
+    /// the merged flow's (one part per portal side, looser).
     pub every_sequence: bool,
 }
 

@@ -102,19 +102,15 @@ unsafe fn render_batches<const WIDE: bool>(
         }
         for l in 0..n {
             let bit = 1 << l;
-            let (from, lane) = if draw & bit != 0 {
-                (&setup, l)
+            if draw & bit != 0 {
+                // SAFETY: with `WIDE` the CPU supports AVX-512 (this function's contract).
+                unsafe { draw_one::<WIDE>(tiles, &grid, &setup, l) };
             } else if clipped & bit != 0 {
                 for (piece, lane) in fans.pieces_of(l) {
-                    // SAFETY: as below.
+                    // SAFETY: as above.
                     unsafe { draw_one::<WIDE>(tiles, &grid, piece, lane) };
                 }
-                continue;
-            } else {
-                continue;
-            };
-            // SAFETY: with `WIDE` the CPU supports AVX-512 (this function's contract).
-            unsafe { draw_one::<WIDE>(tiles, &grid, from, lane) };
+            }
         }
     }
 }
