@@ -125,16 +125,31 @@ pub(super) fn raster_blocks(blocks: &mut [Block], g: &BlockGrid, t: &Setup8, l: 
     let zero = _mm256_setzero_si256();
     let (bbox_bx0, bbox_bx1) = (tri.col0 as u32 / 32, tri.col1 as u32 / 32);
     let last_bx = g.last_tx / 4;
-    for by in tri.row0 as u32 / (2 * TILE_H)..=tri.row1 as u32 / (2 * TILE_H) {
-        let block_row = &mut blocks[(by * g.blocks_x) as usize..][..g.blocks_x as usize];
+    let (by0, by1) = (
+        tri.row0 as u32 / (2 * TILE_H),
+        tri.row1 as u32 / (2 * TILE_H),
+    );
+    // Every block the rows below touch lies in the buffer (the bounding box is clamped to the
+    // image): checked once here, so that the loops index the rows without checks.
+    assert!(bbox_bx1 < g.blocks_x && ((by1 + 1) * g.blocks_x) as usize <= blocks.len());
+    for by in by0..by1 + 1 {
+        // SAFETY: row `by <= by1` is in `blocks` (asserted above), and every index into it
+        // below is at most `bbox_bx1 < blocks_x` (`row_spans` keeps to the bounding box).
+        let block_row = unsafe {
+            std::slice::from_raw_parts_mut(
+                blocks.as_mut_ptr().add((by * g.blocks_x) as usize),
+                g.blocks_x as usize,
+            )
+        };
         // The first block of the bounding box that does not lie behind the triangle; the
         // row is done when there is none. Most blocks looked at here are behind the
         // triangle's nearest corner (a hidden triangle's are), so that test comes first, and
         // the depth plane's rows are set up only when a block needs its bound.
         let mut plane: Option<BlockRowDepth> = None;
-        let first_open = (bbox_bx0..=bbox_bx1).find(|&bx| {
-            // SAFETY: an aligned load of the 32-byte `z0` array of a `#[repr(align(32))]` block.
-            let z0 = unsafe { load_z0(&block_row[bx as usize]) };
+        let first_open = (bbox_bx0..bbox_bx1 + 1).find(|&bx| {
+            // SAFETY: `bx <= bbox_bx1` lies in the row (asserted above); an aligned load of the
+            // 32-byte `z0` array of a `#[repr(align(32))]` block.
+            let z0 = unsafe { load_z0(block_row.get_unchecked(bx as usize)) };
             let behind_near = _mm256_cmp_ps::<_CMP_LE_OQ>(tri.r_near, z0);
             if _mm256_movemask_ps(behind_near) == 0xFF {
                 return false;
@@ -155,8 +170,9 @@ pub(super) fn raster_blocks(blocks: &mut [Block], g: &BlockGrid, t: &Setup8, l: 
             continue;
         };
         let (mut rel_a, mut rel_b) = (rel_a, rel_b);
-        for bx in bx0..=bx1 {
-            let block = &mut block_row[bx as usize];
+        for bx in bx0..bx1 + 1 {
+            // SAFETY: `bx0..=bx1` lies in the bounding box (`row_spans`), so in the row.
+            let block = unsafe { block_row.get_unchecked_mut(bx as usize) };
             // SAFETY: as above.
             let z0 = unsafe { load_z0(block) };
             let skip = bx < first_open || (bx > first_open && depth.behind(&tri, bx, z0));

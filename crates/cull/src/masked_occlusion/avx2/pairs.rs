@@ -107,7 +107,7 @@ avx512! {
             (tri.col1 as u32 / 32) < g.blocks_x
                 && ((by1 + 2) * g.blocks_x) as usize <= blocks.len()
         );
-        for by in (by0..=by1).step_by(2) {
+        for by in (by0..by1 + 1).step_by(2) {
             // SAFETY: rows `by` and `by + 1` are in the storage (asserted above).
             unsafe { pair_row(blocks, g, &tri, by, by < by1) };
         }
@@ -132,7 +132,7 @@ avx512! {
         // nearest corner (a hidden triangle's are), so that test comes first, and the depth
         // plane's rows are set up only when a block needs its bound.
         let mut plane: Option<PairDepth> = None;
-        let first_open = (bbox_bx0..=bbox_bx1).find(|&bx| {
+        let first_open = (bbox_bx0..bbox_bx1 + 1).find(|&bx| {
             // SAFETY: `bx` is in the bounding box (this function's contract).
             let z0 = unsafe { pair(bx).load_z0() };
             let behind_near = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(tri.r_near, z0) | !lanes;
@@ -156,7 +156,7 @@ avx512! {
             return;
         };
         let (mut rel_a, mut rel_b) = (rel_a, rel_b);
-        for bx in bx0..=bx1 {
+        for bx in bx0..bx1 + 1 {
             let blocks = pair(bx);
             // SAFETY: `bx0..=bx1` lies in the bounding box (`pair_spans`).
             let z0 = unsafe { blocks.load_z0() };
