@@ -344,7 +344,7 @@ impl<'a> Flow<'a> {
         let budget = self.budget;
         self.budget = budget / FIRST_WALK_SHARE;
         if self.walk_all(&first_seeds) {
-            return (self.take_marks().visible, true);
+            return (self.marks.visible, true);
         }
         self.budget = budget;
         // Past the budget: the merged flow from the sources' portals, a looser set that no
@@ -360,7 +360,7 @@ impl<'a> Flow<'a> {
         self.marks.limit_to(&loose, self.leaf_triangles);
         self.steps = 0;
         if self.walk_all(&first_seeds) {
-            (self.take_marks().visible, true)
+            (self.marks.visible, true)
         } else {
             (loose, false)
         }
@@ -392,27 +392,16 @@ impl<'a> Flow<'a> {
     pub(crate) fn run_first_walk(mut self, sources: &[usize]) -> (TriangleSet, bool) {
         let seeds = self.start(sources);
         let walked = self.walk_all(&seeds);
-        (self.take_marks().visible, walked)
+        (self.marks.visible, walked)
     }
 
     /// Walks every sequence from `seeds` until the budget runs out; true when it did not.
     fn walk_all(&mut self, seeds: &[Seed]) -> bool {
+        // A walk that ran out left its sequence's leaves marked as on the path.
         self.on_path.fill(false);
-        let mut left = Vec::new();
-        for seed in seeds {
-            if !left.is_empty() {
-                return false;
-            }
-            if !self.nothing_new(None, seed.0) {
-                self.walk(seed.clone(), &mut left);
-            }
-        }
-        left.is_empty()
-    }
-
-    /// The marks, leaving empty ones.
-    fn take_marks(&mut self) -> Marks<'a> {
-        std::mem::replace(&mut self.marks, Marks::copy_of(&TriangleSet::new()))
+        seeds
+            .iter()
+            .all(|seed| self.nothing_new(None, seed.0) || self.walk(seed))
     }
 
     /// Whether a sequence through portal side `side`, after the portals of `path` (the
@@ -426,18 +415,17 @@ impl<'a> Flow<'a> {
     }
 
     /// Walks every portal sequence from `seed`, depth first with an explicit stack (a
-    /// sequence may be as long as the map has leaves). Past the budget, what is left to walk
-    /// goes to `left` as seeds, each with the part of its portal the walk would have entered.
-    fn walk(&mut self, seed: Seed, left: &mut Vec<Seed>) {
+    /// sequence may be as long as the map has leaves); false when the budget ran out first.
+    fn walk(&mut self, seed: &Seed) -> bool {
         // Every segment of the sequences from this seed crosses its portal (it leaves the
         // sources there for the last time): past the first leaf, the cuts separate the part
         // from that portal as well as from the box.
         let source = self.first_portal_cuts.then(|| seed.1.clone());
         let might = self.might[seed.0].clone();
-        let mut stack = match self.enter(&seed, source, might) {
-            Some(frame) => vec![frame],
-            None => return left.push(seed),
+        let Some(frame) = self.enter(seed, source, might) else {
+            return false;
         };
+        let mut stack = vec![frame];
         loop {
             let depth = stack.len();
             let Some(frame) = stack.last_mut() else {
@@ -479,31 +467,12 @@ impl<'a> Flow<'a> {
             };
             let mut might = frame.might.clone();
             might.intersect_with(&self.might[side]);
-            let seed = (side, part);
-            match self.enter(&seed, source, might) {
+            match self.enter(&(side, part), source, might) {
                 Some(entered) => stack.push(entered),
-                None => {
-                    // Out of budget: this seed, and the untried portals of every leaf on the
-                    // sequence, for the merged flow.
-                    left.push(seed);
-                    for f in &stack {
-                        self.on_path[f.leaf] = false;
-                        for &q in &self.graph.of_leaf[f.leaf][f.next_portal..] {
-                            let portal = &self.graph.portals[q];
-                            let next = portal.other(f.leaf);
-                            if self.sources[next] || !is_empty(self.bsp, next) {
-                                continue;
-                            }
-                            let part = reachable_part(&portal.winding, f.beyond.as_ref(), &f.seps);
-                            if !part.is_empty() {
-                                left.push((side_into(self.graph, q, next), part));
-                            }
-                        }
-                    }
-                    return;
-                }
+                None => return false,
             }
         }
+        true
     }
 
     /// Enters a leaf through a seed: marks the triangles seen in it and returns its frame
