@@ -691,6 +691,21 @@ fn bench_peers_rejects_zero_rounds_and_a_missing_harness() {
         dir.path(),
     );
     assert_fails_with(&o, "could not start /nonexistent/moc");
+    let o = sightline(
+        &[
+            "bench",
+            "peers",
+            "--no-rays",
+            "--legs",
+            "10",
+            "--cull-scenes",
+            "",
+            "--moc-accurate",
+            "/nonexistent/moc-accurate",
+        ],
+        dir.path(),
+    );
+    assert_fails_with(&o, "could not start /nonexistent/moc-accurate");
 }
 
 #[test]
