@@ -27,12 +27,6 @@ pub(super) struct PeersArgs {
     /// Without it, no MOC columns.
     #[arg(long, value_name = "PROGRAM")]
     moc: Option<PathBuf>,
-    /// The same harness built with `-DQUICK_MASK=0` (`scripts/peer-bench` builds it too): MOC
-    /// with the tile merge of Andersson et al. 2015, the one ours implements, where MOC's
-    /// default is the cheaper "quick mask" of its 2016 paper. Adds its AVX2 and AVX-512 rows,
-    /// so that the merge is compared like for like beside MOC's default.
-    #[arg(long, value_name = "PROGRAM")]
-    moc_accurate: Option<PathBuf>,
     /// The built tinybvh harness (`bench/peers/tinybvh_harness.cpp`). Without it, no tinybvh
     /// rows.
     #[arg(long, value_name = "PROGRAM")]
@@ -115,11 +109,7 @@ fn run_in(args: &PeersArgs, options: &PeerBenchOptions, dir: &Path) -> Result<()
     let mut occluder_rows = Vec::new();
     if !args.no_occluders {
         occluder_rows = occluders(args, options, dir)?;
-        print_occluders(
-            &occluder_rows,
-            options,
-            args.moc.is_some() || args.moc_accurate.is_some(),
-        )?;
+        print_occluders(&occluder_rows, options, args.moc.is_some())?;
     }
     let mut ray_rows = Vec::new();
     if !args.no_rays {
@@ -178,19 +168,9 @@ fn occluders(args: &PeersArgs, options: &PeerBenchOptions, dir: &Path) -> Result
         cases.push(export_case(dir, &name, triangles, camera)?);
     }
     let mut peers = Vec::new();
-    let mocs = [
-        (&args.moc, ["MOC AVX2", "MOC AVX-512"]),
-        (
-            &args.moc_accurate,
-            ["MOC AVX2, accurate merge", "MOC AVX-512, accurate merge"],
-        ),
-    ];
-    for (program, names) in mocs {
-        let Some(program) = program else {
-            continue;
-        };
-        for (arg, name) in ["avx2", "avx512"].into_iter().zip(names) {
-            let (peer, hello) = PeerProcess::spawn(name, program, &[arg])?;
+    if let Some(moc) = &args.moc {
+        for (arg, name) in [("avx2", "MOC AVX2"), ("avx512", "MOC AVX-512")] {
+            let (peer, hello) = PeerProcess::spawn(name, moc, &[arg])?;
             eprintln!("{name}: {hello}");
             peers.push(peer);
         }
