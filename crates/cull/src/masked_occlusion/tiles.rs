@@ -174,7 +174,13 @@ impl Tiles {
 /// Andersson et al. 2015, section 3: when the new triangle is much nearer than the working
 /// layer (farther from it than the working layer is from the reference layer), the working
 /// layer is dropped and restarted from the triangle, otherwise the triangle joins it at the
-/// farther of the two depths. A full working mask becomes the new reference layer.
+/// farther of the two depths. A full working mask becomes the new reference layer. This is
+/// also the "quick mask" update of Hasselgren et al. 2016, section 3 (Intel's MOC builds it
+/// by default, `QUICK_MASK 1`).
+///
+/// A triangle that covers the whole tile drops the working layer too (as MOC does): every
+/// pixel then lies at `r` or nearer, so the tile's reference layer becomes `r` itself, where
+/// joining would make it the farther of `r` and the working layer's depth.
 ///
 /// While the reference layer is still clear (`z0 = 0`: nothing known), the working layer is
 /// never dropped: dropping it would forget the pixels it covers, with no reference layer to
@@ -188,7 +194,7 @@ pub(super) fn update_tile(tile: &mut Tile, cov: u32, r: f32) {
         // Nothing nearer than what every pixel already has.
         return;
     }
-    if tile.mask == 0 || (tile.z0 > 0.0 && r - tile.z1 > tile.z1 - tile.z0) {
+    if tile.mask == 0 || cov == FULL || (tile.z0 > 0.0 && r - tile.z1 > tile.z1 - tile.z0) {
         tile.z1 = r;
         tile.mask = cov;
     } else {
@@ -225,6 +231,21 @@ mod tests {
         update_tile(&mut t, 0x0000_00FF, 0.1);
         update_tile(&mut t, 0x0000_FF00, 0.9);
         assert_eq!((t.mask, t.z1), (0x0000_FF00, 0.9));
+    }
+
+    #[test]
+    fn tile_update_takes_a_whole_tile_triangle_as_reference_layer() {
+        let mut t = CLEAR_TILE;
+        update_tile(&mut t, FULL, 0.05);
+        // A far working layer over half the tile, then a nearer triangle over all of it, not
+        // much nearer: joining would make the reference layer the working layer's 0.1.
+        update_tile(&mut t, 0x0000_FFFF, 0.1);
+        update_tile(&mut t, FULL, 0.12);
+        assert_eq!((t.z0, t.z1, t.mask), (0.12, 0.0, 0));
+        // A partial triangle at that depth still joins (the reference layer stays).
+        update_tile(&mut t, 0x0000_FFFF, 0.2);
+        update_tile(&mut t, 0xFFFF_0000, 0.15);
+        assert_eq!((t.z0, t.mask), (0.15, 0));
     }
 
     #[test]

@@ -455,13 +455,14 @@ fn merge_block(block: &mut Block, z0: __m256, cov: __m256i, r: __m256, all: __m2
     // Unchanged: nothing covered, or not nearer than the reference layer (or NaN).
     let nearer = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(r, z0));
     let keep = _mm256_or_si256(_mm256_cmpeq_epi32(cov, zero), _mm256_xor_si256(nearer, all));
-    // Dropped: no working layer, or (with a reference layer) much nearer than it.
+    // Dropped: no working layer, the triangle covers the whole tile, or (with a reference
+    // layer) it is much nearer than the working layer (`tiles::update_tile`).
     let much_nearer = _mm256_and_ps(
         _mm256_cmp_ps::<_CMP_GT_OQ>(z0, _mm256_setzero_ps()),
         _mm256_cmp_ps::<_CMP_GT_OQ>(_mm256_sub_ps(r, z1), _mm256_sub_ps(z1, z0)),
     );
     let discard = _mm256_or_si256(
-        _mm256_cmpeq_epi32(m, zero),
+        _mm256_or_si256(_mm256_cmpeq_epi32(m, zero), _mm256_cmpeq_epi32(cov, all)),
         _mm256_castps_si256(much_nearer),
     );
     // `min` without a NaN select: neither `z1` nor `r` is NaN in a lane that changes.

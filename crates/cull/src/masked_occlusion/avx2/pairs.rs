@@ -430,13 +430,16 @@ avx512! {
         // Changed: covered, and nearer than the reference layer (not NaN). The other lanes
         // keep their three fields, which every select below does by masking with `update`.
         let update = _mm512_mask_cmp_ps_mask::<_CMP_GT_OQ>(_mm512_test_epi32_mask(cov, cov), r, z0);
-        // Dropped: no working layer, or (with a reference layer) much nearer than it.
+        // Dropped: no working layer, the triangle covers the whole tile, or (with a reference
+        // layer) it is much nearer than the working layer (`tiles::update_tile`).
         let much_nearer = _mm512_mask_cmp_ps_mask::<_CMP_GT_OQ>(
             _mm512_cmp_ps_mask::<_CMP_GT_OQ>(z0, _mm512_setzero_ps()),
             _mm512_sub_ps(r, z1),
             _mm512_sub_ps(z1, z0),
         );
-        let discard = _mm512_testn_epi32_mask(m, m) | much_nearer;
+        let discard = _mm512_testn_epi32_mask(m, m)
+            | _mm512_cmpeq_epi32_mask(cov, _mm512_set1_epi32(-1))
+            | much_nearer;
         // `min` without a NaN select: neither `z1` nor `r` is NaN in a lane that changes.
         let z1n = _mm512_mask_mov_ps(_mm512_min_ps(z1, r), discard, r);
         let mn = _mm512_mask_or_epi32(cov, !discard, m, cov);
