@@ -183,11 +183,12 @@ impl Tiles {
 /// joining would make it the farther of `r` and the working layer's depth.
 ///
 /// While the reference layer is still clear (`z0 = 0`: nothing known), the working layer is
-/// never dropped: dropping it would forget the pixels it covers, with no reference layer to
-/// fall back to, and with `z0 = 0` the distance test drops it whenever the new triangle is
-/// twice as near (in `1/z`), which on scattered small occluders lost a quarter of the covered
-/// pixels. (Masked Software Occlusion Culling, 2016, gets the same effect by clearing its
-/// reference layer to a value beyond infinity.)
+/// never dropped for a triangle that leaves a pixel of the tile uncovered (one that covers
+/// them all forgets nothing): dropping it would forget the pixels it covers, with no
+/// reference layer to fall back to, and with `z0 = 0` the distance test drops it whenever the
+/// new triangle is twice as near (in `1/z`), which on scattered small occluders lost a quarter
+/// of the covered pixels. (Masked Software Occlusion Culling, 2016, gets the same effect by
+/// clearing its reference layer to a value beyond infinity.)
 #[inline(always)]
 pub(super) fn update_tile(tile: &mut Tile, cov: u32, r: f32) {
     if r.is_nan() || r <= tile.z0 {
