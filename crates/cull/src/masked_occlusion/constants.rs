@@ -12,7 +12,7 @@ pub const TILE_H: u32 = 4;
 pub const DEPTH_SLACK: f32 = 2e-5;
 /// Margin in pixels of [`OcclusionBuffer::covers_pixel_centre`]: far above the `f32` error of
 /// screen positions inside the guard band (about 1/100 px at 1920x1080, see
-/// `project::GUARD`) and the reference rasterizer's snapping of vertices to 1/256 px.
+/// `project::GUARD_PX`) and the reference rasterizer's snapping of vertices to 1/256 px.
 ///
 /// [`OcclusionBuffer::covers_pixel_centre`]: super::OcclusionBuffer::covers_pixel_centre
 pub const COVER_MARGIN: f32 = 1.0 / 16.0;

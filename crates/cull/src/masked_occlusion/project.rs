@@ -12,14 +12,25 @@
 use glam::Vec3;
 use sightline_core::{Aabb, Camera};
 
-/// Triangles are clipped to a guard band of this many half-screens around the centre. At
-/// 1920x1080 screen coordinates then stay below 2^14, where `f32` steps are 1/1024 px and the
-/// spans are accurate to about 1/100 px (1/50 px at 3840x2160), far inside the tests'
-/// `COVER_MARGIN`. Measured side by side (twenty-fourth session, BENCHMARKS): 8 half-screens
+/// Triangles are clipped to a guard band of this many half-screens around the centre, up to
+/// [`GUARD_PX`]. Measured side by side (twenty-fourth session, BENCHMARKS): 8 half-screens
 /// instead of 4 send fewer of the large triangles next to the camera through the clipper
 /// (czest3ctf frame 1.5-3.4 % faster, the city's 0-2.7 %, random sets unchanged); 16 gained
 /// nothing more, 2 and 1.25 cost 5-27 %.
-pub(super) const GUARD: f32 = 8.0;
+const GUARD: f32 = 8.0;
+
+/// The guard band reaches at most this many pixels from the centre, which keeps screen
+/// coordinates of buffers up to 32,768 px wide within 2^15, where `f32` steps are 1/256 px and
+/// the spans are accurate to a few hundredths of a pixel, inside the tests' `COVER_MARGIN`; at
+/// 1920x1080 (8 half-screens, at most 8,640 px) they are accurate to about 1/100 px. From
+/// 4,096 px wide on, the band is this cap: 4 half-screens at 8,192 px (as every width had
+/// before the twenty-fourth session), fewer beyond.
+const GUARD_PX: f32 = 16_384.0;
+
+/// The guard band in half-screens for a screen `half` pixels from the centre to its edge.
+fn guard_half_screens(half: f32) -> f32 {
+    GUARD.min(GUARD_PX / half)
+}
 
 /// World to screen mapping of a camera onto the buffer's pixel grid.
 #[derive(Clone, Copy, Debug)]
@@ -34,8 +45,9 @@ pub(super) struct Projector {
     pub ky: f32,
     pub cx: f32,
     pub cy: f32,
-    pub tan_x: f32,
-    pub tan_y: f32,
+    /// The guard band's half-width and half-height per unit of view depth.
+    pub guard_x: f32,
+    pub guard_y: f32,
 }
 
 /// One occluder or query triangle after the view transform, sorted by what drawing it needs.
@@ -65,8 +77,8 @@ impl Projector {
             ky: cy / tan_y,
             cx,
             cy,
-            tan_x,
-            tan_y,
+            guard_x: guard_half_screens(cx) * tan_x,
+            guard_y: guard_half_screens(cy) * tan_y,
         }
     }
 
@@ -88,9 +100,7 @@ impl Projector {
     /// True when a view point needs no clipping: in front of the near plane, inside the guard band.
     #[inline(always)]
     pub fn inside_guard(&self, v: Vec3) -> bool {
-        v.z >= self.near
-            && v.x.abs() <= GUARD * self.tan_x * v.z
-            && v.y.abs() <= GUARD * self.tan_y * v.z
+        v.z >= self.near && v.x.abs() <= self.guard_x * v.z && v.y.abs() <= self.guard_y * v.z
     }
 
     /// The triangle with world corners `t[0..3]` in view space, sorted by what drawing it
@@ -167,8 +177,7 @@ impl Projector {
 
     /// The clipping planes in view space (`inside` when `dot >= 0` on `(x, y, z, 1)`).
     fn planes(&self) -> [[f32; 4]; 5] {
-        let gx = GUARD * self.tan_x;
-        let gy = GUARD * self.tan_y;
+        let (gx, gy) = (self.guard_x, self.guard_y);
         [
             [0.0, 0.0, 1.0, -self.near],
             [-1.0, 0.0, gx, 0.0],
@@ -254,4 +263,27 @@ pub(super) fn floor_i(x: f32) -> i32 {
 pub(super) fn ceil_i(x: f32) -> i32 {
     let i = x as i32;
     i + i32::from(x > i as f32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn guard_band_keeps_screen_coordinates_below_two_to_the_fifteen() {
+        for width in [64u32, 640, 1920, 3840, 4096, 8192, 16_384, 32_768] {
+            let half = width as f32 * 0.5;
+            let band = guard_half_screens(half);
+            // The farthest screen coordinate inside the band.
+            assert!(
+                half + band * half <= 32_768.0,
+                "{width}: {band} half-screens"
+            );
+            // Common sizes get the full band; the band never cuts into the screen.
+            if width <= 3840 {
+                assert_eq!(band, GUARD, "{width}");
+            }
+            assert!(band >= 1.0, "{width}: {band} half-screens");
+        }
+    }
 }

@@ -16,7 +16,7 @@ use std::arch::x86_64::*;
 
 use glam::Vec3;
 
-use super::project::{Projector, GUARD};
+use super::project::Projector;
 use super::raster_kernel::RasterKernel;
 use super::tiles::Tiles;
 
@@ -225,8 +225,8 @@ impl Camera8 {
             eye: [set1(proj.eye.x), set1(proj.eye.y), set1(proj.eye.z)],
             axes: [proj.right, proj.up, proj.forward].map(|a| (set1(a.x), set1(a.y), set1(a.z))),
             near: set1(proj.near),
-            gx: set1(GUARD * proj.tan_x),
-            gy: set1(GUARD * proj.tan_y),
+            gx: set1(proj.guard_x),
+            gy: set1(proj.guard_y),
             kx: set1(proj.kx),
             nky: set1(-proj.ky),
             cx: set1(proj.cx),
