@@ -427,6 +427,7 @@ avx512! {
         // SAFETY: the blocks are in the buffer (this function's contract).
         let (z1, m) = unsafe { (p.load(offset_of!(Block, z1)), p.load(offset_of!(Block, mask))) };
         let m = _mm512_castps_si512(m);
+        let all = _mm512_set1_epi32(-1);
         // Changed: covered, and nearer than the reference layer (not NaN). The other lanes
         // keep their three fields, which every select below does by masking with `update`.
         let update = _mm512_mask_cmp_ps_mask::<_CMP_GT_OQ>(_mm512_test_epi32_mask(cov, cov), r, z0);
@@ -438,12 +439,12 @@ avx512! {
             _mm512_sub_ps(z1, z0),
         );
         let discard = _mm512_testn_epi32_mask(m, m)
-            | _mm512_cmpeq_epi32_mask(cov, _mm512_set1_epi32(-1))
+            | _mm512_cmpeq_epi32_mask(cov, all)
             | much_nearer;
         // `min` without a NaN select: neither `z1` nor `r` is NaN in a lane that changes.
         let z1n = _mm512_mask_mov_ps(_mm512_min_ps(z1, r), discard, r);
         let mn = _mm512_mask_or_epi32(cov, !discard, m, cov);
-        let full = _mm512_mask_cmpeq_epi32_mask(update, mn, _mm512_set1_epi32(-1));
+        let full = _mm512_mask_cmpeq_epi32_mask(update, mn, all);
         // A full working layer becomes the reference layer, and the working layer restarts.
         let z0n = _mm512_mask_mov_ps(z0, full, z1n);
         let z1n = _mm512_mask_mov_ps(_mm512_mask_mov_ps(z1, update, z1n), full, _mm512_setzero_ps());
