@@ -112,7 +112,14 @@ fn main() {
 /// tenants of a shared machine take wall time, not this thread's CPU time.
 fn timings(scene: &Scene, bvh: &Bvh, rays: &[Ray]) -> String {
     #[cfg(feature = "embree")]
-    let embree = sightline_core::trace::EmbreeCaster::build(scene).expect("embree builds");
+    let embree = {
+        // Embree on one build thread: compare with ours under `RAYON_NUM_THREADS=1`.
+        let start = Instant::now();
+        let e = sightline_core::trace::EmbreeCaster::build_with_threads(scene, 1)
+            .expect("embree builds");
+        eprint!(" [Embree build {:.3} s]", start.elapsed().as_secs_f64());
+        e
+    };
     #[cfg(not(feature = "embree"))]
     let _ = scene;
     #[cfg(feature = "embree")]

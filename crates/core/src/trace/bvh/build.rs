@@ -1,34 +1,32 @@
 //! The binary tree under [`super::Bvh`]: a binned-SAH build over the triangles' boxes, in
 //! parallel (`rayon::join` per subtree, parallel binning of large nodes), with an object-median
-//! fallback that bounds the depth. `collapse.rs` turns the result into wide nodes.
+//! fallback that bounds the depth, and where asked spatial splits (`spatial.rs`): a node may
+//! split its triangles' references by a plane rather than sort them to one side, within a
+//! budget of extra references that each node shares out to its children as spare room at the
+//! end of its run. `collapse.rs` turns the result into wide nodes.
 //!
 //! Based on: Wald. On fast construction of SAH-based bounding volume hierarchies. 2007
 //! (binned SAH build, 16 bins, bins keep bounds and centroid bounds so children need no extra pass).
+//! Based on: Stich, Friedrich, Dietrich. Spatial splits in bounding volume hierarchies. HPG 2009
+//! (the choice between an object and a spatial split per node, tried only where the object
+//! split's children overlap).
 
 use glam::Vec3A;
-use rayon::prelude::*;
 
 use crate::geometry::Aabb;
+
+use super::refs::{
+    bin_in_parallel, packet_lanes, share_room, split_cost, summarize, Bin, Content, Corners,
+    Division, Merge, PrimRef, INTERSECT_COST,
+};
+use super::spatial;
 
 /// Number of SAH bins per axis (Wald 2007 finds 16 close to a full sweep in quality).
 const BINS: usize = 16;
 /// Largest leaf; bigger nodes are always split.
 pub(super) const MAX_LEAF: usize = 8;
-/// SAH cost of visiting an inner node (testing its two child boxes), relative to one triangle
-/// test. Tuned on the 600k-triangle random-box bench scene: 1.0 gives 1-2 triangles per leaf
-/// and 96 bytes per triangle; 2.0 gives 68 bytes per triangle and ~15% more incoherent
-/// throughput at ~10% less coherent throughput (single thread, noisy shared machine).
-const TRAVERSAL_COST: f32 = 3.0;
-/// SAH cost of one watertight triangle test. Leaves and split sides are costed by the packet
-/// lanes their triangles take ([`packet_lanes`]), not by their triangles: five triangles cost
-/// two packets, as many as eight. Against counting triangles this took 57-61 bytes per
-/// triangle instead of 61-68 on the shared scenes and 1.03 packets per incoherent ray instead
-/// of 1.24 on the dragon, at the same speed within the noise (2026-12-05).
-const INTERSECT_COST: f32 = 1.0;
 /// Subtrees with at least this many triangles are built as a `rayon::join` task.
 const PARALLEL_BUILD: usize = 4096;
-/// Nodes with at least this many triangles bin them in parallel.
-pub(super) const PARALLEL_BIN: usize = 1 << 16;
 /// Below this depth splits follow the SAH; deeper nodes split at the object median, which
 /// bounds the tree depth by `MAX_SAH_DEPTH + 32` and so the traversal stack.
 pub(super) const MAX_SAH_DEPTH: u32 = 40;
@@ -75,113 +73,61 @@ impl Node {
 pub(super) struct NodePair(pub(super) [Node; 2]);
 
 /// The binary tree over the usable triangles: its root, the pairs its inner nodes point to, and
-/// the triangle ids in leaf order (a leaf's `first` indexes `ids`).
+/// the triangle ids in leaf order (a leaf's `first` indexes `ids`). With spatial splits a
+/// triangle may sit in several leaves, and `ids` has unused slots (`refs::UNUSED`) that no leaf
+/// covers.
 pub(super) struct BinaryTree {
     pub(super) root: Node,
     pub(super) pairs: Vec<NodePair>,
     pub(super) ids: Vec<u32>,
+    /// Distinct triangles in the tree.
+    pub(super) triangles: usize,
 }
 
 /// Builds the binary tree over the triangles whose box in `boxes` (indexed by triangle id) is
-/// not empty; `None` when there are none.
-pub(super) fn binary_tree(boxes: &[Aabb]) -> Option<BinaryTree> {
-    let mut ids: Vec<u32> = (0..boxes.len() as u32)
+/// not empty; `None` when there are none. With `splits`, nodes may split references by
+/// planes through the triangles' corners (`spatial.rs`), up to [`SPLIT_BUDGET`] more
+/// references than triangles.
+pub(super) fn binary_tree(boxes: &[Aabb], splits: Option<Corners>) -> Option<BinaryTree> {
+    let mut refs: Vec<PrimRef> = (0..boxes.len() as u32)
         .filter(|&i| !boxes[i as usize].is_empty())
+        .map(|i| PrimRef::new(&boxes[i as usize], i))
         .collect();
-    if ids.is_empty() {
+    let triangles = refs.len();
+    if triangles == 0 {
         return None;
     }
-    let input = BuildInput::new(boxes);
-    let content = summarize(&input, &ids);
-    let mut pairs = vec![NodePair::default(); ids.len() - 1];
-    let root = build_node(&input, &mut ids, 0, content, &mut pairs, 0, 0);
-    Some(BinaryTree { root, pairs, ids })
-}
-
-/// Bounds, centroid bounds and count of a set of triangles: a node's content.
-#[derive(Clone, Copy, Debug)]
-struct Content {
-    bounds: Aabb,
-    centroids: Aabb,
-    count: usize,
-}
-
-impl Content {
-    const EMPTY: Content = Content {
-        bounds: Aabb::EMPTY,
-        centroids: Aabb::EMPTY,
-        count: 0,
+    let content = summarize(&refs);
+    let capacity = match splits {
+        Some(_) => triangles + (triangles as f64 * SPLIT_BUDGET) as usize,
+        None => triangles,
     };
-
-    fn merge(&self, o: &Content) -> Content {
-        Content {
-            bounds: self.bounds.union(&o.bounds),
-            centroids: self.centroids.union(&o.centroids),
-            count: self.count + o.count,
-        }
-    }
-}
-
-/// Bounds and count of the triangles in one bin: what the SAH sweep needs. The children's
-/// centroid bounds are gathered by the partition instead, once, rather than per axis here.
-/// SIMD corners (`Vec3A`), so a union is two instructions.
-#[derive(Clone, Copy, Debug)]
-struct Bin {
-    min: Vec3A,
-    max: Vec3A,
-    count: usize,
-}
-
-impl Bin {
-    const EMPTY: Bin = Bin {
-        min: Vec3A::INFINITY,
-        max: Vec3A::NEG_INFINITY,
-        count: 0,
+    refs.resize(capacity, PrimRef::UNUSED);
+    let input = BuildInput {
+        splits,
+        root_area: content.bounds.surface_area(),
     };
-
-    #[inline(always)]
-    fn add(&mut self, b: &[Vec3A; 2]) {
-        self.min = self.min.min(b[0]);
-        self.max = self.max.max(b[1]);
-        self.count += 1;
-    }
-
-    fn merge(&self, o: &Bin) -> Bin {
-        Bin {
-            min: self.min.min(o.min),
-            max: self.max.max(o.max),
-            count: self.count + o.count,
-        }
-    }
-
-    fn bounds(&self) -> Aabb {
-        if self.count == 0 {
-            Aabb::EMPTY
-        } else {
-            Aabb::new(self.min.into(), self.max.into())
-        }
-    }
+    let mut pairs = vec![NodePair::default(); capacity - 1];
+    let root = build_node(&input, &mut refs, 0, content, &mut pairs, 0, 0);
+    let ids = refs.iter().map(|r| r.id).collect();
+    Some(BinaryTree {
+        root,
+        pairs,
+        ids,
+        triangles,
+    })
 }
 
-/// What the build reads, by triangle id: each triangle's box and its centre, in SIMD form.
-struct BuildInput {
-    boxes: Vec<[Vec3A; 2]>,
-    centroids: Vec<Vec3A>,
-}
+/// Extra references spatial splits may add, as a share of the triangles (Stich et al. let the
+/// tree grow unbounded; a budget bounds memory as Embree's `max_spatial_split_replications`).
+pub(super) const SPLIT_BUDGET: f64 = 0.2;
 
-impl BuildInput {
-    fn new(boxes: &[Aabb]) -> Self {
-        let simd: Vec<[Vec3A; 2]> = boxes
-            .par_iter()
-            .map(|b| [b.min.into(), b.max.into()])
-            .collect();
-        // The same `(min + max) * 0.5` as `Aabb::center`, lane by lane.
-        let centroids = simd.par_iter().map(|b| (b[0] + b[1]) * 0.5).collect();
-        Self {
-            boxes: simd,
-            centroids,
-        }
-    }
+/// What every node of the build reads besides its references.
+pub(super) struct BuildInput<'a> {
+    /// The triangles' corners where spatial splits are allowed.
+    pub(super) splits: Option<Corners<'a>>,
+    /// The root's surface area: the scale of the overlap worth a spatial split.
+    pub(super) root_area: f32,
 }
 
 /// Maps a centroid to its bin along each axis (`None` for an axis of zero centroid extent).
@@ -210,16 +156,17 @@ impl Binner {
     }
 
     #[inline(always)]
-    fn bin_into(&self, bins: &mut [[Bin; BINS]; 3], b: &[Vec3A; 2], c: Vec3A) {
+    fn bin_into(&self, bins: &mut [[Bin; BINS]; 3], r: &PrimRef) {
+        let c = r.centroid();
         for (axis, axis_bins) in bins.iter_mut().enumerate() {
             if let Some(s) = self.scale[axis] {
-                axis_bins[self.bin(c, axis, s)].add(b);
+                axis_bins[self.bin(c, axis, s)].add(r.min, r.max);
             }
         }
     }
 }
 
-/// The best SAH split of a node.
+/// The best object split of a node (SAH over centroid bins).
 struct Split {
     axis: usize,
     /// Triangles in bins `< bin` go left.
@@ -229,30 +176,20 @@ struct Split {
     right: Bin,
 }
 
-fn bin_triangles(input: &BuildInput, ids: &[u32], binner: &Binner) -> [[Bin; BINS]; 3] {
-    let bin_chunk = |chunk: &[u32]| {
+fn bin_triangles(refs: &[PrimRef], binner: &Binner) -> [[Bin; BINS]; 3] {
+    bin_in_parallel(refs, |chunk| {
         let mut bins = [[Bin::EMPTY; BINS]; 3];
-        for &id in chunk {
-            let i = id as usize;
-            binner.bin_into(&mut bins, &input.boxes[i], input.centroids[i]);
+        for r in chunk {
+            binner.bin_into(&mut bins, r);
         }
         bins
-    };
-    if ids.len() < PARALLEL_BIN {
-        return bin_chunk(ids);
+    })
+}
+
+impl Merge for [[Bin; BINS]; 3] {
+    fn merge(&self, other: &Self) -> Self {
+        std::array::from_fn(|a| std::array::from_fn(|i| self[a][i].merge(&other[a][i])))
     }
-    // Box unions and counts are exact, so the parallel reduction is deterministic.
-    ids.par_chunks(PARALLEL_BIN / 4).map(bin_chunk).reduce(
-        || [[Bin::EMPTY; BINS]; 3],
-        |mut a, b| {
-            for (aa, ba) in a.iter_mut().zip(&b) {
-                for (x, y) in aa.iter_mut().zip(ba) {
-                    *x = x.merge(y);
-                }
-            }
-            a
-        },
-    )
 }
 
 fn best_split(bins: &[[Bin; BINS]; 3], binner: &Binner, parent_area: f32) -> Option<Split> {
@@ -275,13 +212,13 @@ fn best_split(bins: &[[Bin; BINS]; 3], binner: &Binner, parent_area: f32) -> Opt
             if left.count == 0 || right.count == 0 {
                 continue;
             }
-            let weighted = left.bounds().surface_area() * packet_lanes(left.count)
-                + right.bounds().surface_area() * packet_lanes(right.count);
-            let cost = if parent_area > 0.0 {
-                TRAVERSAL_COST + INTERSECT_COST * weighted / parent_area
-            } else {
-                TRAVERSAL_COST + INTERSECT_COST * (left.count.max(right.count)) as f32
-            };
+            let cost = split_cost(
+                &left.bounds(),
+                left.count,
+                &right.bounds(),
+                right.count,
+                parent_area,
+            );
             if !cost.is_finite() {
                 continue;
             }
@@ -299,43 +236,11 @@ fn best_split(bins: &[[Bin; BINS]; 3], binner: &Binner, parent_area: f32) -> Opt
     best
 }
 
-/// The lanes `count` triangles take in four-wide packets: what testing them costs, since a
-/// packet is tested whole (Embree's `sahBlockSize` of 4).
-fn packet_lanes(count: usize) -> f32 {
-    (count.div_ceil(4) * 4) as f32
-}
-
-/// Bounds, centroid bounds and count of `ids` (parallel for big sets).
-fn summarize(input: &BuildInput, ids: &[u32]) -> Content {
-    let one = |chunk: &[u32]| {
-        let (mut b, mut c) = (Bin::EMPTY, Bin::EMPTY);
-        for &id in chunk {
-            let i = id as usize;
-            b.add(&input.boxes[i]);
-            let centre = input.centroids[i];
-            c.add(&[centre, centre]);
-        }
-        Content {
-            bounds: b.bounds(),
-            centroids: c.bounds(),
-            count: b.count,
-        }
-    };
-    if ids.len() < PARALLEL_BIN {
-        one(ids)
-    } else {
-        ids.par_chunks(PARALLEL_BIN / 4)
-            .map(one)
-            .reduce(|| Content::EMPTY, |a, b| a.merge(&b))
-    }
-}
-
-/// In-place partition: ids whose centroid falls in a bin below `bin` on `axis` come first.
-/// Returns their number and the centroid bounds of both sides (the children's binners need
-/// them; gathering them here is one pass instead of one per axis in the binning).
+/// In-place partition: references whose centroid falls in a bin below `bin` on `axis` come
+/// first. Returns their number and the centroid bounds of both sides (the children's binners
+/// need them; gathering them here is one pass instead of one per axis in the binning).
 fn partition(
-    input: &BuildInput,
-    ids: &mut [u32],
+    refs: &mut [PrimRef],
     binner: &Binner,
     axis: usize,
     bin: usize,
@@ -343,88 +248,58 @@ fn partition(
     let scale = binner.scale[axis].unwrap_or(0.0);
     let (mut left, mut right) = (Bin::EMPTY, Bin::EMPTY);
     let mut n = 0;
-    for j in 0..ids.len() {
-        let c = input.centroids[ids[j] as usize];
+    for j in 0..refs.len() {
+        let c = refs[j].centroid();
         if binner.bin(c, axis, scale) < bin {
-            left.add(&[c, c]);
-            ids.swap(n, j);
+            left.add(c, c);
+            refs.swap(n, j);
             n += 1;
         } else {
-            right.add(&[c, c]);
+            right.add(c, c);
         }
     }
     (n, left.bounds(), right.bounds())
 }
 
-/// Builds the subtree over `ids` (which start at `first` in leaf order) and returns its root.
-/// Its descendants are written into `pairs`, which has room for `ids.len() - 1` pairs and
-/// starts at pair index `pair_base`: a binary tree over `m` leaves-with-at-least-one-triangle
-/// has at most `m - 1` inner nodes, each owning one pair.
+/// Builds the subtree over the first `content.count` references of `refs` (which start at
+/// `first` in leaf order; the rest of `refs` is room for the references spatial splits add)
+/// and returns its root. Its descendants are written into `pairs`, which has room for
+/// `refs.len() - 1` pairs and starts at pair index `pair_base`: a binary tree over `m`
+/// leaves-with-at-least-one-reference has at most `m - 1` inner nodes, each owning one pair,
+/// and a subtree never holds more references than its room.
 fn build_node(
     input: &BuildInput,
-    ids: &mut [u32],
+    refs: &mut [PrimRef],
     first: usize,
     content: Content,
     pairs: &mut [NodePair],
     pair_base: usize,
     depth: u32,
 ) -> Node {
-    let m = ids.len();
-    debug_assert_eq!(m, content.count);
-    debug_assert!(pairs.len() + 1 >= m);
+    let m = content.count;
+    debug_assert!(m <= refs.len() && pairs.len() + 1 >= refs.len());
     if m == 1 {
         return Node::leaf(&content.bounds, first, 1);
     }
-    let binner = Binner::new(&content.centroids);
-    let split = if depth < MAX_SAH_DEPTH {
-        let bins = bin_triangles(input, ids, &binner);
-        best_split(&bins, &binner, content.bounds.surface_area())
-    } else {
-        None
+    let Some(division) = divide(input, refs, &content, depth) else {
+        return Node::leaf(&content.bounds, first, m);
     };
-    let leaf_cost = INTERSECT_COST * packet_lanes(m);
-    let (n_left, left, right) = match split {
-        Some(s) if m > MAX_LEAF || s.cost < leaf_cost => {
-            let (n, lc, rc) = partition(input, ids, &binner, s.axis, s.bin);
-            debug_assert_eq!(n, s.left.count);
-            let side = |b: &Bin, centroids| Content {
-                bounds: b.bounds(),
-                centroids,
-                count: b.count,
-            };
-            (n, side(&s.left, lc), side(&s.right, rc))
-        }
-        _ if m <= MAX_LEAF => return Node::leaf(&content.bounds, first, m),
-        _ => {
-            // No usable SAH split (identical centroids, or too deep): the object median along
-            // the longest centroid axis. With identical centroids this is a split by index.
-            let e = content.centroids.extent();
-            let axis = if e.x >= e.y && e.x >= e.z {
-                0
-            } else if e.y >= e.z {
-                1
-            } else {
-                2
-            };
-            let half = m / 2;
-            ids.select_nth_unstable_by(half, |&p, &q| {
-                let cp = input.centroids[p as usize][axis];
-                let cq = input.centroids[q as usize][axis];
-                cp.total_cmp(&cq).then(p.cmp(&q))
-            });
-            let (l, r) = ids.split_at(half);
-            (half, summarize(input, l), summarize(input, r))
-        }
-    };
-    let (left_ids, right_ids) = ids.split_at_mut(n_left);
+    let Division {
+        left_count,
+        left_room,
+        left,
+        right,
+    } = division;
+    debug_assert!(left_count == left.count && left_count <= left_room);
+    let (left_refs, right_refs) = refs.split_at_mut(left_room);
     let (own, rest) = pairs.split_at_mut(1);
-    let (left_pairs, right_pairs) = rest.split_at_mut(n_left - 1);
+    let (left_pairs, right_pairs) = rest.split_at_mut(left_room - 1);
     let left_base = pair_base + 1;
-    let right_base = pair_base + n_left;
+    let right_base = pair_base + left_room;
     let mut build_left = move || {
         build_node(
             input,
-            left_ids,
+            left_refs,
             first,
             left,
             left_pairs,
@@ -433,10 +308,10 @@ fn build_node(
         )
     };
     let mut build_right = move || {
-        let first = first + n_left;
+        let first = first + left_room;
         build_node(
             input,
-            right_ids,
+            right_refs,
             first,
             right,
             right_pairs,
@@ -451,4 +326,93 @@ fn build_node(
     };
     own[0] = NodePair([l, r]);
     Node::inner(&content.bounds, pair_base)
+}
+
+/// Splits the node's references between two children, the left ones first and the right ones
+/// moved to the start of the right child's room; `None` when the node is better a leaf.
+fn divide(
+    input: &BuildInput,
+    refs: &mut [PrimRef],
+    content: &Content,
+    depth: u32,
+) -> Option<Division> {
+    let m = content.count;
+    let binner = Binner::new(&content.centroids);
+    let object = if depth < MAX_SAH_DEPTH {
+        let bins = bin_triangles(&refs[..m], &binner);
+        best_split(&bins, &binner, content.bounds.surface_area())
+    } else {
+        None
+    };
+    let leaf_cost = INTERSECT_COST * packet_lanes(m);
+    if let Some(splits) = input
+        .splits
+        .filter(|_| depth < MAX_SAH_DEPTH && refs.len() > m)
+    {
+        let overlap = object.as_ref().map_or(f32::INFINITY, |s| {
+            overlap_area(&s.left.bounds(), &s.right.bounds())
+        });
+        // A spatial split must beat the object split, and the leaf where a leaf may be made.
+        let mut beats = object.as_ref().map_or(f32::INFINITY, |s| s.cost);
+        if m <= MAX_LEAF {
+            beats = beats.min(leaf_cost);
+        }
+        if overlap > spatial::MIN_OVERLAP * input.root_area {
+            if let Some(d) = spatial::divide(refs, content, splits, beats) {
+                return Some(d);
+            }
+        }
+    }
+    let (left_count, left, right) = match object {
+        Some(s) if m > MAX_LEAF || s.cost < leaf_cost => {
+            let (n, lc, rc) = partition(&mut refs[..m], &binner, s.axis, s.bin);
+            debug_assert_eq!(n, s.left.count);
+            let side = |b: &Bin, centroids| Content {
+                bounds: b.bounds(),
+                centroids,
+                count: b.count,
+            };
+            (n, side(&s.left, lc), side(&s.right, rc))
+        }
+        _ if m <= MAX_LEAF => return None,
+        _ => {
+            // No usable SAH split (identical centroids, or too deep): the object median along
+            // the longest centroid axis. With identical centroids this is a split by index.
+            let e = content.centroids.extent();
+            let axis = if e.x >= e.y && e.x >= e.z {
+                0
+            } else if e.y >= e.z {
+                1
+            } else {
+                2
+            };
+            let half = m / 2;
+            refs[..m].select_nth_unstable_by(half, |p, q| {
+                let cp = p.centroid()[axis];
+                let cq = q.centroid()[axis];
+                cp.total_cmp(&cq).then(p.id.cmp(&q.id))
+            });
+            let (l, r) = refs[..m].split_at(half);
+            (half, summarize(l), summarize(r))
+        }
+    };
+    let left_room = share_room(refs.len(), left_count, m - left_count);
+    refs.copy_within(left_count..m, left_room);
+    Some(Division {
+        left_count,
+        left_room,
+        left,
+        right,
+    })
+}
+
+/// Surface area of the intersection of two boxes (0 when they are disjoint).
+fn overlap_area(a: &Aabb, b: &Aabb) -> f32 {
+    let min = a.min.max(b.min);
+    let max = a.max.min(b.max);
+    if min.cmple(max).all() {
+        Aabb::new(min, max).surface_area()
+    } else {
+        0.0
+    }
 }

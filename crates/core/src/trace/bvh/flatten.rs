@@ -1,5 +1,6 @@
 //! The tree of [`super::Bvh`] as plain arrays, for traversal engines outside this crate (the
-//! GPU ray caster of `sightline-gpu`): the same binned-SAH binary tree (`build.rs`), collapsed
+//! GPU ray caster of `sightline-gpu`): the same binned-SAH binary tree (`build.rs`), without
+//! spatial splits (each triangle in one leaf; splits on the GPU are not measured yet), collapsed
 //! to nodes of a width the caller picks by the same rule as the CPU's wide nodes
 //! (`collapse.rs`: open the inner child of largest surface area until the node is full), with
 //! leaves as runs of triangle ids instead of SIMD packets.
@@ -90,7 +91,7 @@ impl FlatBvh {
             (2..=MAX_WIDTH).contains(&width),
             "node width {width} is not in 2..={MAX_WIDTH}"
         );
-        let Some(tree) = build::binary_tree(&triangle_boxes(scene)) else {
+        let Some(tree) = build::binary_tree(&triangle_boxes(scene), None) else {
             return Self {
                 width,
                 children: Vec::new(),

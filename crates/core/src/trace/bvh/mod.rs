@@ -1,10 +1,14 @@
-//! Our default ray caster: a binned-SAH bounding volume hierarchy over the scene's triangles,
-//! built in parallel as a binary tree, collapsed into an 8-wide tree whose eight child boxes
+//! Our default ray caster: a binned-SAH bounding volume hierarchy over the scene's triangles
+//! with spatial splits (a large triangle may be referenced from several leaves, each holding
+//! the box of its part there), built in parallel as a binary tree, collapsed into an 8-wide
+//! tree whose eight child boxes
 //! are tested at once with AVX2 when the CPU has it, else into a 4-wide tree tested with SSE,
 //! and traversed with a stack, nearer children first.
 //!
 //! Based on: Wald. On fast construction of SAH-based bounding volume hierarchies. 2007
 //! (binned SAH build, 16 bins, bins keep bounds and centroid bounds so children need no extra pass).
+//! Based on: Stich, Friedrich, Dietrich. Spatial splits in bounding volume hierarchies. HPG
+//! 2009 (`spatial.rs`).
 //! Based on: Wald, Benthin, Boulos. Getting rid of packets: efficient SIMD single-ray traversal
 //! using multi-branching BVHs. IRT 2008 (the 4-wide tree, collapsed from the binary one).
 //! Based on: Ernst, Greiner. Multi bounding volume hierarchies. IRT 2008.
@@ -16,7 +20,7 @@
 //!
 //! # Files
 //! One file per operation, as Embree's `kernels/bvh` and parry's `partitioning/bvh` split
-//! theirs: `build.rs` (the binary SAH tree), `collapse.rs` (binary to wide nodes),
+//! theirs: `build.rs` (the binary SAH tree), `spatial.rs` (its spatial splits), `collapse.rs` (binary to wide nodes),
 //! `traverse.rs` (the one traversal loop, closest-hit and any-hit), `node.rs` (the
 //! `WideNode` trait both are generic over), one file per node layout (`node4.rs`,
 //! `node8.rs`: the node, its child encoding and its SIMD box test) and `slab.rs` (the box test
@@ -37,21 +41,26 @@
 //! the scene is not touched while tracing.
 //!
 //! # Memory
-//! Per triangle that is kept (degenerate ones are dropped), with 8-wide nodes: about 42 to 46
-//! bytes of packets (3.5 to 3.8 triangles per packet: the SAH costs leaves by packet lanes)
-//! plus 12 to 17 bytes of nodes, so 57 bytes per triangle on the 1M-triangle procedural city,
-//! 58 to 61 on munich, czest3ctf, the Stanford bunny and the Stanford dragon
-//! ([`Bvh::memory_bytes`]; before packet-lane costs: 61 to 68). The build
-//! peaks at about 220 bytes per triangle (24-byte boxes, their 32-byte SIMD copy and 16-byte
-//! centres, 4-byte ids, and an uncompacted binary node array of 64 bytes per triangle), i.e.
-//! about 2.2 GB for 10M triangles.
+//! Per triangle that is kept (degenerate ones are dropped), with 8-wide nodes: 42 to 58 bytes
+//! of packets (3.4 to 3.8 references per packet: the SAH costs leaves by packet lanes; 1.02 to
+//! 1.16 references per triangle, where spatial splits reference a triangle from several
+//! leaves, at most 1 + `build::SPLIT_BUDGET` = 1.2) plus 12 to 17 bytes of nodes:
+//! 59 bytes per triangle on the Stanford bunny (1.02 references per triangle), 67 on munich,
+//! 68 on the 1M-triangle procedural city, 72 on czest3ctf (1.16)
+//! ([`Bvh::memory_bytes`]; without spatial splits 57 to 61). The build peaks at about 170
+//! bytes per triangle (24-byte boxes, then room for 1.2 references of 48 bytes and 4-byte ids
+//! per triangle, and an uncompacted binary node array of 64 bytes per reference of room),
+//! i.e. about 1.7 GB for 10M triangles.
 //!
 //! # Exactness
 //! Rays with a finite inverse direction (almost all) take a cheaper slab test on the bits of
 //! the distances as integers, which enters every box the float test enters (`slab.rs`).
 //! Leaves use the same watertight test as [`super::BruteForce`] (four lanes at a time with the
 //! same bits, see `tri4.rs`) and ties in `t` go to the lower triangle id, so hits equal brute
-//! force bit for bit. Box tests are only ever made more conservative (Ize's slack on the far
+//! force bit for bit. A triangle split by spatial splits is tested in each leaf that holds a
+//! part of it, with the same result each time, and the boxes of its parts together hold every
+//! point of it (`spatial.rs` widens them around the points where its edges cross a plane,
+//! which floats round), so no hit is lost. Box tests are only ever made more conservative (Ize's slack on the far
 //! distance, a relative slack on the culling distance) so that a box whose triangle the leaf
 //! test would accept is never culled by rounding.
 
@@ -63,13 +72,15 @@ mod input;
 mod node;
 mod node4;
 mod node8;
+mod refs;
 mod slab;
+mod spatial;
 pub mod stats;
 #[cfg(test)]
 mod tests;
 mod traverse;
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
 use crate::geometry::{Hit, Ray};
@@ -94,7 +105,7 @@ const RAYS_PER_TASK: usize = 64;
 /// Owns a copy of the triangles it needs, so it does not borrow the scene.
 ///
 /// ```
-/// use glam::Vec3;
+/// use glam::{Vec3, Vec3A};
 /// use sightline_core::scene::SceneBuilder;
 /// use sightline_core::trace::{Bvh, RayCaster};
 /// use sightline_core::Ray;
@@ -145,12 +156,25 @@ impl Bvh {
     /// Builds the BVH for `scene`. Triangles with an index out of range, a non-finite corner
     /// or zero area are left out: the leaf test would never hit them.
     pub fn build(scene: &Scene) -> Self {
-        Self::build_with(scene, Width::widest())
+        Self::build_with(scene, Width::widest(), true)
     }
 
-    /// [`Bvh::build`] with nodes of the given width.
-    fn build_with(scene: &Scene, width: Width) -> Self {
-        let tree = build::binary_tree(&triangle_boxes(scene));
+    /// [`Bvh::build`] without spatial splits, for comparisons.
+    #[cfg(test)]
+    fn build_unsplit(scene: &Scene) -> Self {
+        Self::build_with(scene, Width::widest(), false)
+    }
+
+    /// [`Bvh::build`] with nodes of the given width, and spatial splits where `spatial`.
+    fn build_with(scene: &Scene, width: Width, spatial: bool) -> Self {
+        // Only usable triangles have references, so their corners are in range.
+        let simd_corners = |id: u32| {
+            corners(scene, &scene.triangles[id as usize])
+                .unwrap_or_default()
+                .map(Vec3A::from)
+        };
+        let splits: Option<refs::Corners> = spatial.then_some(&simd_corners);
+        let tree = build::binary_tree(&triangle_boxes(scene), splits);
         let Some(tree) = tree else {
             let nodes = match width {
                 Width::Four => Nodes::Four(Vec::new()),
@@ -195,7 +219,7 @@ impl Bvh {
         Self {
             nodes,
             packets,
-            triangle_count: tree.ids.len(),
+            triangle_count: tree.triangles,
         }
     }
 

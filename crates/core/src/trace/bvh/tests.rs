@@ -1,7 +1,7 @@
 //! Tests of [`super::Bvh`]: every node width against brute force, bit for bit, on scenes with
 //! ties, degenerate triangles and deep trees.
 
-use super::build::PARALLEL_BIN;
+use super::refs::PARALLEL_BIN;
 use super::*;
 use crate::geometry::Aabb;
 use crate::random::SplitMix64;
@@ -280,7 +280,7 @@ fn assert_both_widths_match_brute_force(scene: &Scene, rays: &[Ray]) {
     let mut want = vec![Hit::MISS; rays.len()];
     brute.cast(rays, &mut want);
     for width in [Width::Four, Width::widest()] {
-        let bvh = Bvh::build_with(scene, width);
+        let bvh = Bvh::build_with(scene, width, true);
         let mut got = vec![Hit::MISS; rays.len()];
         bvh.cast(rays, &mut got);
         let mut occluded = vec![false; rays.len()];
@@ -341,4 +341,78 @@ fn skewed_scene_stays_within_stack() {
     let h = Bvh::build(&scene).cast_one(&ray);
     assert_eq!(h, BruteForce::new(&scene).cast_one(&ray));
     assert!(h.is_hit());
+}
+
+/// Random small triangles, and long slivers and large quads across the whole cube, as the
+/// walls and floors of a level lie among its details: where spatial splits pay.
+fn sliver_scene(seed: u64) -> Scene {
+    let mut rng = Rng::new(seed);
+    let mut b = SceneBuilder::new("slivers");
+    let cube = Aabb::new(Vec3::ZERO, Vec3::splat(10.0));
+    for _ in 0..3000 {
+        let c = rng.point(&cube);
+        let v = [0, 1, 2].map(|_| b.add_vertex(c + rng.direction() * 0.3));
+        b.add_triangle(v);
+    }
+    for i in 0..200 {
+        let (p, q) = (rng.point(&cube), rng.point(&cube));
+        let v = [p, q, p + rng.direction() * 0.05].map(|p| b.add_vertex(p));
+        b.add_triangle(v);
+        if i % 10 == 0 {
+            // An axis-aligned wall or floor quad: two triangles sharing a diagonal.
+            let h = rng.range(0.0, 10.0);
+            let corners = match i % 3 {
+                0 => [
+                    [0.0, 0.0, h],
+                    [10.0, 0.0, h],
+                    [10.0, 10.0, h],
+                    [0.0, 10.0, h],
+                ],
+                1 => [
+                    [h, 0.0, 0.0],
+                    [h, 10.0, 0.0],
+                    [h, 10.0, 10.0],
+                    [h, 0.0, 10.0],
+                ],
+                _ => [
+                    [0.0, h, 0.0],
+                    [0.0, h, 10.0],
+                    [10.0, h, 10.0],
+                    [10.0, h, 0.0],
+                ],
+            };
+            let [a, b1, c, d] = corners.map(|c| b.add_vertex(Vec3::from_array(c)));
+            b.add_triangle([a, b1, c]);
+            b.add_triangle([a, c, d]);
+        }
+    }
+    b.finish()
+}
+
+#[test]
+fn spatial_splits_keep_hits_equal_to_brute_force() {
+    let scene = sliver_scene(21);
+    let bvh = Bvh::build(&scene);
+    let t = bvh.tree_stats();
+    let triangles = bvh.triangle_count();
+    assert_eq!(triangles, scene.triangles.len());
+    // Splits happened, within their budget: each split triangle sits in several leaves.
+    assert!(t.references > triangles, "{} references", t.references);
+    assert!(t.references as f64 <= triangles as f64 * (1.0 + build::SPLIT_BUDGET));
+    assert_both_widths_match_brute_force(&scene, &random_rays(scene.bounds(), 6000, 22));
+}
+
+#[test]
+fn spatial_splits_visit_fewer_packets_among_large_triangles() {
+    // The same tree without splits (as `FlatBvh` builds it) tests more triangles per ray.
+    let scene = sliver_scene(23);
+    let rays = random_rays(scene.bounds(), 4000, 24);
+    let split = Bvh::build(&scene).traversal_stats(&rays);
+    let unsplit = Bvh::build_unsplit(&scene).traversal_stats(&rays);
+    assert!(
+        split.packets < 0.9 * unsplit.packets,
+        "{} packets a ray with splits, {} without",
+        split.packets,
+        unsplit.packets
+    );
 }
