@@ -2,7 +2,7 @@
 //! with spatial splits (a large triangle may be referenced from several leaves, each holding
 //! the box of its part there), built in parallel as a binary tree, collapsed into an 8-wide
 //! tree whose eight child boxes
-//! are tested at once with AVX2 when the CPU has it, else into a 4-wide tree tested with SSE,
+//! are tested at once with AVX2 (and FMA) when the CPU has them, else into a 4-wide tree tested with SSE,
 //! and traversed with a stack, nearer children first.
 //!
 //! Based on: Wald. On fast construction of SAH-based bounding volume hierarchies. 2007
@@ -130,11 +130,11 @@ pub struct Bvh {
 #[derive(Debug)]
 enum Nodes {
     Four(Vec<Node4>),
-    /// Only built where [`Node8::supported`] (AVX2 on x86_64).
+    /// Only built where [`Node8::supported`] (AVX2 and FMA on x86_64).
     Eight(Vec<Node8>),
 }
 
-/// Node width: 8 (AVX2 box tests) where the CPU has AVX2, else 4 (SSE or scalar).
+/// Node width: 8 (AVX2 box tests) where the CPU has AVX2 and FMA, else 4 (SSE or scalar).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Width {
     Four,
@@ -205,7 +205,7 @@ impl Bvh {
             Width::Four => Nodes::Four(collapse(&tree.root, &tree.pairs, &mut pack)),
             Width::Eight => {
                 // `cast_chunk` relies on this for its AVX2 calls.
-                assert!(Node8::supported(), "8-wide nodes need AVX2");
+                assert!(Node8::supported(), "8-wide nodes need AVX2 and FMA");
                 Nodes::Eight(collapse(&tree.root, &tree.pairs, &mut pack))
             }
         };

@@ -1,6 +1,6 @@
 //! The 8-wide layout of [`super::Bvh`]: eight child boxes tested at once with AVX2, used
-//! instead of the 4-wide layout (`node4.rs`) when the CPU has AVX2 (checked at run time with
-//! `is_x86_feature_detected!`); the reference slab test lane by lane off x86_64. Leaves are the
+//! instead of the 4-wide layout (`node4.rs`) when the CPU has AVX2 and FMA (every AVX2 CPU
+//! of Intel and AMD has both; checked at run time with `is_x86_feature_detected!`); the reference slab test lane by lane off x86_64. Leaves are the
 //! same four-triangle packets.
 //!
 //! Based on: Fuetterling, Lojewski, Pfreundt, Ebert. Efficient Ray Tracing Kernels for Modern
@@ -14,9 +14,10 @@
 
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::{
-    __m256, _mm256_castps_si256, _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_loadu_ps,
-    _mm256_max_epi32, _mm256_max_ps, _mm256_min_epi32, _mm256_min_ps, _mm256_movemask_ps,
-    _mm256_mul_ps, _mm256_set1_ps, _mm256_storeu_ps, _mm256_sub_ps, _CMP_LE_OQ,
+    __m256, _mm256_castps_si256, _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_fmadd_ps,
+    _mm256_loadu_ps, _mm256_max_epi32, _mm256_max_ps, _mm256_min_epi32, _mm256_min_ps,
+    _mm256_movemask_ps, _mm256_mul_ps, _mm256_set1_ps, _mm256_setzero_ps, _mm256_storeu_ps,
+    _mm256_sub_ps, _CMP_LE_OQ,
 };
 
 use crate::geometry::{Hit, Ray};
@@ -54,7 +55,7 @@ impl WideNode for Node8 {
     fn supported() -> bool {
         #[cfg(target_arch = "x86_64")]
         {
-            is_x86_feature_detected!("avx2")
+            is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
@@ -155,9 +156,9 @@ impl WideNode for Node8 {
 /// [`traverse::cast`] compiled with AVX2, so that [`enter_avx2`] is inlined into the loop.
 ///
 /// # Safety
-/// The CPU must support AVX2 (`is_x86_feature_detected!("avx2")`).
+/// The CPU must support AVX2 and FMA ([`Node8::supported`]).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 unsafe fn cast_avx2(tree: Tree<'_, Node8>, rays: &[Ray], hits: &mut [Hit]) {
     // SAFETY: the caller guarantees AVX2, all that `Node8::enter` needs.
     unsafe { traverse::cast(tree, rays, hits) }
@@ -166,9 +167,9 @@ unsafe fn cast_avx2(tree: Tree<'_, Node8>, rays: &[Ray], hits: &mut [Hit]) {
 /// [`traverse::occluded`] compiled with AVX2.
 ///
 /// # Safety
-/// The CPU must support AVX2 (`is_x86_feature_detected!("avx2")`).
+/// The CPU must support AVX2 and FMA ([`Node8::supported`]).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 unsafe fn occluded_avx2(tree: Tree<'_, Node8>, rays: &[Ray], out: &mut [bool]) {
     // SAFETY: the caller guarantees AVX2, all that `Node8::enter` needs.
     unsafe { traverse::occluded(tree, rays, out) }
@@ -177,9 +178,9 @@ unsafe fn occluded_avx2(tree: Tree<'_, Node8>, rays: &[Ray], out: &mut [bool]) {
 /// `BoxRay::enter_scalar` on eight boxes with AVX2.
 ///
 /// # Safety
-/// The CPU must support AVX2 (`is_x86_feature_detected!("avx2")`).
+/// The CPU must support AVX2 and FMA ([`Node8::supported`]).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 #[inline]
 unsafe fn enter_avx2(r: &BoxRay, boxes: &Boxes<8>, t_far: f32, far_slack: f32) -> ([f32; 8], u32) {
     let mut out = [0.0f32; 8];
@@ -213,9 +214,9 @@ unsafe fn enter_avx2(r: &BoxRay, boxes: &Boxes<8>, t_far: f32, far_slack: f32) -
 /// on that chain at every node.
 ///
 /// # Safety
-/// The CPU must support AVX2 (`is_x86_feature_detected!("avx2")`); `r.finite` holds.
+/// The CPU must support AVX2 and FMA ([`Node8::supported`]); `r.finite` holds.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 #[inline]
 unsafe fn enter_finite_avx2(r: &BoxRay, boxes: &Boxes<8>, t_far: f32) -> ([f32; 8], u32) {
     let mut out = [0.0f32; 8];
@@ -227,7 +228,13 @@ unsafe fn enter_finite_avx2(r: &BoxRay, boxes: &Boxes<8>, t_far: f32) -> ([f32; 
             let near = _mm256_loadu_ps(boxes[r.near[a] % 6].as_ptr());
             let far = _mm256_loadu_ps(boxes[r.far[a] % 6].as_ptr());
             let tn = _mm256_mul_ps(_mm256_sub_ps(near, origin), _mm256_set1_ps(r.inv[a]));
-            let tf = _mm256_mul_ps(_mm256_sub_ps(far, origin), _mm256_set1_ps(r.inv_far[a]));
+            // `* inv_far + 0.0` in one rounding: turns a `-0.0` exit into `+0.0`
+            // (`BoxRay::enter_finite_scalar`) at no latency beyond the multiply's.
+            let tf = _mm256_fmadd_ps(
+                _mm256_sub_ps(far, origin),
+                _mm256_set1_ps(r.inv_far[a]),
+                _mm256_setzero_ps(),
+            );
             (tn, tf)
         };
         let int = |v: __m256| _mm256_castps_si256(v);
