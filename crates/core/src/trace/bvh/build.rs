@@ -357,7 +357,7 @@ fn divide(
         if m <= MAX_LEAF {
             beats = beats.min(leaf_cost);
         }
-        if overlap > spatial::MIN_OVERLAP * input.root_area {
+        if overlap > spatial::MIN_OVERLAP * input.root_area && m > spatial::MIN_REFERENCES {
             if let Some(d) = spatial::divide(refs, content, splits, beats) {
                 return Some(d);
             }
