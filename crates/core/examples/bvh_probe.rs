@@ -75,6 +75,19 @@ fn main() {
             t.sah_nodes,
             t.sah_packets,
         );
+        #[cfg(feature = "embree")]
+        let embree = time.then(|| {
+            // Embree on one build thread: compare with ours under `RAYON_NUM_THREADS=1`.
+            let start = Instant::now();
+            let e = sightline_core::trace::EmbreeCaster::build_with_threads(&scene, 1)
+                .expect("embree builds");
+            println!("  Embree build {:.3} s", start.elapsed().as_secs_f64());
+            e
+        });
+        #[cfg(feature = "embree")]
+        let peer = embree.as_ref().map(|e| e as &dyn RayCaster);
+        #[cfg(not(feature = "embree"))]
+        let peer: Option<&dyn RayCaster> = None;
         let sets = [
             ("coherent", coherent_rays(&camera(&scene))),
             ("incoherent", incoherent_rays(scene.bounds(), TIMED, 7)),
@@ -100,7 +113,7 @@ fn main() {
                 s.hit_rate * 100.0
             );
             if time {
-                print!("{}", timings(&scene, &bvh, rays));
+                print!("{}", timings(&bvh, peer, rays));
             }
             println!();
         }
@@ -110,22 +123,9 @@ fn main() {
 /// Mrays/s of ours and Embree on `rays`, best of 5 alternating rounds of about 0.3 s each, in
 /// CPU time of one thread (a one-thread pool, so the casts run on the timed thread): other
 /// tenants of a shared machine take wall time, not this thread's CPU time.
-fn timings(scene: &Scene, bvh: &Bvh, rays: &[Ray]) -> String {
-    #[cfg(feature = "embree")]
-    let embree = {
-        // Embree on one build thread: compare with ours under `RAYON_NUM_THREADS=1`.
-        let start = Instant::now();
-        let e = sightline_core::trace::EmbreeCaster::build_with_threads(scene, 1)
-            .expect("embree builds");
-        eprint!(" [Embree build {:.3} s]", start.elapsed().as_secs_f64());
-        e
-    };
-    #[cfg(not(feature = "embree"))]
-    let _ = scene;
-    #[cfg(feature = "embree")]
-    let casters: Vec<&dyn RayCaster> = vec![bvh, &embree];
-    #[cfg(not(feature = "embree"))]
-    let casters: Vec<&dyn RayCaster> = vec![bvh];
+fn timings(bvh: &Bvh, peer: Option<&dyn RayCaster>, rays: &[Ray]) -> String {
+    let mut casters: Vec<&dyn RayCaster> = vec![bvh];
+    casters.extend(peer);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()

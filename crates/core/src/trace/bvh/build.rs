@@ -11,18 +11,14 @@
 //! (the choice between an object and a spatial split per node, tried only where the object
 //! split's children overlap).
 
-use glam::Vec3A;
-
 use crate::geometry::Aabb;
 
 use super::refs::{
-    bin_in_parallel, packet_lanes, share_room, split_cost, summarize, Bin, Content, Corners,
-    Division, Merge, PrimRef, INTERSECT_COST,
+    best_split, bin_in_parallel, packet_lanes, share_room, summarize, Bin, Content, Corners,
+    Division, Grid, Merge, PrimRef, BINS, INTERSECT_COST,
 };
 use super::spatial;
 
-/// Number of SAH bins per axis (Wald 2007 finds 16 close to a full sweep in quality).
-const BINS: usize = 16;
 /// Largest leaf; bigger nodes are always split.
 pub(super) const MAX_LEAF: usize = 8;
 /// Subtrees with at least this many triangles are built as a `rayon::join` task.
@@ -130,57 +126,16 @@ pub(super) struct BuildInput<'a> {
     pub(super) root_area: f32,
 }
 
-/// Maps a centroid to its bin along each axis (`None` for an axis of zero centroid extent).
-struct Binner {
-    min: Vec3A,
-    scale: [Option<f32>; 3],
-}
-
-impl Binner {
-    fn new(centroids: &Aabb) -> Self {
-        let e = centroids.extent();
-        let scale = |x: f32| {
-            let s = BINS as f32 / x;
-            (x > 0.0 && s.is_finite()).then_some(s)
-        };
-        Self {
-            min: centroids.min.into(),
-            scale: [scale(e.x), scale(e.y), scale(e.z)],
-        }
-    }
-
-    #[inline(always)]
-    fn bin(&self, c: Vec3A, axis: usize, scale: f32) -> usize {
-        // `as usize` saturates (NaN gives 0), so this is always in range.
-        (((c[axis] - self.min[axis]) * scale) as usize).min(BINS - 1)
-    }
-
-    #[inline(always)]
-    fn bin_into(&self, bins: &mut [[Bin; BINS]; 3], r: &PrimRef) {
-        let c = r.centroid();
-        for (axis, axis_bins) in bins.iter_mut().enumerate() {
-            if let Some(s) = self.scale[axis] {
-                axis_bins[self.bin(c, axis, s)].add(r.min, r.max);
-            }
-        }
-    }
-}
-
-/// The best object split of a node (SAH over centroid bins).
-struct Split {
-    axis: usize,
-    /// Triangles in bins `< bin` go left.
-    bin: usize,
-    cost: f32,
-    left: Bin,
-    right: Bin,
-}
-
-fn bin_triangles(refs: &[PrimRef], binner: &Binner) -> [[Bin; BINS]; 3] {
+fn bin_triangles(refs: &[PrimRef], grid: &Grid) -> [[Bin; BINS]; 3] {
     bin_in_parallel(refs, |chunk| {
         let mut bins = [[Bin::EMPTY; BINS]; 3];
         for r in chunk {
-            binner.bin_into(&mut bins, r);
+            let at = grid.bins(r.centroid());
+            for (axis, axis_bins) in bins.iter_mut().enumerate() {
+                if grid.splits(axis) {
+                    axis_bins[at[axis] as usize].add(r.min, r.max);
+                }
+            }
         }
         bins
     })
@@ -192,65 +147,15 @@ impl Merge for [[Bin; BINS]; 3] {
     }
 }
 
-fn best_split(bins: &[[Bin; BINS]; 3], binner: &Binner, parent_area: f32) -> Option<Split> {
-    let mut best: Option<Split> = None;
-    for (axis, axis_bins) in bins.iter().enumerate() {
-        if binner.scale[axis].is_none() {
-            continue;
-        }
-        // Sweep from the right, keeping the accumulated right side for every plane.
-        let mut right_acc = [Bin::EMPTY; BINS];
-        let mut acc = Bin::EMPTY;
-        for i in (1..BINS).rev() {
-            acc = acc.merge(&axis_bins[i]);
-            right_acc[i] = acc;
-        }
-        let mut left = Bin::EMPTY;
-        for plane in 1..BINS {
-            left = left.merge(&axis_bins[plane - 1]);
-            let right = right_acc[plane];
-            if left.count == 0 || right.count == 0 {
-                continue;
-            }
-            let cost = split_cost(
-                &left.bounds(),
-                left.count,
-                &right.bounds(),
-                right.count,
-                parent_area,
-            );
-            if !cost.is_finite() {
-                continue;
-            }
-            if best.as_ref().is_none_or(|b| cost < b.cost) {
-                best = Some(Split {
-                    axis,
-                    bin: plane,
-                    cost,
-                    left,
-                    right,
-                });
-            }
-        }
-    }
-    best
-}
-
 /// In-place partition: references whose centroid falls in a bin below `bin` on `axis` come
 /// first. Returns their number and the centroid bounds of both sides (the children's binners
 /// need them; gathering them here is one pass instead of one per axis in the binning).
-fn partition(
-    refs: &mut [PrimRef],
-    binner: &Binner,
-    axis: usize,
-    bin: usize,
-) -> (usize, Aabb, Aabb) {
-    let scale = binner.scale[axis].unwrap_or(0.0);
+fn partition(refs: &mut [PrimRef], grid: &Grid, axis: usize, bin: usize) -> (usize, Aabb, Aabb) {
     let (mut left, mut right) = (Bin::EMPTY, Bin::EMPTY);
     let mut n = 0;
     for j in 0..refs.len() {
         let c = refs[j].centroid();
-        if binner.bin(c, axis, scale) < bin {
+        if grid.bin(c[axis], axis) < bin {
             left.add(c, c);
             refs.swap(n, j);
             n += 1;
@@ -285,12 +190,11 @@ fn build_node(
         return Node::leaf(&content.bounds, first, m);
     };
     let Division {
-        left_count,
         left_room,
         left,
         right,
     } = division;
-    debug_assert!(left_count == left.count && left_count <= left_room);
+    debug_assert!(left.count <= left_room);
     let (left_refs, right_refs) = refs.split_at_mut(left_room);
     let (own, rest) = pairs.split_at_mut(1);
     let (left_pairs, right_pairs) = rest.split_at_mut(left_room - 1);
@@ -337,10 +241,10 @@ fn divide(
     depth: u32,
 ) -> Option<Division> {
     let m = content.count;
-    let binner = Binner::new(&content.centroids);
+    let grid = Grid::new(&content.centroids);
     let object = if depth < MAX_SAH_DEPTH {
-        let bins = bin_triangles(&refs[..m], &binner);
-        best_split(&bins, &binner, content.bounds.surface_area())
+        let bins = bin_triangles(&refs[..m], &grid);
+        best_split(&bins, &bins, &grid, content.bounds.surface_area())
     } else {
         None
     };
@@ -365,7 +269,7 @@ fn divide(
     }
     let (left_count, left, right) = match object {
         Some(s) if m > MAX_LEAF || s.cost < leaf_cost => {
-            let (n, lc, rc) = partition(&mut refs[..m], &binner, s.axis, s.bin);
+            let (n, lc, rc) = partition(&mut refs[..m], &grid, s.axis, s.bin);
             debug_assert_eq!(n, s.left.count);
             let side = |b: &Bin, centroids| Content {
                 bounds: b.bounds(),
@@ -399,7 +303,6 @@ fn divide(
     let left_room = share_room(refs.len(), left_count, m - left_count);
     refs.copy_within(left_count..m, left_room);
     Some(Division {
-        left_count,
         left_room,
         left,
         right,

@@ -15,10 +15,9 @@
 
 use glam::Vec3A;
 
-use crate::geometry::Aabb;
-
 use super::refs::{
-    bin_in_parallel, share_room, split_cost, Bin, Content, Corners, Division, Merge, PrimRef,
+    best_split, bin_in_parallel, share_room, summarize, Bin, Content, Corners, Division, Grid,
+    Merge, PrimRef, BINS,
 };
 
 /// Stich et al.'s `alpha`: a spatial split is tried only where the object split's children
@@ -30,51 +29,14 @@ pub(super) const MIN_OVERLAP: f32 = 1e-4;
 
 /// Nodes of at most this many references take no spatial split. On the shared scenes and the
 /// 1M city the trees then visit the same nodes and packets per ray within 1 % either way
-/// (the city's the same), and build 5-13 % faster (one thread; 512 built 25 % faster but cost the city 1-2 % more nodes and
-/// packets per ray; 2026-12-07).
+/// (the city's the same), and build 5-13 % faster (one thread; 512 built 25 % faster but
+/// cost the city 1-2 % more nodes and packets per ray; 2026-12-07).
 pub(super) const MIN_REFERENCES: usize = 64;
-
-/// Spatial bins per axis.
-const BINS: usize = 16;
 
 /// Half-width of the box put around a point where a triangle's edge crosses a split plane,
 /// relative to the edge's largest coordinate: the point is computed in floats, a few ulps
 /// (2^-23 each) from the true one, and the box must hold the true one.
 const CROSSING_SLACK: f32 = 1.0 / (1 << 18) as f32;
-
-/// Equal bins over a node's box, per axis.
-struct Grid {
-    min: Vec3A,
-    extent: Vec3A,
-    /// Bins per unit length, `None` for an axis the box is flat on.
-    scale: [Option<f32>; 3],
-}
-
-impl Grid {
-    fn new(bounds: &Aabb) -> Self {
-        let extent: Vec3A = bounds.extent().into();
-        let scale = |x: f32| {
-            let s = BINS as f32 / x;
-            (x > 0.0 && s.is_finite()).then_some(s)
-        };
-        Self {
-            min: bounds.min.into(),
-            extent,
-            scale: [scale(extent.x), scale(extent.y), scale(extent.z)],
-        }
-    }
-
-    /// The bin of coordinate `x` on `axis` (`as usize` saturates, so always in range).
-    #[inline(always)]
-    fn bin(&self, x: f32, axis: usize, scale: f32) -> usize {
-        (((x - self.min[axis]) * scale) as usize).min(BINS - 1)
-    }
-
-    /// The plane between bins `i - 1` and `i` on `axis`.
-    fn plane(&self, axis: usize, i: usize) -> f32 {
-        self.min[axis] + self.extent[axis] * (i as f32 / BINS as f32)
-    }
-}
 
 /// Per axis and bin: the box of the references' parts in the bin, and how many references
 /// start and end there.
@@ -107,18 +69,10 @@ fn bin_references(refs: &[PrimRef], grid: &Grid, corners: Corners) -> SpatialBin
         entries: [[0; BINS]; 3],
         exits: [[0; BINS]; 3],
     };
-    let scale = Vec3A::from_array(grid.scale.map(|s| s.unwrap_or(0.0)));
-    let axes: Vec<usize> = (0..3).filter(|&a| grid.scale[a].is_some()).collect();
     for r in refs {
-        // The first and last bin per axis at once (`as u32` saturates: NaN and below 0 give 0).
-        let first = ((r.min - grid.min) * scale)
-            .as_uvec3()
-            .min(glam::UVec3::splat(BINS as u32 - 1));
-        let last = ((r.max - grid.min) * scale)
-            .as_uvec3()
-            .min(glam::UVec3::splat(BINS as u32 - 1));
+        let (first, last) = (grid.bins(r.min), grid.bins(r.max));
         let mut triangle = None;
-        for &axis in &axes {
+        for axis in (0..3).filter(|&a| grid.splits(a)) {
             let (first, last) = (first[axis] as usize, last[axis] as usize);
             bins.entries[axis][first] += 1;
             let parts = &mut bins.parts[axis];
@@ -154,59 +108,6 @@ fn bin_references(refs: &[PrimRef], grid: &Grid, corners: Corners) -> SpatialBin
     bins
 }
 
-/// The best spatial split found in the bins.
-struct SpatialSplit {
-    axis: usize,
-    /// References in bins `< bin` go left, those in bins `>= bin` right, the others both.
-    bin: usize,
-    cost: f32,
-    left: usize,
-    right: usize,
-}
-
-fn best_split(bins: &SpatialBins, grid: &Grid, parent_area: f32) -> Option<SpatialSplit> {
-    let mut best: Option<SpatialSplit> = None;
-    for axis in 0..3 {
-        if grid.scale[axis].is_none() {
-            continue;
-        }
-        let parts = &bins.parts[axis];
-        // Sweep from the right, keeping the accumulated right side for every plane.
-        let mut right_acc = [(Bin::EMPTY, 0); BINS];
-        let mut acc = (Bin::EMPTY, 0);
-        for i in (1..BINS).rev() {
-            acc = (acc.0.merge(&parts[i]), acc.1 + bins.exits[axis][i]);
-            right_acc[i] = acc;
-        }
-        let (mut left, mut left_count) = (Bin::EMPTY, 0);
-        for plane in 1..BINS {
-            left = left.merge(&parts[plane - 1]);
-            left_count += bins.entries[axis][plane - 1];
-            let (right, right_count) = right_acc[plane];
-            if left_count == 0 || right_count == 0 {
-                continue;
-            }
-            let cost = split_cost(
-                &left.bounds(),
-                left_count,
-                &right.bounds(),
-                right_count,
-                parent_area,
-            );
-            if cost.is_finite() && best.as_ref().is_none_or(|b| cost < b.cost) {
-                best = Some(SpatialSplit {
-                    axis,
-                    bin: plane,
-                    cost,
-                    left: left_count,
-                    right: right_count,
-                });
-            }
-        }
-    }
-    best
-}
-
 /// Divides the node's references by the best spatial split when its cost is below `beats`
 /// and the references it adds fit the node's room; `None` (references untouched) otherwise.
 pub(super) fn divide(
@@ -218,18 +119,27 @@ pub(super) fn divide(
     let m = content.count;
     let grid = Grid::new(&content.bounds);
     let bins = bin_in_parallel(&refs[..m], |chunk| bin_references(chunk, &grid, corners));
-    let split = best_split(&bins, &grid, content.bounds.surface_area())?;
-    if split.cost >= beats || split.left + split.right > refs.len() {
+    // The parts' boxes, counted where references enter them and where they leave.
+    let counted = |counts: &[[usize; BINS]; 3]| -> [[Bin; BINS]; 3] {
+        std::array::from_fn(|a| {
+            std::array::from_fn(|i| Bin {
+                count: counts[a][i],
+                ..bins.parts[a][i]
+            })
+        })
+    };
+    let (entering, leaving) = (counted(&bins.entries), counted(&bins.exits));
+    let split = best_split(&entering, &leaving, &grid, content.bounds.surface_area())?;
+    if split.cost >= beats || split.left.count + split.right.count > refs.len() {
         return None;
     }
-    let (axis, scale) = (split.axis, grid.scale[split.axis]?);
-    let pos = grid.plane(axis, split.bin);
-    let mut left = Vec::with_capacity(split.left);
-    let mut right = Vec::with_capacity(split.right);
+    let (axis, pos) = (split.axis, grid.plane(split.axis, split.bin));
+    let mut left = Vec::with_capacity(split.left.count);
+    let mut right = Vec::with_capacity(split.right.count);
     for r in &refs[..m] {
-        if grid.bin(r.max[axis], axis, scale) < split.bin {
+        if grid.bin(r.max[axis], axis) < split.bin {
             left.push(*r);
-        } else if grid.bin(r.min[axis], axis, scale) >= split.bin {
+        } else if grid.bin(r.min[axis], axis) >= split.bin {
             right.push(*r);
         } else {
             let (below, above) = split_reference(r, &corners(r.id), axis, pos);
@@ -246,10 +156,9 @@ pub(super) fn divide(
     refs[..left.len()].copy_from_slice(&left);
     refs[left_room..left_room + right.len()].copy_from_slice(&right);
     Some(Division {
-        left_count: left.len(),
         left_room,
-        left: super::refs::summarize(&left),
-        right: super::refs::summarize(&right),
+        left: summarize(&left),
+        right: summarize(&right),
     })
 }
 
