@@ -1,9 +1,8 @@
 //! Our default ray caster: a binned-SAH bounding volume hierarchy over the scene's triangles
 //! with spatial splits (a large triangle may be referenced from several leaves, each holding
 //! the box of its part there), built in parallel as a binary tree, collapsed into an 8-wide
-//! tree whose eight child boxes
-//! are tested at once with AVX2 (and FMA) when the CPU has them, else into a 4-wide tree tested with SSE,
-//! and traversed with a stack, nearer children first.
+//! tree whose eight child boxes are tested at once with AVX2 (and FMA) when the CPU has them,
+//! else into a 4-wide tree tested with SSE, and traversed with a stack, nearer children first.
 //!
 //! Based on: Wald. On fast construction of SAH-based bounding volume hierarchies. 2007
 //! (binned SAH build, 16 bins, bins keep bounds and centroid bounds so children need no extra pass).
@@ -20,7 +19,8 @@
 //!
 //! # Files
 //! One file per operation, as Embree's `kernels/bvh` and parry's `partitioning/bvh` split
-//! theirs: `build.rs` (the binary SAH tree), `spatial.rs` (its spatial splits), `collapse.rs` (binary to wide nodes),
+//! theirs: `build.rs` (the binary SAH tree), `refs.rs` (its references, bins and SAH
+//! sweep), `spatial.rs` (its spatial splits), `collapse.rs` (binary to wide nodes),
 //! `traverse.rs` (the one traversal loop, closest-hit and any-hit), `node.rs` (the
 //! `WideNode` trait both are generic over), one file per node layout (`node4.rs`,
 //! `node8.rs`: the node, its child encoding and its SIMD box test) and `slab.rs` (the box test
