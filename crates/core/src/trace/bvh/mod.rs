@@ -41,28 +41,28 @@
 //! the scene is not touched while tracing.
 //!
 //! # Memory
-//! Per triangle that is kept (degenerate ones are dropped), with 8-wide nodes: 42 to 58 bytes
-//! of packets (3.4 to 3.8 references per packet: the SAH costs leaves by packet lanes; 1.02 to
-//! 1.16 references per triangle, where spatial splits reference a triangle from several
-//! leaves, at most 1 + `build::SPLIT_BUDGET` = 1.2) plus 12 to 17 bytes of nodes:
-//! 59 bytes per triangle on the Stanford bunny (1.02 references per triangle), 65 on the
-//! 1M-triangle procedural city, 66 on munich, 66 to 73 on the Quake maps (czest3ctf 71, 1.16)
-//! ([`Bvh::memory_bytes`]; without spatial splits, [`Bvh::build_without_splits`], 57 to 63). The build peaks at about 170
-//! bytes per triangle (24-byte boxes, then room for 1.2 references of 48 bytes and 4-byte ids
-//! per triangle, and an uncompacted binary node array of 64 bytes per reference of room),
-//! i.e. about 1.7 GB for 10M triangles.
+//! Per triangle that is kept (degenerate ones are dropped), with 8-wide nodes: 42 to 58 bytes of
+//! packets (3.4 to 3.8 references per packet: the SAH costs leaves by packet lanes; 1.02 to 1.16
+//! references per triangle, where spatial splits reference a triangle from several leaves, at most
+//! 1 + `build::SPLIT_BUDGET` = 1.2) plus 12 to 17 bytes of nodes: 59 bytes per triangle on the
+//! Stanford bunny (1.02 references per triangle), 65 on the 1M-triangle procedural city, 66 on
+//! munich, 66 to 73 on the Quake maps (czest3ctf 71, 1.16) ([`Bvh::memory_bytes`]; without spatial
+//! splits, [`Bvh::build_without_splits`], 57 to 63). The build peaks at about 170 bytes per
+//! triangle (24-byte boxes, then room for 1.2 references of 48 bytes and 4-byte ids per triangle,
+//! and an uncompacted binary node array of 64 bytes per reference of room), i.e. about 1.7 GB for
+//! 10M triangles.
 //!
 //! # Exactness
-//! Rays with a finite inverse direction (almost all) take a cheaper slab test on the bits of
-//! the distances as integers, which enters every box the float test enters (`slab.rs`).
-//! Leaves use the same watertight test as [`super::BruteForce`] (four lanes at a time with the
-//! same bits, see `tri4.rs`) and ties in `t` go to the lower triangle id, so hits equal brute
-//! force bit for bit. A triangle split by spatial splits is tested in each leaf that holds a
-//! part of it, with the same result each time, and the boxes of its parts together hold every
-//! point of it (`spatial.rs` widens them around the points where its edges cross a plane,
-//! which floats round), so no hit is lost. Box tests are only ever made more conservative (Ize's slack on the far
-//! distance, a relative slack on the culling distance) so that a box whose triangle the leaf
-//! test would accept is never culled by rounding.
+//! Rays with a finite inverse direction (almost all) take a cheaper slab test on the bits of the
+//! distances as integers, which enters every box the float test enters (`slab.rs`). Leaves use the
+//! same watertight test as [`super::BruteForce`] (four lanes at a time with the same bits, see
+//! `tri4.rs`) and ties in `t` go to the lower triangle id, so hits equal brute force bit for bit. A
+//! triangle split by spatial splits is tested in each leaf that holds a part of it, with the same
+//! result each time, and the boxes of its parts together hold every point of it (`spatial.rs`
+//! widens them around the points where its edges cross a plane, which floats round), so no hit is
+//! lost. Box tests are only ever made more conservative (Ize's slack on the far distance, a
+//! relative slack on the culling distance) so that a box whose triangle the leaf test would accept
+//! is never culled by rounding.
 
 mod build;
 mod collapse;

@@ -1,7 +1,7 @@
-//! The 8-wide layout of [`super::Bvh`]: eight child boxes tested at once with AVX2, used
-//! instead of the 4-wide layout (`node4.rs`) when the CPU has AVX2 and FMA (every AVX2 CPU
-//! of Intel and AMD has both; checked at run time with `is_x86_feature_detected!`); the reference slab test lane by lane off x86_64. Leaves are the
-//! same four-triangle packets.
+//! The 8-wide layout of [`super::Bvh`]: eight child boxes tested at once with AVX2, used instead of
+//! the 4-wide layout (`node4.rs`) when the CPU has AVX2 and FMA (every AVX2 CPU of Intel and AMD
+//! has both; checked at run time with `is_x86_feature_detected!`); the reference slab test lane by
+//! lane off x86_64. Leaves are the same four-triangle packets.
 //!
 //! Based on: Fuetterling, Lojewski, Pfreundt, Ebert. Efficient Ray Tracing Kernels for Modern
 //! CPU Architectures. JCGT 4(5), 2015 (BVH8 single-ray traversal with 8-wide box tests).
