@@ -209,6 +209,36 @@ pub(super) fn update_tile(tile: &mut Tile, cov: u32, r: f32) {
     }
 }
 
+/// Random tile states and merges for the kernels' tests.
+#[cfg(test)]
+pub(super) mod test_states {
+    use super::{update_tile, Tile, CLEAR_TILE, FULL};
+    use sightline_core::random::SplitMix64;
+
+    /// Depths from a small set so that ties, equal layers and NaN all occur.
+    const DEPTHS: [f32; 7] = [0.0, 0.1, 0.25, 0.5, 0.75, 1.0, f32::NAN];
+    const MASKS: [u32; 7] = [0, 1, 0x0000_FFFF, 0xFFFF_0000, 0xF0F0_F0F0, FULL >> 1, FULL];
+
+    fn pick(rng: &mut SplitMix64, n: usize) -> usize {
+        rng.below(n as u64) as usize
+    }
+
+    /// A tile after a random history of up to three merges: a state the buffer can reach.
+    pub(in super::super) fn reachable_tile(rng: &mut SplitMix64) -> Tile {
+        let mut tile = CLEAR_TILE;
+        for _ in 0..pick(rng, 4) {
+            let (m, z) = (MASKS[pick(rng, 6) + 1], DEPTHS[pick(rng, 6) + 1]);
+            update_tile(&mut tile, m, z);
+        }
+        tile
+    }
+
+    /// A random coverage (possibly empty or full) and depth (possibly NaN) to merge.
+    pub(in super::super) fn random_merge(rng: &mut SplitMix64) -> (u32, f32) {
+        (MASKS[pick(rng, 7)], DEPTHS[pick(rng, 7)])
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

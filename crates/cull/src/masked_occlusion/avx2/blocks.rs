@@ -233,7 +233,13 @@ fn draw_blocks(
             } else {
                 tri.r_far
             };
-            merge_block(block, z0, cov, r, all);
+            // A block the triangle covers whole (the inside of a large triangle) takes the
+            // merge's one outcome for a full mask, without its selects.
+            if _mm256_movemask_epi8(_mm256_cmpeq_epi32(cov, all)) == -1 {
+                cover_block(block, z0, r);
+            } else {
+                merge_block(block, z0, cov, r, all);
+            }
         }
         rel_a = _mm256_sub_epi32(rel_a, _mm256_set1_epi32(32));
         rel_b = _mm256_sub_epi32(rel_b, _mm256_set1_epi32(32));
@@ -487,6 +493,34 @@ fn merge_block(block: &mut Block, z0: __m256, cov: __m256i, r: __m256, all: __m2
     }
 }
 
+/// [`merge_block`] for a triangle that covers all 8 tiles (`cov` all ones in every lane):
+/// a tile it is nearer than (`r > z0`) gets `r` as its reference layer and loses its working
+/// layer (`tiles::update_tile` with a full mask), the others stay. `z0` is the block's
+/// reference layer, already loaded.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn cover_block(block: &mut Block, z0: __m256, r: __m256) {
+    let nearer = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(r, z0));
+    if _mm256_testz_si256(nearer, nearer) != 0 {
+        return;
+    }
+    // SAFETY: aligned loads and stores of the 32-byte arrays of a `#[repr(align(32))]` block.
+    unsafe {
+        let z1 = _mm256_load_si256(block.z1.as_ptr().cast());
+        let m = _mm256_load_si256(block.mask.as_ptr().cast());
+        // `max(r, z0)` is `r` where `r > z0` and `z0` elsewhere, NaN `r` included.
+        _mm256_store_ps(block.z0.as_mut_ptr(), _mm256_max_ps(r, z0));
+        _mm256_store_si256(
+            block.z1.as_mut_ptr().cast(),
+            _mm256_andnot_si256(nearer, z1),
+        );
+        _mm256_store_si256(
+            block.mask.as_mut_ptr().cast(),
+            _mm256_andnot_si256(nearer, m),
+        );
+    }
+}
+
 /// Smallest lane.
 #[inline]
 #[target_feature(enable = "avx2")]
@@ -517,52 +551,57 @@ fn min_like_f32(a: __m256, b: __m256) -> __m256 {
 
 #[cfg(test)]
 mod tests {
-    use super::super::super::tiles::{update_tile, CLEAR_BLOCK, CLEAR_TILE, FULL};
+    use super::super::super::tiles::test_states::{random_merge, reachable_tile};
+    use super::super::super::tiles::{update_tile, CLEAR_BLOCK, FULL};
     use super::*;
 
     #[test]
-    fn block_merge_equals_tile_update() {
+    fn block_merge_and_cover_equal_tile_update() {
         if !std::arch::is_x86_feature_detected!("avx2") {
             eprintln!("no AVX2 on this CPU: the block merge cannot run");
             return;
         }
         let mut rng = sightline_core::random::SplitMix64::new(5);
-        // Depths from a small set so that ties, equal layers and NaN all occur.
-        let depths = [0.0, 0.1, 0.25, 0.5, 0.75, 1.0, f32::NAN];
-        let masks = [0, 1, 0x0000_FFFF, 0xFFFF_0000, 0xF0F0_F0F0, FULL >> 1, FULL];
-        let pick =
-            |rng: &mut sightline_core::random::SplitMix64, n: usize| rng.below(n as u64) as usize;
-        let mut changed = 0;
-        for _ in 0..5_000 {
+        let (mut changed, mut covered_changed) = (0, 0);
+        for case in 0..6_000 {
+            // Every third block covered whole: `cover_block` must then agree as well.
+            let whole = case % 3 == 0;
             let mut block = CLEAR_BLOCK;
             let mut want = CLEAR_BLOCK;
             let (mut cov, mut r) = ([0u32; 8], [0f32; 8]);
             for l in 0..8 {
-                let mut tile = CLEAR_TILE;
-                // A random history of merges gives reachable tile states.
-                for _ in 0..pick(&mut rng, 4) {
-                    let (m, z) = (masks[pick(&mut rng, 6) + 1], depths[pick(&mut rng, 6) + 1]);
-                    update_tile(&mut tile, m, z);
-                }
+                let mut tile = reachable_tile(&mut rng);
                 (block.z0[l], block.z1[l], block.mask[l]) = (tile.z0, tile.z1, tile.mask);
-                (cov[l], r[l]) = (masks[pick(&mut rng, 7)], depths[pick(&mut rng, 7)]);
+                let (c, z) = random_merge(&mut rng);
+                (cov[l], r[l]) = (if whole { FULL } else { c }, z);
                 if cov[l] != 0 {
                     update_tile(&mut tile, cov[l], r[l]);
                 }
                 (want.z0[l], want.z1[l], want.mask[l]) = (tile.z0, tile.z1, tile.mask);
             }
             let before = block;
+            let mut covered = block;
             // SAFETY: AVX2 support was checked above; unaligned loads of local arrays.
             unsafe {
                 let c = _mm256_loadu_si256(cov.as_ptr().cast());
                 let z = _mm256_loadu_ps(r.as_ptr());
                 let z0 = _mm256_load_ps(block.z0.as_ptr());
                 merge_block(&mut block, z0, c, z, _mm256_set1_epi32(-1));
+                if whole {
+                    cover_block(&mut covered, z0, z);
+                }
             }
             let bits = |b: &Block| (b.z0.map(f32::to_bits), b.z1.map(f32::to_bits), b.mask);
             assert_eq!(bits(&block), bits(&want), "{before:?} + {cov:x?}, {r:?}");
+            if whole {
+                assert_eq!(bits(&covered), bits(&want), "{before:?} covered at {r:?}");
+                covered_changed += usize::from(want != before);
+            }
             changed += usize::from(want != before);
         }
-        assert!(changed > 2_500, "{changed}");
+        assert!(
+            changed > 3_000 && covered_changed > 1_000,
+            "{changed}, {covered_changed}"
+        );
     }
 }

@@ -190,7 +190,15 @@ avx512! {
                     tri.r_far
                 };
                 // SAFETY: as for the load.
-                unsafe { merge_pair(blocks, z0, cov, r) };
+                unsafe {
+                    // A pair the triangle covers whole (the inside of a large triangle) takes
+                    // the merge's one outcome for a full mask, without its selects.
+                    if _mm512_cmpeq_epi32_mask(cov, _mm512_set1_epi32(-1)) == 0xFFFF {
+                        cover_pair(blocks, z0, r);
+                    } else {
+                        merge_pair(blocks, z0, cov, r);
+                    }
+                };
             }
             rel_a = _mm512_sub_epi32(rel_a, _mm512_set1_epi32(32));
             rel_b = _mm512_sub_epi32(rel_b, _mm512_set1_epi32(32));
@@ -457,10 +465,83 @@ avx512! {
         }
     }
 
+    /// [`merge_pair`] for a triangle that covers all 16 tiles (`cov` all ones in every lane):
+    /// a tile it is nearer than (`r > z0`) gets `r` as its reference layer and loses its
+    /// working layer (`tiles::update_tile` with a full mask), the others stay; their working
+    /// layers are not even loaded. `z0` is the pair's reference layers, already loaded.
+    ///
+    /// # Safety
+    /// As [`PairPtrs::load_z0`].
+    #[inline]
+    unsafe fn cover_pair(p: PairPtrs, z0: __m512, r: __m512) {
+        let nearer = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(r, z0);
+        if nearer == 0 {
+            return;
+        }
+        // SAFETY: the blocks are in the buffer (this function's contract); masked stores of
+        // zeros into the lanes of `nearer` of the aligned 32-byte fields.
+        unsafe {
+            // `max(r, z0)` is `r` where `r > z0` and `z0` elsewhere, NaN `r` included.
+            p.store(offset_of!(Block, z0), _mm512_max_ps(r, z0));
+            let zero = _mm256_setzero_ps();
+            let (lo, hi) = (nearer as __mmask8, (nearer >> 8) as __mmask8);
+            for field in [offset_of!(Block, z1), offset_of!(Block, mask)] {
+                _mm256_mask_store_ps(PairPtrs::at(p.lo, field), lo, zero);
+                _mm256_mask_store_ps(PairPtrs::at(p.hi, field), hi, zero);
+            }
+        }
+    }
+
     /// `a.min(b)` of `f32` lane by lane (the non-NaN operand when one is NaN), as
     /// `blocks::min_like_f32`.
     #[inline]
     fn min_like(a: __m512, b: __m512) -> __m512 {
         _mm512_mask_mov_ps(_mm512_min_ps(a, b), _mm512_cmp_ps_mask::<_CMP_UNORD_Q>(b, b), a)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::super::tiles::test_states::{random_merge, reachable_tile};
+    use super::super::super::tiles::{update_tile, CLEAR_BLOCK, FULL};
+    use super::*;
+
+    #[test]
+    fn pair_cover_equals_tile_update_with_full_masks() {
+        if !super::super::super::kernel::cpu_has_avx512() {
+            eprintln!("no AVX-512 on this CPU: the pair cover cannot run");
+            return;
+        }
+        let mut rng = sightline_core::random::SplitMix64::new(9);
+        let mut changed = 0;
+        for _ in 0..3_000 {
+            // Two blocks a row apart, as `pair_row` reaches them (a row of one block).
+            let mut blocks = [CLEAR_BLOCK; 2];
+            let mut want = blocks;
+            let mut r = [0f32; 16];
+            for (lane, r) in r.iter_mut().enumerate() {
+                let (b, l) = (lane / 8, lane % 8);
+                let mut tile = reachable_tile(&mut rng);
+                (blocks[b].z0[l], blocks[b].z1[l], blocks[b].mask[l]) =
+                    (tile.z0, tile.z1, tile.mask);
+                *r = random_merge(&mut rng).1;
+                update_tile(&mut tile, FULL, *r);
+                (want[b].z0[l], want[b].z1[l], want[b].mask[l]) = (tile.z0, tile.z1, tile.mask);
+            }
+            let before = blocks;
+            let pair = PairPtrs::new(blocks.as_mut_ptr(), 1, 0);
+            // SAFETY: AVX-512 support was checked above; the pair is the two local blocks,
+            // which no reference points to while it is covered.
+            unsafe {
+                let z0 = pair.load_z0();
+                cover_pair(pair, z0, _mm512_loadu_ps(r.as_ptr()));
+            }
+            let bits = |b: &[Block; 2]| {
+                b.map(|b| (b.z0.map(f32::to_bits), b.z1.map(f32::to_bits), b.mask))
+            };
+            assert_eq!(bits(&blocks), bits(&want), "{before:?} covered at {r:?}");
+            changed += usize::from(want != before);
+        }
+        assert!(changed > 1_500, "{changed}");
     }
 }
