@@ -14,8 +14,8 @@
 use crate::geometry::Aabb;
 
 use super::refs::{
-    best_split, bin_in_parallel, packet_lanes, share_room, summarize, Bin, Content, Corners,
-    Division, Grid, Merge, PrimRef, BINS, INTERSECT_COST,
+    best_split, bin_in_parallel, longest_axis, packet_lanes, share_room, summarize, Bin, Content,
+    Corners, Division, Grid, Merge, PrimRef, BINS, INTERSECT_COST,
 };
 use super::spatial;
 
@@ -262,7 +262,13 @@ fn divide(
             beats = beats.min(leaf_cost);
         }
         if overlap > spatial::MIN_OVERLAP * input.root_area && m > spatial::MIN_REFERENCES {
-            if let Some(d) = spatial::divide(refs, content, splits, beats) {
+            if let Some(d) = spatial::divide(
+                refs,
+                content,
+                splits,
+                beats,
+                object.as_ref().map(|s| s.axis),
+            ) {
                 return Some(d);
             }
         }
@@ -282,14 +288,7 @@ fn divide(
         _ => {
             // No usable SAH split (identical centroids, or too deep): the object median along
             // the longest centroid axis. With identical centroids this is a split by index.
-            let e = content.centroids.extent();
-            let axis = if e.x >= e.y && e.x >= e.z {
-                0
-            } else if e.y >= e.z {
-                1
-            } else {
-                2
-            };
+            let axis = longest_axis(content.centroids.extent());
             let half = m / 2;
             refs[..m].select_nth_unstable_by(half, |p, q| {
                 let cp = p.centroid()[axis];

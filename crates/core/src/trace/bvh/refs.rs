@@ -131,6 +131,17 @@ where
         .expect("at least one chunk")
 }
 
+/// The axis along which `extent` is largest (the first of equals).
+pub(super) fn longest_axis(extent: glam::Vec3) -> usize {
+    if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    }
+}
+
 /// Bins that add up bin by bin.
 pub(super) trait Merge {
     fn merge(&self, other: &Self) -> Self;

@@ -16,8 +16,8 @@
 use glam::Vec3A;
 
 use super::refs::{
-    best_split, bin_in_parallel, share_room, summarize, Bin, Content, Corners, Division, Grid,
-    Merge, PrimRef, BINS,
+    best_split, bin_in_parallel, longest_axis, share_room, summarize, Bin, Content, Corners,
+    Division, Grid, Merge, PrimRef, BINS,
 };
 
 /// Stich et al.'s `alpha`: a spatial split is tried only where the object split's children
@@ -63,7 +63,8 @@ impl Merge for SpatialBins {
     }
 }
 
-fn bin_references(refs: &[PrimRef], grid: &Grid, corners: Corners) -> SpatialBins {
+/// Bins the references' parts on the axes of `axes`.
+fn bin_references(refs: &[PrimRef], grid: &Grid, corners: Corners, axes: [bool; 3]) -> SpatialBins {
     let mut bins = SpatialBins {
         parts: [[Bin::EMPTY; BINS]; 3],
         entries: [[0; BINS]; 3],
@@ -72,7 +73,7 @@ fn bin_references(refs: &[PrimRef], grid: &Grid, corners: Corners) -> SpatialBin
     for r in refs {
         let (first, last) = (grid.bins(r.min), grid.bins(r.max));
         let mut triangle = None;
-        for axis in (0..3).filter(|&a| grid.splits(a)) {
+        for axis in (0..3).filter(|&a| grid.splits(a) && axes[a]) {
             let (first, last) = (first[axis] as usize, last[axis] as usize);
             bins.entries[axis][first] += 1;
             let parts = &mut bins.parts[axis];
@@ -110,15 +111,27 @@ fn bin_references(refs: &[PrimRef], grid: &Grid, corners: Corners) -> SpatialBin
 
 /// Divides the node's references by the best spatial split when its cost is below `beats`
 /// and the references it adds fit the node's room; `None` (references untouched) otherwise.
+/// Planes are tried across the longest axis of the node's box and across `object_axis`, the
+/// axis of the node's best object split, rather than across all three: clipping every
+/// reference to the bins of an axis is most of a build's time, and the third axis seldom
+/// holds the best plane (one build thread, against all three axes: the 1M-triangle city
+/// 2.4 s → 1.4 s, czest3ctf and munich 0.07-0.08 → 0.045 s; nodes and packets per ray within
+/// 1 % on the city, 1-5 % more on czest3ctf's, fan's and fzk_haus's packets, fewer on
+/// dm4ish's and oa_dm1's; ray speed within 1 %, docs/BENCHMARKS.md, 2026-12-07).
 pub(super) fn divide(
     refs: &mut [PrimRef],
     content: &Content,
     corners: Corners,
     beats: f32,
+    object_axis: Option<usize>,
 ) -> Option<Division> {
     let m = content.count;
     let grid = Grid::new(&content.bounds);
-    let bins = bin_in_parallel(&refs[..m], |chunk| bin_references(chunk, &grid, corners));
+    let longest = longest_axis(content.bounds.extent());
+    let axes = std::array::from_fn(|a| a == longest || Some(a) == object_axis);
+    let bins = bin_in_parallel(&refs[..m], |chunk| {
+        bin_references(chunk, &grid, corners, axes)
+    });
     // The parts' boxes, counted where references enter them and where they leave.
     let counted = |counts: &[[usize; BINS]; 3]| -> [[Bin; BINS]; 3] {
         std::array::from_fn(|a| {
