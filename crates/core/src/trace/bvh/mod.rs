@@ -45,8 +45,8 @@
 //! packets (3.4 to 3.8 references per packet: the SAH costs leaves by packet lanes; 1.02 to 1.16
 //! references per triangle, where spatial splits reference a triangle from several leaves, at most
 //! 1 + `build::SPLIT_BUDGET` = 1.2) plus 12 to 17 bytes of nodes: 59 bytes per triangle on the
-//! Stanford bunny (1.02 references per triangle), 65 on the 1M-triangle procedural city, 66 on
-//! munich, 66 to 73 on the Quake maps (czest3ctf 71, 1.16) ([`Bvh::memory_bytes`]; without spatial
+//! Stanford bunny (1.01 references per triangle), 65 on the 1M-triangle procedural city and on
+//! munich, 67 to 73 on the Quake maps (czest3ctf 71, 1.16) ([`Bvh::memory_bytes`]; without spatial
 //! splits, [`Bvh::build_without_splits`], 57 to 63). The build peaks at about 170 bytes per
 //! triangle (24-byte boxes, then room for 1.2 references of 48 bytes and 4-byte ids per triangle,
 //! and an uncompacted binary node array of 64 bytes per reference of room), i.e. about 1.7 GB for
@@ -159,8 +159,8 @@ impl Bvh {
         Self::build_with(scene, Width::widest(), true)
     }
 
-    /// [`Bvh::build`] without spatial splits: each triangle in one leaf. It builds in a third
-    /// to a half of the time and takes 11-15 % less memory on the shared scenes, for rays up
+    /// [`Bvh::build`] without spatial splits: each triangle in one leaf. It builds in about
+    /// half the time and takes 11-15 % less memory on the shared scenes, for rays up
     /// to a fifth slower among large triangles (Quake maps; the same on scanned models), so
     /// it suits a tree rebuilt often for few rays.
     pub fn build_without_splits(scene: &Scene) -> Self {

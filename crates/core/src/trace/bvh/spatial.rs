@@ -116,8 +116,9 @@ fn bin_references(refs: &[PrimRef], grid: &Grid, corners: Corners, axes: [bool; 
 /// reference to the bins of an axis is most of a build's time, and the third axis seldom
 /// holds the best plane (one build thread, against all three axes: the 1M-triangle city
 /// 2.4 s → 1.4 s, czest3ctf and munich 0.07-0.08 → 0.045 s; nodes and packets per ray within
-/// 1 % on the city, 1-5 % more on czest3ctf's, fan's and fzk_haus's packets, fewer on
-/// dm4ish's and oa_dm1's; ray speed within 1 %, docs/BENCHMARKS.md, 2026-12-07).
+/// 1 % on the city, up to 5 % more on czest3ctf's packets and fan's and fzk_haus's nodes or
+/// packets, fewer on dm4ish's and oa_dm1's; ray speed within 1 %; docs/BENCHMARKS.md,
+/// 2026-12-07).
 pub(super) fn divide(
     refs: &mut [PrimRef],
     content: &Content,
