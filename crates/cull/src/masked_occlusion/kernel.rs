@@ -130,7 +130,7 @@ fn cpu_has_avx2() -> bool {
     }
 }
 
-pub(super) fn cpu_has_avx512() -> bool {
+fn cpu_has_avx512() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::is_x86_feature_detected as has;

@@ -224,7 +224,7 @@ pub(super) mod test_states {
     }
 
     /// A tile after a random history of up to three merges: a state the buffer can reach.
-    pub(in super::super) fn reachable_tile(rng: &mut SplitMix64) -> Tile {
+    pub(crate) fn reachable_tile(rng: &mut SplitMix64) -> Tile {
         let mut tile = CLEAR_TILE;
         for _ in 0..pick(rng, 4) {
             let (m, z) = (MASKS[pick(rng, 6) + 1], DEPTHS[pick(rng, 6) + 1]);
@@ -234,7 +234,7 @@ pub(super) mod test_states {
     }
 
     /// A random coverage (possibly empty or full) and depth (possibly NaN) to merge.
-    pub(in super::super) fn random_merge(rng: &mut SplitMix64) -> (u32, f32) {
+    pub(crate) fn random_merge(rng: &mut SplitMix64) -> (u32, f32) {
         (MASKS[pick(rng, 7)], DEPTHS[pick(rng, 7)])
     }
 }
