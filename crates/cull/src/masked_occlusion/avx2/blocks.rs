@@ -200,6 +200,10 @@ fn draw_blocks(
     let zero = _mm256_setzero_si256();
     let last_bx = g.last_tx / 4;
     let (mut rel_a, mut rel_b) = (rel_a, rel_b);
+    // A row whose spans reach fewer than three blocks seldom holds a block the triangle covers
+    // whole (only where the image's edges cut the triangle): the test is skipped there, and
+    // the merge gives the same result anyway (cachegrind: half the test's cost on 10-25 px).
+    let may_cover = bx1 - bx0 >= 2;
     for bx in bx0..bx1 + 1 {
         // SAFETY: `bx0..=bx1` lies in the bounding box (`row_spans`), so in the row.
         let block = unsafe { block_row.get_unchecked_mut(bx as usize) };
@@ -235,7 +239,7 @@ fn draw_blocks(
             };
             // A block the triangle covers whole (the inside of a large triangle) takes the
             // merge's one outcome for a full mask, without its selects.
-            if _mm256_movemask_epi8(_mm256_cmpeq_epi32(cov, all)) == -1 {
+            if may_cover && _mm256_movemask_epi8(_mm256_cmpeq_epi32(cov, all)) == -1 {
                 cover_block(block, z0, r);
             } else {
                 merge_block(block, z0, cov, r, all);

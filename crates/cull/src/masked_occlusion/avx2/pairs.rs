@@ -156,6 +156,10 @@ avx512! {
             return;
         };
         let (mut rel_a, mut rel_b) = (rel_a, rel_b);
+        // A pair row whose spans reach fewer than three blocks seldom holds a block pair the
+        // triangle covers whole (only where the image's edges cut the triangle): the test is
+        // skipped there, and the merge gives the same result anyway.
+        let may_cover = bx1 - bx0 >= 2;
         for bx in bx0..bx1 + 1 {
             let blocks = pair(bx);
             // SAFETY: `bx0..=bx1` lies in the bounding box (`pair_spans`).
@@ -193,7 +197,7 @@ avx512! {
                 unsafe {
                     // A pair the triangle covers whole (the inside of a large triangle) takes
                     // the merge's one outcome for a full mask, without its selects.
-                    if _mm512_cmpeq_epi32_mask(cov, _mm512_set1_epi32(-1)) == 0xFFFF {
+                    if may_cover && _mm512_cmpeq_epi32_mask(cov, _mm512_set1_epi32(-1)) == 0xFFFF {
                         cover_pair(blocks, z0, r);
                     } else {
                         merge_pair(blocks, z0, cov, r);
