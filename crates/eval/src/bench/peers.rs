@@ -177,7 +177,9 @@ impl Drop for PeerProcess {
 pub struct PeerBenchOptions {
     /// Rounds; every side runs once per round, in turn.
     pub rounds: usize,
-    /// Occluder renderings per side and round (after one untimed warm-up in the first round).
+    /// Timed samples of occluder renderings per side and round (after one untimed warm-up in
+    /// the first round); a sample is one rendering, or the mean of as many as last
+    /// [`MIN_SAMPLE_NS`] where one is shorter.
     pub reps: usize,
     /// Casts of each ray set per side and round.
     pub ray_reps: usize,
@@ -303,6 +305,7 @@ pub fn bench_occluders(
         let mut peer_ns = vec![Vec::new(); peers.len()];
         let mut checks = vec![None; peers.len()];
         let path = case.path.display().to_string();
+        let mut per_sample = 1;
         for round in 0..options.rounds {
             report(
                 on,
@@ -312,26 +315,38 @@ pub fn bench_occluders(
                     rounds: options.rounds,
                 },
             );
-            let reps = options.reps + usize::from(round == 0);
-            for (&kernel, ns) in kernels.iter().zip(&mut ours_ns) {
-                buffer.set_kernel(kernel);
-                for rep in 0..reps {
-                    let t = thread_cpu_ns();
+            if round == 0 {
+                // One untimed warm-up per kernel, then one more rendering with the best
+                // kernel, warm, for the renderings a sample needs.
+                for &kernel in &kernels {
+                    buffer.set_kernel(kernel);
                     buffer.clear();
                     buffer.render_occluders(&case.set.triangles, cam);
-                    let dt = thread_cpu_ns() - t;
-                    if round > 0 || rep > 0 {
-                        ns.push(dt);
+                }
+                let t = thread_cpu_ns();
+                buffer.clear();
+                buffer.render_occluders(&case.set.triangles, cam);
+                per_sample = renderings_per_sample(thread_cpu_ns() - t);
+            }
+            for (&kernel, ns) in kernels.iter().zip(&mut ours_ns) {
+                buffer.set_kernel(kernel);
+                for _ in 0..options.reps {
+                    let t = thread_cpu_ns();
+                    for _ in 0..per_sample {
+                        buffer.clear();
+                        buffer.render_occluders(&case.set.triangles, cam);
                     }
+                    ns.push((thread_cpu_ns() - t) / per_sample as u64);
                 }
             }
             for (i, peer) in peers.iter_mut().enumerate() {
-                let mut command = format!("render {path} {}", options.reps);
+                let mut command = format!("render {path} {}", options.reps * per_sample);
                 let depth_path = scratch.join(format!("depth_{i}.bin"));
                 if round == 0 {
                     command += &format!(" {}", depth_path.display());
                 }
-                peer_ns[i].extend(peer.call_ns(&command)?);
+                let renderings = peer.call_ns(&command)?;
+                peer_ns[i].extend(sample_means(&renderings, per_sample));
                 if round == 0 {
                     checks[i] = Some(coverage_check(&buffer, &depth_path)?);
                 }
@@ -363,6 +378,24 @@ pub fn bench_occluders(
         }
     }
     Ok(rows)
+}
+
+/// Shortest timed sample of occluder renderings: a rendering of a frame's few hundred
+/// occluders takes 0.1-0.5 ms, and single renderings that short gave medians 30 % apart from
+/// one run to the next on this shared machine (2026-12-07).
+const MIN_SAMPLE_NS: u64 = 2_000_000;
+
+/// Renderings per timed sample for a set whose rendering took `once_ns`: enough for
+/// [`MIN_SAMPLE_NS`], at least one.
+fn renderings_per_sample(once_ns: u64) -> usize {
+    MIN_SAMPLE_NS.div_ceil(once_ns.max(1)).clamp(1, 1000) as usize
+}
+
+/// The means of consecutive groups of `per_sample` timings (a last partial group dropped).
+fn sample_means(ns: &[u64], per_sample: usize) -> Vec<u64> {
+    ns.chunks_exact(per_sample)
+        .map(|group| group.iter().sum::<u64>() / per_sample as u64)
+        .collect()
 }
 
 /// Compares ours (as rendered last) with a peer's depth image.
@@ -634,6 +667,17 @@ mod tests {
         );
         assert_eq!(Timing::of_ns(&[1_000_000_000, 2_000_000_000]).median_s, 1.5);
         assert_eq!(Timing::of_ns(&[]).samples, 0);
+    }
+
+    #[test]
+    fn short_renderings_are_timed_in_groups() {
+        // A 0.2 ms rendering takes 10 to a 2 ms sample, a 5 ms one stands alone, and a
+        // rendering timed at 0 ns does not divide by zero.
+        assert_eq!(renderings_per_sample(200_000), 10);
+        assert_eq!(renderings_per_sample(5_000_000), 1);
+        assert_eq!(renderings_per_sample(0), 1000);
+        assert_eq!(sample_means(&[1, 3, 5, 7, 100], 2), vec![2, 6]);
+        assert_eq!(sample_means(&[4, 8], 1), vec![4, 8]);
     }
 
     #[test]

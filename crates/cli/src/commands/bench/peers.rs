@@ -34,7 +34,8 @@ pub(super) struct PeersArgs {
     /// Rounds; every side runs once per round, in turn (median of all samples).
     #[arg(long, default_value_t = 3)]
     rounds: usize,
-    /// Occluder renderings per side and round.
+    /// Timed samples of occluder renderings per side and round (a sample is the mean of as
+    /// many renderings as last 2 ms, one for the random sets).
     #[arg(long, default_value_t = 5)]
     reps: usize,
     /// Casts of each ray set per backend and round.
@@ -278,7 +279,8 @@ fn rays(args: &PeersArgs, options: &PeerBenchOptions, dir: &Path) -> Result<Vec<
 fn print_occluders(rows: &[OccluderRow], o: &PeerBenchOptions, moc: bool) -> Result<()> {
     outln!(
         "Occluder rasterization at 1920x1080, one thread, CPU time per frame (clear + render), \
-         median of {} rounds x {} reps (fastest-slowest). `peer/ours`: the side's median time \
+         median of {} rounds x {} samples (fastest-slowest; a sample is the mean of as many \
+         renderings as last 2 ms). `peer/ours`: the side's median time \
          over ours with the CPU's best kernel (above 1: ours is faster); on a CPU with \
          AVX-512 ours also runs its AVX2 kernel, the one of CPUs without it.\n",
         o.rounds,
