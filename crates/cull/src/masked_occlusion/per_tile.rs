@@ -165,6 +165,7 @@ pub(super) unsafe fn render<T: TileSteps>(tiles: &mut Tiles, triangles: &[Vec3],
                     unsafe { raster_triangle::<T>(tiles, q) };
                 }
             }
+            ViewTriangle::Clip(v) if proj.beside_view(&v) => {}
             ViewTriangle::Clip(v) => {
                 if let Some(q) = queued.take() {
                     // SAFETY: as above.

@@ -48,6 +48,10 @@ pub(super) struct Projector {
     /// The guard band's half-width and half-height per unit of view depth.
     pub guard_x: f32,
     pub guard_y: f32,
+    /// `cx + 1` and `cy + 1`: from the centre to a pixel beyond the screen's edges, for
+    /// [`Projector::beside_view`].
+    pub beyond_x: f32,
+    pub beyond_y: f32,
 }
 
 /// One occluder or query triangle after the view transform, sorted by what drawing it needs.
@@ -79,6 +83,8 @@ impl Projector {
             cy,
             guard_x: guard_half_screens(cx) * tan_x,
             guard_y: guard_half_screens(cy) * tan_y,
+            beyond_x: cx + 1.0,
+            beyond_y: cy + 1.0,
         }
     }
 
@@ -101,6 +107,33 @@ impl Projector {
     #[inline(always)]
     pub fn inside_guard(&self, v: Vec3) -> bool {
         v.z >= self.near && v.x.abs() <= self.guard_x * v.z && v.y.abs() <= self.guard_y * v.z
+    }
+
+    /// Whether every corner of a view-space triangle lies beyond the same edge of the screen,
+    /// a pixel out: then no part of it in front of the near plane reaches a pixel centre, and
+    /// an occluder rasterizer can drop it instead of clipping it to nothing. In Quake 3 frames
+    /// most triangles that cross the near plane or the guard band lie wholly beside the view
+    /// (czest3ctf's frame 150: 137 of 142); the scalar clipper was 6 % of its rendering.
+    ///
+    /// Each edge is a plane through the eye (`sx < -1` is `kx x + (cx + 1) z < 0` for
+    /// `z > 0`), so corners behind the camera are judged by the same test: a triangle in the
+    /// half-space has every point there. The occluder kernels all call this, lane by lane with
+    /// the same `f32` operations, so they drop the same triangles; dropping an occluder is
+    /// conservative in any case (the buffer only gets farther), and the pixel's margin keeps
+    /// it to triangles that would draw nothing.
+    #[inline(always)]
+    pub fn beside_view(&self, v: &[Vec3; 3]) -> bool {
+        // Left, right, top, bottom.
+        let mut beyond = [true; 4];
+        for p in v {
+            let (x, y) = (self.kx * p.x, self.ky * p.y);
+            let (zx, zy) = (self.beyond_x * p.z, self.beyond_y * p.z);
+            beyond[0] &= x + zx < 0.0;
+            beyond[1] &= x - zx > 0.0;
+            beyond[2] &= y - zy > 0.0;
+            beyond[3] &= y + zy < 0.0;
+        }
+        beyond.contains(&true)
     }
 
     /// The triangle with world corners `t[0..3]` in view space, sorted by what drawing it
@@ -285,5 +318,65 @@ mod tests {
             }
             assert!(band >= 1.0, "{width}: {band} half-screens");
         }
+    }
+
+    /// `beside_view` drops only triangles whose clipped pieces reach no pixel centre (so the
+    /// rasterizers would draw nothing of them), corners behind the camera included, and it
+    /// drops every triangle in front of the camera whose corners project a pixel and a half
+    /// beyond one edge.
+    #[test]
+    fn triangles_beside_the_view_clip_to_pieces_that_reach_no_pixel_centre() {
+        let (w, h) = (320u32, 180u32);
+        let cam = Camera::look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 70.0, w, h, 0.1).unwrap();
+        let proj = Projector::new(&cam, w, h);
+        let mut rng = sightline_core::random::SplitMix64::new(3);
+        let (mut dropped, mut dropped_behind, mut missed) = (0, 0, 0);
+        for i in 0..40_000 {
+            let size = [0.5, 5.0, 40.0][i % 3];
+            let c = Vec3::new(
+                rng.range_f32(-80.0, 80.0),
+                rng.range_f32(-80.0, 80.0),
+                rng.range_f32(-10.0, 40.0),
+            );
+            let v: [Vec3; 3] = std::array::from_fn(|_| {
+                c + Vec3::new(
+                    rng.range_f32(-size, size),
+                    rng.range_f32(-size, size),
+                    rng.range_f32(-size, size),
+                )
+            });
+            // The pieces' extent on screen.
+            let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
+            proj.clipped_fan(v, |s| {
+                for p in s {
+                    for k in 0..2 {
+                        (lo[k], hi[k]) = (lo[k].min(p[k]), hi[k].max(p[k]));
+                    }
+                }
+                false
+            });
+            let reaches_no_centre =
+                hi[0] < 0.5 || lo[0] > w as f32 - 0.5 || hi[1] < 0.5 || lo[1] > h as f32 - 0.5;
+            // Every corner in front and projected a pixel and a half beyond one edge.
+            let corners = v.map(|p| proj.screen(p));
+            let beyond = |f: &dyn Fn(&[f32; 3]) -> bool| corners.iter().all(f);
+            let far_beyond = v.iter().all(|p| p.z > proj.near)
+                && (beyond(&|p| p[0] < -1.5)
+                    || beyond(&|p| p[0] > w as f32 + 1.5)
+                    || beyond(&|p| p[1] < -1.5)
+                    || beyond(&|p| p[1] > h as f32 + 1.5));
+            if proj.beside_view(&v) {
+                assert!(reaches_no_centre, "{v:?}: pieces in {lo:?}..{hi:?}");
+                dropped += 1;
+                dropped_behind += usize::from(v.iter().any(|p| p.z < 0.0));
+            } else if far_beyond {
+                missed += 1;
+            }
+        }
+        assert!(
+            dropped > 10_000 && dropped_behind > 1_000,
+            "{dropped} {dropped_behind}"
+        );
+        assert_eq!(missed, 0);
     }
 }

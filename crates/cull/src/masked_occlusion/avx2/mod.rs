@@ -214,6 +214,9 @@ struct Camera8 {
     nky: __m256,
     cx: __m256,
     cy: __m256,
+    ky: __m256,
+    beyond_x: __m256,
+    beyond_y: __m256,
 }
 
 impl Camera8 {
@@ -231,6 +234,9 @@ impl Camera8 {
             nky: set1(-proj.ky),
             cx: set1(proj.cx),
             cy: set1(proj.cy),
+            ky: set1(proj.ky),
+            beyond_x: set1(proj.beyond_x),
+            beyond_y: set1(proj.beyond_y),
         }
     }
 }
@@ -239,8 +245,9 @@ impl Camera8 {
 /// in front of the near plane and inside the guard band) and the projection of a batch of up
 /// to 8 triangles (24 corners; lanes past the end repeat the last triangle and are never
 /// drawn): the screen corners into `s`, the view corners into `views`; returns the lanes to
-/// skip (behind the near plane or not finite) and the lanes of the fast path, a bit each.
-/// The arithmetic of `Projector::view`, `inside_guard` and `screen`, lane by lane.
+/// skip (behind the near plane, not finite, or needing clipping but beside the view) and the
+/// lanes of the fast path, a bit each. The arithmetic of `Projector::view`, `inside_guard`,
+/// `beside_view` and `screen`, lane by lane.
 #[inline]
 #[target_feature(enable = "avx2")]
 fn transform_batch(c: &Camera8, batch: &[Vec3], s: &mut Screen8, views: &mut View8) -> (u32, u32) {
@@ -267,6 +274,8 @@ fn transform_batch(c: &Camera8, batch: &[Vec3], s: &mut Screen8, views: &mut Vie
     let mut behind = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
     let mut finite = behind;
     let mut guard = behind;
+    // Beyond the screen's left, right, top and bottom edges (`Projector::beside_view`).
+    let mut beyond = [behind; 4];
     let [ex, ey, ez] = c.eye;
     for j in 0..3 {
         let (dx, dy, dz) = (
@@ -294,6 +303,22 @@ fn transform_batch(c: &Camera8, batch: &[Vec3], s: &mut Screen8, views: &mut Vie
             ),
         );
         guard = _mm256_and_ps(guard, inside);
+        // `Projector::beside_view`, with the same operations.
+        let (x, y) = (_mm256_mul_ps(c.kx, v_x), _mm256_mul_ps(c.ky, v_y));
+        let (zx, zy) = (
+            _mm256_mul_ps(c.beyond_x, v_z),
+            _mm256_mul_ps(c.beyond_y, v_z),
+        );
+        let zero = _mm256_setzero_ps();
+        let sides = [
+            _mm256_cmp_ps::<_CMP_LT_OQ>(_mm256_add_ps(x, zx), zero),
+            _mm256_cmp_ps::<_CMP_GT_OQ>(_mm256_sub_ps(x, zx), zero),
+            _mm256_cmp_ps::<_CMP_GT_OQ>(_mm256_sub_ps(y, zy), zero),
+            _mm256_cmp_ps::<_CMP_LT_OQ>(_mm256_add_ps(y, zy), zero),
+        ];
+        for (b, side) in beyond.iter_mut().zip(sides) {
+            *b = _mm256_and_ps(*b, side);
+        }
         // `Projector::screen` (garbage in lanes that are not drawn this way).
         let r = _mm256_div_ps(set1(1.0), v_z);
         // SAFETY: stores of 8 lanes into `[f32; 8]` arrays (those of `s` aligned).
@@ -317,5 +342,12 @@ fn transform_batch(c: &Camera8, batch: &[Vec3], s: &mut Screen8, views: &mut Vie
         _mm256_xor_ps(finite, _mm256_castsi256_ps(_mm256_set1_epi32(-1))),
     )) as u32;
     let fast = _mm256_movemask_ps(guard) as u32 & !skip;
-    (skip, fast)
+    let [left, right, top, bottom] = beyond;
+    let beside = _mm256_movemask_ps(_mm256_or_ps(
+        _mm256_or_ps(left, right),
+        _mm256_or_ps(top, bottom),
+    )) as u32;
+    // A triangle beside the view that needs clipping is dropped (`per_tile::render` does the
+    // same); one on the fast path is left to the bounding box, which empties it anyway.
+    (skip | (beside & !fast), fast)
 }
