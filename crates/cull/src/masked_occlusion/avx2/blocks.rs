@@ -42,9 +42,6 @@ impl BlockGrid {
     }
 }
 
-/// One edge broadcast: `x = x0 + (y - y0) * slope` as `(x0, y0, slope)`.
-type Edge8 = (__m256, __m256, __m256);
-
 /// One triangle (lane `l` of a [`Setup8`]): what every block reads broadcast to the 8 lanes;
 /// what a block row reads once is broadcast from the setup where it is used
 /// ([`Triangle::lane`]), which keeps the registers free of values used once.
@@ -92,17 +89,41 @@ impl<'a> Triangle<'a> {
     fn lane(&self, field: &[f32; 8]) -> __m256 {
         _mm256_set1_ps(field[self.l])
     }
+}
 
-    /// Edge `role` (`setup::store_edges`: left, right, third).
+/// What [`row_spans`] reads of a triangle, broadcast once per triangle rather than once per
+/// block row: AVX2 has no broadcast operands, so a broadcast in the row loop is an
+/// instruction of its own, while a value held here is a register or a folded load.
+struct SpanEdges {
+    /// Edges by role (`setup::store_edges`), `x = x0 + (y - y0) * slope`.
+    x0: [__m256; 3],
+    y0: [__m256; 3],
+    slope: [__m256; 3],
+    third_bias_l: __m256,
+    third_bias_r: __m256,
+    /// Span clamps, see `per_tile::ColClamp`.
+    a_lo: __m256,
+    a_hi: __m256,
+    b_lo: __m256,
+    b_hi: __m256,
+}
+
+impl SpanEdges {
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn edge(&self, role: usize) -> Edge8 {
-        let t = self.t;
-        (
-            self.lane(&t.ex0[role]),
-            self.lane(&t.ey0[role]),
-            self.lane(&t.slope[role]),
-        )
+    fn new(tri: &Triangle) -> Self {
+        let t = tri.t;
+        SpanEdges {
+            x0: [0, 1, 2].map(|role| tri.lane(&t.ex0[role])),
+            y0: [0, 1, 2].map(|role| tri.lane(&t.ey0[role])),
+            slope: [0, 1, 2].map(|role| tri.lane(&t.slope[role])),
+            third_bias_l: tri.lane(&t.third_bias_l),
+            third_bias_r: tri.lane(&t.third_bias_r),
+            a_lo: tri.lane(&t.a_lo),
+            a_hi: tri.lane(&t.a_hi),
+            b_lo: tri.lane(&t.b_lo),
+            b_hi: tri.lane(&t.b_hi),
+        }
     }
 }
 
@@ -130,6 +151,7 @@ pub(super) fn raster_blocks(blocks: &mut [Block], g: &BlockGrid, t: &Setup8, l: 
     // image): checked once here, so that the loops index the rows without checks.
     assert!(bbox_bx1 < g.blocks_x && ((by1 + 1) * g.blocks_x) as usize <= blocks.len());
     let narrow = bbox_bx1 - bbox_bx0 <= 1 && by1 - by0 <= 2;
+    let edges = SpanEdges::new(&tri);
     for by in by0..by1 + 1 {
         // SAFETY: row `by <= by1` is in `blocks` (asserted above), and every index into it
         // below is at most `bbox_bx1 < blocks_x` (`row_spans` keeps to the bounding box).
@@ -146,7 +168,7 @@ pub(super) fn raster_blocks(blocks: &mut [Block], g: &BlockGrid, t: &Setup8, l: 
             // Larger triangles keep the search: their rows are often hidden whole, and it
             // skips their spans (twentieth session: spans first cost 33-67 % at 50-100 px).
             let depth = BlockRowDepth::new(&tri, by, g);
-            if let Some(spans) = row_spans(&tri, by) {
+            if let Some(spans) = row_spans(&tri, &edges, by) {
                 draw_blocks(block_row, g, &tri, &depth, spans.2, spans);
             }
             continue;
@@ -176,7 +198,7 @@ pub(super) fn raster_blocks(blocks: &mut [Block], g: &BlockGrid, t: &Setup8, l: 
             continue;
         };
         let depth = plane.unwrap_or_else(|| BlockRowDepth::new(&tri, by, g));
-        let Some(spans) = row_spans(&tri, by) else {
+        let Some(spans) = row_spans(&tri, &edges, by) else {
             continue;
         };
         draw_blocks(block_row, g, &tri, &depth, first_open, spans);
@@ -184,8 +206,8 @@ pub(super) fn raster_blocks(blocks: &mut [Block], g: &BlockGrid, t: &Setup8, l: 
 }
 
 /// The blocks of one block row that the spans `(rel_a, rel_b, bx0, bx1)` reach ([`row_spans`]):
-/// masks, depths and merges, skipping blocks before `first_open` and those after it that lie
-/// behind the triangle.
+/// masks, depths and merges, from `first_open` on (the blocks before it lie behind the
+/// triangle), skipping those after it that lie behind the triangle.
 #[inline]
 #[target_feature(enable = "avx2")]
 fn draw_blocks(
@@ -199,17 +221,24 @@ fn draw_blocks(
     let all = _mm256_set1_epi32(-1);
     let zero = _mm256_setzero_si256();
     let last_bx = g.last_tx / 4;
-    let (mut rel_a, mut rel_b) = (rel_a, rel_b);
     // A row whose spans reach fewer than three blocks seldom holds a block the triangle covers
     // whole (only where the image's edges cut the triangle): the test is skipped there, and
     // the merge gives the same result anyway (cachegrind: half the test's cost on 10-25 px).
     let may_cover = bx1 - bx0 >= 2;
-    for bx in bx0..bx1 + 1 {
+    // The blocks before `first_open` lie behind the triangle: the loop starts at it, with the
+    // spans moved on to it.
+    let start = bx0.max(first_open);
+    let ahead = _mm256_set1_epi32((32 * (start - bx0)) as i32);
+    let (mut rel_a, mut rel_b) = (
+        _mm256_sub_epi32(rel_a, ahead),
+        _mm256_sub_epi32(rel_b, ahead),
+    );
+    for bx in start..bx1 + 1 {
         // SAFETY: `bx0..=bx1` lies in the bounding box (`row_spans`), so in the row.
         let block = unsafe { block_row.get_unchecked_mut(bx as usize) };
         // SAFETY: as above.
         let z0 = unsafe { load_z0(block) };
-        let skip = bx < first_open || (bx > first_open && depth.behind(tri, bx, z0));
+        let skip = bx > first_open && depth.behind(tri, bx, z0);
         if !skip {
             let mask = block_masks(rel_a, rel_b);
             // Mask bits beyond the image count as covered in a touched tile of the last
@@ -348,7 +377,7 @@ impl BlockRowDepth {
 /// Scanline centres are exact in f32 (small integers plus a half).
 #[inline]
 #[target_feature(enable = "avx2")]
-fn row_spans(tri: &Triangle, by: u32) -> Option<(__m256i, __m256i, u32, u32)> {
+fn row_spans(tri: &Triangle, e: &SpanEdges, by: u32) -> Option<(__m256i, __m256i, u32, u32)> {
     let half = _mm256_set1_ps(0.5);
     let neg_inf = _mm256_set1_ps(f32::NEG_INFINITY);
     let pos_inf = _mm256_set1_ps(f32::INFINITY);
@@ -357,23 +386,25 @@ fn row_spans(tri: &Triangle, by: u32) -> Option<(__m256i, __m256i, u32, u32)> {
         _mm256_set1_ps(row_base as f32 + 0.5),
         _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0),
     );
-    let x_of =
-        |(ex0, ey0, slope): Edge8| _mm256_add_ps(ex0, _mm256_mul_ps(_mm256_sub_ps(yc, ey0), slope));
-    let [left, right, third] = [0, 1, 2].map(|role| x_of(tri.edge(role)));
-    let t = tri.t;
+    let [left, right, third] = [0, 1, 2].map(|role| {
+        _mm256_add_ps(
+            e.x0[role],
+            _mm256_mul_ps(_mm256_sub_ps(yc, e.y0[role]), e.slope[role]),
+        )
+    });
     // See `setup::store_edges` for why this is the per-tile kernels' maximum and minimum.
     let xl = _mm256_max_ps(
-        _mm256_add_ps(third, tri.lane(&t.third_bias_l)),
+        _mm256_add_ps(third, e.third_bias_l),
         _mm256_max_ps(left, neg_inf),
     );
     let xr = _mm256_min_ps(
-        _mm256_add_ps(third, tri.lane(&t.third_bias_r)),
+        _mm256_add_ps(third, e.third_bias_r),
         _mm256_min_ps(right, pos_inf),
     );
     let xa = _mm256_sub_ps(xl, half);
-    let xa = _mm256_min_ps(_mm256_max_ps(xa, tri.lane(&t.a_lo)), tri.lane(&t.a_hi));
+    let xa = _mm256_min_ps(_mm256_max_ps(xa, e.a_lo), e.a_hi);
     let xb = _mm256_sub_ps(xr, half);
-    let xb = _mm256_min_ps(_mm256_max_ps(xb, tri.lane(&t.b_lo)), tri.lane(&t.b_hi));
+    let xb = _mm256_min_ps(_mm256_max_ps(xb, e.b_lo), e.b_hi);
     // `ceil_i` / `floor_i` of the clamped (finite, small) values: exact either way.
     let a = _mm256_cvttps_epi32(_mm256_round_ps::<
         { _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC },

@@ -155,16 +155,20 @@ avx512! {
         let Some((rel_a, rel_b, bx0, bx1)) = pair_spans(tri, by) else {
             return;
         };
-        let (mut rel_a, mut rel_b) = (rel_a, rel_b);
         // A pair row whose spans reach fewer than three blocks seldom holds a block pair the
         // triangle covers whole (only where the image's edges cut the triangle): the test is
         // skipped there, and the merge gives the same result anyway.
         let may_cover = bx1 - bx0 >= 2;
-        for bx in bx0..bx1 + 1 {
+        // The block pairs before `first_open` lie behind the triangle: the loop starts at it,
+        // with the spans moved on to it.
+        let start = bx0.max(first_open);
+        let ahead = _mm512_set1_epi32((32 * (start - bx0)) as i32);
+        let (mut rel_a, mut rel_b) = (_mm512_sub_epi32(rel_a, ahead), _mm512_sub_epi32(rel_b, ahead));
+        for bx in start..bx1 + 1 {
             let blocks = pair(bx);
             // SAFETY: `bx0..=bx1` lies in the bounding box (`pair_spans`).
             let z0 = unsafe { blocks.load_z0() };
-            let skip = bx < first_open || (bx > first_open && depth.behind(tri, bx, z0, lanes));
+            let skip = bx > first_open && depth.behind(tri, bx, z0, lanes);
             if !skip {
                 let mask = pair_masks(rel_a, rel_b);
                 let cov = if bx == last_bx || depth.last_row {
