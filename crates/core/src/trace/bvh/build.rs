@@ -241,7 +241,7 @@ fn divide(
     depth: u32,
 ) -> Option<Division> {
     let m = content.count;
-    let grid = Grid::new(&content.centroids);
+    let grid = Grid::with_bins(&content.centroids, object_bins(m));
     let object = if depth < MAX_SAH_DEPTH {
         let bins = bin_triangles(&refs[..m], &grid);
         best_split(&bins, &bins, &grid, content.bounds.surface_area())
@@ -306,6 +306,25 @@ fn divide(
         left,
         right,
     })
+}
+
+/// Nodes with at most this many references sweep [`SMALL_NODE_BINS`] bins for their object
+/// split, not [`BINS`]: most nodes are small, and there the sweep over 3 x 15 planes, not the
+/// binning, is the cost (`best_split` was 21 % of the 1M city's build without splits).
+const SMALL_NODE: usize = 64;
+/// Bins per axis for nodes of up to [`SMALL_NODE`] references. Against 16 everywhere
+/// (docs/BENCHMARKS.md, 2026-12-07): 16 % fewer instructions for the 1M city's build without
+/// splits; nodes, leaves and packets per ray within 1 % on czest3ctf, munich and the bunny
+/// (up to 256 references, munich's nodes per ray grew 1 %).
+const SMALL_NODE_BINS: usize = 8;
+
+/// Bins per axis for the object split of a node of `m` references.
+fn object_bins(m: usize) -> usize {
+    if m <= SMALL_NODE {
+        SMALL_NODE_BINS
+    } else {
+        BINS
+    }
 }
 
 /// Surface area of the intersection of two boxes (0 when they are disjoint).

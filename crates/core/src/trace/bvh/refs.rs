@@ -220,13 +220,22 @@ pub(super) struct Grid {
     extent: Vec3A,
     /// Bins per unit length; 0 on an axis the box is flat on, which is not split.
     scale: Vec3A,
+    /// Bins per axis, at most [`BINS`].
+    pub(super) count: usize,
 }
 
 impl Grid {
+    /// [`BINS`] bins per axis over `bounds`.
     pub(super) fn new(bounds: &Aabb) -> Self {
+        Self::with_bins(bounds, BINS)
+    }
+
+    /// `count` bins per axis over `bounds` (`1 < count <= BINS`).
+    pub(super) fn with_bins(bounds: &Aabb, count: usize) -> Self {
+        debug_assert!(count > 1 && count <= BINS);
         let extent: Vec3A = bounds.extent().into();
         let scale = |x: f32| {
-            let s = BINS as f32 / x;
+            let s = count as f32 / x;
             if x > 0.0 && s.is_finite() {
                 s
             } else {
@@ -237,6 +246,7 @@ impl Grid {
             min: bounds.min.into(),
             extent,
             scale: Vec3A::new(scale(extent.x), scale(extent.y), scale(extent.z)),
+            count,
         }
     }
 
@@ -251,18 +261,18 @@ impl Grid {
     pub(super) fn bins(&self, p: Vec3A) -> glam::UVec3 {
         ((p - self.min) * self.scale)
             .as_uvec3()
-            .min(glam::UVec3::splat(BINS as u32 - 1))
+            .min(glam::UVec3::splat(self.count as u32 - 1))
     }
 
     /// The bin of coordinate `x` on `axis`.
     #[inline(always)]
     pub(super) fn bin(&self, x: f32, axis: usize) -> usize {
-        (((x - self.min[axis]) * self.scale[axis]) as u32).min(BINS as u32 - 1) as usize
+        (((x - self.min[axis]) * self.scale[axis]) as u32).min(self.count as u32 - 1) as usize
     }
 
     /// The plane between bins `i - 1` and `i` on `axis`.
     pub(super) fn plane(&self, axis: usize, i: usize) -> f32 {
-        self.min[axis] + self.extent[axis] * (i as f32 / BINS as f32)
+        self.min[axis] + self.extent[axis] * (i as f32 / self.count as f32)
     }
 }
 
@@ -293,12 +303,12 @@ pub(super) fn best_split(
         // Sweep from the right, keeping the accumulated right side for every plane.
         let mut right_acc = [Bin::EMPTY; BINS];
         let mut acc = Bin::EMPTY;
-        for i in (1..BINS).rev() {
+        for i in (1..grid.count).rev() {
             acc = acc.merge(&leaving[axis][i]);
             right_acc[i] = acc;
         }
         let mut left = Bin::EMPTY;
-        for plane in 1..BINS {
+        for plane in 1..grid.count {
             left = left.merge(&entering[axis][plane - 1]);
             let right = right_acc[plane];
             if left.count == 0 || right.count == 0 {
@@ -323,4 +333,41 @@ pub(super) fn best_split(
         }
     }
     best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    /// A grid of fewer bins than [`BINS`] keeps every point of its box (the far corner, points
+    /// beyond it and NaN included) in its own bins, and its planes split the box evenly: a
+    /// bin past its count would fall outside the sweep and lose its references.
+    #[test]
+    fn grids_of_fewer_bins_keep_points_in_their_bins() {
+        let bounds = Aabb::new(Vec3::new(-1.0, 2.0, 0.0), Vec3::new(3.0, 6.0, 8.0));
+        for count in [2, 8, BINS] {
+            let grid = Grid::with_bins(&bounds, count);
+            assert_eq!(grid.count, count);
+            for p in [
+                bounds.min,
+                bounds.max,
+                bounds.max * 2.0,
+                Vec3::NAN,
+                bounds.center(),
+            ] {
+                let at = grid.bins(p.into());
+                for axis in 0..3 {
+                    assert!((at[axis] as usize) < count, "{count} bins: {p} in {at}");
+                    assert_eq!(grid.bin(p[axis], axis), at[axis] as usize);
+                }
+            }
+            assert_eq!(
+                grid.bins(bounds.max.into()),
+                glam::UVec3::splat(count as u32 - 1)
+            );
+            assert_eq!(grid.plane(0, count / 2), 1.0);
+            assert_eq!(grid.plane(2, count), 8.0);
+        }
+    }
 }
