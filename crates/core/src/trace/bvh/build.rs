@@ -6,7 +6,8 @@
 //! end of its run. `collapse.rs` turns the result into wide nodes.
 //!
 //! Based on: Wald. On fast construction of SAH-based bounding volume hierarchies. 2007
-//! (binned SAH build, 16 bins, bins keep bounds and centroid bounds so children need no extra pass).
+//! (binned SAH build, 16 bins (8 for nodes of up to 64 references), bins keep bounds and
+//! centroid bounds so children need no extra pass).
 //! Based on: Stich, Friedrich, Dietrich. Spatial splits in bounding volume hierarchies. HPG 2009
 //! (the choice between an object and a spatial split per node, tried only where the object
 //! split's children overlap).

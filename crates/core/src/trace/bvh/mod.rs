@@ -5,7 +5,8 @@
 //! else into a 4-wide tree tested with SSE, and traversed with a stack, nearer children first.
 //!
 //! Based on: Wald. On fast construction of SAH-based bounding volume hierarchies. 2007
-//! (binned SAH build, 16 bins, bins keep bounds and centroid bounds so children need no extra pass).
+//! (binned SAH build, 16 bins (8 for nodes of up to 64 references), bins keep bounds and
+//! centroid bounds so children need no extra pass).
 //! Based on: Stich, Friedrich, Dietrich. Spatial splits in bounding volume hierarchies. HPG
 //! 2009 (`spatial.rs`).
 //! Based on: Wald, Benthin, Boulos. Getting rid of packets: efficient SIMD single-ray traversal
