@@ -104,9 +104,8 @@ pub(super) fn binary_tree(boxes: &[Aabb], splits: Option<Corners>) -> Option<Bin
         splits,
         root_area: content.bounds.surface_area(),
     };
-    // Zeroed pages from the allocator, touched only where pairs are written: subtrees below
-    // `PARALLEL_BUILD` take theirs from the start of their room (`build_compact`), about a
-    // fifth of it, so most of these pages are never touched.
+    // Zeroed pages from the allocator: subtrees below `PARALLEL_BUILD` write their pairs
+    // contiguously from the start of their room (`build_compact`), about a fifth of it.
     let mut pairs: Vec<NodePair> = bytemuck::zeroed_vec(capacity - 1);
     let root = build_node(&input, &mut refs, 0, content, &mut pairs, 0, 0);
     let ids = refs.iter().map(|r| r.id).collect();
