@@ -189,14 +189,14 @@ fn build_node(
     if m < PARALLEL_BUILD {
         return build_compact(input, refs, first, content, pairs, pair_base, &mut 0, depth);
     }
-    let Some(division) = divide(input, refs, &content, depth) else {
-        return Node::leaf(&content.bounds, first, m);
-    };
     let Division {
         left_room,
         left,
         right,
-    } = division;
+    } = match divide_or_leaf(input, refs, first, &content, depth) {
+        Ok(division) => division,
+        Err(leaf) => return leaf,
+    };
     debug_assert!(left.count <= left_room);
     let (left_refs, right_refs) = refs.split_at_mut(left_room);
     let (own, rest) = pairs.split_at_mut(1);
@@ -249,18 +249,14 @@ fn build_compact(
     next: &mut usize,
     depth: u32,
 ) -> Node {
-    let m = content.count;
-    if m == 1 {
-        return Node::leaf(&content.bounds, first, 1);
-    }
-    let Some(division) = divide(input, refs, &content, depth) else {
-        return Node::leaf(&content.bounds, first, m);
-    };
     let Division {
         left_room,
         left,
         right,
-    } = division;
+    } = match divide_or_leaf(input, refs, first, &content, depth) {
+        Ok(division) => division,
+        Err(leaf) => return leaf,
+    };
     let own = *next;
     *next += 1;
     let (left_refs, right_refs) = refs.split_at_mut(left_room);
@@ -286,6 +282,21 @@ fn build_compact(
     );
     pairs[own] = NodePair([l, r]);
     Node::inner(&content.bounds, pair_base + own)
+}
+
+/// [`divide`], or the leaf the node becomes (always for a single reference).
+fn divide_or_leaf(
+    input: &BuildInput,
+    refs: &mut [PrimRef],
+    first: usize,
+    content: &Content,
+    depth: u32,
+) -> Result<Division, Node> {
+    let m = content.count;
+    if m == 1 {
+        return Err(Node::leaf(&content.bounds, first, 1));
+    }
+    divide(input, refs, content, depth).ok_or_else(|| Node::leaf(&content.bounds, first, m))
 }
 
 /// Splits the node's references between two children, the left ones first and the right ones
