@@ -107,7 +107,17 @@ pub(super) fn binary_tree(boxes: &[Aabb], splits: Option<Corners>) -> Option<Bin
     // Zeroed pages from the allocator: subtrees below `PARALLEL_BUILD` write their pairs
     // contiguously from the start of their room (`build_compact`), about a fifth of it.
     let mut pairs: Vec<NodePair> = bytemuck::zeroed_vec(capacity - 1);
-    let root = build_node(&input, &mut refs, 0, content, &mut pairs, 0, 0);
+    let root = build_node(
+        &input,
+        Subtree {
+            refs: &mut refs,
+            first: 0,
+            content,
+            depth: 0,
+        },
+        &mut pairs,
+        0,
+    );
     let ids = refs.iter().map(|r| r.id).collect();
     Some(BinaryTree {
         root,
@@ -169,66 +179,77 @@ fn partition(refs: &mut [PrimRef], grid: &Grid, axis: usize, bin: usize) -> (usi
     (n, left.bounds(), right.bounds())
 }
 
-/// Builds the subtree over the first `content.count` references of `refs` (which start at
-/// `first` in leaf order; the rest of `refs` is room for the references spatial splits add)
-/// and returns its root. Its descendants are written into `pairs`, which has room for
-/// `refs.len() - 1` pairs and starts at pair index `pair_base`: a binary tree over `m`
-/// leaves-with-at-least-one-reference has at most `m - 1` inner nodes, each owning one pair,
-/// and a subtree never holds more references than its room.
-fn build_node(
-    input: &BuildInput,
-    refs: &mut [PrimRef],
+/// A subtree to build: its room (its `content.count` references first; the rest is room for
+/// the references spatial splits add), where its references start in leaf order, what they
+/// hold, and its depth.
+struct Subtree<'r> {
+    refs: &'r mut [PrimRef],
     first: usize,
     content: Content,
-    pairs: &mut [NodePair],
-    pair_base: usize,
     depth: u32,
-) -> Node {
-    let m = content.count;
-    debug_assert!(m <= refs.len() && pairs.len() + 1 >= refs.len());
-    if m < PARALLEL_BUILD {
-        return build_compact(input, refs, first, content, pairs, pair_base, &mut 0, depth);
+}
+
+impl<'r> Subtree<'r> {
+    /// The two children, the left one's room first ([`divide`]), or the leaf this subtree
+    /// becomes (always for a single reference).
+    fn split(self, input: &BuildInput) -> Result<[Subtree<'r>; 2], Node> {
+        let Subtree {
+            refs,
+            first,
+            content,
+            depth,
+        } = self;
+        let m = content.count;
+        if m == 1 {
+            return Err(Node::leaf(&content.bounds, first, 1));
+        }
+        let Some(Division {
+            left_room,
+            left,
+            right,
+        }) = divide(input, refs, &content, depth)
+        else {
+            return Err(Node::leaf(&content.bounds, first, m));
+        };
+        debug_assert!(left.count <= left_room);
+        let (left_refs, right_refs) = refs.split_at_mut(left_room);
+        let child = |refs, first, content| Subtree {
+            refs,
+            first,
+            content,
+            depth: depth + 1,
+        };
+        Ok([
+            child(left_refs, first, left),
+            child(right_refs, first + left_room, right),
+        ])
     }
-    let Division {
-        left_room,
-        left,
-        right,
-    } = match divide_or_leaf(input, refs, first, &content, depth) {
-        Ok(division) => division,
+}
+
+/// Builds `sub` and returns its root. Its descendants are written into `pairs`, which has
+/// room for `sub.refs.len() - 1` pairs and starts at pair index `pair_base`: a binary tree
+/// over `m` leaves-with-at-least-one-reference has at most `m - 1` inner nodes, each owning
+/// one pair, and a subtree never holds more references than its room. Each child gets the
+/// pairs of its room, and the two are built as a `rayon::join` task.
+fn build_node(input: &BuildInput, sub: Subtree, pairs: &mut [NodePair], pair_base: usize) -> Node {
+    debug_assert!(sub.content.count <= sub.refs.len() && pairs.len() + 1 >= sub.refs.len());
+    if sub.content.count < PARALLEL_BUILD {
+        return build_compact(input, sub, pairs, pair_base, &mut 0);
+    }
+    let bounds = sub.content.bounds;
+    let [left, right] = match sub.split(input) {
+        Ok(children) => children,
         Err(leaf) => return leaf,
     };
-    debug_assert!(left.count <= left_room);
-    let (left_refs, right_refs) = refs.split_at_mut(left_room);
+    let left_room = left.refs.len();
     let (own, rest) = pairs.split_at_mut(1);
     let (left_pairs, right_pairs) = rest.split_at_mut(left_room - 1);
-    let left_base = pair_base + 1;
-    let right_base = pair_base + left_room;
-    let build_left = move || {
-        build_node(
-            input,
-            left_refs,
-            first,
-            left,
-            left_pairs,
-            left_base,
-            depth + 1,
-        )
-    };
-    let build_right = move || {
-        let first = first + left_room;
-        build_node(
-            input,
-            right_refs,
-            first,
-            right,
-            right_pairs,
-            right_base,
-            depth + 1,
-        )
-    };
-    let (l, r) = rayon::join(build_left, build_right);
+    let (l, r) = rayon::join(
+        move || build_node(input, left, left_pairs, pair_base + 1),
+        move || build_node(input, right, right_pairs, pair_base + left_room),
+    );
     own[0] = NodePair([l, r]);
-    Node::inner(&content.bounds, pair_base)
+    Node::inner(&bounds, pair_base)
 }
 
 /// [`build_node`] for a subtree of fewer than [`PARALLEL_BUILD`] references, on this thread:
@@ -238,65 +259,24 @@ fn build_node(
 /// `refs.len() - 1`) suffices, and the pairs written are contiguous: about a fifth of the
 /// room (leaves hold about 4.6 references on the 1M city), where the rooms' starts spread
 /// the writes over every page of it.
-#[allow(clippy::too_many_arguments)]
 fn build_compact(
     input: &BuildInput,
-    refs: &mut [PrimRef],
-    first: usize,
-    content: Content,
+    sub: Subtree,
     pairs: &mut [NodePair],
     pair_base: usize,
     next: &mut usize,
-    depth: u32,
 ) -> Node {
-    let Division {
-        left_room,
-        left,
-        right,
-    } = match divide_or_leaf(input, refs, first, &content, depth) {
-        Ok(division) => division,
+    let bounds = sub.content.bounds;
+    let [left, right] = match sub.split(input) {
+        Ok(children) => children,
         Err(leaf) => return leaf,
     };
     let own = *next;
     *next += 1;
-    let (left_refs, right_refs) = refs.split_at_mut(left_room);
-    let l = build_compact(
-        input,
-        left_refs,
-        first,
-        left,
-        pairs,
-        pair_base,
-        next,
-        depth + 1,
-    );
-    let r = build_compact(
-        input,
-        right_refs,
-        first + left_room,
-        right,
-        pairs,
-        pair_base,
-        next,
-        depth + 1,
-    );
+    let l = build_compact(input, left, pairs, pair_base, next);
+    let r = build_compact(input, right, pairs, pair_base, next);
     pairs[own] = NodePair([l, r]);
-    Node::inner(&content.bounds, pair_base + own)
-}
-
-/// [`divide`], or the leaf the node becomes (always for a single reference).
-fn divide_or_leaf(
-    input: &BuildInput,
-    refs: &mut [PrimRef],
-    first: usize,
-    content: &Content,
-    depth: u32,
-) -> Result<Division, Node> {
-    let m = content.count;
-    if m == 1 {
-        return Err(Node::leaf(&content.bounds, first, 1));
-    }
-    divide(input, refs, content, depth).ok_or_else(|| Node::leaf(&content.bounds, first, m))
+    Node::inner(&bounds, pair_base + own)
 }
 
 /// Splits the node's references between two children, the left ones first and the right ones
