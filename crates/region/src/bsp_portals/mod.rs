@@ -33,6 +33,9 @@ mod flow;
 mod might;
 mod winding;
 
+pub(crate) use build::node_planes;
+pub(crate) use winding::Plane;
+
 use glam::DVec3;
 use sightline_core::scene::Scene;
 use sightline_core::{Aabb, TriangleSet};

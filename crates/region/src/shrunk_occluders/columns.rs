@@ -141,7 +141,7 @@ impl Columns {
     }
 
     /// The square of column `(i, j)` along `across`.
-    fn square(&self, i: usize, j: usize) -> [[f64; 2]; 2] {
+    pub(super) fn square(&self, i: usize, j: usize) -> [[f64; 2]; 2] {
         let x0 = self.origin[0] + i as f64 * self.size;
         let y0 = self.origin[1] + j as f64 * self.size;
         [[x0, x0 + self.size], [y0, y0 + self.size]]

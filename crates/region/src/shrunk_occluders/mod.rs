@@ -16,7 +16,10 @@
 //! houses share walls, and shrinking each house alone would open a gap between every pair.
 //! `columns.rs` finds the union as spans over square columns along the up axis (a shared wall
 //! is crossed when the faces of the two solids cover each other); `erosion.rs` shrinks it and
-//! cuts it into boxes. Solids open other than at their bottom are left out.
+//! cuts it into boxes. Solids open other than at their bottom are left out. On a Quake 3 map
+//! ([`ShrunkOccluders::of_map`]) the union is the map's solid space instead, as the BSP tree
+//! gives it (`bsp_columns.rs`): its drawn faces are no closed solids, but every point lies in
+//! a leaf that is either empty or solid.
 //!
 //! # Why it is conservative
 //! Per axis, not per ball: for a viewpoint `v` of the cell outside every solid, a sample `p`
@@ -44,6 +47,7 @@
 //! Per cell and thread: a depth cube of `6 * resolution^2` f32 (6 MB at 512), rendered once per
 //! sample; each target triangle is tested against each sample's cube until one sees it.
 
+mod bsp_columns;
 mod columns;
 mod cube_depth;
 mod erosion;
@@ -157,6 +161,27 @@ impl ShrunkOccluders {
     /// The shrunk union of `solids` (found in `scene`), or `None` when the scene has no usable
     /// solids, the options make no sense or the grid would be too large.
     pub fn new(scene: &Scene, solids: &ClosedSolids, options: FusionOptions) -> Option<Self> {
+        Self::with_columns(options, |size| {
+            Columns::new(scene, solids, size, MAX_COLUMNS)
+        })
+    }
+
+    /// The shrunk solid space of a Quake 3 map (`scene`, with its BSP tree: see
+    /// `bsp_columns.rs`), or `None` when the scene has no BSP, the options make no sense or
+    /// the grid would be too large. Only for cells whose viewpoints all lie in the map's
+    /// empty leaves ([`ShrunkOccluders::remove_hidden_in_map`]).
+    pub fn of_map(scene: &Scene, options: FusionOptions) -> Option<Self> {
+        let bsp = scene.bsp.as_deref()?;
+        Self::with_columns(options, |size| {
+            Columns::from_bsp(scene, bsp, size, MAX_COLUMNS)
+        })
+    }
+
+    /// The shrunk union of the `columns` made for the options' column size.
+    fn with_columns(
+        options: FusionOptions,
+        columns: impl FnOnce(f64) -> Option<Columns>,
+    ) -> Option<Self> {
         if !(options.radius.is_finite() && options.radius > 0.0)
             || options.resolution == 0
             || !(1..=MAX_LEVELS).contains(&options.levels)
@@ -164,8 +189,7 @@ impl ShrunkOccluders {
             return None;
         }
         // Columns of half the radius: the first level's shrink rounds up to two of them.
-        let size = options.radius / 2.0;
-        let columns = Columns::new(scene, solids, size, MAX_COLUMNS)?;
+        let columns = columns(options.radius / 2.0)?;
         let levels = (0..MAX_LEVELS).map(|_| OnceLock::new()).collect();
         Some(Self {
             options,
@@ -194,15 +218,46 @@ impl ShrunkOccluders {
         if corners.iter().any(|c| !c.is_finite()) {
             return FusionReport::default();
         }
+        let keep = kept_for(scene, solids, &corners);
+        self.remove_hidden_keeping(scene, cell, &corners, &keep, visible)
+    }
+
+    /// [`ShrunkOccluders::remove_hidden`] for the shrunk solid space of a Quake 3 map
+    /// ([`ShrunkOccluders::of_map`], from `scene`), for a cell whose viewpoints all lie in
+    /// the map's empty leaves (its leaf and cluster cells): none of them is inside the
+    /// union, so no triangle needs keeping for being in reach of one.
+    pub fn remove_hidden_in_map(
+        &self,
+        scene: &Scene,
+        cell: &ViewCell,
+        visible: &mut TriangleSet,
+    ) -> FusionReport {
+        let corners: Vec<DVec3> = cell.corners().iter().map(|c| c.as_dvec3()).collect();
+        if corners.iter().any(|c| !c.is_finite()) {
+            return FusionReport::default();
+        }
+        let keep = vec![false; scene.triangle_count()];
+        self.remove_hidden_keeping(scene, cell, &corners, &keep, visible)
+    }
+
+    /// Removes from `visible` the triangles, but those in `keep`, that the shrunk union
+    /// hides from every sample of `cell` (with `corners`).
+    fn remove_hidden_keeping(
+        &self,
+        scene: &Scene,
+        cell: &ViewCell,
+        corners: &[DVec3],
+        keep: &[bool],
+        visible: &mut TriangleSet,
+    ) -> FusionReport {
         let Some((first, (samples, half))) = (0..MAX_LEVELS)
             .find_map(|k| samples_of(cell, self.options.sample_reach(k)).map(|s| (k, s)))
         else {
             return FusionReport::default();
         };
-        let (lo, hi) = bounds_of(&corners);
+        let (lo, hi) = bounds_of(corners);
         let up = scene.up.index();
         let boxes = self.boxes_for(lo, hi, up, first, half[up]);
-        let keep = kept_for(scene, solids, &corners);
         // The triangles in doubt, with their corners and lowest point along the up axis (found
         // once for all samples).
         let mut targets: Vec<(u32, [DVec3; 3], f64)> = visible

@@ -21,8 +21,8 @@ use crate::output::{print_json, refuse_overwriting_inputs};
 /// The conservative sampler of `--bound-occluders` and `--bound-fusion-*`.
 /// The conservative sampler of `--bound` and `pvs bound` with `options`; `q3_cells`: the
 /// cells are Quake 3 leaves or clusters, whose origins keep to the map's empty leaves, so the
-/// bound goes through the map's portals (`ConservativeSampler::through_portals`) unless
-/// `--bound-no-portals`.
+/// bound goes through the map's portals (`ConservativeSampler::through_portals`, and the map's
+/// solid space where their walk runs out) unless `--bound-no-portals`.
 pub(super) fn bound_sampler(
     options: BoundOptionArgs,
     q3_cells: bool,
