@@ -44,6 +44,11 @@
 //! # Memory and time
 //! Built once per scene and radius: 8 bytes per column plus 16 per span while the columns are
 //! found (a 1.5 x 1.2 km city at 1 m columns: 1.8 M columns, ~40 MB), then 56 bytes per box.
+//! A Quake 3 map's solid space is found per level on first use, on columns of a quarter of the
+//! level's shrink (half for the first level): every column holds spans there (the rock under
+//! the floors at least), so a fine grid is large (czest3ctf, 6.3 x 4.0 km units: 1.8 M
+//! columns at the first level; its bound's peak memory went from 180 to 400 MB), while a
+//! large cell starts at a coarse level (fan.bsp's cluster cells at the fifth: 5,000 columns).
 //! Per cell and thread: a depth cube of `6 * resolution^2` f32 (6 MB at 512), rendered once per
 //! sample; each target triangle is tested against each sample's cube until one sees it.
 
@@ -141,9 +146,21 @@ impl FusionOptions {
 #[derive(Clone, Debug)]
 pub struct ShrunkOccluders {
     options: FusionOptions,
-    columns: Columns,
+    union: Union,
     /// Per level (up to [`MAX_LEVELS`]), its boxes, made on first use.
     levels: Vec<OnceLock<Vec<OccluderBox>>>,
+}
+
+/// The union the levels' boxes are shrunk from.
+#[derive(Clone, Debug)]
+enum Union {
+    /// Closed solids, as columns of half the first level's shrink, for every level.
+    Solids(Columns),
+    /// A Quake 3 map's solid space, as columns made per level from the BSP tree (the scene's,
+    /// given to each use): a quarter of the level's shrink (half of it for the first level),
+    /// so that a level of large shrink, which a large cell starts at, is found on a grid of
+    /// few columns with a window of few columns.
+    Map,
 }
 
 /// What [`ShrunkOccluders::remove_hidden`] did for one cell.
@@ -161,47 +178,56 @@ impl ShrunkOccluders {
     /// The shrunk union of `solids` (found in `scene`), or `None` when the scene has no usable
     /// solids, the options make no sense or the grid would be too large.
     pub fn new(scene: &Scene, solids: &ClosedSolids, options: FusionOptions) -> Option<Self> {
-        Self::with_columns(options, |size| {
-            Columns::new(scene, solids, size, MAX_COLUMNS)
-        })
+        Self::valid(&options)?;
+        // Columns of half the radius: the first level's shrink rounds up to two of them.
+        let columns = Columns::new(scene, solids, options.radius / 2.0, MAX_COLUMNS)?;
+        Some(Self::with_union(options, Union::Solids(columns)))
     }
 
     /// The shrunk solid space of a Quake 3 map (`scene`, with its BSP tree: see
     /// `bsp_columns.rs`), or `None` when the scene has no BSP, the options make no sense or
-    /// the grid would be too large. Only for cells whose viewpoints all lie in the map's
-    /// empty leaves ([`ShrunkOccluders::remove_hidden_in_map`]).
+    /// the options make no sense. Only for cells whose viewpoints all lie in the map's empty
+    /// leaves ([`ShrunkOccluders::remove_hidden_in_map`], with the same scene); each level's
+    /// columns are made on its first use (a level whose grid would be too large hides
+    /// nothing).
     pub fn of_map(scene: &Scene, options: FusionOptions) -> Option<Self> {
-        let bsp = scene.bsp.as_deref()?;
-        Self::with_columns(options, |size| {
-            Columns::from_bsp(scene, bsp, size, MAX_COLUMNS)
-        })
+        scene.bsp.as_deref()?;
+        Self::valid(&options)?;
+        Some(Self::with_union(options, Union::Map))
     }
 
-    /// The shrunk union of the `columns` made for the options' column size.
-    fn with_columns(
-        options: FusionOptions,
-        columns: impl FnOnce(f64) -> Option<Columns>,
-    ) -> Option<Self> {
-        if !(options.radius.is_finite() && options.radius > 0.0)
-            || options.resolution == 0
-            || !(1..=MAX_LEVELS).contains(&options.levels)
-        {
-            return None;
-        }
-        // Columns of half the radius: the first level's shrink rounds up to two of them.
-        let columns = columns(options.radius / 2.0)?;
-        let levels = (0..MAX_LEVELS).map(|_| OnceLock::new()).collect();
-        Some(Self {
+    /// `Some` when the options make sense.
+    fn valid(options: &FusionOptions) -> Option<()> {
+        (options.radius.is_finite()
+            && options.radius > 0.0
+            && options.resolution > 0
+            && (1..=MAX_LEVELS).contains(&options.levels))
+        .then_some(())
+    }
+
+    fn with_union(options: FusionOptions, union: Union) -> Self {
+        Self {
             options,
-            columns,
-            levels,
-        })
+            union,
+            levels: (0..MAX_LEVELS).map(|_| OnceLock::new()).collect(),
+        }
     }
 
-    /// Level `k`'s boxes.
-    fn level(&self, k: usize) -> &[OccluderBox] {
+    /// Level `k`'s boxes (`scene`: the one the union was made from).
+    fn level(&self, k: usize, scene: &Scene) -> &[OccluderBox] {
         self.levels[k].get_or_init(|| {
-            shrunk_boxes(&self.columns, self.options.radius_of(k), self.columns.size)
+            let radius = self.options.radius_of(k);
+            match &self.union {
+                Union::Solids(columns) => shrunk_boxes(columns, radius, columns.size),
+                Union::Map => {
+                    let size = radius / if k == 0 { 2.0 } else { 4.0 };
+                    scene
+                        .bsp
+                        .as_deref()
+                        .and_then(|bsp| Columns::from_bsp(scene, bsp, size, MAX_COLUMNS))
+                        .map_or_else(Vec::new, |columns| shrunk_boxes(&columns, radius, size))
+                }
+            }
         })
     }
 
@@ -257,7 +283,7 @@ impl ShrunkOccluders {
         };
         let (lo, hi) = bounds_of(corners);
         let up = scene.up.index();
-        let boxes = self.boxes_for(lo, hi, up, first, half[up]);
+        let boxes = self.boxes_for(scene, lo, hi, up, first, half[up]);
         // The triangles in doubt, with their corners and lowest point along the up axis (found
         // once for all samples).
         let mut targets: Vec<(u32, [DVec3; 3], f64)> = visible
@@ -339,6 +365,7 @@ impl ShrunkOccluders {
     /// (a viewpoint below it might look in from beneath).
     fn boxes_for(
         &self,
+        scene: &Scene,
         lo: DVec3,
         hi: DVec3,
         up: usize,
@@ -353,7 +380,7 @@ impl ShrunkOccluders {
         let vertical = viewpoints_up * (1.0 + 1e-6) + margin;
         let mut out = Vec::new();
         for level in first..(first + self.options.levels).min(MAX_LEVELS) {
-            let boxes = self.level(level);
+            let boxes = self.level(level, scene);
             let r = self.options.radius_of(level);
             let max_depth = self.options.max_depth(level, first);
             let reach = max_depth * 3f64.sqrt();
