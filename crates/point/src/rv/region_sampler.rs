@@ -404,70 +404,49 @@ mod tests {
     fn on_a_quake_map_the_portals_cut_the_bound_and_keep_the_sampled_set() {
         // A cluster cell of q3dm6ish: RV's umbrae alone keep most of the map, the portals
         // leave well under half of it, and a GVS++ bake's set stays inside.
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/q3dm6ish.bsp");
-        let scene = sightline_core::scene::open(path, &Default::default()).unwrap();
-        let bsp = scene.bsp.as_deref().unwrap();
-        let bvh = sightline_core::trace::Bvh::build(&scene);
-        let (cluster, cell) = sightline_region::cell_sources::q3_cluster_cells(bsp, Some(&[5]))
-            .pop()
-            .unwrap();
-        let in_cluster = |p: glam::Vec3| bsp.cluster_at(p) == Some(cluster);
-        let ctx = CellContext {
-            scene: &scene,
-            caster: &bvh,
-            cell: &cell,
-            seed: 1,
-            free_space: Some(&in_cluster),
-        };
-        let sampler = ConservativeSampler {
-            through_portals: true,
-            ..ConservativeSampler::default()
-        };
-        let bound = sampler.sample(&ctx, &Budget::default(), &|_| {}).visible;
-        // Without the switch (cells whose viewpoints may lie in solid space) RV's set alone
-        // (and without the back faces of closed solids, which leave out a few more).
-        let plain = ConservativeSampler {
-            back_faces_of_solids: false,
-            ..ConservativeSampler::default()
-        };
-        let with_solids = ConservativeSampler::default()
-            .sample(&ctx, &Budget::default(), &|_| {})
+        with_cluster_cell(5, |ctx| {
+            let sampler = ConservativeSampler {
+                through_portals: true,
+                ..ConservativeSampler::default()
+            };
+            let bound = sampler.sample(ctx, &Budget::default(), &|_| {}).visible;
+            // Without the switch (cells whose viewpoints may lie in solid space) RV's set alone
+            // (and without the back faces of closed solids, which leave out a few more).
+            let plain = ConservativeSampler {
+                back_faces_of_solids: false,
+                ..ConservativeSampler::default()
+            };
+            let with_solids = ConservativeSampler::default()
+                .sample(ctx, &Budget::default(), &|_| {})
+                .visible;
+            let umbrae_only = plain.sample(ctx, &Budget::default(), &|_| {}).visible;
+            let umbrae = conservative_from_region(
+                &mut SceneSource::new(ctx.scene),
+                &ctx.cell.corners(),
+                &RegionOptions::default(),
+            )
+            .unwrap()
             .visible;
-        let umbrae_only = plain.sample(&ctx, &Budget::default(), &|_| {}).visible;
-        let umbrae = conservative_from_region(
-            &mut SceneSource::new(&scene),
-            &cell.corners(),
-            &RegionOptions::default(),
-        )
-        .unwrap()
-        .visible;
-        assert_eq!(umbrae_only, umbrae);
-        assert!(with_solids.is_subset(&umbrae));
-        let (bound_size, umbrae_size) = (bound.count_ones(..), umbrae.count_ones(..));
-        assert!(bound.is_subset(&umbrae));
-        assert!(umbrae_size * 2 > scene.triangle_count(), "{umbrae_size}");
-        assert!(bound_size * 3 < scene.triangle_count(), "{bound_size}");
-        let gvspp = sightline_region::methods::sampler("gvs++", &Default::default()).unwrap();
-        let budget = Budget {
-            max_rays: Some(1_000_000),
-            max_time: None,
-        };
-        let set = gvspp.sample(&ctx, &budget, &|_| {}).visible;
-        assert!(set.count_ones(..) > 100);
-        assert!(
-            set.is_subset(&bound),
-            "{:?}",
-            set.difference(&bound).collect::<Vec<_>>()
-        );
-        // The portal graph is built once for the sampler and its clones.
-        let again = sampler
-            .clone()
-            .sample(&ctx, &Budget::default(), &|_| {})
-            .visible;
-        assert_eq!(again, bound);
-        assert!(sampler.portals.0.lock().unwrap().is_some());
-        // The walk finished: the map's solid space was not needed.
-        assert!(sampler.map_space.0.lock().unwrap().is_none());
+            assert_eq!(umbrae_only, umbrae);
+            assert!(with_solids.is_subset(&umbrae));
+            let (bound_size, umbrae_size) = (bound.count_ones(..), umbrae.count_ones(..));
+            assert!(bound.is_subset(&umbrae));
+            assert!(
+                umbrae_size * 2 > ctx.scene.triangle_count(),
+                "{umbrae_size}"
+            );
+            assert!(bound_size * 3 < ctx.scene.triangle_count(), "{bound_size}");
+            assert_holds_a_gvspp_set(ctx, &bound);
+            // The portal graph is built once for the sampler and its clones.
+            let again = sampler
+                .clone()
+                .sample(ctx, &Budget::default(), &|_| {})
+                .visible;
+            assert_eq!(again, bound);
+            assert!(sampler.portals.0.lock().unwrap().is_some());
+            // The walk finished: the map's solid space was not needed.
+            assert!(sampler.map_space.0.lock().unwrap().is_none());
+        });
     }
 
     #[test]
@@ -475,65 +454,79 @@ mod tests {
         // A budget of 0 leaf entries: the walk gives up at once, as it does in czest3ctf's
         // open areas, and the set is the merged flow's (one part per portal side) cut by
         // what the map's shrunk solid space hides from the cell's viewpoint samples.
+        with_cluster_cell(35, |ctx| {
+            let sampler = ConservativeSampler {
+                through_portals: true,
+                flow_budget: 0,
+                back_faces_of_solids: false,
+                solid_fusion: Some(SolidFusion { radius: Some(8.0) }),
+                ..ConservativeSampler::default()
+            };
+            let bound = sampler.sample(ctx, &Budget::default(), &|_| {}).visible;
+            let mut merged = BspPortals::new(ctx.scene)
+                .unwrap()
+                .visible_from_box(
+                    ctx.scene,
+                    &Aabb::new(
+                        ctx.cell.center - ctx.cell.half_extents,
+                        ctx.cell.center + ctx.cell.half_extents,
+                    ),
+                    0,
+                )
+                .unwrap()
+                .visible;
+            merged.intersect_with(
+                &conservative_from_region(
+                    &mut SceneSource::new(ctx.scene),
+                    &ctx.cell.corners(),
+                    &RegionOptions::default(),
+                )
+                .unwrap()
+                .visible,
+            );
+            assert!(sampler.map_space.0.lock().unwrap().is_some());
+            assert!(bound.is_subset(&merged));
+            let (size, merged_size) = (bound.count_ones(..), merged.count_ones(..));
+            assert!(size < merged_size, "{size} of {merged_size}");
+            assert_holds_a_gvspp_set(ctx, &bound);
+        });
+    }
+
+    /// Runs `test` with the context of a cluster cell of q3dm6ish whose free space is the
+    /// cluster's points.
+    fn with_cluster_cell(cluster: u32, test: impl FnOnce(&CellContext<'_>)) {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/q3dm6ish.bsp");
         let scene = sightline_core::scene::open(path, &Default::default()).unwrap();
         let bsp = scene.bsp.as_deref().unwrap();
         let bvh = sightline_core::trace::Bvh::build(&scene);
-        let (cluster, cell) = sightline_region::cell_sources::q3_cluster_cells(bsp, Some(&[35]))
-            .pop()
-            .unwrap();
+        let (cluster, cell) =
+            sightline_region::cell_sources::q3_cluster_cells(bsp, Some(&[cluster]))
+                .pop()
+                .unwrap();
         let in_cluster = |p: glam::Vec3| bsp.cluster_at(p) == Some(cluster);
-        let ctx = CellContext {
+        test(&CellContext {
             scene: &scene,
             caster: &bvh,
             cell: &cell,
             seed: 1,
             free_space: Some(&in_cluster),
-        };
-        let sampler = ConservativeSampler {
-            through_portals: true,
-            flow_budget: 0,
-            back_faces_of_solids: false,
-            solid_fusion: Some(SolidFusion { radius: Some(8.0) }),
-            ..ConservativeSampler::default()
-        };
-        let bound = sampler.sample(&ctx, &Budget::default(), &|_| {}).visible;
-        let mut merged = BspPortals::new(&scene)
-            .unwrap()
-            .visible_from_box(
-                &scene,
-                &Aabb::new(
-                    cell.center - cell.half_extents,
-                    cell.center + cell.half_extents,
-                ),
-                0,
-            )
-            .unwrap()
-            .visible;
-        merged.intersect_with(
-            &conservative_from_region(
-                &mut SceneSource::new(&scene),
-                &cell.corners(),
-                &RegionOptions::default(),
-            )
-            .unwrap()
-            .visible,
-        );
-        assert!(sampler.map_space.0.lock().unwrap().is_some());
-        assert!(bound.is_subset(&merged));
-        let (size, merged_size) = (bound.count_ones(..), merged.count_ones(..));
-        assert!(size < merged_size, "{size} of {merged_size}");
+        });
+    }
+
+    /// Asserts that a GVS++ bake of the cell (1 M rays) finds over 100 triangles, all in
+    /// `bound`.
+    fn assert_holds_a_gvspp_set(ctx: &CellContext<'_>, bound: &TriangleSet) {
         let gvspp = sightline_region::methods::sampler("gvs++", &Default::default()).unwrap();
         let budget = Budget {
             max_rays: Some(1_000_000),
             max_time: None,
         };
-        let set = gvspp.sample(&ctx, &budget, &|_| {}).visible;
+        let set = gvspp.sample(ctx, &budget, &|_| {}).visible;
         assert!(set.count_ones(..) > 100);
         assert!(
-            set.is_subset(&bound),
+            set.is_subset(bound),
             "{:?}",
-            set.difference(&bound).collect::<Vec<_>>()
+            set.difference(bound).collect::<Vec<_>>()
         );
     }
 }

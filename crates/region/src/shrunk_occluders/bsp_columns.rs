@@ -40,21 +40,8 @@ impl Columns {
         }
         let (lo, hi) = (bounds.min.as_dvec3(), bounds.max.as_dvec3());
         let up = scene.up.index();
-        let across = [(up + 1) % 3, (up + 2) % 3];
-        let origin = [lo[across[0]] - size, lo[across[1]] - size];
-        let dims = [0, 1].map(|k| ((hi[across[k]] - origin[k]) / size).ceil() as usize + 2);
-        if dims[0].checked_mul(dims[1])? > max_columns {
-            return None;
-        }
-        let mut columns = Self {
-            up,
-            across,
-            origin,
-            size,
-            dims,
-            offsets: Vec::new(),
-            spans: Vec::new(),
-        };
+        let mut columns = Self::grid(up, lo, hi, size, max_columns)?;
+        let (across, dims) = (columns.across, columns.dims);
         let tree = Tree {
             bsp,
             planes: node_planes(bsp),

@@ -59,7 +59,6 @@ impl Columns {
         max_columns: usize,
     ) -> Option<Self> {
         let up = scene.up.index();
-        let across = [(up + 1) % 3, (up + 2) % 3];
         let mut triangles = Vec::new();
         let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
         for s in 0..solids.solid_count() {
@@ -85,20 +84,8 @@ impl Columns {
         if triangles.is_empty() || !size.is_finite() || size <= 0.0 {
             return None;
         }
-        let origin = [lo[across[0]] - size, lo[across[1]] - size];
-        let dims = [0, 1].map(|k| ((hi[across[k]] - origin[k]) / size).ceil() as usize + 2);
-        if dims[0].checked_mul(dims[1])? > max_columns {
-            return None;
-        }
-        let mut columns = Self {
-            up,
-            across,
-            origin,
-            size,
-            dims,
-            offsets: Vec::new(),
-            spans: Vec::new(),
-        };
+        let mut columns = Self::grid(up, lo, hi, size, max_columns)?;
+        let dims = columns.dims;
         // Triangles by the rows they reach.
         let mut by_row: Vec<Vec<u32>> = vec![Vec::new(); dims[1]];
         for (k, t) in triangles.iter().enumerate() {
@@ -120,6 +107,32 @@ impl Columns {
             }
         }
         Some(columns)
+    }
+
+    /// A grid of columns of `size` along the up axis `up` over `lo..hi` (a column to spare on
+    /// each side), without spans yet; `None` when it would have more than `max_columns`.
+    pub(super) fn grid(
+        up: usize,
+        lo: DVec3,
+        hi: DVec3,
+        size: f64,
+        max_columns: usize,
+    ) -> Option<Self> {
+        let across = [(up + 1) % 3, (up + 2) % 3];
+        let origin = [lo[across[0]] - size, lo[across[1]] - size];
+        let dims = [0, 1].map(|k| ((hi[across[k]] - origin[k]) / size).ceil() as usize + 2);
+        if dims[0].checked_mul(dims[1])? > max_columns {
+            return None;
+        }
+        Some(Self {
+            up,
+            across,
+            origin,
+            size,
+            dims,
+            offsets: Vec::new(),
+            spans: Vec::new(),
+        })
     }
 
     /// The columns (first and last, inclusive) that `corners` reach along `across[k]`.

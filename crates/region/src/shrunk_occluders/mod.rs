@@ -240,12 +240,9 @@ impl ShrunkOccluders {
         cell: &ViewCell,
         visible: &mut TriangleSet,
     ) -> FusionReport {
-        let corners: Vec<DVec3> = cell.corners().iter().map(|c| c.as_dvec3()).collect();
-        if corners.iter().any(|c| !c.is_finite()) {
-            return FusionReport::default();
-        }
-        let keep = kept_for(scene, solids, &corners);
-        self.remove_hidden_keeping(scene, cell, &corners, &keep, visible)
+        self.remove_hidden_keeping(scene, cell, visible, |corners| {
+            kept_for(scene, solids, corners)
+        })
     }
 
     /// [`ShrunkOccluders::remove_hidden`] for the shrunk solid space of a Quake 3 map
@@ -258,30 +255,31 @@ impl ShrunkOccluders {
         cell: &ViewCell,
         visible: &mut TriangleSet,
     ) -> FusionReport {
-        let corners: Vec<DVec3> = cell.corners().iter().map(|c| c.as_dvec3()).collect();
-        if corners.iter().any(|c| !c.is_finite()) {
-            return FusionReport::default();
-        }
-        let keep = vec![false; scene.triangle_count()];
-        self.remove_hidden_keeping(scene, cell, &corners, &keep, visible)
+        self.remove_hidden_keeping(scene, cell, visible, |_| {
+            vec![false; scene.triangle_count()]
+        })
     }
 
-    /// Removes from `visible` the triangles, but those in `keep`, that the shrunk union
-    /// hides from every sample of `cell` (with `corners`).
+    /// Removes from `visible` the triangles, but those `keep` gives for the cell's corners,
+    /// that the shrunk union hides from every sample of `cell`.
     fn remove_hidden_keeping(
         &self,
         scene: &Scene,
         cell: &ViewCell,
-        corners: &[DVec3],
-        keep: &[bool],
         visible: &mut TriangleSet,
+        keep: impl FnOnce(&[DVec3]) -> Vec<bool>,
     ) -> FusionReport {
+        let corners: Vec<DVec3> = cell.corners().iter().map(|c| c.as_dvec3()).collect();
+        if corners.iter().any(|c| !c.is_finite()) {
+            return FusionReport::default();
+        }
+        let keep = keep(&corners);
         let Some((first, (samples, half))) = (0..MAX_LEVELS)
             .find_map(|k| samples_of(cell, self.options.sample_reach(k)).map(|s| (k, s)))
         else {
             return FusionReport::default();
         };
-        let (lo, hi) = bounds_of(corners);
+        let (lo, hi) = bounds_of(&corners);
         let up = scene.up.index();
         let boxes = self.boxes_for(scene, lo, hi, up, first, half[up]);
         // The triangles in doubt, with their corners and lowest point along the up axis (found
