@@ -58,13 +58,7 @@ impl Columns {
                     .collect()
             })
             .collect();
-        columns.offsets.push(0);
-        for row_spans in rows {
-            for spans in row_spans {
-                columns.spans.extend(spans);
-                columns.offsets.push(columns.spans.len() as u32);
-            }
-        }
+        columns.fill(rows);
         Some(columns)
     }
 }

@@ -99,14 +99,19 @@ impl Columns {
             .enumerate()
             .map(|(j, row)| columns.row(j, row, &triangles, solids))
             .collect();
-        columns.offsets.push(0);
+        columns.fill(rows);
+        Some(columns)
+    }
+
+    /// Takes the spans of every column, row by row (as [`Columns::grid`] orders them).
+    pub(super) fn fill(&mut self, rows: Vec<Vec<Vec<Span>>>) {
+        self.offsets.push(0);
         for row_spans in rows {
             for spans in row_spans {
-                columns.spans.extend(spans);
-                columns.offsets.push(columns.spans.len() as u32);
+                self.spans.extend(spans);
+                self.offsets.push(self.spans.len() as u32);
             }
         }
-        Some(columns)
     }
 
     /// A grid of columns of `size` along the up axis `up` over `lo..hi` (a column to spare on
