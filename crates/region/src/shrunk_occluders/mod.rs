@@ -185,11 +185,10 @@ impl ShrunkOccluders {
     }
 
     /// The shrunk solid space of a Quake 3 map (`scene`, with its BSP tree: see
-    /// `bsp_columns.rs`), or `None` when the scene has no BSP, the options make no sense or
-    /// the options make no sense. Only for cells whose viewpoints all lie in the map's empty
-    /// leaves ([`ShrunkOccluders::remove_hidden_in_map`], with the same scene); each level's
-    /// columns are made on its first use (a level whose grid would be too large hides
-    /// nothing).
+    /// `bsp_columns.rs`), or `None` when the scene has no BSP or the options make no sense.
+    /// Only for cells whose viewpoints all lie in the map's empty leaves
+    /// ([`ShrunkOccluders::remove_hidden_in_map`], with the same scene); each level's columns
+    /// are made on its first use (a level whose grid would be too large hides nothing).
     pub fn of_map(scene: &Scene, options: FusionOptions) -> Option<Self> {
         scene.bsp.as_deref()?;
         Self::valid(&options)?;
@@ -205,6 +204,7 @@ impl ShrunkOccluders {
         .then_some(())
     }
 
+    /// The union with no level's boxes made yet.
     fn with_union(options: FusionOptions, union: Union) -> Self {
         Self {
             options,
