@@ -132,6 +132,17 @@ pub struct SolidFusion {
     pub radius: Option<f64>,
 }
 
+impl SolidFusion {
+    /// The fusion options for `scene`: [`FusionOptions::for_scene`]'s, with this radius.
+    fn options(self, scene: &Scene) -> FusionOptions {
+        let mut options = FusionOptions::for_scene(scene);
+        if let Some(r) = self.radius {
+            options.radius = r;
+        }
+        options
+    }
+}
+
 impl Default for ConservativeSampler {
     fn default() -> Self {
         Self {
@@ -250,14 +261,10 @@ impl ConservativeSampler {
         ctx: &CellContext<'_>,
         mut visible: TriangleSet,
     ) -> TriangleSet {
-        let radius = self.solid_fusion.and_then(|f| f.radius);
-        let shrunk = self.map_space.of(ctx.scene, |s| {
-            let mut options = FusionOptions::for_scene(s);
-            if let Some(r) = radius {
-                options.radius = r;
-            }
-            ShrunkOccluders::of_map(s, options)
-        });
+        let fusion = self.solid_fusion.unwrap_or_default();
+        let shrunk = self
+            .map_space
+            .of(ctx.scene, |s| ShrunkOccluders::of_map(s, fusion.options(s)));
         if let Some(shrunk) = shrunk {
             shrunk.remove_hidden_in_map(ctx.scene, ctx.cell, &mut visible);
         }
@@ -278,11 +285,7 @@ impl ConservativeSampler {
             solids.remove_back_faces(ctx.scene, &ctx.cell.corners(), &mut visible);
             if let Some(fusion) = self.solid_fusion {
                 let shrunk = self.shrunk.of(ctx.scene, |s| {
-                    let mut options = FusionOptions::for_scene(s);
-                    if let Some(r) = fusion.radius {
-                        options.radius = r;
-                    }
-                    ShrunkOccluders::new(s, &solids, options)
+                    ShrunkOccluders::new(s, &solids, fusion.options(s))
                 });
                 if let Some(shrunk) = shrunk {
                     shrunk.remove_hidden(ctx.scene, &solids, ctx.cell, &mut visible);
