@@ -256,3 +256,75 @@ fn batched_avx2_path_equals_previous_kernels_on_small_edge_and_near_triangles() 
         assert!(!OcclusionBuffer::new(8, 8).set_kernel(Kernel::Avx512));
     }
 }
+
+/// Images wider than 65,536 pixels get the same buffers from every kernel, with triangles
+/// from the image's first block to its last: the AVX2 block kernel counts span ends from a
+/// row's first block in 16 bits, which holds because drawn triangles lie in the guard band
+/// (at most 32,768 pixels wide); with a wider guard band these spans would overflow.
+#[test]
+fn kernels_agree_on_images_wider_than_16_bit_span_counts() {
+    let kernels = AnyKernel::available();
+    let mut rng = SplitMix64::new(29);
+    for w in [65_600, 100_000] {
+        let h = 24;
+        // Cameras stop at 16,384 pixels; the kernels draw to the buffer's own size.
+        let cam = Camera::look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 90.0, 16_384, 6, 0.1)
+            .expect("camera");
+        let mut tris = Vec::new();
+        for i in 0..60 {
+            let sy = rng.range_f32(-4.0, h as f32);
+            let z = rng.range_f32(1.0, 30.0);
+            if i % 2 == 0 {
+                // From the first block to a nearly upright right edge in the last 64 columns:
+                // span ends more than 65,535 columns from their row's first block.
+                let (sx, xr) = (
+                    rng.range_f32(-40.0, 30.0),
+                    w as f32 - rng.range_f32(5.0, 64.0),
+                );
+                tris.extend([
+                    unproject(&cam, w, h, sx, sy, z),
+                    unproject(&cam, w, h, xr, sy + 0.3, z * 1.1),
+                    unproject(
+                        &cam,
+                        w,
+                        h,
+                        xr - rng.range_f32(0.0, 30.0),
+                        sy + 24.0,
+                        z * 0.9,
+                    ),
+                ]);
+            } else {
+                // Spans from a few pixels to the whole image, some past its right edge.
+                let sx = rng.range_f32(-100.0, w as f32);
+                let len = rng.range_f32(4.0, 70_000.0);
+                tris.extend([
+                    unproject(&cam, w, h, sx, sy, z),
+                    unproject(&cam, w, h, sx + len, sy + rng.range_f32(1.0, 20.0), z * 1.1),
+                    unproject(
+                        &cam,
+                        w,
+                        h,
+                        sx + rng.range_f32(-50.0, 50.0),
+                        sy + 24.0,
+                        z * 0.9,
+                    ),
+                ]);
+            }
+        }
+        let buffers: Vec<OcclusionBuffer> = kernels
+            .iter()
+            .map(|&k| {
+                let mut b = OcclusionBuffer::new(w, h);
+                k.render(&mut b, &tris, &cam);
+                b
+            })
+            .collect();
+        assert!(!buffers[0].same_contents(&OcclusionBuffer::new(w, h)));
+        for (k, b) in kernels.iter().zip(&buffers).skip(1) {
+            assert!(
+                b.same_contents(&buffers[0]),
+                "{w} px: {k:?} differs from scalar"
+            );
+        }
+    }
+}

@@ -24,7 +24,9 @@ const GUARD: f32 = 8.0;
 /// the spans are accurate to a few hundredths of a pixel, inside the tests' `COVER_MARGIN`; at
 /// 1920x1080 (8 half-screens, at most 8,640 px) they are accurate to about 1/100 px. From
 /// 4,096 px wide on, the band is this cap: 4 half-screens at 8,192 px (as every width had
-/// before the twenty-fourth session), fewer beyond.
+/// before the twenty-fourth session), fewer beyond. The AVX2 block kernel counts span ends
+/// within a block row in 16 bits (`avx2/blocks.rs`), which holds while the band is at most
+/// 65,535 - 64 pixels wide.
 const GUARD_PX: f32 = 16_384.0;
 
 /// The guard band in half-screens for a screen `half` pixels from the centre to its edge.

@@ -228,10 +228,14 @@ fn draw_blocks(
     // The blocks before `first_open` lie behind the triangle: the loop starts at it, with the
     // spans moved on to it.
     let start = bx0.max(first_open);
+    // Saturating 16-bit steps keep the span ends at least 0 (a span behind the block covers
+    // none of it, as it would at any negative count). They fit 16 bits: a triangle drawn
+    // lies in the guard band, at most 2 x 16,384 pixels wide (`project::GUARD_PX`), so
+    // its span ends lie at most 32,769 columns after its first block.
     let ahead = _mm256_set1_epi32((32 * (start - bx0)) as i32);
     let (mut rel_a, mut rel_b) = (
-        _mm256_sub_epi32(rel_a, ahead),
-        _mm256_sub_epi32(rel_b, ahead),
+        _mm256_subs_epu16(rel_a, ahead),
+        _mm256_subs_epu16(rel_b, ahead),
     );
     for bx in start..bx1 + 1 {
         // SAFETY: `bx0..=bx1` lies in the bounding box (`row_spans`), so in the row.
@@ -274,8 +278,8 @@ fn draw_blocks(
                 merge_block(block, z0, cov, r, all);
             }
         }
-        rel_a = _mm256_sub_epi32(rel_a, _mm256_set1_epi32(32));
-        rel_b = _mm256_sub_epi32(rel_b, _mm256_set1_epi32(32));
+        rel_a = _mm256_subs_epu16(rel_a, _mm256_set1_epi32(32));
+        rel_b = _mm256_subs_epu16(rel_b, _mm256_set1_epi32(32));
     }
 }
 
@@ -440,28 +444,36 @@ fn row_spans(tri: &Triangle, e: &SpanEdges, by: u32) -> Option<(__m256i, __m256i
         }
         (lo_all as u32 / 32, hi_all as u32 / 32)
     };
+    // Relative to the first block, every span's ends are at least 0 (`bx0` is at or before
+    // every valid span's start), and an empty span is `0..0`: the draw loop then keeps them
+    // at least 0 by saturating steps, and the masks need no clamp (see [`block_masks`]).
     let block0 = _mm256_set1_epi32((32 * bx0) as i32);
-    let rel_a = _mm256_sub_epi32(a, block0);
-    let rel_b = _mm256_sub_epi32(_mm256_add_epi32(b, _mm256_set1_epi32(1)), block0);
+    let rel_a = _mm256_andnot_si256(invalid, _mm256_sub_epi32(a, block0));
+    let rel_b = _mm256_andnot_si256(
+        invalid,
+        _mm256_sub_epi32(_mm256_add_epi32(b, _mm256_set1_epi32(1)), block0),
+    );
     Some((rel_a, rel_b, bx0, bx1))
 }
 
 /// The coverage masks of the 8 tiles of a block (one per lane) from the spans of the block
 /// row's 8 scanlines (one per lane, columns `rel_a..rel_b` relative to the block, `rel_b`
-/// exclusive; empty when `rel_a >= rel_b`).
+/// exclusive, `0 <= rel_a <= rel_b`; empty when they are equal).
 ///
 /// Hasselgren et al. 2016, section 4: a scanline's 32 pixels of coverage are two shifts of all
 /// ones; a byte transpose then turns 8 scanlines of 4 tiles' bytes into 8 tile masks.
 #[inline]
 #[target_feature(enable = "avx2")]
 fn block_masks(rel_a: __m256i, rel_b: __m256i) -> __m256i {
-    let zero = _mm256_setzero_si256();
     let ones = _mm256_set1_epi32(-1);
     // `sllv` gives 0 for counts of 32 and more: spans past the block cover nothing, spans
-    // before it (negative counts, clamped to 0) everything.
-    let from_a = _mm256_sllv_epi32(ones, _mm256_max_epi32(rel_a, zero));
-    let from_b = _mm256_sllv_epi32(ones, _mm256_max_epi32(rel_b, zero));
-    let rows = _mm256_andnot_si256(from_b, from_a);
+    // that start before it (count 0) everything. `from_b` lies within `from_a`, so the
+    // scanline's pixels are `from_a & !from_b`, which is `from_a ^ from_b`. (Written as that
+    // `andnot` with the counts clamped to 0 here, as before, LLVM added a compare and a select
+    // to each shift: 4 instructions a block.)
+    let from_a = _mm256_sllv_epi32(ones, rel_a);
+    let from_b = _mm256_sllv_epi32(ones, rel_b);
+    let rows = _mm256_xor_si256(from_a, from_b);
     // Lane `j` holds scanline `j`, byte `i` its pixels of tile column `i`; tile `(i, j / 4)`
     // wants byte `i` of scanlines `4 (j / 4) + k` as its byte `k`: a 4x4 byte transpose in each
     // 128-bit half (tile row 0 in the low half, row 1 in the high half).
