@@ -192,7 +192,7 @@ pub(super) fn raster_blocks(blocks: &mut [Block], g: &BlockGrid, t: &Setup8, l: 
             tri.plane_ok
                 && !plane
                     .get_or_insert_with(|| BlockRowDepth::new(&tri, by, g))
-                    .plane_behind(&tri, bx, z0, behind_near)
+                    .plane_behind(&tri, tile_columns(bx), z0, behind_near)
         });
         let Some(first_open) = first_open else {
             continue;
@@ -237,12 +237,14 @@ fn draw_blocks(
         _mm256_subs_epu16(rel_a, ahead),
         _mm256_subs_epu16(rel_b, ahead),
     );
+    // The tiles' first columns, carried from block to block (small integers: exact in f32).
+    let mut columns = tile_columns(start);
     for bx in start..bx1 + 1 {
         // SAFETY: `bx0..=bx1` lies in the bounding box (`row_spans`), so in the row.
         let block = unsafe { block_row.get_unchecked_mut(bx as usize) };
         // SAFETY: as above.
         let z0 = unsafe { load_z0(block) };
-        let skip = bx > first_open && depth.behind(tri, bx, z0);
+        let skip = bx > first_open && depth.behind(tri, columns, z0);
         if !skip {
             let mask = block_masks(rel_a, rel_b);
             // Mask bits beyond the image count as covered in a touched tile of the last
@@ -262,7 +264,7 @@ fn draw_blocks(
             };
             // The plane's farthest value over each tile, as `per_tile.rs` computes it.
             let r = if tri.plane_ok {
-                let far = _mm256_add_ps(tile_columns(bx), tri.far_col);
+                let far = _mm256_add_ps(columns, tri.far_col);
                 let m = _mm256_add_ps(depth.r_rows, _mm256_mul_ps(tri.ra, far));
                 // `f32::max` without a NaN select: `r_far` is never NaN (corners are
                 // finite and in front of the near plane).
@@ -280,6 +282,7 @@ fn draw_blocks(
         }
         rel_a = _mm256_subs_epu16(rel_a, _mm256_set1_epi32(32));
         rel_b = _mm256_subs_epu16(rel_b, _mm256_set1_epi32(32));
+        columns = _mm256_add_ps(columns, _mm256_set1_ps(32.0));
     }
 }
 
@@ -334,8 +337,8 @@ impl BlockRowDepth {
         }
     }
 
-    /// Whether every tile of block column `bx` (reference layers `z0`) lies behind the
-    /// triangle: an upper bound of the depth the merge would compute for each tile, the plane
+    /// Whether every tile of a block (tiles starting at pixel columns `columns`, reference
+    /// layers `z0`) lies behind the triangle: an upper bound of the depth the merge would compute for each tile, the plane
     /// at the tile's nearest pixel centres instead of its farthest (f32 rounding is monotonic,
     /// so it bounds the merge's depth exactly, see `per_tile::tile_column_offsets`), is not
     /// nearer than the tile's reference layer. The merge leaves
@@ -344,7 +347,7 @@ impl BlockRowDepth {
     /// bound than the triangle's nearest corner.
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn behind(&self, tri: &Triangle, bx: u32, z0: __m256) -> bool {
+    fn behind(&self, tri: &Triangle, columns: __m256, z0: __m256) -> bool {
         let behind_far = _mm256_cmp_ps::<_CMP_LE_OQ>(tri.r_far, z0);
         // Most tiles a triangle reaches are not behind even its farthest corner: decide those
         // before the plane's bound.
@@ -357,17 +360,23 @@ impl BlockRowDepth {
         // Behind where the nearest corner is (Hasselgren et al.'s test: the merge's depth is
         // never nearer, see `per_tile::tile_depth`), or else the plane's bound is.
         let behind_near = _mm256_cmp_ps::<_CMP_LE_OQ>(tri.r_near, z0);
-        _mm256_movemask_ps(behind_near) == 0xFF || self.plane_behind(tri, bx, z0, behind_near)
+        _mm256_movemask_ps(behind_near) == 0xFF || self.plane_behind(tri, columns, z0, behind_near)
     }
 
-    /// Whether every tile of block column `bx` (reference layers `z0`) that is not in
-    /// `behind_near` lies behind the triangle's depth plane: its bound at the tile's nearest
+    /// Whether every tile of a block (tiles starting at pixel columns `columns`, reference
+    /// layers `z0`) that is not in `behind_near` lies behind the triangle's depth plane: its bound at the tile's nearest
     /// pixel centres, which is never below the merge's depth (f32 rounding is monotonic, see
     /// `per_tile::tile_column_offsets`), is not nearer than `z0`.
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn plane_behind(&self, tri: &Triangle, bx: u32, z0: __m256, behind_near: __m256) -> bool {
-        let near = _mm256_add_ps(tile_columns(bx), tri.near_col);
+    fn plane_behind(
+        &self,
+        tri: &Triangle,
+        columns: __m256,
+        z0: __m256,
+        behind_near: __m256,
+    ) -> bool {
+        let near = _mm256_add_ps(columns, tri.near_col);
         let bound = _mm256_add_ps(self.r_rows_max, _mm256_mul_ps(tri.ra, near));
         let behind = _mm256_or_ps(behind_near, _mm256_cmp_ps::<_CMP_LE_OQ>(bound, z0));
         _mm256_movemask_ps(behind) == 0xFF
