@@ -45,6 +45,24 @@ impl AnyKernel {
     }
 }
 
+/// One `w x h` buffer per kernel with the occluders drawn into it.
+fn render_each(
+    kernels: &[AnyKernel],
+    w: u32,
+    h: u32,
+    tris: &[Vec3],
+    cam: &Camera,
+) -> Vec<OcclusionBuffer> {
+    kernels
+        .iter()
+        .map(|&k| {
+            let mut b = OcclusionBuffer::new(w, h);
+            k.render(&mut b, tris, cam);
+            b
+        })
+        .collect()
+}
+
 fn random_triangles(rng: &mut SplitMix64, n: usize) -> Vec<Vec3> {
     let mut out = Vec::with_capacity(3 * n);
     for i in 0..n {
@@ -90,14 +108,7 @@ fn simd_and_scalar_kernels_give_identical_buffers_and_answers() {
         let cam = Camera::look_at(eye, look, Vec3::Z, rng.range_f32(40.0, 100.0), w, h, 0.1)
             .expect("camera");
         let tris = random_triangles(&mut rng, 400);
-        let buffers: Vec<OcclusionBuffer> = kernels
-            .iter()
-            .map(|&k| {
-                let mut b = OcclusionBuffer::new(w, h);
-                k.render(&mut b, &tris, &cam);
-                b
-            })
-            .collect();
+        let buffers = render_each(&kernels, w, h, &tris, &cam);
         let empty = OcclusionBuffer::new(w, h);
         differing_from_empty += usize::from(!buffers[0].same_contents(&empty));
         for (k, b) in kernels.iter().zip(&buffers).skip(1) {
@@ -311,14 +322,7 @@ fn kernels_agree_on_images_wider_than_16_bit_span_counts() {
                 ]);
             }
         }
-        let buffers: Vec<OcclusionBuffer> = kernels
-            .iter()
-            .map(|&k| {
-                let mut b = OcclusionBuffer::new(w, h);
-                k.render(&mut b, &tris, &cam);
-                b
-            })
-            .collect();
+        let buffers = render_each(&kernels, w, h, &tris, &cam);
         assert!(!buffers[0].same_contents(&OcclusionBuffer::new(w, h)));
         for (k, b) in kernels.iter().zip(&buffers).skip(1) {
             assert!(
