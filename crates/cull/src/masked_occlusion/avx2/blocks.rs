@@ -338,13 +338,13 @@ impl BlockRowDepth {
     }
 
     /// Whether every tile of a block (tiles starting at pixel columns `columns`, reference
-    /// layers `z0`) lies behind the triangle: an upper bound of the depth the merge would compute for each tile, the plane
-    /// at the tile's nearest pixel centres instead of its farthest (f32 rounding is monotonic,
-    /// so it bounds the merge's depth exactly, see `per_tile::tile_column_offsets`), is not
-    /// nearer than the tile's reference layer. The merge leaves
-    /// such tiles unchanged (its `r > z0` fails), so skipping them changes nothing; this is
-    /// the coarse cull of occluder tiles of Hasselgren et al. 2016, section 4, with a tighter
-    /// bound than the triangle's nearest corner.
+    /// layers `z0`) lies behind the triangle: an upper bound of the depth the merge would
+    /// compute for each tile, the plane at the tile's nearest pixel centres instead of its
+    /// farthest (f32 rounding is monotonic, so it bounds the merge's depth exactly, see
+    /// `per_tile::tile_column_offsets`), is not nearer than the tile's reference layer. The
+    /// merge leaves such tiles unchanged (its `r > z0` fails), so skipping them changes
+    /// nothing; this is the coarse cull of occluder tiles of Hasselgren et al. 2016, section 4,
+    /// with a tighter bound than the triangle's nearest corner.
     #[inline]
     #[target_feature(enable = "avx2")]
     fn behind(&self, tri: &Triangle, columns: __m256, z0: __m256) -> bool {
@@ -364,9 +364,9 @@ impl BlockRowDepth {
     }
 
     /// Whether every tile of a block (tiles starting at pixel columns `columns`, reference
-    /// layers `z0`) that is not in `behind_near` lies behind the triangle's depth plane: its bound at the tile's nearest
-    /// pixel centres, which is never below the merge's depth (f32 rounding is monotonic, see
-    /// `per_tile::tile_column_offsets`), is not nearer than `z0`.
+    /// layers `z0`) that is not in `behind_near` lies behind the triangle's depth plane: its
+    /// bound at the tile's nearest pixel centres, which is never below the merge's depth (f32
+    /// rounding is monotonic, see `per_tile::tile_column_offsets`), is not nearer than `z0`.
     #[inline]
     #[target_feature(enable = "avx2")]
     fn plane_behind(
