@@ -15,9 +15,9 @@ mod trace;
 pub use common::{BenchError, OnProgress, Progress};
 pub use convergence::{convergence_curves, Convergence, ConvergenceSeries, ERROR_FLOOR, FRACTIONS};
 pub use peers::{
-    bench_occluders, bench_rays, hit_agreement, CoverageCheck, InProcessCaster, OccluderCase,
-    OccluderRow, PeerBenchOptions, PeerError, PeerProcess, RayRow, RaySetCase, Timing,
-    HIT_T_TOLERANCE,
+    bench_occluders, bench_rays, hit_agreement, spawn_moc, CoverageCheck, InProcessCaster,
+    OccluderCase, OccluderRow, PeerBenchOptions, PeerError, PeerProcess, RayRow, RaySetCase,
+    Timing, HIT_T_TOLERANCE,
 };
 pub use pvs::{
     bench_pvs_scene, bench_pvs_scene_on, equal_budget_pairs, PvsBenchOptions, PvsRow,

@@ -162,6 +162,44 @@ impl PeerProcess {
     }
 }
 
+/// MOC's SIMD paths that `bench peers` asks its harness for: the harness's argument and the
+/// name MOC gives the implementation (`bench/peers/moc_harness.cpp`).
+const MOC_PATHS: [(&str, &str); 2] = [("avx2", "AVX2"), ("avx512", "AVX-512")];
+
+/// Starts MOC's harness (`program`) once for each of its SIMD paths. MOC runs the best path
+/// the CPU has up to the one asked for, which its harness reports in its greeting
+/// (`{"impl": ...}`): each side is named after the implementation that runs ("MOC AVX2"), and
+/// a path that would run an implementation already started (AVX-512 asked on a CPU without
+/// it) is left out, with a note saying so among the notes returned beside the sides.
+pub fn spawn_moc(program: &Path) -> Result<(Vec<PeerProcess>, Vec<String>), PeerError> {
+    let mut sides: Vec<PeerProcess> = Vec::new();
+    let mut notes = Vec::new();
+    for (arg, asked) in MOC_PATHS {
+        let (mut side, hello) = PeerProcess::spawn(&format!("MOC {asked}"), program, &[arg])?;
+        let runs = hello
+            .get("impl")
+            .and_then(|v| v.as_str())
+            .unwrap_or(asked)
+            .to_string();
+        let name = format!("MOC {runs}");
+        if sides.iter().any(|s| s.name() == name) {
+            notes.push(format!(
+                "MOC's {asked} path is left out: this CPU runs its {runs} code for it, \
+                 measured already"
+            ));
+            continue;
+        }
+        if runs != asked {
+            notes.push(format!(
+                "MOC's {asked} path runs its {runs} code on this CPU"
+            ));
+        }
+        side.name = name;
+        sides.push(side);
+    }
+    Ok((sides, notes))
+}
+
 impl Drop for PeerProcess {
     fn drop(&mut self) {
         // Ask it to quit; kill it if it does not read any more.
@@ -688,6 +726,39 @@ mod tests {
             ray_reps: 1,
         };
         assert!(matches!(o.validate(), Err(PeerError::Zero("reps"))));
+    }
+
+    /// A stand-in for MOC's harness: greets with the implementation `impl_for_avx512` for an
+    /// `avx512` argument (AVX2 for `avx2`), then quits on `quit`.
+    fn fake_moc(dir: &Path, impl_for_avx512: &str) -> std::path::PathBuf {
+        use std::os::unix::fs::PermissionsExt;
+        let path = dir.join(format!("moc_{}", impl_for_avx512.replace('-', "")));
+        let script = format!(
+            r#"#!/bin/sh
+if [ "$1" = avx512 ]; then i='{impl_for_avx512}'; else i=AVX2; fi
+printf '{{"impl": "%s", "requested": "%s"}}\n' "$i" "$1"
+read line
+"#
+        );
+        std::fs::write(&path, script).unwrap();
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
+        path
+    }
+
+    #[test]
+    fn moc_sides_are_named_after_what_runs_and_a_fallback_is_left_out() {
+        let dir = tempfile::tempdir().unwrap();
+        // A CPU without AVX-512: MOC runs its AVX2 code for both paths; one side, one note.
+        let (sides, notes) = spawn_moc(&fake_moc(dir.path(), "AVX2")).unwrap();
+        let names: Vec<&str> = sides.iter().map(|s| s.name()).collect();
+        assert_eq!(names, ["MOC AVX2"]);
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert!(notes[0].contains("AVX-512 path is left out"), "{notes:?}");
+        // A CPU with AVX-512: both sides, no note.
+        let (sides, notes) = spawn_moc(&fake_moc(dir.path(), "AVX-512")).unwrap();
+        let names: Vec<&str> = sides.iter().map(|s| s.name()).collect();
+        assert_eq!(names, ["MOC AVX2", "MOC AVX-512"]);
+        assert!(notes.is_empty(), "{notes:?}");
     }
 
     #[test]

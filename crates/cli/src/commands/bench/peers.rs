@@ -109,8 +109,9 @@ pub(super) fn run(args: PeersArgs) -> Result<()> {
 fn run_in(args: &PeersArgs, options: &PeerBenchOptions, dir: &Path) -> Result<()> {
     let mut occluder_rows = Vec::new();
     if !args.no_occluders {
-        occluder_rows = occluders(args, options, dir)?;
-        print_occluders(&occluder_rows, options, args.moc.is_some())?;
+        let notes;
+        (occluder_rows, notes) = occluders(args, options, dir)?;
+        print_occluders(&occluder_rows, options, args.moc.is_some(), &notes)?;
     }
     let mut ray_rows = Vec::new();
     if !args.no_rays {
@@ -131,7 +132,12 @@ fn run_in(args: &PeersArgs, options: &PeerBenchOptions, dir: &Path) -> Result<()
 }
 
 /// The occluder sets (random legs, then one simulated frame per cull scene) and their rows.
-fn occluders(args: &PeersArgs, options: &PeerBenchOptions, dir: &Path) -> Result<Vec<OccluderRow>> {
+/// Also returns notes on MOC's paths (`eval_bench::spawn_moc`).
+fn occluders(
+    args: &PeersArgs,
+    options: &PeerBenchOptions,
+    dir: &Path,
+) -> Result<(Vec<OccluderRow>, Vec<String>)> {
     let mut cases = Vec::new();
     for &leg in &args.legs {
         anyhow::ensure!(
@@ -168,16 +174,15 @@ fn occluders(args: &PeersArgs, options: &PeerBenchOptions, dir: &Path) -> Result
         let name = format!("{spec} frame {mid}");
         cases.push(export_case(dir, &name, triangles, camera)?);
     }
-    let mut peers = Vec::new();
-    if let Some(moc) = &args.moc {
-        for (arg, name) in [("avx2", "MOC AVX2"), ("avx512", "MOC AVX-512")] {
-            let (peer, hello) = PeerProcess::spawn(name, moc, &[arg])?;
-            eprintln!("{name}: {hello}");
-            peers.push(peer);
-        }
+    let (mut peers, notes) = match &args.moc {
+        Some(moc) => eval_bench::spawn_moc(moc)?,
+        None => (Vec::new(), Vec::new()),
+    };
+    for note in &notes {
+        eprintln!("{note}");
     }
     let rows = eval_bench::bench_occluders(&cases, &mut peers, options, dir, Some(&progress))?;
-    Ok(rows)
+    Ok((rows, notes))
 }
 
 /// Writes an occluder set and reads it back (every side then renders the file's contents).
@@ -276,7 +281,12 @@ fn rays(args: &PeersArgs, options: &PeerBenchOptions, dir: &Path) -> Result<Vec<
     Ok(rows)
 }
 
-fn print_occluders(rows: &[OccluderRow], o: &PeerBenchOptions, moc: bool) -> Result<()> {
+fn print_occluders(
+    rows: &[OccluderRow],
+    o: &PeerBenchOptions,
+    moc: bool,
+    notes: &[String],
+) -> Result<()> {
     outln!(
         "Occluder rasterization at 1920x1080, one thread, CPU time per frame (clear + render), \
          median of {} rounds x {} samples (fastest-slowest; a sample is the mean of as many \
@@ -288,6 +298,9 @@ fn print_occluders(rows: &[OccluderRow], o: &PeerBenchOptions, moc: bool) -> Res
     );
     if !moc {
         outln!("(No MOC harness given (--moc): ours only.)\n");
+    }
+    for note in notes {
+        outln!("({note}.)\n");
     }
     outln!("| set | triangles | side | ms (fastest-slowest) | M tris/s | peer/ours | coverage check: covered ours / peer, pixels agreeing, median depth diff |");
     outln!("|---|---:|---|---:|---:|---:|---|");
