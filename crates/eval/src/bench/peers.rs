@@ -730,6 +730,7 @@ mod tests {
 
     /// A stand-in for MOC's harness: greets with the implementation `impl_for_avx512` for an
     /// `avx512` argument (AVX2 for `avx2`), then quits on `quit`.
+    #[cfg(unix)]
     fn fake_moc(dir: &Path, impl_for_avx512: &str) -> std::path::PathBuf {
         use std::os::unix::fs::PermissionsExt;
         let path = dir.join(format!("moc_{}", impl_for_avx512.replace('-', "")));
@@ -745,6 +746,7 @@ read line
         path
     }
 
+    #[cfg(unix)]
     #[test]
     fn moc_sides_are_named_after_what_runs_and_a_fallback_is_left_out() {
         let dir = tempfile::tempdir().unwrap();
