@@ -178,22 +178,36 @@ pub(super) fn raster_blocks(blocks: &mut [Block], g: &BlockGrid, t: &Setup8, l: 
         // triangle's nearest corner (a hidden triangle's are), so that test comes first, and
         // the depth plane's rows are set up only when a block needs its bound.
         let mut plane: Option<BlockRowDepth> = None;
-        let first_open = (bbox_bx0..bbox_bx1 + 1).find(|&bx| {
-            // SAFETY: `bx <= bbox_bx1` lies in the row (asserted above); an aligned load of the
-            // 32-byte `z0` array of a `#[repr(align(32))]` block.
-            let z0 = unsafe { load_z0(block_row.get_unchecked(bx as usize)) };
-            let behind_near = _mm256_cmp_ps::<_CMP_LE_OQ>(tri.r_near, z0);
-            if _mm256_movemask_ps(behind_near) == 0xFF {
-                return false;
+        let first_open = 'search: {
+            // A walk over pointers (cachegrind: 0.4-2.4 % fewer instructions on the frames and
+            // the random sets than a `find` over block indices).
+            let row = block_row.as_ptr();
+            // SAFETY: `bbox_bx0 <= bbox_bx1 + 1 <= blocks_x` (asserted above): both ends are in
+            // the row or one past it.
+            let (mut at, end) =
+                unsafe { (row.add(bbox_bx0 as usize), row.add(bbox_bx1 as usize + 1)) };
+            while at < end {
+                // SAFETY: `at` lies in the row; an aligned load of the 32-byte `z0` array of a
+                // `#[repr(align(32))]` block.
+                let z0 = unsafe { load_z0(&*at) };
+                let behind_near = _mm256_cmp_ps::<_CMP_LE_OQ>(tri.r_near, z0);
+                if _mm256_movemask_ps(behind_near) != 0xFF {
+                    // SAFETY: `at` and `row` point into the same row.
+                    let bx = unsafe { at.offset_from(row) } as u32;
+                    if _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tri.r_far, z0)) != 0xFF
+                        || (tri.plane_ok
+                            && !plane
+                                .get_or_insert_with(|| BlockRowDepth::new(&tri, by, g))
+                                .plane_behind(&tri, tile_columns(bx), z0, behind_near))
+                    {
+                        break 'search Some(bx);
+                    }
+                }
+                // SAFETY: at most one past the row's last block of the box (`end`).
+                at = unsafe { at.add(1) };
             }
-            if _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tri.r_far, z0)) != 0xFF {
-                return true;
-            }
-            tri.plane_ok
-                && !plane
-                    .get_or_insert_with(|| BlockRowDepth::new(&tri, by, g))
-                    .plane_behind(&tri, tile_columns(bx), z0, behind_near)
-        });
+            None
+        };
         let Some(first_open) = first_open else {
             continue;
         };
