@@ -450,8 +450,6 @@ fn row_spans(tri: &Triangle, e: &SpanEdges, by: u32) -> Option<(__m256i, __m256i
         ),
         _mm256_cmpgt_epi32(a, b),
     );
-    let a = _mm256_blendv_epi8(a, _mm256_set1_epi32(EMPTY_LO), invalid);
-    let b = _mm256_blendv_epi8(b, _mm256_set1_epi32(EMPTY_HI), invalid);
     let (bx0, bx1) = if tri.col1 / 32 - tri.col0 / 32 <= 2 {
         // A bounding box at most three blocks wide: its blocks, unless every scanline is
         // empty (a block no span reaches gets empty masks, which the merge keeps; finding
@@ -461,7 +459,11 @@ fn row_spans(tri: &Triangle, e: &SpanEdges, by: u32) -> Option<(__m256i, __m256i
         }
         (tri.col0 as u32 / 32, tri.col1 as u32 / 32)
     } else {
-        let (lo_all, hi_all) = (hmin_epi32(a), hmax_epi32(b));
+        // The extent of the spans of scanlines in the triangle's rows.
+        let (lo_all, hi_all) = (
+            hmin_epi32(_mm256_blendv_epi8(a, _mm256_set1_epi32(EMPTY_LO), invalid)),
+            hmax_epi32(_mm256_blendv_epi8(b, _mm256_set1_epi32(EMPTY_HI), invalid)),
+        );
         if lo_all > hi_all {
             return None;
         }
