@@ -111,7 +111,7 @@ fn run_in(args: &PeersArgs, options: &PeerBenchOptions, dir: &Path) -> Result<()
     if !args.no_occluders {
         let notes;
         (occluder_rows, notes) = occluders(args, options, dir)?;
-        print_occluders(&occluder_rows, options, args.moc.is_some(), &notes)?;
+        print_occluders(&occluder_rows, options, &notes)?;
     }
     let mut ray_rows = Vec::new();
     if !args.no_rays {
@@ -131,8 +131,9 @@ fn run_in(args: &PeersArgs, options: &PeerBenchOptions, dir: &Path) -> Result<()
     Ok(())
 }
 
-/// The occluder sets (random legs, then one simulated frame per cull scene) and their rows.
-/// Also returns notes on MOC's paths (`eval_bench::spawn_moc`).
+/// The occluder sets (random legs, then one simulated frame per cull scene) and their rows,
+/// with notes on MOC's sides for the report (none given, or paths left out:
+/// `eval_bench::spawn_moc`).
 fn occluders(
     args: &PeersArgs,
     options: &PeerBenchOptions,
@@ -176,11 +177,11 @@ fn occluders(
     }
     let (mut peers, notes) = match &args.moc {
         Some(moc) => eval_bench::spawn_moc(moc)?,
-        None => (Vec::new(), Vec::new()),
+        None => (
+            Vec::new(),
+            vec!["No MOC harness given (--moc): ours only".to_string()],
+        ),
     };
-    for note in &notes {
-        eprintln!("{note}");
-    }
     let rows = eval_bench::bench_occluders(&cases, &mut peers, options, dir, Some(&progress))?;
     Ok((rows, notes))
 }
@@ -281,12 +282,7 @@ fn rays(args: &PeersArgs, options: &PeerBenchOptions, dir: &Path) -> Result<Vec<
     Ok(rows)
 }
 
-fn print_occluders(
-    rows: &[OccluderRow],
-    o: &PeerBenchOptions,
-    moc: bool,
-    notes: &[String],
-) -> Result<()> {
+fn print_occluders(rows: &[OccluderRow], o: &PeerBenchOptions, notes: &[String]) -> Result<()> {
     outln!(
         "Occluder rasterization at 1920x1080, one thread, CPU time per frame (clear + render), \
          median of {} rounds x {} samples (fastest-slowest; a sample is the mean of as many \
@@ -296,9 +292,6 @@ fn print_occluders(
         o.rounds,
         o.reps
     );
-    if !moc {
-        outln!("(No MOC harness given (--moc): ours only.)\n");
-    }
     for note in notes {
         outln!("({note}.)\n");
     }
