@@ -12,7 +12,7 @@
 
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::{
-    __m128, _mm_cmple_ps, _mm_max_ps, _mm_min_ps, _mm_movemask_ps, _mm_mul_ps, _mm_set1_ps,
+    _mm_cmple_ps, _mm_loadu_ps, _mm_max_ps, _mm_min_ps, _mm_movemask_ps, _mm_mul_ps, _mm_set1_ps,
     _mm_sub_ps,
 };
 
@@ -125,9 +125,8 @@ impl WideNode for Node4 {
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn enter_sse(r: &BoxRay, boxes: &Boxes<4>, t_far: f32, far_slack: f32) -> ([f32; 4], u32) {
-    let lanes = |v: [f32; 4]| -> __m128 { bytemuck::cast(v) };
     // SAFETY: SSE is part of the x86_64 baseline, so these intrinsics are available on
-    // every x86_64 CPU; they only operate on values (no memory access).
+    // every x86_64 CPU; the loads read one row of `boxes` each (`BoxRay::row_ptrs`).
     unsafe {
         let mut t0 = _mm_set1_ps(r.t_min);
         let mut t1 = _mm_set1_ps(t_far);
@@ -135,8 +134,8 @@ fn enter_sse(r: &BoxRay, boxes: &Boxes<4>, t_far: f32, far_slack: f32) -> ([f32;
         for a in 0..3 {
             let origin = _mm_set1_ps(r.origin[a]);
             let inv = _mm_set1_ps(r.inv[a]);
-            let near = lanes(boxes[r.near[a] % 6]);
-            let far = lanes(boxes[r.far[a] % 6]);
+            let (near, far) = r.row_ptrs(boxes, a);
+            let (near, far) = (_mm_loadu_ps(near), _mm_loadu_ps(far));
             let tn = _mm_mul_ps(_mm_sub_ps(near, origin), inv);
             let tf = _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(far, origin), inv), slack);
             // Operand order matters: the second operand is kept when the first is NaN.

@@ -185,7 +185,7 @@ unsafe fn occluded_avx2(tree: Tree<'_, Node8>, rays: &[Ray], out: &mut [bool]) {
 unsafe fn enter_avx2(r: &BoxRay, boxes: &Boxes<8>, t_far: f32, far_slack: f32) -> ([f32; 8], u32) {
     let mut out = [0.0f32; 8];
     // SAFETY: the caller guarantees AVX2 (which implies AVX); the loads read the eight floats
-    // of one row of `boxes` and the store writes the eight of `out`, all in bounds.
+    // of one row of `boxes` (`BoxRay::row_ptrs`) and the store writes the eight of `out`.
     let mask = unsafe {
         let mut t0 = _mm256_set1_ps(r.t_min);
         let mut t1 = _mm256_set1_ps(t_far);
@@ -193,8 +193,8 @@ unsafe fn enter_avx2(r: &BoxRay, boxes: &Boxes<8>, t_far: f32, far_slack: f32) -
         for a in 0..3 {
             let origin = _mm256_set1_ps(r.origin[a]);
             let inv = _mm256_set1_ps(r.inv[a]);
-            let near = _mm256_loadu_ps(boxes[r.near[a] % 6].as_ptr());
-            let far = _mm256_loadu_ps(boxes[r.far[a] % 6].as_ptr());
+            let (near, far) = r.row_ptrs(boxes, a);
+            let (near, far) = (_mm256_loadu_ps(near), _mm256_loadu_ps(far));
             let tn = _mm256_mul_ps(_mm256_sub_ps(near, origin), inv);
             let tf = _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(far, origin), inv), slack);
             // Operand order matters: the second operand is kept when the first is NaN.
@@ -221,12 +221,12 @@ unsafe fn enter_avx2(r: &BoxRay, boxes: &Boxes<8>, t_far: f32, far_slack: f32) -
 unsafe fn enter_finite_avx2(r: &BoxRay, boxes: &Boxes<8>, t_far: f32) -> ([f32; 8], u32) {
     let mut out = [0.0f32; 8];
     // SAFETY: the caller guarantees AVX2 (which implies AVX); the loads read the eight floats
-    // of one row of `boxes` and the store writes the eight of `out`, all in bounds.
+    // of one row of `boxes` (`BoxRay::row_ptrs`) and the store writes the eight of `out`.
     let mask = unsafe {
         let slab = |a: usize| -> (__m256, __m256) {
             let origin = _mm256_set1_ps(r.origin[a]);
-            let near = _mm256_loadu_ps(boxes[r.near[a] % 6].as_ptr());
-            let far = _mm256_loadu_ps(boxes[r.far[a] % 6].as_ptr());
+            let (near, far) = r.row_ptrs(boxes, a);
+            let (near, far) = (_mm256_loadu_ps(near), _mm256_loadu_ps(far));
             let tn = _mm256_mul_ps(_mm256_sub_ps(near, origin), _mm256_set1_ps(r.inv[a]));
             // `* inv_far + 0.0` in one rounding: turns a `-0.0` exit into `+0.0`
             // (`BoxRay::enter_finite_scalar`) at no latency beyond the multiply's.

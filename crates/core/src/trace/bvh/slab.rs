@@ -59,10 +59,14 @@ pub(super) fn lane_box<const N: usize>(boxes: &Boxes<N>, lane: usize) -> ([f32; 
 pub(super) struct BoxRay {
     pub(super) origin: [f32; 3],
     pub(super) inv: [f32; 3],
-    /// Per axis, the row of [`Boxes`] holding the near plane (the max when the direction is
-    /// negative) and the one holding the far plane.
+    /// Per axis, where in the rows of [`Boxes`] (`lanes` floats each, flattened) the near
+    /// plane's row starts (the max when the direction is negative), and the far plane's: a
+    /// row index times `lanes`. Offsets rather than indices, because the SIMD kernels add
+    /// them to a node's address as they are (an index cost a shift per row, six per node).
     pub(super) near: [usize; 3],
     pub(super) far: [usize; 3],
+    /// The width of the [`Boxes`] the offsets are for.
+    lanes: usize,
     pub(super) t_min: f32,
     /// `inv` scaled by [`FINITE_FAR`], for the far planes of [`BoxRay::enter_finite_scalar`].
     pub(super) inv_far: [f32; 3],
@@ -92,9 +96,10 @@ pub(super) const FINITE_FAR: f32 = 1.0 + 2.0 * gamma(6.0);
 impl BoxRay {
     /// `None` when the ray can never hit anything (non-finite or zero direction or origin,
     /// empty or NaN range), matching what the leaf test would say. `t_min` is the lower bound
-    /// boxes are clipped to (the caller loosens it by its culling slack).
+    /// boxes are clipped to (the caller loosens it by its culling slack); `lanes` is the width
+    /// of the [`Boxes`] it will be tested against.
     #[inline(always)]
-    pub(super) fn new(ray: &Ray, t_min: f32) -> Option<Self> {
+    pub(super) fn new(ray: &Ray, t_min: f32, lanes: usize) -> Option<Self> {
         let usable = ray.origin.is_finite()
             && ray.dir.is_finite()
             && ray.dir != Vec3::ZERO
@@ -109,12 +114,48 @@ impl BoxRay {
         Some(Self {
             origin: ray.origin.to_array(),
             inv: inv.to_array(),
-            near: [0, 1, 2].map(|a| if negative[a] { a + 3 } else { a }),
-            far: [0, 1, 2].map(|a| if negative[a] { a } else { a + 3 }),
+            near: [0, 1, 2].map(|a| if negative[a] { a + 3 } else { a } * lanes),
+            far: [0, 1, 2].map(|a| if negative[a] { a } else { a + 3 } * lanes),
+            lanes,
             t_min,
             inv_far: (inv * FINITE_FAR).to_array(),
             finite: inv.is_finite() && t_min.is_sign_positive(),
         })
+    }
+
+    /// The near and far plane rows of axis `a` in `boxes`.
+    #[cfg(any(test, not(target_arch = "x86_64")))]
+    #[inline(always)]
+    fn rows<'b, const N: usize>(
+        &self,
+        boxes: &'b Boxes<N>,
+        a: usize,
+    ) -> (&'b [f32; N], &'b [f32; N]) {
+        debug_assert_eq!(self.lanes, N);
+        // `% 6` lets the compiler drop the bounds checks.
+        (&boxes[self.near[a] / N % 6], &boxes[self.far[a] / N % 6])
+    }
+
+    /// Pointers to the near and far plane rows of axis `a` in `boxes`, for the SIMD kernels'
+    /// loads: the offsets added to the first row's address, with no index arithmetic.
+    ///
+    /// # Panics
+    /// When the ray was prepared for another width than `N` (then the offsets could point
+    /// past `boxes`).
+    #[inline(always)]
+    pub(super) fn row_ptrs<const N: usize>(
+        &self,
+        boxes: &Boxes<N>,
+        a: usize,
+    ) -> (*const f32, *const f32) {
+        assert_eq!(self.lanes, N, "a ray prepared for {} lanes", self.lanes);
+        let first = boxes.as_flattened().as_ptr();
+        // `near` and `far` are row indices below 6 times `lanes` (`new`), and `lanes == N`,
+        // so each pointer starts a row of `boxes`; `wrapping_add` keeps this safe code.
+        (
+            first.wrapping_add(self.near[a]),
+            first.wrapping_add(self.far[a]),
+        )
     }
 
     /// [`BoxRay::enter_scalar`] for a ray whose [`BoxRay::finite`] holds, with the far slack
@@ -147,8 +188,7 @@ impl BoxRay {
         let mut t0 = [bits(self.t_min); N];
         let mut t1 = [bits(t_far); N];
         for a in 0..3 {
-            let near = &boxes[self.near[a] % 6];
-            let far = &boxes[self.far[a] % 6];
+            let (near, far) = self.rows(boxes, a);
             for lane in 0..N {
                 let tn = (near[lane] - self.origin[a]) * self.inv[a];
                 let tf = (far[lane] - self.origin[a]).mul_add(self.inv_far[a], 0.0);
@@ -184,9 +224,7 @@ impl BoxRay {
         let mut t0 = [self.t_min; N];
         let mut t1 = [t_far; N];
         for a in 0..3 {
-            // `% 6` lets the compiler drop the bounds checks.
-            let near = &boxes[self.near[a] % 6];
-            let far = &boxes[self.far[a] % 6];
+            let (near, far) = self.rows(boxes, a);
             for lane in 0..N {
                 let tn = (near[lane] - self.origin[a]) * self.inv[a];
                 let tf = (far[lane] - self.origin[a]) * self.inv[a] * far_slack;
@@ -227,7 +265,7 @@ pub(super) mod kernel_tests {
     pub(crate) fn hits_box_ahead_only<const N: usize>(
         enter: impl Fn(&BoxRay, &Boxes<N>, f32, f32) -> ([f32; N], u32),
     ) {
-        let r = BoxRay::new(&Ray::new(Vec3::ZERO, Vec3::X), 0.0).expect("usable ray");
+        let r = BoxRay::new(&Ray::new(Vec3::ZERO, Vec3::X), 0.0, N).expect("usable ray");
         let (t, mask) = enter(&r, &mixed_boxes(), f32::INFINITY, 1.0);
         assert_eq!(mask, 0b101);
         assert_eq!(t[0], 1.0);
@@ -239,7 +277,7 @@ pub(super) mod kernel_tests {
         enter: impl Fn(&BoxRay, &Boxes<N>, f32, f32) -> ([f32; N], u32),
     ) {
         for dir in [Vec3::X, Vec3::NEG_Y, Vec3::new(0.0, -0.0, 1.0), Vec3::ONE] {
-            let r = BoxRay::new(&Ray::new(Vec3::splat(0.5), dir), 0.0).expect("usable ray");
+            let r = BoxRay::new(&Ray::new(Vec3::splat(0.5), dir), 0.0, N).expect("usable ray");
             let empty = empty_boxes::<N>();
             assert_eq!(enter(&r, &empty, f32::INFINITY, 1.0).1, 0, "{dir:?}");
             assert_eq!(r.enter_scalar(&empty, f32::INFINITY, 1.0).1, 0);
@@ -274,7 +312,7 @@ pub(super) mod kernel_tests {
             } else {
                 coord().abs()
             };
-            let Some(r) = BoxRay::new(&Ray::new(origin, dir), 0.0) else {
+            let Some(r) = BoxRay::new(&Ray::new(origin, dir), 0.0, N) else {
                 continue;
             };
             let (ts, ms) = r.enter_scalar(&boxes, t_far, 1.0 + 1e-6);
@@ -327,7 +365,7 @@ pub(super) mod kernel_tests {
             } else {
                 coord().abs()
             };
-            let r = BoxRay::new(&Ray::new(origin, dir), 0.0).expect("usable ray");
+            let r = BoxRay::new(&Ray::new(origin, dir), 0.0, N).expect("usable ray");
             assert!(r.finite, "case {i}");
             check(i, &r, &boxes, t_far);
         }
@@ -398,7 +436,7 @@ mod tests {
     #[test]
     fn finite_needs_finite_inverse_and_non_negative_t_min() {
         let ray = |dir| Ray::new(Vec3::ZERO, dir);
-        let finite = |dir, t_min| BoxRay::new(&ray(dir), t_min).expect("usable").finite;
+        let finite = |dir, t_min| BoxRay::new(&ray(dir), t_min, 8).expect("usable").finite;
         assert!(finite(Vec3::ONE, 0.0));
         assert!(!finite(Vec3::new(1.0, 0.0, 1.0), 0.0));
         assert!(!finite(Vec3::new(1.0, -0.0, 1.0), 0.0));
@@ -410,7 +448,7 @@ mod tests {
 
     #[test]
     fn zero_direction_is_unusable() {
-        assert!(BoxRay::new(&Ray::new(Vec3::ZERO, Vec3::ZERO), 0.0).is_none());
+        assert!(BoxRay::new(&Ray::new(Vec3::ZERO, Vec3::ZERO), 0.0, 8).is_none());
     }
 
     #[test]

@@ -113,7 +113,7 @@ fn count_ray<N: WideNode>(
     }
     let sheared = ShearedRay::new(ray);
     let t_min = ray.t_min - ray.t_min.abs() * CULL_SLACK;
-    let Some(r) = BoxRay::new(ray, t_min) else {
+    let Some(r) = BoxRay::new(ray, t_min, N::WIDTH) else {
         return best;
     };
     let mut t_far = slack_up(ray.t_max);

@@ -182,7 +182,7 @@ unsafe fn traverse<N: WideNode>(
     leaf: &mut impl Leaf,
 ) -> bool {
     let t_min = ray.t_min - ray.t_min.abs() * CULL_SLACK;
-    let Some(r) = BoxRay::new(ray, t_min) else {
+    let Some(r) = BoxRay::new(ray, t_min, N::WIDTH) else {
         return true;
     };
     let t_far = slack_up(ray.t_max);
