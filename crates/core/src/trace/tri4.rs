@@ -94,8 +94,14 @@ pub(super) fn intersect4_scalar(ray: &ShearedRay, tris: &Tri4) -> ([f32; 4], u32
 #[inline(always)]
 fn intersect4_sse(ray: &ShearedRay, tris: &Tri4) -> ([f32; 4], u32) {
     let lanes = |v: [f32; 4]| -> __m128 { bytemuck::cast(v) };
-    let (kx, ky, kz) = (ray.kx % 3, ray.ky % 3, ray.kz % 3);
-    let c = &tris.corners;
+    let [kx, ky, kz] = ray.axes();
+    debug_assert!(kx < 3 && ky < 3 && kz < 3);
+    // One vertex's axis: `ShearedRay::new` makes each axis 0, 1 or 2, and only it sets
+    // them, so no bounds check (`% 3` cost a multiplication per axis and ray).
+    let c = |v: usize, axis: usize| -> __m128 {
+        // SAFETY: `axis` is below 3 (above).
+        lanes(unsafe { *tris.corners[v].get_unchecked(axis) })
+    };
     // SAFETY: SSE is part of the x86_64 baseline, so these intrinsics are available on every
     // x86_64 CPU; they only operate on values (no memory access).
     let (t, mask, zero) = unsafe {
@@ -105,9 +111,9 @@ fn intersect4_sse(ray: &ShearedRay, tris: &Tri4) -> ([f32; 4], u32) {
         let sz = _mm_set1_ps(ray.sz);
         // Translated to the origin, then sheared: `p[kx] - sx * p[kz]`, as the reference.
         let vertex = |v: usize| {
-            let x = _mm_sub_ps(lanes(c[v][kx]), ox);
-            let y = _mm_sub_ps(lanes(c[v][ky]), oy);
-            let z = _mm_sub_ps(lanes(c[v][kz]), oz);
+            let x = _mm_sub_ps(c(v, kx), ox);
+            let y = _mm_sub_ps(c(v, ky), oy);
+            let z = _mm_sub_ps(c(v, kz), oz);
             (
                 _mm_sub_ps(x, _mm_mul_ps(sx, z)),
                 _mm_sub_ps(y, _mm_mul_ps(sy, z)),

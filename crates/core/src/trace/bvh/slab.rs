@@ -15,7 +15,9 @@
 //! (`_mm_max_ps(a, b)` returns `b` when unordered, like `if a > b { a } else { b }`), so the
 //! SIMD and scalar paths give the same bits; `kernel_tests` checks it for each kernel.
 
+#[cfg(test)]
 use glam::Vec3;
+use glam::Vec3A;
 
 use crate::geometry::Ray;
 
@@ -100,16 +102,19 @@ impl BoxRay {
     /// of the [`Boxes`] it will be tested against.
     #[inline(always)]
     pub(super) fn new(ray: &Ray, t_min: f32, lanes: usize) -> Option<Self> {
-        let usable = ray.origin.is_finite()
-            && ray.dir.is_finite()
-            && ray.dir != Vec3::ZERO
-            && ray.t_min <= ray.t_max;
+        // In SIMD lanes with `&` rather than `&&`: a scalar check per coordinate took about
+        // 35 instructions a ray, a tenth of a missed ray's whole cost.
+        let (origin, dir) = (Vec3A::from(ray.origin), Vec3A::from(ray.dir));
+        let usable = (origin.is_finite_mask() & dir.is_finite_mask()).all()
+            & dir.cmpne(Vec3A::ZERO).any()
+            & (ray.t_min <= ray.t_max);
         if !usable {
             return None;
         }
         // A zero component gives an infinite inverse whose sign follows the zero's sign; the
-        // slab test handles the resulting infinities and NaNs.
-        let inv = Vec3::ONE / ray.dir;
+        // slab test handles the resulting infinities and NaNs. `Vec3A`: one SIMD division for
+        // the three lanes (a `Vec3` divides as two and one).
+        let inv = Vec3A::ONE / dir;
         let negative = [0, 1, 2].map(|a| ray.dir[a].is_sign_negative());
         Some(Self {
             origin: ray.origin.to_array(),
