@@ -95,7 +95,7 @@ pub use flatten::{FlatBvh, FlatChild, FlatLink};
 use huge::onto_huge_pages;
 pub use input::hittable_corners;
 use input::{corners, triangle_boxes};
-use node::{Tree, WideNode};
+use node::{assert_children_in_range, Tree, WideNode};
 use node4::Node4;
 use node8::Node8;
 
@@ -220,6 +220,10 @@ impl Bvh {
             Nodes::Eight(n) => Nodes::Eight(onto_huge_pages(n)),
         };
         let packets = onto_huge_pages(packets);
+        match &nodes {
+            Nodes::Four(n) => assert_children_in_range(n, packets.len()),
+            Nodes::Eight(n) => assert_children_in_range(n, packets.len()),
+        }
         Self {
             nodes,
             packets,

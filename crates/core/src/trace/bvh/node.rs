@@ -95,6 +95,11 @@ pub(super) struct Entry<C> {
 
 /// The arrays one traversal reads: the nodes (the root first) and the triangle packets in leaf
 /// order.
+///
+/// Invariant, which the traversal's unchecked indexing relies on: every child slot of every
+/// node indexes `nodes` (an inner child) or a run of `packets` (a leaf). `Bvh::build_with`
+/// checks it with [`assert_children_in_range`] before the tree is ever traversed, and a `Tree`
+/// is only made from a built `Bvh`'s arrays.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Tree<'a, N> {
     pub(super) nodes: &'a [N],
@@ -143,4 +148,24 @@ fn prefetch_lines(start: *const i8, size: usize) {
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = (start, size);
+}
+
+/// Panics unless every child slot of `nodes` indexes `nodes` or a run of the `packets` packets:
+/// [`Tree`]'s invariant, checked once per build (a pass over the nodes, a few milliseconds for
+/// a million triangles) so that the traversal may index without bounds checks.
+pub(super) fn assert_children_in_range<N: WideNode>(nodes: &[N], packets: usize) {
+    for (i, node) in nodes.iter().enumerate() {
+        for lane in 0..N::WIDTH {
+            let (index, count) = N::decode(node.child(lane));
+            let in_range = if count > 0 {
+                index.checked_add(count).is_some_and(|end| end <= packets)
+            } else {
+                index < nodes.len()
+            };
+            assert!(
+                in_range,
+                "node {i} lane {lane}: child ({index}, {count}) out of range"
+            );
+        }
+    }
 }

@@ -469,3 +469,23 @@ fn assert_both_widths_match_brute_force_or_miss(scene: &Scene, rays: &[Ray]) {
         assert_eq!(got, want, "{width:?}");
     }
 }
+
+/// The check that makes the traversal's unchecked indexing sound: it passes every built tree
+/// (each build runs it) and stops a child slot pointing past the arrays.
+#[test]
+fn children_out_of_range_are_caught() {
+    let mut node = Node4::EMPTY;
+    node.set_inner(1, 0);
+    node.set_leaf(2, 3, 2);
+    // Node 0 and packets 3 and 4 exist.
+    assert_children_in_range(&[node], 5);
+    // An inner child past the one node, and a leaf whose second packet is past the five.
+    let mut past_nodes = node;
+    past_nodes.set_inner(1, 1);
+    let mut past_packets = node;
+    past_packets.set_leaf(2, 4, 2);
+    for broken in [past_nodes, past_packets] {
+        let caught = std::panic::catch_unwind(|| assert_children_in_range(&[broken], 5));
+        assert!(caught.is_err(), "an out-of-range child passed");
+    }
+}

@@ -218,12 +218,14 @@ unsafe fn walk<N: WideNode, const FINITE: bool>(
     loop {
         let (index, packets) = N::decode(current.child);
         if packets > 0 {
-            match leaf.test(&tree.packets[index..index + packets]) {
+            // SAFETY: `Tree`'s invariant: every leaf's run of packets lies in `tree.packets`.
+            match leaf.test(unsafe { tree.packets.get_unchecked(index..index + packets) }) {
                 Some(t) => t_far = t,
                 None => return false,
             }
         } else {
-            let node = &tree.nodes[index];
+            // SAFETY: `Tree`'s invariant: every inner child slot indexes `tree.nodes`.
+            let node = unsafe { tree.nodes.get_unchecked(index) };
             // SAFETY: the caller guarantees the CPU features, and `r.finite` for `FINITE`.
             let (t, mut mask) = unsafe {
                 if FINITE {
