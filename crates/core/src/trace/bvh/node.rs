@@ -53,6 +53,21 @@ pub(super) trait WideNode: Copy + Sized {
     /// its packet count.
     fn decode(child: Self::Child) -> (usize, usize);
 
+    /// [`WideNode::decode`] for the traversal: `(offset, packets)` with the child's byte
+    /// offset in the node array (an inner node) or the packet array (a leaf). A layout whose
+    /// slots hold offsets finds it with a mask, where an index costs a multiplication on the
+    /// chain from one node to the next.
+    #[inline(always)]
+    fn locate(child: Self::Child) -> (usize, usize) {
+        let (index, packets) = Self::decode(child);
+        let size = if packets > 0 {
+            std::mem::size_of::<Tri4>()
+        } else {
+            std::mem::size_of::<Self>()
+        };
+        (index * size, packets)
+    }
+
     /// Per lane, the entry distance into the child's box clipped to `[ray.t_min, t_far]`
     /// (far distances scaled by `far_slack`), and a bit mask of the lanes whose box the ray
     /// enters (bit `i` for lane `i`): exactly `BoxRay::enter_scalar`'s bits.
@@ -118,12 +133,47 @@ impl<N: WideNode> Tree<'_, N> {
     /// packet when it has one).
     #[inline(always)]
     pub(super) fn prefetch(&self, child: N::Child) {
-        let (index, packets) = N::decode(child);
-        let node = self.nodes.as_ptr().wrapping_add(index).cast::<i8>();
-        let packet = self.packets.as_ptr().wrapping_add(index).cast::<i8>();
+        let (offset, packets) = N::locate(child);
+        let node = self.nodes.as_ptr().cast::<i8>().wrapping_add(offset);
+        let packet = self.packets.as_ptr().cast::<i8>().wrapping_add(offset);
         let start = if packets > 0 { packet } else { node };
         let size = std::mem::size_of::<N>().max(std::mem::size_of::<Tri4>());
         prefetch_lines(start, size);
+    }
+}
+
+impl<'a, N: WideNode> Tree<'a, N> {
+    /// The inner node at byte `offset` of `nodes` ([`WideNode::locate`]).
+    ///
+    /// # Safety
+    /// `offset` is an inner child's, located from a slot of this tree's nodes (then it is in
+    /// range: `Tree`'s invariant).
+    #[inline(always)]
+    pub(super) unsafe fn node_at(&self, offset: usize) -> &'a N {
+        debug_assert!(offset.is_multiple_of(std::mem::size_of::<N>()));
+        debug_assert!(offset / std::mem::size_of::<N>() < self.nodes.len());
+        // SAFETY: the caller's guarantee.
+        unsafe { &*self.nodes.as_ptr().cast::<u8>().add(offset).cast::<N>() }
+    }
+
+    /// The `count` packets from byte `offset` of `packets` ([`WideNode::locate`]).
+    ///
+    /// # Safety
+    /// As [`Tree::node_at`], for a leaf child.
+    #[inline(always)]
+    pub(super) unsafe fn packets_at(&self, offset: usize, count: usize) -> &'a [Tri4] {
+        debug_assert!(offset.is_multiple_of(std::mem::size_of::<Tri4>()));
+        debug_assert!(offset / std::mem::size_of::<Tri4>() + count <= self.packets.len());
+        // SAFETY: the caller's guarantee.
+        unsafe {
+            let first = self
+                .packets
+                .as_ptr()
+                .cast::<u8>()
+                .add(offset)
+                .cast::<Tri4>();
+            std::slice::from_raw_parts(first, count)
+        }
     }
 }
 
@@ -156,15 +206,22 @@ fn prefetch_lines(start: *const i8, size: usize) {
 pub(super) fn assert_children_in_range<N: WideNode>(nodes: &[N], packets: usize) {
     for (i, node) in nodes.iter().enumerate() {
         for lane in 0..N::WIDTH {
-            let (index, count) = N::decode(node.child(lane));
+            // As the traversal reads the slot.
+            let (offset, count) = N::locate(node.child(lane));
+            let size = if count > 0 {
+                std::mem::size_of::<Tri4>()
+            } else {
+                std::mem::size_of::<N>()
+            };
+            let (index, aligned) = (offset / size, offset.is_multiple_of(size));
             let in_range = if count > 0 {
                 index.checked_add(count).is_some_and(|end| end <= packets)
             } else {
                 index < nodes.len()
             };
             assert!(
-                in_range,
-                "node {i} lane {lane}: child ({index}, {count}) out of range"
+                aligned && in_range,
+                "node {i} lane {lane}: child at byte {offset} ({count} packets) out of range"
             );
         }
     }

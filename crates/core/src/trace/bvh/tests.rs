@@ -471,10 +471,10 @@ fn assert_both_widths_match_brute_force_or_miss(scene: &Scene, rays: &[Ray]) {
 }
 
 /// The check that makes the traversal's unchecked indexing sound: it passes every built tree
-/// (each build runs it) and stops a child slot pointing past the arrays.
-#[test]
-fn children_out_of_range_are_caught() {
-    let mut node = Node4::EMPTY;
+/// (each build runs it) and stops a child slot pointing past the arrays, in each layout's
+/// encoding of the slots.
+fn catches_children_out_of_range<N: WideNode>() {
+    let mut node = N::EMPTY;
     node.set_inner(1, 0);
     node.set_leaf(2, 3, 2);
     // Node 0 and packets 3 and 4 exist.
@@ -485,7 +485,14 @@ fn children_out_of_range_are_caught() {
     let mut past_packets = node;
     past_packets.set_leaf(2, 4, 2);
     for broken in [past_nodes, past_packets] {
-        let caught = std::panic::catch_unwind(|| assert_children_in_range(&[broken], 5));
+        let check = std::panic::AssertUnwindSafe(|| assert_children_in_range(&[broken], 5));
+        let caught = std::panic::catch_unwind(check);
         assert!(caught.is_err(), "an out-of-range child passed");
     }
+}
+
+#[test]
+fn children_out_of_range_are_caught() {
+    catches_children_out_of_range::<Node4>();
+    catches_children_out_of_range::<Node8>();
 }

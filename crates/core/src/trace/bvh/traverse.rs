@@ -216,16 +216,17 @@ unsafe fn walk<N: WideNode, const FINITE: bool>(
     // The root, an inner node.
     let mut current = Entry::<N::Child>::default();
     loop {
-        let (index, packets) = N::decode(current.child);
+        let (offset, packets) = N::locate(current.child);
         if packets > 0 {
-            // SAFETY: `Tree`'s invariant: every leaf's run of packets lies in `tree.packets`.
-            match leaf.test(unsafe { tree.packets.get_unchecked(index..index + packets) }) {
+            // SAFETY: a leaf child of this tree's nodes (the root is not one).
+            match leaf.test(unsafe { tree.packets_at(offset, packets) }) {
                 Some(t) => t_far = t,
                 None => return false,
             }
         } else {
-            // SAFETY: `Tree`'s invariant: every inner child slot indexes `tree.nodes`.
-            let node = unsafe { tree.nodes.get_unchecked(index) };
+            // SAFETY: the root (offset 0 of a non-empty array), or an inner child of this
+            // tree's nodes.
+            let node = unsafe { tree.node_at(offset) };
             // SAFETY: the caller guarantees the CPU features, and `r.finite` for `FINITE`.
             let (t, mut mask) = unsafe {
                 if FINITE {
