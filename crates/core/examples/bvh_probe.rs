@@ -6,6 +6,11 @@
 //! Run: `RAYON_NUM_THREADS=1 cargo run --release -p sightline-core --features embree --example
 //! bvh_probe -- [--time] SCENE...` (scene specs as `sightline` takes them).
 //!
+//! For counting instructions (cachegrind, which a loaded machine does not disturb either):
+//! `bvh_probe --cast=ours|embree --set=coherent|incoherent --rays=N --repeat=K SCENE` builds
+//! only that caster and casts the first `N` rays of the set `K` times, with no timing loop;
+//! the difference between `K = 3` and `K = 1`, over `2 N`, is the instructions per ray.
+//!
 //! Based on: Aila, Laine. Understanding the efficiency of ray traversal on GPUs. HPG 2009
 //! (primary = coherent, random = incoherent ray sets). Based on: Aila, Karras, Laine. On
 //! quality metrics of bounding volume hierarchies. HPG 2013 (SAH cost beside measured counts).
@@ -55,6 +60,22 @@ fn outside_rays(bounds: Aabb, n: usize) -> Vec<Ray> {
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    let option = |name: &str| {
+        args.iter()
+            .find_map(|a| a.strip_prefix(&format!("--{name}=")))
+            .map(str::to_owned)
+    };
+    if let Some(caster) = option("cast") {
+        let set = option("set").unwrap_or_else(|| "incoherent".into());
+        let number = |name: &str, default: usize| {
+            option(name).map_or(default, |v| v.parse().expect("a whole number"))
+        };
+        let (rays, repeat) = (number("rays", 100_000), number("repeat", 1));
+        for spec in args.iter().filter(|a| !a.starts_with("--")) {
+            cast_only(spec, &caster, &set, rays, repeat);
+        }
+        return;
+    }
     let time = args.iter().any(|a| a == "--time");
     for spec in args.iter().filter(|a| !a.starts_with("--")) {
         let scene = scene::open(spec, &LoadOptions::default()).expect("scene loads");
@@ -151,4 +172,39 @@ fn timings(bvh: &Bvh, peer: Option<&dyn RayCaster>, rays: &[Ray]) -> String {
         .map_or(String::new(), |e| format!(" x{:.2}", e / best[0]));
     let rates: Vec<String> = best.iter().map(|r| format!("{r:.2}")).collect();
     format!("  Mrays/s {}{ratio}", rates.join(" / "))
+}
+
+/// The `--cast` mode: casts the first `rays` rays of `set` on `spec` `repeat` times with one
+/// caster, and prints the hits (so the casts are not optimised away).
+fn cast_only(spec: &str, caster: &str, set: &str, rays: usize, repeat: usize) {
+    let scene = scene::open(spec, &LoadOptions::default()).expect("scene loads");
+    let rays: Vec<Ray> = match set {
+        "coherent" => {
+            // Every k-th camera ray, so the sample spans the whole image.
+            let all = coherent_rays(&camera(&scene));
+            let step = (all.len() / rays.max(1)).max(1);
+            all.into_iter().step_by(step).take(rays).collect()
+        }
+        "incoherent" => incoherent_rays(scene.bounds(), rays, 7),
+        other => panic!("--set={other}: coherent or incoherent"),
+    };
+    let caster: Box<dyn RayCaster> = match caster {
+        "ours" => Box::new(Bvh::build(&scene)),
+        #[cfg(feature = "embree")]
+        "embree" => Box::new(
+            sightline_core::trace::EmbreeCaster::build_with_threads(&scene, 1)
+                .expect("embree builds"),
+        ),
+        other => panic!("--cast={other}: ours, or embree with --features embree"),
+    };
+    let mut hits = vec![Hit::MISS; rays.len()];
+    let mut hit = 0;
+    for _ in 0..repeat {
+        caster.cast(&rays, &mut hits);
+        hit += hits.iter().filter(|h| h.is_hit()).count();
+    }
+    println!(
+        "{spec}: {hit} hits in {repeat} casts of {} rays",
+        rays.len()
+    );
 }
