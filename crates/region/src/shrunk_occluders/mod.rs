@@ -241,7 +241,7 @@ impl ShrunkOccluders {
         visible: &mut TriangleSet,
     ) -> FusionReport {
         self.remove_hidden_keeping(scene, cell, visible, |corners| {
-            kept_for(scene, solids, corners)
+            Some(kept_for(scene, solids, corners))
         })
     }
 
@@ -255,19 +255,18 @@ impl ShrunkOccluders {
         cell: &ViewCell,
         visible: &mut TriangleSet,
     ) -> FusionReport {
-        self.remove_hidden_keeping(scene, cell, visible, |_| {
-            vec![false; scene.triangle_count()]
-        })
+        self.remove_hidden_keeping(scene, cell, visible, |_| None)
     }
 
-    /// Removes from `visible` the triangles, but those `keep` gives for the cell's corners,
-    /// that the shrunk union hides from every sample of `cell`.
+    /// Removes from `visible` the triangles, but those `keep` gives for the cell's corners
+    /// (`None`: none kept, without a flag per triangle), that the shrunk union hides from
+    /// every sample of `cell`.
     fn remove_hidden_keeping(
         &self,
         scene: &Scene,
         cell: &ViewCell,
         visible: &mut TriangleSet,
-        keep: impl FnOnce(&[DVec3]) -> Vec<bool>,
+        keep: impl FnOnce(&[DVec3]) -> Option<Vec<bool>>,
     ) -> FusionReport {
         let corners: Vec<DVec3> = cell.corners().iter().map(|c| c.as_dvec3()).collect();
         if corners.iter().any(|c| !c.is_finite()) {
@@ -286,7 +285,11 @@ impl ShrunkOccluders {
         // once for all samples).
         let mut targets: Vec<(u32, [DVec3; 3], f64)> = visible
             .ones()
-            .filter(|&t| !keep.get(t).copied().unwrap_or(true))
+            .filter(|&t| {
+                !keep
+                    .as_ref()
+                    .is_some_and(|k| k.get(t).copied().unwrap_or(true))
+            })
             .map(|t| {
                 let corners = scene.triangle(t as u32).map(|p| p.as_dvec3());
                 let lowest = corners[0][up].min(corners[1][up]).min(corners[2][up]);

@@ -155,7 +155,7 @@ impl BoxRay {
     ) -> (*const f32, *const f32) {
         assert_eq!(self.lanes, N, "a ray prepared for {} lanes", self.lanes);
         let first = boxes.as_flattened().as_ptr();
-        // `near` and `far` are row indices below 6 times `lanes` (`new`), and `lanes == N`,
+        // `near` and `far` are a row index below 6 times `lanes` (`new`), and `lanes == N`,
         // so each pointer starts a row of `boxes`; `wrapping_add` keeps this safe code.
         (
             first.wrapping_add(self.near[a]),
