@@ -123,9 +123,9 @@ impl Leaf for Closest<'_> {
                 mask &= mask - 1;
                 let (t, id) = (ts[lane], packet.ids[lane]);
                 // Ties go to the lower id, as in brute force.
-                if t < self.best.t || (t == self.best.t && id < self.best.triangle) {
-                    self.best = Hit { triangle: id, t };
-                }
+                let better = t < self.best.t || (t == self.best.t && id < self.best.triangle);
+                self.best =
+                    std::hint::select_unpredictable(better, Hit { triangle: id, t }, self.best);
             }
         }
         Some(if self.best.is_hit() {
