@@ -60,12 +60,7 @@ pub(super) trait WideNode: Copy + Sized {
     #[inline(always)]
     fn locate(child: Self::Child) -> (usize, usize) {
         let (index, packets) = Self::decode(child);
-        let size = if packets > 0 {
-            std::mem::size_of::<Tri4>()
-        } else {
-            std::mem::size_of::<Self>()
-        };
-        (index * size, packets)
+        (index * record_bytes::<Self>(packets), packets)
     }
 
     /// Per lane, the entry distance into the child's box clipped to `[ray.t_min, t_far]`
@@ -200,6 +195,17 @@ fn prefetch_lines(start: *const i8, size: usize) {
     let _ = (start, size);
 }
 
+/// The size of what a child with `packets` packets points at: a packet of a leaf's run, or an
+/// inner node; the unit between a child's index and its byte offset ([`WideNode::locate`]).
+#[inline(always)]
+pub(super) const fn record_bytes<N: WideNode>(packets: usize) -> usize {
+    if packets > 0 {
+        std::mem::size_of::<Tri4>()
+    } else {
+        std::mem::size_of::<N>()
+    }
+}
+
 /// Panics unless every child slot of `nodes` indexes `nodes` or a run of the `packets` packets:
 /// [`Tree`]'s invariant, checked once per build (a pass over the nodes, a few milliseconds for
 /// a million triangles) so that the traversal may index without bounds checks.
@@ -208,11 +214,7 @@ pub(super) fn assert_children_in_range<N: WideNode>(nodes: &[N], packets: usize)
         for lane in 0..N::WIDTH {
             // As the traversal reads the slot.
             let (offset, count) = N::locate(node.child(lane));
-            let size = if count > 0 {
-                std::mem::size_of::<Tri4>()
-            } else {
-                std::mem::size_of::<N>()
-            };
+            let size = record_bytes::<N>(count);
             let (index, aligned) = (offset / size, offset.is_multiple_of(size));
             let in_range = if count > 0 {
                 index.checked_add(count).is_some_and(|end| end <= packets)

@@ -29,7 +29,7 @@ use crate::geometry::{Hit, Ray};
 use crate::trace::tri4::Tri4;
 
 use super::build::{Node, MAX_LEAF};
-use super::node::{Entry, Tree, WideNode};
+use super::node::{record_bytes, Entry, Tree, WideNode};
 use super::slab::{empty_boxes, lane_box, set_lane, BoxRay, Boxes};
 use super::traverse::{self, stack_size};
 
@@ -117,12 +117,7 @@ impl WideNode for Node8 {
 
     fn decode(slot: u32) -> (usize, usize) {
         let (offset, packets) = Self::locate(slot);
-        let size = if packets > 0 {
-            PACKET_UNITS
-        } else {
-            NODE_UNITS
-        } * UNIT;
-        (offset / size, packets)
+        (offset / record_bytes::<Self>(packets), packets)
     }
 
     #[inline(always)]
