@@ -251,38 +251,53 @@ impl Bvh {
             packets: &self.packets,
         }
     }
+}
 
-    fn cast_chunk(&self, rays: &[Ray], hits: &mut [Hit]) {
-        match &self.nodes {
-            // SAFETY: the 4-wide layout needs nothing beyond the baseline.
-            Nodes::Four(n) => unsafe { Node4::cast(self.tree(n), rays, hits) },
-            // SAFETY: `build_with` only builds 8-wide nodes where `Node8::supported`.
-            Nodes::Eight(n) => unsafe { Node8::cast(self.tree(n), rays, hits) },
-        }
-    }
+/// Closest hits of `rays` in tasks of [`RAYS_PER_TASK`] rays, with a traversal stack for each
+/// run of tasks a thread takes on (`for_each_init`: a few per thread) rather than per task.
+///
+/// # Safety
+/// The CPU must have what [`WideNode::supported`] checks for `N`.
+unsafe fn cast_tasks<N: WideNode + Sync>(tree: Tree<'_, N>, rays: &[Ray], hits: &mut [Hit]) {
+    assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
+    rays.par_chunks(RAYS_PER_TASK)
+        .zip(hits.par_chunks_mut(RAYS_PER_TASK))
+        .for_each_init(N::new_stack, |stack, (rs, hs)| {
+            // SAFETY: the caller guarantees the CPU features.
+            unsafe { N::cast(tree, rs, hs, stack.as_mut()) }
+        });
+}
 
-    fn occluded_chunk(&self, rays: &[Ray], out: &mut [bool]) {
-        match &self.nodes {
-            // SAFETY: as in `cast_chunk`.
-            Nodes::Four(n) => unsafe { Node4::occluded(self.tree(n), rays, out) },
-            // SAFETY: as in `cast_chunk`.
-            Nodes::Eight(n) => unsafe { Node8::occluded(self.tree(n), rays, out) },
-        }
-    }
+/// Any-hit tests of `rays`, as [`cast_tasks`].
+///
+/// # Safety
+/// As [`cast_tasks`].
+unsafe fn occluded_tasks<N: WideNode + Sync>(tree: Tree<'_, N>, rays: &[Ray], out: &mut [bool]) {
+    assert_eq!(rays.len(), out.len(), "one output slot per ray");
+    rays.par_chunks(RAYS_PER_TASK)
+        .zip(out.par_chunks_mut(RAYS_PER_TASK))
+        .for_each_init(N::new_stack, |stack, (rs, os)| {
+            // SAFETY: the caller guarantees the CPU features.
+            unsafe { N::occluded(tree, rs, os, stack.as_mut()) }
+        });
 }
 
 impl RayCaster for Bvh {
     fn cast(&self, rays: &[Ray], hits: &mut [Hit]) {
-        assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
-        rays.par_chunks(RAYS_PER_TASK)
-            .zip(hits.par_chunks_mut(RAYS_PER_TASK))
-            .for_each(|(rs, hs)| self.cast_chunk(rs, hs));
+        match &self.nodes {
+            // SAFETY: the 4-wide layout needs nothing beyond the baseline.
+            Nodes::Four(n) => unsafe { cast_tasks(self.tree(n), rays, hits) },
+            // SAFETY: `build_with` only builds 8-wide nodes where `Node8::supported`.
+            Nodes::Eight(n) => unsafe { cast_tasks(self.tree(n), rays, hits) },
+        }
     }
 
     fn occluded(&self, rays: &[Ray], out: &mut [bool]) {
-        assert_eq!(rays.len(), out.len(), "one output slot per ray");
-        rays.par_chunks(RAYS_PER_TASK)
-            .zip(out.par_chunks_mut(RAYS_PER_TASK))
-            .for_each(|(rs, os)| self.occluded_chunk(rs, os));
+        match &self.nodes {
+            // SAFETY: as in `cast`.
+            Nodes::Four(n) => unsafe { occluded_tasks(self.tree(n), rays, out) },
+            // SAFETY: as in `cast`.
+            Nodes::Eight(n) => unsafe { occluded_tasks(self.tree(n), rays, out) },
+        }
     }
 }

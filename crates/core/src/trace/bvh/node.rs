@@ -81,18 +81,29 @@ pub(super) trait WideNode: Copy + Sized {
     unsafe fn enter_finite(&self, ray: &BoxRay, t_far: f32) -> (Self::Dists, u32);
 
     /// Closest hits of `rays` by [`super::traverse::cast`], compiled with the CPU features
-    /// [`WideNode::enter`] needs.
+    /// [`WideNode::enter`] needs, with `stack` (from [`WideNode::new_stack`]) as the
+    /// traversal stack.
     ///
     /// # Safety
     /// As [`WideNode::enter`].
-    unsafe fn cast(tree: Tree<'_, Self>, rays: &[Ray], hits: &mut [Hit]);
+    unsafe fn cast(
+        tree: Tree<'_, Self>,
+        rays: &[Ray],
+        hits: &mut [Hit],
+        stack: &mut [Entry<Self::Child>],
+    );
 
     /// Any-hit tests of `rays` by [`super::traverse::occluded`], compiled as
     /// [`WideNode::cast`].
     ///
     /// # Safety
     /// As [`WideNode::enter`].
-    unsafe fn occluded(tree: Tree<'_, Self>, rays: &[Ray], out: &mut [bool]);
+    unsafe fn occluded(
+        tree: Tree<'_, Self>,
+        rays: &[Ray],
+        out: &mut [bool],
+        stack: &mut [Entry<Self::Child>],
+    );
 }
 
 /// A node on the traversal stack: what the parent node says of the child, and its entry

@@ -110,14 +110,24 @@ impl WideNode for Node4 {
         unsafe { self.enter(ray, t_far, ROBUST_FAR) }
     }
 
-    unsafe fn cast(tree: Tree<'_, Self>, rays: &[Ray], hits: &mut [Hit]) {
+    unsafe fn cast(
+        tree: Tree<'_, Self>,
+        rays: &[Ray],
+        hits: &mut [Hit],
+        stack: &mut [Entry<Child4>],
+    ) {
         // SAFETY: `enter` needs nothing beyond the baseline (`supported` is always true).
-        unsafe { traverse::cast(tree, rays, hits) }
+        unsafe { traverse::cast(tree, rays, hits, stack) }
     }
 
-    unsafe fn occluded(tree: Tree<'_, Self>, rays: &[Ray], out: &mut [bool]) {
+    unsafe fn occluded(
+        tree: Tree<'_, Self>,
+        rays: &[Ray],
+        out: &mut [bool],
+        stack: &mut [Entry<Child4>],
+    ) {
         // SAFETY: as in `cast`.
-        unsafe { traverse::occluded(tree, rays, out) }
+        unsafe { traverse::occluded(tree, rays, out, stack) }
     }
 }
 

@@ -154,29 +154,34 @@ impl WideNode for Node8 {
         }
     }
 
-    unsafe fn cast(tree: Tree<'_, Self>, rays: &[Ray], hits: &mut [Hit]) {
+    unsafe fn cast(tree: Tree<'_, Self>, rays: &[Ray], hits: &mut [Hit], stack: &mut [Entry<u32>]) {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: the caller guarantees AVX2.
         unsafe {
-            cast_avx2(tree, rays, hits)
+            cast_avx2(tree, rays, hits, stack)
         }
         #[cfg(not(target_arch = "x86_64"))]
         // SAFETY: off x86_64 `enter` is the scalar test, which needs nothing.
         unsafe {
-            traverse::cast(tree, rays, hits)
+            traverse::cast(tree, rays, hits, stack)
         }
     }
 
-    unsafe fn occluded(tree: Tree<'_, Self>, rays: &[Ray], out: &mut [bool]) {
+    unsafe fn occluded(
+        tree: Tree<'_, Self>,
+        rays: &[Ray],
+        out: &mut [bool],
+        stack: &mut [Entry<u32>],
+    ) {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: the caller guarantees AVX2.
         unsafe {
-            occluded_avx2(tree, rays, out)
+            occluded_avx2(tree, rays, out, stack)
         }
         #[cfg(not(target_arch = "x86_64"))]
         // SAFETY: as in `cast`.
         unsafe {
-            traverse::occluded(tree, rays, out)
+            traverse::occluded(tree, rays, out, stack)
         }
     }
 }
@@ -187,9 +192,14 @@ impl WideNode for Node8 {
 /// The CPU must support AVX2 and FMA ([`Node8::supported`]).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn cast_avx2(tree: Tree<'_, Node8>, rays: &[Ray], hits: &mut [Hit]) {
+unsafe fn cast_avx2(
+    tree: Tree<'_, Node8>,
+    rays: &[Ray],
+    hits: &mut [Hit],
+    stack: &mut [Entry<u32>],
+) {
     // SAFETY: the caller guarantees AVX2, all that `Node8::enter` needs.
-    unsafe { traverse::cast(tree, rays, hits) }
+    unsafe { traverse::cast(tree, rays, hits, stack) }
 }
 
 /// [`traverse::occluded`] compiled with AVX2.
@@ -198,9 +208,14 @@ unsafe fn cast_avx2(tree: Tree<'_, Node8>, rays: &[Ray], hits: &mut [Hit]) {
 /// The CPU must support AVX2 and FMA ([`Node8::supported`]).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn occluded_avx2(tree: Tree<'_, Node8>, rays: &[Ray], out: &mut [bool]) {
+unsafe fn occluded_avx2(
+    tree: Tree<'_, Node8>,
+    rays: &[Ray],
+    out: &mut [bool],
+    stack: &mut [Entry<u32>],
+) {
     // SAFETY: the caller guarantees AVX2, all that `Node8::enter` needs.
-    unsafe { traverse::occluded(tree, rays, out) }
+    unsafe { traverse::occluded(tree, rays, out, stack) }
 }
 
 /// `BoxRay::enter_scalar` on eight boxes with AVX2.

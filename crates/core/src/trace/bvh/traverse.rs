@@ -48,30 +48,47 @@ pub(super) fn slack_up(t: f32) -> f32 {
     t + t.abs() * CULL_SLACK
 }
 
-/// Closest hits of `rays`, with one stack for them all (clearing a stack per ray costs about a
-/// tenth of a coherent ray's time).
+/// Closest hits of `rays`, with `stack` (at least [`stack_size`]`(N::WIDTH)` entries) as the
+/// traversal stack for them all: the caller keeps one per thread (a fresh 4 KB stack per
+/// call was zeroed for every 64 rays).
 ///
 /// # Safety
 /// The CPU must have what [`WideNode::supported`] checks for `N`.
 #[inline(always)]
-pub(super) unsafe fn cast<N: WideNode>(tree: Tree<'_, N>, rays: &[Ray], hits: &mut [Hit]) {
-    let mut stack = N::new_stack();
+pub(super) unsafe fn cast<N: WideNode>(
+    tree: Tree<'_, N>,
+    rays: &[Ray],
+    hits: &mut [Hit],
+    stack: &mut [Entry<N::Child>],
+) {
+    assert!(
+        stack.len() >= stack_size(N::WIDTH),
+        "a traversal stack too small"
+    );
     for (r, h) in rays.iter().zip(hits) {
         // SAFETY: the caller guarantees the CPU features.
-        *h = unsafe { closest(tree, r, stack.as_mut()) };
+        *h = unsafe { closest(tree, r, stack) };
     }
 }
 
-/// Any-hit tests of `rays`, with one stack for them all.
+/// Any-hit tests of `rays`, with `stack` as [`cast`]'s.
 ///
 /// # Safety
 /// The CPU must have what [`WideNode::supported`] checks for `N`.
 #[inline(always)]
-pub(super) unsafe fn occluded<N: WideNode>(tree: Tree<'_, N>, rays: &[Ray], out: &mut [bool]) {
-    let mut stack = N::new_stack();
+pub(super) unsafe fn occluded<N: WideNode>(
+    tree: Tree<'_, N>,
+    rays: &[Ray],
+    out: &mut [bool],
+    stack: &mut [Entry<N::Child>],
+) {
+    assert!(
+        stack.len() >= stack_size(N::WIDTH),
+        "a traversal stack too small"
+    );
     for (r, o) in rays.iter().zip(out) {
         // SAFETY: the caller guarantees the CPU features.
-        *o = unsafe { any_hit(tree, r, stack.as_mut()) };
+        *o = unsafe { any_hit(tree, r, stack) };
     }
 }
 
@@ -79,43 +96,21 @@ pub(super) unsafe fn occluded<N: WideNode>(tree: Tree<'_, N>, rays: &[Ray], out:
 /// closure, so that the leaf test is inlined into the loop in every layout's build (a closure
 /// does not take on the AVX2 features of `node8.rs`'s wrappers, and was left out of line).
 trait Leaf {
-    /// Tests the leaf's packets; returns the new culling distance, or `None` to stop at once.
-    fn test(&mut self, packets: &[Tri4]) -> Option<f32>;
-}
-
-/// The ray prepared for the packet test ([`ShearedRay`]) when the first leaf is reached: a
-/// ray that reaches none (a camera ray past the scene, or one whose boxes all miss) never
-/// pays for the permutation and the three divisions, about a tenth of a coherent ray's
-/// instructions.
-struct LazyShear<'r> {
-    ray: &'r Ray,
-    sheared: Option<ShearedRay>,
-}
-
-impl<'r> LazyShear<'r> {
-    fn new(ray: &'r Ray) -> Self {
-        Self { ray, sheared: None }
-    }
-
-    #[inline(always)]
-    fn get(&mut self) -> &ShearedRay {
-        self.sheared
-            .get_or_insert_with(|| ShearedRay::new(self.ray))
-    }
+    /// Tests the leaf's packets with the ray prepared for them; returns the new culling
+    /// distance, or `None` to stop at once.
+    fn test(&mut self, sheared: &ShearedRay, packets: &[Tri4]) -> Option<f32>;
 }
 
 /// The closest-hit leaf test: keeps the best hit so far.
-struct Closest<'r> {
-    sheared: LazyShear<'r>,
+struct Closest {
     best: Hit,
     /// The culling distance while nothing is hit: `t_max` moved up by the slack.
     t_max: f32,
 }
 
-impl Leaf for Closest<'_> {
+impl Leaf for Closest {
     #[inline(always)]
-    fn test(&mut self, packets: &[Tri4]) -> Option<f32> {
-        let sheared = self.sheared.get();
+    fn test(&mut self, sheared: &ShearedRay, packets: &[Tri4]) -> Option<f32> {
         for packet in packets {
             let (ts, mut mask) = intersect4(sheared, packet);
             while mask != 0 {
@@ -137,16 +132,14 @@ impl Leaf for Closest<'_> {
 }
 
 /// The any-hit leaf test: stops at the first hit.
-struct AnyHit<'r> {
-    sheared: LazyShear<'r>,
+struct AnyHit {
     /// As [`Closest::t_max`].
     t_max: f32,
 }
 
-impl Leaf for AnyHit<'_> {
+impl Leaf for AnyHit {
     #[inline(always)]
-    fn test(&mut self, packets: &[Tri4]) -> Option<f32> {
-        let sheared = self.sheared.get();
+    fn test(&mut self, sheared: &ShearedRay, packets: &[Tri4]) -> Option<f32> {
         let hit = packets.iter().any(|p| intersect4(sheared, p).1 != 0);
         (!hit).then_some(self.t_max)
     }
@@ -162,7 +155,6 @@ unsafe fn closest<N: WideNode>(tree: Tree<'_, N>, ray: &Ray, stack: &mut [Entry<
         return Hit::MISS;
     }
     let mut leaf = Closest {
-        sheared: LazyShear::new(ray),
         best: Hit::MISS,
         t_max: slack_up(ray.t_max),
     };
@@ -185,7 +177,6 @@ unsafe fn any_hit<N: WideNode>(
         return false;
     }
     let mut leaf = AnyHit {
-        sheared: LazyShear::new(ray),
         t_max: slack_up(ray.t_max),
     };
     // SAFETY: the caller guarantees the CPU features.
@@ -208,43 +199,106 @@ unsafe fn traverse<N: WideNode>(
     let Some(r) = BoxRay::new(ray, t_min, N::WIDTH) else {
         return true;
     };
-    let t_far = slack_up(ray.t_max);
-    // SAFETY: the caller guarantees the CPU features and a non-empty tree; `walk::<_, true>`
-    // is only called when `r.finite` holds.
+    let mut state = Walk {
+        current: Entry::default(),
+        top: 0,
+        t_far: slack_up(ray.t_max),
+    };
+    // SAFETY: the caller guarantees the CPU features and a non-empty tree; `FINITE` only when
+    // `r.finite` holds.
     unsafe {
         if r.finite {
-            walk::<N, true>(tree, &r, t_far, stack, leaf)
+            walk_in_phases::<N, true>(tree, ray, &r, &mut state, stack, leaf)
         } else {
-            walk::<N, false>(tree, &r, t_far, stack, leaf)
+            walk_in_phases::<N, false>(tree, ray, &r, &mut state, stack, leaf)
         }
     }
 }
 
-/// The loop of [`traverse`] for the prepared ray `r`, with `t_far` the culling distance while
-/// nothing is hit. `FINITE` picks the box test: [`WideNode::enter_finite`] (only where
-/// `r.finite`), else [`WideNode::enter`]; almost every ray takes the first (a zero direction
-/// component or a negative `t_min` takes the second), each compiled as its own loop.
+/// Where a walk stands: the node or leaf to visit next, the stack's height, the culling
+/// distance.
+#[derive(Clone, Copy)]
+struct Walk<C> {
+    current: Entry<C>,
+    top: usize,
+    t_far: f32,
+}
+
+/// [`walk`] in two phases: to the first leaf without the packet test's prepared ray
+/// ([`ShearedRay`]), then on with it. A ray that reaches no leaf (a camera ray past the scene,
+/// or one whose boxes all miss) never pays for the permutation and the divisions, about a
+/// tenth of a coherent ray's instructions; and, unlike a check at every leaf for whether the
+/// ray is prepared yet, the switch costs no branch of its own (cachegrind's branch simulation
+/// mispredicted that check at about every other incoherent ray's first leaf).
 ///
 /// # Safety
-/// As [`traverse`]; `r.finite` holds when `FINITE` is true.
+/// As [`walk`].
 #[inline(always)]
-unsafe fn walk<N: WideNode, const FINITE: bool>(
+unsafe fn walk_in_phases<N: WideNode, const FINITE: bool>(
     tree: Tree<'_, N>,
+    ray: &Ray,
     r: &BoxRay,
-    mut t_far: f32,
+    state: &mut Walk<N::Child>,
     stack: &mut [Entry<N::Child>],
     leaf: &mut impl Leaf,
 ) -> bool {
-    let mut top = 0usize;
-    // The root, an inner node.
-    let mut current = Entry::<N::Child>::default();
+    // SAFETY: passed on from the caller.
+    unsafe {
+        match walk::<N, FINITE, true>(tree, r, state, stack, leaf, None) {
+            Some(finished) => finished,
+            None => {
+                let sheared = ShearedRay::new(ray);
+                // `state.current` is the leaf the first phase stopped at: the second phase
+                // starts with it.
+                walk::<N, FINITE, false>(tree, r, state, stack, leaf, Some(&sheared))
+                    .unwrap_or(true)
+            }
+        }
+    }
+}
+
+/// The loop of [`traverse`] for the prepared ray `r`, from `state` on. `FINITE` picks the box
+/// test: [`WideNode::enter_finite`] (only where `r.finite`), else [`WideNode::enter`]; almost
+/// every ray takes the first (a zero direction component or a negative `t_min` takes the
+/// second), each compiled as its own loop. With `TO_LEAF` (and `sheared` `None`) the walk
+/// stops at the first leaf it reaches and returns `None`, leaving it in `state.current`;
+/// otherwise (`sheared` given) `leaf` tests each leaf with `sheared`. Returns
+/// `Some(false)` when `leaf` stopped the walk, `Some(true)` when the tree is done.
+///
+/// # Safety
+/// As [`traverse`]; `r.finite` holds when `FINITE` is true; `sheared` is given unless
+/// `TO_LEAF`.
+#[inline(always)]
+unsafe fn walk<N: WideNode, const FINITE: bool, const TO_LEAF: bool>(
+    tree: Tree<'_, N>,
+    r: &BoxRay,
+    state: &mut Walk<N::Child>,
+    stack: &mut [Entry<N::Child>],
+    leaf: &mut impl Leaf,
+    sheared: Option<&ShearedRay>,
+) -> Option<bool> {
+    let Walk {
+        mut current,
+        mut top,
+        mut t_far,
+    } = *state;
     loop {
         let (offset, packets) = N::locate(current.child);
         if packets > 0 {
+            if TO_LEAF {
+                *state = Walk {
+                    current,
+                    top,
+                    t_far,
+                };
+                return None;
+            }
+            // SAFETY: given unless `TO_LEAF` (the caller's guarantee).
+            let sheared = unsafe { sheared.unwrap_unchecked() };
             // SAFETY: a leaf child of this tree's nodes (the root is not one).
-            match leaf.test(unsafe { tree.packets_at(offset, packets) }) {
+            match leaf.test(sheared, unsafe { tree.packets_at(offset, packets) }) {
                 Some(t) => t_far = t,
-                None => return false,
+                None => return Some(false),
             }
         } else {
             // SAFETY: the root (offset 0 of a non-empty array), or an inner child of this
@@ -311,7 +365,7 @@ unsafe fn walk<N: WideNode, const FINITE: bool>(
         // Pop the next node that is not farther than the closest hit so far.
         loop {
             if top == 0 {
-                return true;
+                return Some(true);
             }
             top -= 1;
             if stack[top].t <= t_far {
