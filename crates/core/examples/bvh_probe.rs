@@ -7,7 +7,7 @@
 //! bvh_probe -- [--time] SCENE...` (scene specs as `sightline` takes them).
 //!
 //! For counting instructions (cachegrind, which a loaded machine does not disturb either):
-//! `bvh_probe --cast=ours|embree --set=coherent|incoherent --rays=N --repeat=K SCENE` builds
+//! `bvh_probe --cast=ours|embree --set=coherent|incoherent|outside --rays=N --repeat=K SCENE` builds
 //! only that caster and casts the first `N` rays of the set `K` times, with no timing loop;
 //! the difference between `K = 3` and `K = 1`, over `2 N`, is the instructions per ray.
 //!
@@ -186,7 +186,8 @@ fn cast_only(spec: &str, caster: &str, set: &str, rays: usize, repeat: usize) {
             all.into_iter().step_by(step).take(rays).collect()
         }
         "incoherent" => incoherent_rays(scene.bounds(), rays, 7),
-        other => panic!("--set={other}: coherent or incoherent"),
+        "outside" => outside_rays(scene.bounds(), rays),
+        other => panic!("--set={other}: coherent, incoherent or outside"),
     };
     let caster: Box<dyn RayCaster> = match caster {
         "ours" => Box::new(Bvh::build(&scene)),

@@ -208,7 +208,7 @@ impl Bvh {
         let mut nodes = match width {
             Width::Four => Nodes::Four(collapse(&tree.root, &tree.pairs, &mut pack)),
             Width::Eight => {
-                // `cast_chunk` relies on this for its AVX2 calls.
+                // `cast_tasks` relies on this for its AVX2 calls.
                 assert!(Node8::supported(), "8-wide nodes need AVX2 and FMA");
                 Nodes::Eight(collapse(&tree.root, &tree.pairs, &mut pack))
             }
