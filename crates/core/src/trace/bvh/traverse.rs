@@ -49,8 +49,8 @@ pub(super) fn slack_up(t: f32) -> f32 {
 }
 
 /// Closest hits of `rays`, with `stack` (at least [`stack_size`]`(N::WIDTH)` entries) as the
-/// traversal stack for them all: the caller keeps one per thread (a fresh 4 KB stack per
-/// call was zeroed for every 64 rays).
+/// traversal stack for them all: the caller (`Bvh`'s tasks) keeps one for each run of tasks a
+/// thread takes on, where a fresh 4 KB stack per call was zeroed for every 64 rays.
 ///
 /// # Safety
 /// The CPU must have what [`WideNode::supported`] checks for `N`.
