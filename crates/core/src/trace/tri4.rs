@@ -53,6 +53,14 @@ impl Tri4 {
         out
     }
 
+    /// A bit per lane (bit `i` for lane `i`) whose triangle is `id`: the lane itself and the
+    /// copies that pad a packet of fewer than four. Lanes with the same id hold the same
+    /// corners, so the packet test gives them the same result.
+    #[inline(always)]
+    pub(super) fn lanes_with_id(&self, id: u32) -> u32 {
+        (0..4).fold(0, |m, lane| m | u32::from(self.ids[lane] == id) << lane)
+    }
+
     /// The corners of lane `lane`.
     pub(super) fn triangle(&self, lane: usize) -> [Vec3; 3] {
         let c = &self.corners;
@@ -196,6 +204,17 @@ mod tests {
     use super::*;
     use crate::geometry::Ray;
     use crate::random::SplitMix64;
+
+    #[test]
+    fn lanes_with_id_include_the_copies_that_pad_a_packet() {
+        let corners = |x: f32| [Vec3::new(x, 0.0, 0.0), Vec3::Y, Vec3::Z];
+        let packet = Tri4::new(&[(corners(1.0), 7), (corners(2.0), 9)]);
+        assert_eq!(packet.lanes_with_id(7), 0b0001);
+        assert_eq!(packet.lanes_with_id(9), 0b1110);
+        assert_eq!(packet.lanes_with_id(8), 0);
+        let full = Tri4::new(&[0, 1, 2, 3].map(|i| (corners(i as f32 + 1.0), i)));
+        assert_eq!(full.lanes_with_id(3), 0b1000);
+    }
 
     /// The project's generator, fixed seed; small integers make exact zeros (edges through
     /// the origin, flat triangles, zero direction components) common.

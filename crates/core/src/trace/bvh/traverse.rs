@@ -117,6 +117,9 @@ impl Leaf for Closest {
                 let lane = mask.trailing_zeros() as usize & 3;
                 mask &= mask - 1;
                 let (t, id) = (ts[lane], packet.ids[lane]);
+                // The copies of this triangle that pad the packet hit at the same `t`: half
+                // the hit lanes on the city models, a turn of this loop each.
+                mask &= !packet.lanes_with_id(id);
                 // Ties go to the lower id, as in brute force.
                 let better = t < self.best.t || (t == self.best.t && id < self.best.triangle);
                 self.best =
