@@ -208,7 +208,7 @@ impl Bvh {
         let mut nodes = match width {
             Width::Four => Nodes::Four(collapse(&tree.root, &tree.pairs, &mut pack)),
             Width::Eight => {
-                // `cast_tasks` relies on this for its AVX2 calls.
+                // `RayCaster::cast` relies on this for its AVX2 calls.
                 assert!(Node8::supported(), "8-wide nodes need AVX2 and FMA");
                 Nodes::Eight(collapse(&tree.root, &tree.pairs, &mut pack))
             }
@@ -253,51 +253,52 @@ impl Bvh {
     }
 }
 
-/// Closest hits of `rays` in tasks of [`RAYS_PER_TASK`] rays, with a traversal stack for each
-/// run of tasks a thread takes on (`for_each_init`: a few per thread) rather than per task.
-///
-/// # Safety
-/// The CPU must have what [`WideNode::supported`] checks for `N`.
-unsafe fn cast_tasks<N: WideNode + Sync>(tree: Tree<'_, N>, rays: &[Ray], hits: &mut [Hit]) {
-    assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
-    rays.par_chunks(RAYS_PER_TASK)
-        .zip(hits.par_chunks_mut(RAYS_PER_TASK))
-        .for_each_init(N::new_stack, |stack, (rs, hs)| {
-            // SAFETY: the caller guarantees the CPU features.
-            unsafe { N::cast(tree, rs, hs, stack.as_mut()) }
-        });
-}
-
-/// Any-hit tests of `rays`, as [`cast_tasks`].
-///
-/// # Safety
-/// As [`cast_tasks`].
-unsafe fn occluded_tasks<N: WideNode + Sync>(tree: Tree<'_, N>, rays: &[Ray], out: &mut [bool]) {
+/// `run(rays, out, stack)` over `rays` and their `out` slots in tasks of [`RAYS_PER_TASK`]
+/// rays, with a traversal stack for each run of tasks a thread takes on (`for_each_init`: a
+/// few per thread) rather than per task.
+fn in_tasks<N: WideNode, T: Send>(
+    rays: &[Ray],
+    out: &mut [T],
+    run: impl Fn(&[Ray], &mut [T], &mut N::Stack) + Sync + Send,
+) {
     assert_eq!(rays.len(), out.len(), "one output slot per ray");
     rays.par_chunks(RAYS_PER_TASK)
         .zip(out.par_chunks_mut(RAYS_PER_TASK))
-        .for_each_init(N::new_stack, |stack, (rs, os)| {
-            // SAFETY: the caller guarantees the CPU features.
-            unsafe { N::occluded(tree, rs, os, stack.as_mut()) }
-        });
+        .for_each_init(N::new_stack, |stack, (rs, os)| run(rs, os, stack));
 }
 
 impl RayCaster for Bvh {
     fn cast(&self, rays: &[Ray], hits: &mut [Hit]) {
         match &self.nodes {
-            // SAFETY: the 4-wide layout needs nothing beyond the baseline.
-            Nodes::Four(n) => unsafe { cast_tasks(self.tree(n), rays, hits) },
-            // SAFETY: `build_with` only builds 8-wide nodes where `Node8::supported`.
-            Nodes::Eight(n) => unsafe { cast_tasks(self.tree(n), rays, hits) },
+            Nodes::Four(n) => {
+                let tree = self.tree(n);
+                // SAFETY: the 4-wide layout needs nothing beyond the baseline.
+                in_tasks::<Node4, _>(rays, hits, |r, h, s| unsafe { Node4::cast(tree, r, h, s) });
+            }
+            Nodes::Eight(n) => {
+                let tree = self.tree(n);
+                // SAFETY: `build_with` only builds 8-wide nodes where `Node8::supported`.
+                in_tasks::<Node8, _>(rays, hits, |r, h, s| unsafe { Node8::cast(tree, r, h, s) });
+            }
         }
     }
 
     fn occluded(&self, rays: &[Ray], out: &mut [bool]) {
         match &self.nodes {
-            // SAFETY: as in `cast`.
-            Nodes::Four(n) => unsafe { occluded_tasks(self.tree(n), rays, out) },
-            // SAFETY: as in `cast`.
-            Nodes::Eight(n) => unsafe { occluded_tasks(self.tree(n), rays, out) },
+            Nodes::Four(n) => {
+                let tree = self.tree(n);
+                // SAFETY: as in `cast`.
+                in_tasks::<Node4, _>(rays, out, |r, o, s| unsafe {
+                    Node4::occluded(tree, r, o, s)
+                });
+            }
+            Nodes::Eight(n) => {
+                let tree = self.tree(n);
+                // SAFETY: as in `cast`.
+                in_tasks::<Node8, _>(rays, out, |r, o, s| unsafe {
+                    Node8::occluded(tree, r, o, s)
+                });
+            }
         }
     }
 }

@@ -81,17 +81,11 @@ pub(super) trait WideNode: Copy + Sized {
     unsafe fn enter_finite(&self, ray: &BoxRay, t_far: f32) -> (Self::Dists, u32);
 
     /// Closest hits of `rays` by [`super::traverse::cast`], compiled with the CPU features
-    /// [`WideNode::enter`] needs, with `stack` (from [`WideNode::new_stack`]) as the
-    /// traversal stack.
+    /// [`WideNode::enter`] needs, with `stack` as the traversal stack.
     ///
     /// # Safety
     /// As [`WideNode::enter`].
-    unsafe fn cast(
-        tree: Tree<'_, Self>,
-        rays: &[Ray],
-        hits: &mut [Hit],
-        stack: &mut [Entry<Self::Child>],
-    );
+    unsafe fn cast(tree: Tree<'_, Self>, rays: &[Ray], hits: &mut [Hit], stack: &mut Self::Stack);
 
     /// Any-hit tests of `rays` by [`super::traverse::occluded`], compiled as
     /// [`WideNode::cast`].
@@ -102,7 +96,7 @@ pub(super) trait WideNode: Copy + Sized {
         tree: Tree<'_, Self>,
         rays: &[Ray],
         out: &mut [bool],
-        stack: &mut [Entry<Self::Child>],
+        stack: &mut Self::Stack,
     );
 }
 

@@ -114,7 +114,7 @@ impl WideNode for Node4 {
         tree: Tree<'_, Self>,
         rays: &[Ray],
         hits: &mut [Hit],
-        stack: &mut [Entry<Child4>],
+        stack: &mut <Self as WideNode>::Stack,
     ) {
         // SAFETY: `enter` needs nothing beyond the baseline (`supported` is always true).
         unsafe { traverse::cast(tree, rays, hits, stack) }
@@ -124,7 +124,7 @@ impl WideNode for Node4 {
         tree: Tree<'_, Self>,
         rays: &[Ray],
         out: &mut [bool],
-        stack: &mut [Entry<Child4>],
+        stack: &mut <Self as WideNode>::Stack,
     ) {
         // SAFETY: as in `cast`.
         unsafe { traverse::occluded(tree, rays, out, stack) }

@@ -154,7 +154,12 @@ impl WideNode for Node8 {
         }
     }
 
-    unsafe fn cast(tree: Tree<'_, Self>, rays: &[Ray], hits: &mut [Hit], stack: &mut [Entry<u32>]) {
+    unsafe fn cast(
+        tree: Tree<'_, Self>,
+        rays: &[Ray],
+        hits: &mut [Hit],
+        stack: &mut <Node8 as WideNode>::Stack,
+    ) {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: the caller guarantees AVX2.
         unsafe {
@@ -171,7 +176,7 @@ impl WideNode for Node8 {
         tree: Tree<'_, Self>,
         rays: &[Ray],
         out: &mut [bool],
-        stack: &mut [Entry<u32>],
+        stack: &mut <Node8 as WideNode>::Stack,
     ) {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: the caller guarantees AVX2.
@@ -196,7 +201,7 @@ unsafe fn cast_avx2(
     tree: Tree<'_, Node8>,
     rays: &[Ray],
     hits: &mut [Hit],
-    stack: &mut [Entry<u32>],
+    stack: &mut <Node8 as WideNode>::Stack,
 ) {
     // SAFETY: the caller guarantees AVX2, all that `Node8::enter` needs.
     unsafe { traverse::cast(tree, rays, hits, stack) }
@@ -212,7 +217,7 @@ unsafe fn occluded_avx2(
     tree: Tree<'_, Node8>,
     rays: &[Ray],
     out: &mut [bool],
-    stack: &mut [Entry<u32>],
+    stack: &mut <Node8 as WideNode>::Stack,
 ) {
     // SAFETY: the caller guarantees AVX2, all that `Node8::enter` needs.
     unsafe { traverse::occluded(tree, rays, out, stack) }

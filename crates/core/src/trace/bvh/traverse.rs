@@ -48,9 +48,9 @@ pub(super) fn slack_up(t: f32) -> f32 {
     t + t.abs() * CULL_SLACK
 }
 
-/// Closest hits of `rays`, with `stack` (at least [`stack_size`]`(N::WIDTH)` entries) as the
-/// traversal stack for them all: the caller (`Bvh`'s tasks) keeps one for each run of tasks a
-/// thread takes on, where a fresh 4 KB stack per call was zeroed for every 64 rays.
+/// Closest hits of `rays`, with `stack` as the traversal stack for them all: the caller
+/// (`Bvh`'s tasks) keeps one for each run of tasks a thread takes on, where a fresh 4 KB stack
+/// per call was zeroed for every 64 rays.
 ///
 /// # Safety
 /// The CPU must have what [`WideNode::supported`] checks for `N`.
@@ -59,12 +59,9 @@ pub(super) unsafe fn cast<N: WideNode>(
     tree: Tree<'_, N>,
     rays: &[Ray],
     hits: &mut [Hit],
-    stack: &mut [Entry<N::Child>],
+    stack: &mut N::Stack,
 ) {
-    assert!(
-        stack.len() >= stack_size(N::WIDTH),
-        "a traversal stack too small"
-    );
+    let stack = stack.as_mut();
     for (r, h) in rays.iter().zip(hits) {
         // SAFETY: the caller guarantees the CPU features.
         *h = unsafe { closest(tree, r, stack) };
@@ -80,12 +77,9 @@ pub(super) unsafe fn occluded<N: WideNode>(
     tree: Tree<'_, N>,
     rays: &[Ray],
     out: &mut [bool],
-    stack: &mut [Entry<N::Child>],
+    stack: &mut N::Stack,
 ) {
-    assert!(
-        stack.len() >= stack_size(N::WIDTH),
-        "a traversal stack too small"
-    );
+    let stack = stack.as_mut();
     for (r, o) in rays.iter().zip(out) {
         // SAFETY: the caller guarantees the CPU features.
         *o = unsafe { any_hit(tree, r, stack) };
@@ -157,12 +151,13 @@ unsafe fn closest<N: WideNode>(tree: Tree<'_, N>, ray: &Ray, stack: &mut [Entry<
     if tree.nodes.is_empty() {
         return Hit::MISS;
     }
+    let t_max = slack_up(ray.t_max);
     let mut leaf = Closest {
         best: Hit::MISS,
-        t_max: slack_up(ray.t_max),
+        t_max,
     };
     // SAFETY: the caller guarantees the CPU features.
-    unsafe { traverse(tree, ray, stack, &mut leaf) };
+    unsafe { traverse(tree, ray, t_max, stack, &mut leaf) };
     leaf.best
 }
 
@@ -179,15 +174,16 @@ unsafe fn any_hit<N: WideNode>(
     if tree.nodes.is_empty() {
         return false;
     }
-    let mut leaf = AnyHit {
-        t_max: slack_up(ray.t_max),
-    };
+    let t_max = slack_up(ray.t_max);
+    let mut leaf = AnyHit { t_max };
     // SAFETY: the caller guarantees the CPU features.
-    !unsafe { traverse(tree, ray, stack, &mut leaf) }
+    !unsafe { traverse(tree, ray, t_max, stack, &mut leaf) }
 }
 
 /// Walks the tree, children near to far, with `stack` (at least `N::new_stack`'s length) as the
-/// traversal stack. `leaf` tests each leaf reached. Returns false when `leaf` stopped it.
+/// traversal stack and `t_far` (the ray's `t_max` moved up by the slack, as `leaf` keeps it) as
+/// the culling distance while nothing is hit. `leaf` tests each leaf reached. Returns false
+/// when `leaf` stopped it.
 ///
 /// # Safety
 /// As [`cast`]; `tree.nodes` is not empty.
@@ -195,6 +191,7 @@ unsafe fn any_hit<N: WideNode>(
 unsafe fn traverse<N: WideNode>(
     tree: Tree<'_, N>,
     ray: &Ray,
+    t_far: f32,
     stack: &mut [Entry<N::Child>],
     leaf: &mut impl Leaf,
 ) -> bool {
@@ -205,7 +202,7 @@ unsafe fn traverse<N: WideNode>(
     let mut state = Walk {
         current: Entry::default(),
         top: 0,
-        t_far: slack_up(ray.t_max),
+        t_far,
     };
     // SAFETY: the caller guarantees the CPU features and a non-empty tree; `FINITE` only when
     // `r.finite` holds.
